@@ -1,0 +1,55 @@
+// External energy; see external.h. Levi & Gotsman, D-Snake, §1 (E_ext) and §3.1 (q^ext).
+#include "energies/external.h"
+
+#include "framework/errors.h"
+#include "framework/external_field.h"
+
+#include <limits>
+
+namespace dsnake {
+
+template <int D>
+ExternalEnergy<D>::ExternalEnergy(const ExternalOptions& options) : options_(options) {
+  DSNAKE_ASSERT(options.tau > 0, "external energy options: tau > 0");
+}
+
+template <int D>
+void ExternalEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& snake) {
+  DSNAKE_ASSERT(context.field != nullptr, "the external energy is bound to a computed field");
+  field_ = context.field;
+  normals_.reserve(snake.num_vertices());
+}
+
+// §3.1: q_i^ext(t+1) = q_i(t) + tau F_ext(q_i(t)).
+template <int D>
+void ExternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
+  DSNAKE_ASSERT(field_ != nullptr, "bind() before propose()");
+  const PointList<D>& q = snake.positions();
+  const int n = snake.num_vertices();
+  DSNAKE_ASSERT(int(out.size()) == n, "out has one entry per vertex");
+  const bool with_normals = field_->uses_normal();
+  if (with_normals) snake.vertex_normals(normals_);
+  const ExternalField<D>& field = *field_;
+  const double tau = options_.tau;
+  const PointList<D>& normals = normals_;
+#pragma omp parallel for schedule(static) if (n >= 256)
+  for (int v = 0; v < n; ++v) {
+    const Point<D> normal = with_normals ? normals[v] : Point<D>::Zero();
+    out[v] = q[v] + tau * field.force(q[v], normal);
+  }
+}
+
+// E_ext(q) = sum_v P(q_v); summed serially so that the value does not depend on the threads.
+template <int D>
+double ExternalEnergy<D>::value(const Snake<D>& snake) const {
+  DSNAKE_ASSERT(field_ != nullptr, "bind() before value()");
+  if (!field_->has_potential()) return std::numeric_limits<double>::quiet_NaN();
+  double e = 0.0;
+  for (const Point<D>& x : snake.positions()) e += field_->potential(x);
+  return e;
+}
+
+template class ExternalEnergy<2>;
+template class ExternalEnergy<3>;
+
+}  // namespace dsnake

@@ -1,0 +1,40 @@
+// The external energy: moves each vertex along the image force field alone,
+// q^ext = q + tau F(q, n) (Levi & Gotsman, D-Snake, §3.1; Kass et al. 1988, appendix, the
+// explicit external term of eqs. (19)-(20)). With the basic field of §1, F = -grad E_ext.
+#pragma once
+
+#include "framework/energy.h"
+
+#include <string>
+
+namespace dsnake {
+
+struct ExternalOptions {
+  double tau = 1.0;  // step: physical displacement per unit force, > 0
+};
+
+template <int D>
+class ExternalEnergy final : public Energy<D> {
+ public:
+  explicit ExternalEnergy(const ExternalOptions& options = {});
+
+  std::string type() const override { return "external"; }
+  const ExternalOptions& options() const { return options_; }
+
+  // Keeps the field; context.field must be set (a programmer error otherwise).
+  void bind(const EnergyContext<D>& context, const Snake<D>& snake) override;
+
+  // out[v] = q_v + tau F(q_v, n_v) for every vertex, n_v the outward unit vertex normal
+  // (computed only when the field uses it). Parallel over vertices.
+  void propose(const Snake<D>& snake, PointList<D>& out) override;
+
+  // sum_v P(q_v) when the field has a potential P >= 0, NaN otherwise.
+  double value(const Snake<D>& snake) const override;
+
+ private:
+  ExternalOptions options_;
+  const ExternalField<D>* field_ = nullptr;
+  PointList<D> normals_;  // scratch, n entries
+};
+
+}  // namespace dsnake

@@ -1,0 +1,57 @@
+// The classical snake internal energy: tension (alpha) and rigidity (beta), moved by the
+// semi-implicit step of Kass, Witkin and Terzopoulos, "Snakes: Active contour models" (IJCV
+// 1988), appendix eqs. (19)-(20), with the internal force alone: q' = (gamma I + A)^{-1} gamma q.
+// This is q^int of the paper's snake update (Levi & Gotsman, D-Snake, §3.1).
+//  - 2D (closed polygon, vertex order = polygon order): A is Kass's cyclic pentadiagonal matrix,
+//    rows (beta, -alpha-4beta, 2alpha+6beta, -alpha-4beta, beta).
+//  - 3D (closed triangle mesh): A = alpha L + beta L^2 with the umbrella Laplacian
+//    (L q)_i = q_i - mean of the one-ring of i.
+// The factorisation is built in bind() and kept until the snake's topology changes.
+#pragma once
+
+#include "framework/energy.h"
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+namespace dsnake {
+
+struct InternalOptions {
+  double alpha = 0.5;  // tension: weight of the first differences, >= 0
+  double beta = 0.0;   // rigidity: weight of the second differences, >= 0
+  double gamma = 1.0;  // Kass's step viscosity (inverse step size), > 0
+};
+
+template <int D>
+class InternalEnergy final : public Energy<D> {
+ public:
+  explicit InternalEnergy(const InternalOptions& options = {});
+  ~InternalEnergy() override;
+
+  std::string type() const override { return "internal"; }
+  const InternalOptions& options() const { return options_; }
+
+  // Builds and factorises gamma I + A for the snake's connectivity (always rebuilds).
+  void bind(const EnergyContext<D>& context, const Snake<D>& snake) override;
+
+  // out[v] = ((gamma I + A)^{-1} gamma q)_v for every vertex; rebinds first if the snake's
+  // topology version or size differs from the bound one. Allocates nothing otherwise.
+  void propose(const Snake<D>& snake, PointList<D>& out) override;
+
+  // 2D: sum_i 1/2 alpha |q_{i+1} - q_i|^2 + 1/2 beta |q_{i+1} - 2 q_i + q_{i-1}|^2, whose
+  //     gradient is exactly A q.
+  // 3D: sum_edges 1/2 alpha |q_i - q_j|^2 + sum_v 1/2 beta |(L q)_v|^2 with the umbrella L.
+  //     The alpha term's gradient is the combinatorial Laplacian (degree minus adjacency), while
+  //     the step uses the umbrella operator (its degree-normalised form): the snake scheme of
+  //     §3.1 uses the step; this value is for energy traces and the global solve.
+  double value(const Snake<D>& snake) const override;
+
+ private:
+  struct Solver;  // the sparse factorisation and scratch, in the .cpp
+
+  InternalOptions options_;
+  std::unique_ptr<Solver> solver_;
+};
+
+}  // namespace dsnake

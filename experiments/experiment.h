@@ -1,0 +1,65 @@
+// The experiment file (DESIGN.md's contract) turned into ready-to-run objects: the image
+// (file or phantom, then seeded corruptions), the placed template, the ground truth, the
+// external field, the weighted energies and the phases. Every problem is an InputError naming
+// the file and the JSON path; building an Experiment validates it completely without running.
+#pragma once
+
+#include "framework/evolver.h"
+#include "framework/external_field.h"
+#include "framework/metrics.h"
+
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace dsnake {
+
+struct ExperimentFile {
+  std::string path;           // as given, for messages ("" for a built-in experiment)
+  std::string base_dir;       // relative paths in the file resolve against it
+  nlohmann::json document;    // after --set overrides
+  int dimension = 2;
+};
+
+// Parses an experiment file (syntax errors name the line and column) and applies overrides
+// "key.path=value" (value parsed as JSON, else taken as a string; "energies[1].alpha=0.3").
+ExperimentFile load_experiment_file(const std::string& path, const std::vector<std::string>& overrides = {});
+// The built-in experiments: "default" (2D circle -> blurred square) and "ellipsoid" (3D).
+ExperimentFile builtin_experiment(const std::string& name, const std::vector<std::string>& overrides = {});
+
+
+struct SuccessCriteria {  // thresholds: distances and errors at most, dice at least
+  std::optional<double> mean_surface_distance, hausdorff95, hausdorff, dice;
+  std::optional<double> correspondence_error_mean, correspondence_error_max;
+  std::optional<int> self_intersections;
+  bool met(const Metrics& m) const;  // a threshold on a null metric is not met
+};
+
+struct OutputOptions {
+  int snapshot_every = 0;   // write the snake every n iterations (0: never)
+  bool figures = true;
+};
+
+template <int D>
+struct Experiment {
+  ExperimentFile file;
+  std::string name;
+  uint64_t seed = 0;
+  std::string solver = "snake";
+  Image<D> image;
+  Template<D> tmpl;
+  PointList<D> initial;  // the placed template: the snake's start
+  GroundTruth<D> truth;
+  std::unique_ptr<ExternalField<D>> field;
+  std::vector<WeightedEnergy<D>> energies;
+  std::vector<Phase<D>> phases;
+  SuccessCriteria success;
+  OutputOptions output;
+};
+
+template <int D>
+Experiment<D> build_experiment(const ExperimentFile& file);
+
+}  // namespace dsnake

@@ -1,0 +1,470 @@
+#include "experiments/figures.h"
+
+#include "framework/atomic_file.h"
+#include "framework/errors.h"
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <stdexcept>
+
+namespace dsnake {
+
+namespace {
+
+constexpr int kMinLongSidePx = 512;  // the upscaled image's longer side is at least this
+constexpr int kLineWidthPx = 2;
+constexpr int kDotRadiusPx = 5;
+constexpr int kShiftBits = 4;  // sub-pixel precision of OpenCV drawing: coordinates * 16
+constexpr double kShiftScale = 1 << kShiftBits;
+constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
+constexpr double kFontScale = 0.6;
+constexpr int kMarginPx = 12;  // space around panels, bands and legends
+const cv::Scalar kWhite(255, 255, 255), kBlack(0, 0, 0), kLightGrey(225, 225, 225);
+
+// OpenCV stores blue, green, red.
+cv::Scalar to_bgr(const Rgb& c) { return cv::Scalar(c[2], c[1], c[0]); }
+
+// A point in pixel coordinates (pixel centres at integers) in OpenCV's fixed-point form.
+cv::Point fixed_point(const Eigen::Vector2d& px) {
+  return {static_cast<int>(std::lround(px.x() * kShiftScale)),
+          static_cast<int>(std::lround(px.y() * kShiftScale))};
+}
+
+// Height in pixels of one line of text (ascent + descent).
+int text_height() {
+  int baseline = 0;
+  const cv::Size s = cv::getTextSize("Ag", kFont, kFontScale, 1, &baseline);
+  return s.height + baseline;
+}
+
+// Width in pixels of a line of text.
+int text_width(const std::string& text) {
+  int baseline = 0;
+  return cv::getTextSize(text, kFont, kFontScale, 1, &baseline).width;
+}
+
+// Draws text with its top-left corner at (x, y).
+void put_text(cv::Mat& canvas, const std::string& text, int x, int y, const cv::Scalar& colour = kBlack) {
+  int baseline = 0;
+  const cv::Size s = cv::getTextSize(text, kFont, kFontScale, 1, &baseline);
+  cv::putText(canvas, text, {x, y + s.height}, kFont, kFontScale, colour, 1, cv::LINE_AA);
+}
+
+// Writes a BGR image as PNG through a temporary file; errors name the final path.
+void write_png(const cv::Mat& bgr, const std::string& png_path) {
+  write_via_temporary(png_path, [&](const std::string& tmp) {
+    bool ok = false;
+    try {
+      ok = cv::imwrite(tmp, bgr);
+    } catch (const cv::Exception& e) {
+      throw std::runtime_error(png_path + ": cannot write figure (" + e.what() + ")");
+    }
+    if (!ok) throw std::runtime_error(png_path + ": cannot write figure (is the folder there and writable?)");
+  });
+}
+
+// Grey window: the finite min..max of the values, mapped to 0..255.
+struct GreyWindow {
+  double lo = 0.0, hi = 0.0;
+  uint8_t map(float v) const {  // NaN -> black; a flat image -> mid grey
+    if (!std::isfinite(v)) return 0;
+    if (hi <= lo) return 128;
+    return static_cast<uint8_t>(std::clamp(std::lround(255.0 * (v - lo) / (hi - lo)), 0L, 255L));
+  }
+};
+
+// The window of a set of voxel values (NaN and infinities ignored).
+GreyWindow grey_window(const std::vector<float>& values) {
+  GreyWindow w{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+  for (float v : values)
+    if (std::isfinite(v)) {
+      w.lo = std::min<double>(w.lo, v);
+      w.hi = std::max<double>(w.hi, v);
+    }
+  if (w.lo > w.hi) w.lo = w.hi = 0.0;
+  return w;
+}
+
+// Pixels on screen for an axis of `voxels` voxels of `spacing` when a voxel of the finest
+// spacing gets `factor` pixels: the others are scaled by their spacing (physical aspect).
+int axis_pixels(int voxels, double spacing, double finest_spacing, int factor) {
+  return std::max(1, static_cast<int>(std::lround(voxels * factor * spacing / finest_spacing)));
+}
+
+// Integer upscaling factor of the finest axis so that the longest physical side has at least
+// kMinLongSidePx pixels. `extent_in_finest_voxels` is the longest side / finest spacing.
+int upscale_factor(double extent_in_finest_voxels) {
+  return std::max(1, static_cast<int>(std::ceil(kMinLongSidePx / extent_in_finest_voxels - 1e-9)));
+}
+
+// A 2D slice shown on screen: grey values (u fastest), its physical frame and its pixel size.
+struct Panel {
+  int nu = 0, nv = 0;                 // voxels along the horizontal (u) and vertical (v) axes
+  std::vector<uint8_t> grey;          // nu * nv, u fastest
+  Eigen::Vector2d origin, spacing;    // physical position of voxel (0, 0) and spacing along u, v
+  int width_px = 0, height_px = 0;    // on screen
+  std::string label;                  // drawn above the panel ("" = none)
+
+  // Physical (u, v) to pixel coordinates: voxel i covers pixels [i, i + 1) * (pixels / voxels).
+  Eigen::Vector2d to_pixel(const Eigen::Vector2d& x) const {
+    const Eigen::Vector2d c = (x - origin).cwiseQuotient(spacing);
+    return {(c.x() + 0.5) * width_px / nu - 0.5, (c.y() + 0.5) * height_px / nv - 0.5};
+  }
+
+  // Draws the grey values, nearest neighbour, into `target` (width_px x height_px, BGR).
+  void render(cv::Mat& target) const {
+    for (int y = 0; y < height_px; ++y) {
+      const int v = std::min(nv - 1, static_cast<int>((y + 0.5) * nv / height_px));
+      auto* row = target.ptr<cv::Vec3b>(y);
+      for (int x = 0; x < width_px; ++x) {
+        const int u = std::min(nu - 1, static_cast<int>((x + 0.5) * nu / width_px));
+        const uint8_t g = grey[static_cast<size_t>(v) * nu + u];
+        row[x] = cv::Vec3b(g, g, g);
+      }
+    }
+  }
+};
+
+// Draws segments given in physical (u, v) coordinates of a panel.
+void draw_segments(cv::Mat& roi, const Panel& panel, const std::vector<std::array<Eigen::Vector2d, 2>>& segs,
+                   const Rgb& rgb) {
+  for (const auto& s : segs)
+    cv::line(roi, fixed_point(panel.to_pixel(s[0])), fixed_point(panel.to_pixel(s[1])), to_bgr(rgb),
+             kLineWidthPx, cv::LINE_AA, kShiftBits);
+}
+
+// Draws a feature point: a filled dot with a thin dark rim so it reads on any background.
+void draw_dot(cv::Mat& roi, const Panel& panel, const Eigen::Vector2d& x, const Rgb& rgb) {
+  const cv::Point c = fixed_point(panel.to_pixel(x));
+  cv::circle(roi, c, static_cast<int>(kDotRadiusPx * kShiftScale), to_bgr(rgb), cv::FILLED, cv::LINE_AA, kShiftBits);
+  cv::circle(roi, c, static_cast<int>(kDotRadiusPx * kShiftScale), cv::Scalar(40, 40, 40), 1, cv::LINE_AA, kShiftBits);
+}
+
+// A legend row: for each labelled layer a short line in its colour followed by the label.
+// Returns the height it needs (0 when no layer has a label); draws only when canvas is given.
+template <int D>
+int legend(const std::vector<ShapeLayer<D>>& layers, cv::Mat* canvas, int top) {
+  bool any = false;
+  for (const auto& l : layers) any = any || !l.label.empty();
+  if (!any) return 0;
+  if (canvas) {
+    int x = kMarginPx;
+    const int mid = top + text_height() / 2;
+    for (const auto& l : layers) {
+      if (l.label.empty()) continue;
+      cv::line(*canvas, {x, mid}, {x + 28, mid}, to_bgr(l.rgb), kLineWidthPx + 1, cv::LINE_AA);
+      x += 36;
+      put_text(*canvas, l.label, x, top);
+      x += text_width(l.label) + 24;
+    }
+  }
+  return text_height() + kMarginPx;
+}
+
+// Lays panels out side by side on a white canvas with a title band above and a legend below;
+// returns the canvas and, in `rois`, where each panel went.
+template <int D>
+cv::Mat compose(const std::vector<Panel>& panels, const std::string& title,
+                const std::vector<ShapeLayer<D>>& layers, std::vector<cv::Rect>& rois) {
+  const bool labels = std::any_of(panels.begin(), panels.end(), [](const Panel& p) { return !p.label.empty(); });
+  const bool framed = panels.size() > 1 || !title.empty() || legend(layers, nullptr, 0) > 0;
+  const int margin = framed ? kMarginPx : 0;
+  const int title_h = title.empty() ? 0 : text_height() + kMarginPx;
+  const int label_h = labels ? text_height() + kMarginPx / 2 : 0;
+  int width = margin, panel_h = 0;
+  for (const auto& p : panels) {
+    width += p.width_px + margin;
+    panel_h = std::max(panel_h, p.height_px);
+  }
+  const int panel_top = margin + title_h + label_h;
+  const int legend_h = legend(layers, nullptr, 0);
+  const int height = panel_top + panel_h + margin + legend_h;
+  width = std::max(width, title.empty() ? 0 : text_width(title) + 2 * kMarginPx);
+  cv::Mat canvas(height, width, CV_8UC3, kWhite);
+  if (!title.empty()) put_text(canvas, title, margin, margin);
+  int x = margin;
+  rois.clear();
+  for (const auto& p : panels) {
+    rois.emplace_back(x, panel_top, p.width_px, p.height_px);
+    cv::Mat roi = canvas(rois.back());
+    p.render(roi);
+    if (!p.label.empty()) put_text(canvas, p.label, x, margin + title_h);
+    x += p.width_px + margin;
+  }
+  legend(layers, &canvas, panel_top + panel_h + margin);
+  return canvas;
+}
+
+// Checks that a layer's connectivity matches its points (a programmer error otherwise).
+template <int D>
+void check_layer(const ShapeLayer<D>& layer) {
+  DSNAKE_ASSERT(static_cast<int>(layer.points.size()) == layer.connectivity.num_vertices(),
+                "figure layer: " + std::to_string(layer.points.size()) + " points but connectivity has " +
+                    std::to_string(layer.connectivity.num_vertices()) + " vertices");
+  for (int v : layer.marked_vertices)
+    DSNAKE_ASSERT(v >= 0 && v < static_cast<int>(layer.points.size()),
+                  "figure layer: marked vertex " + std::to_string(v) + " out of range");
+}
+
+// Cross-section of a triangle mesh with the plane x[axis] = level, as segments in 3D.
+// A vertex exactly on the plane counts as lying above it (a symbolic perturbation), so that
+// every crossing edge has vertices strictly on both sides: each triangle gives at most one
+// segment, an edge lying in the plane is drawn once, and a plane touching a vertex adds nothing.
+std::vector<std::array<Point<3>, 2>> cross_section(const PointList<3>& p, const std::vector<Triangle>& tris,
+                                                   int axis, double level) {
+  std::vector<std::array<Point<3>, 2>> segs;
+  for (const auto& t : tris) {
+    std::array<double, 3> d;
+    std::array<bool, 3> above;
+    for (int k = 0; k < 3; ++k) {
+      d[k] = p[t[k]][axis] - level;
+      above[k] = d[k] >= 0.0;
+    }
+    if (above[0] == above[1] && above[1] == above[2]) continue;
+    std::array<Point<3>, 2> seg;
+    int n = 0;
+    for (int k = 0; k < 3 && n < 2; ++k) {
+      const int a = k, b = (k + 1) % 3;
+      if (above[a] == above[b]) continue;
+      const double s = d[a] / (d[a] - d[b]);  // d[a] - d[b] != 0: strictly opposite sides or one is 0
+      seg[n++] = p[t[a]] + s * (p[t[b]] - p[t[a]]);
+    }
+    if ((seg[0] - seg[1]).squaredNorm() > 0.0) segs.push_back(seg);
+  }
+  return segs;
+}
+
+// Tick label text: 3 significant digits.
+std::string tick_text(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
+
+}  // namespace
+
+void write_overlay_figure(const Image<2>& image, const std::vector<ShapeLayer2>& layers,
+                          const std::string& png_path, const std::string& title) {
+  DSNAKE_ASSERT(!image.empty(), "write_overlay_figure: empty image for " + png_path);
+  for (const auto& l : layers) check_layer(l);
+  const GreyWindow window = grey_window(image.data());
+  Panel panel;
+  panel.nu = image.size()[0];
+  panel.nv = image.size()[1];
+  panel.origin = image.origin();
+  panel.spacing = image.spacing();
+  const double finest = image.spacing().minCoeff();
+  const int factor = upscale_factor(std::max(panel.nu * panel.spacing[0], panel.nv * panel.spacing[1]) / finest);
+  panel.width_px = axis_pixels(panel.nu, panel.spacing[0], finest, factor);
+  panel.height_px = axis_pixels(panel.nv, panel.spacing[1], finest, factor);
+  panel.grey.resize(image.data().size());
+  std::transform(image.data().begin(), image.data().end(), panel.grey.begin(),
+                 [&](float v) { return window.map(v); });
+
+  std::vector<cv::Rect> rois;
+  cv::Mat canvas = compose(std::vector<Panel>{panel}, title, layers, rois);
+  cv::Mat roi = canvas(rois[0]);
+  for (const auto& l : layers) {
+    if (l.connectivity.is_polygon()) {
+      // One closed polyline joins the corners cleanly (separate lines would leave notches).
+      std::vector<cv::Point> pts;
+      for (const auto& x : l.points) pts.push_back(fixed_point(panel.to_pixel(x)));
+      cv::polylines(roi, pts, true, to_bgr(l.rgb), kLineWidthPx, cv::LINE_AA, kShiftBits);
+    } else {
+      std::vector<std::array<Eigen::Vector2d, 2>> segs;
+      for (const auto& e : l.connectivity.edges()) segs.push_back({l.points[e[0]], l.points[e[1]]});
+      draw_segments(roi, panel, segs, l.rgb);
+    }
+  }
+  for (const auto& l : layers)
+    for (int v : l.marked_vertices) draw_dot(roi, panel, l.points[v], l.marker_rgb);
+  write_png(canvas, png_path);
+}
+
+void write_slice_figure(const Image<3>& volume, const std::vector<ShapeLayer3>& layers, const Point<3>& centre,
+                        const std::string& png_path, const std::string& title) {
+  DSNAKE_ASSERT(!volume.empty(), "write_slice_figure: empty volume for " + png_path);
+  for (const auto& l : layers) {
+    check_layer(l);
+    DSNAKE_ASSERT(!l.connectivity.is_polygon(), "write_slice_figure: a 3D layer needs triangles");
+  }
+  const Grid<3>& grid = volume.grid();
+  const GreyWindow window = grey_window(volume.data());
+  const double finest = grid.spacing.minCoeff();
+  double longest = 0.0;
+  for (int a = 0; a < 3; ++a) longest = std::max(longest, grid.size[a] * grid.spacing[a]);
+  const int factor = upscale_factor(longest / finest);
+
+  // Slice voxel nearest to the centre along each axis.
+  const Point<3> c = grid.to_continuous_index(centre);
+  GridIndex<3> slice;
+  for (int a = 0; a < 3; ++a) slice[a] = std::clamp(static_cast<int>(std::lround(c[a])), 0, grid.size[a] - 1);
+
+  // (normal axis, horizontal axis, vertical axis, name) of axial, coronal, sagittal.
+  struct View { int normal, u, v; const char* name; };
+  const std::array<View, 3> views{{{2, 0, 1, "axial"}, {1, 0, 2, "coronal"}, {0, 1, 2, "sagittal"}}};
+  static const char* kAxis = "xyz";
+  std::vector<Panel> panels;
+  for (const auto& view : views) {
+    Panel p;
+    p.nu = grid.size[view.u];
+    p.nv = grid.size[view.v];
+    p.origin = {grid.origin[view.u], grid.origin[view.v]};
+    p.spacing = {grid.spacing[view.u], grid.spacing[view.v]};
+    p.width_px = axis_pixels(p.nu, p.spacing[0], finest, factor);
+    p.height_px = axis_pixels(p.nv, p.spacing[1], finest, factor);
+    p.grey.resize(static_cast<size_t>(p.nu) * p.nv);
+    GridIndex<3> idx = slice;
+    for (int j = 0; j < p.nv; ++j)
+      for (int i = 0; i < p.nu; ++i) {
+        idx[view.u] = i;
+        idx[view.v] = j;
+        p.grey[static_cast<size_t>(j) * p.nu + i] = window.map(volume.at(idx));
+      }
+    const double level = grid.origin[view.normal] + slice[view.normal] * grid.spacing[view.normal];
+    p.label = std::string(view.name) + "  " + kAxis[view.normal] + " = " + tick_text(level) + "  (" + kAxis[view.u] +
+              " right, " + kAxis[view.v] + " down)";
+    panels.push_back(std::move(p));
+  }
+
+  std::vector<cv::Rect> rois;
+  cv::Mat canvas = compose(panels, title, layers, rois);
+  for (size_t k = 0; k < views.size(); ++k) {
+    const View& view = views[k];
+    const Panel& panel = panels[k];
+    cv::Mat roi = canvas(rois[k]);
+    const double level = grid.origin[view.normal] + slice[view.normal] * grid.spacing[view.normal];
+    auto project = [&](const Point<3>& x) { return Eigen::Vector2d(x[view.u], x[view.v]); };
+    for (const auto& l : layers) {
+      std::vector<std::array<Eigen::Vector2d, 2>> segs;
+      for (const auto& s : cross_section(l.points, l.connectivity.triangles(), view.normal, level))
+        segs.push_back({project(s[0]), project(s[1])});
+      draw_segments(roi, panel, segs, l.rgb);
+    }
+    const double half_voxel = 0.5 * grid.spacing[view.normal];
+    for (const auto& l : layers)
+      for (int v : l.marked_vertices)
+        if (std::abs(l.points[v][view.normal] - level) <= half_voxel)
+          draw_dot(roi, panel, project(l.points[v]), l.marker_rgb);
+  }
+  write_png(canvas, png_path);
+}
+
+void write_curve_figure(const std::vector<std::string>& names, const std::vector<std::vector<double>>& series,
+                        const std::string& png_path, const std::string& title, bool log_y) {
+  DSNAKE_ASSERT(names.size() == series.size(), "write_curve_figure: " + std::to_string(names.size()) +
+                                                   " names for " + std::to_string(series.size()) + " series");
+  // Colours of the series (Tableau 10), as RGB.
+  static const std::array<Rgb, 10> kPalette{{{31, 119, 180}, {255, 127, 14}, {44, 160, 44}, {214, 39, 40},
+                                             {148, 103, 189}, {140, 86, 75}, {227, 119, 194}, {127, 127, 127},
+                                             {188, 189, 34}, {23, 190, 207}}};
+  auto usable = [&](double v) { return std::isfinite(v) && (!log_y || v > 0.0); };
+  auto y_of = [&](double v) { return log_y ? std::log10(v) : v; };
+
+  // Data ranges: x = index, y = value (log10 with log_y).
+  size_t longest = 0;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const auto& s : series) {
+    longest = std::max(longest, s.size());
+    for (double v : s)
+      if (usable(v)) {
+        lo = std::min(lo, y_of(v));
+        hi = std::max(hi, y_of(v));
+      }
+  }
+  const bool has_data = lo <= hi;
+  if (!has_data) lo = hi = 0.0;
+  if (hi - lo < 1e-12 * std::max(1.0, std::abs(hi))) {  // a flat curve: open the range a little
+    const double pad = log_y ? 0.5 : std::max(1.0, 0.1 * std::abs(hi));
+    lo -= pad;
+    hi += pad;
+  }
+  const double x_max = longest > 1 ? static_cast<double>(longest - 1) : 1.0;
+  // The frame spans the data range plus 5% on each side, so no curve runs along the frame.
+  const double data_lo = lo, data_hi = hi, pad = 0.05 * (hi - lo);
+  lo -= pad;
+  hi += pad;
+  auto value_text = [&](double y) { return tick_text(log_y ? std::pow(10.0, y) : y); };
+
+  // Layout: title band (title, scale note), plot area with tick labels on the left and below.
+  const int width = 900, plot_h = 480;
+  const int title_h = title.empty() && !log_y ? 0 : text_height() + kMarginPx;
+  const int left = 2 * kMarginPx + std::max(text_width(value_text(data_lo)), text_width(value_text(data_hi)));
+  const std::string x_hi = tick_text(x_max);
+  const int top = kMarginPx + title_h, right = width - kMarginPx - std::max(kMarginPx, text_width(x_hi) / 2 + 2);
+  const int bottom = top + plot_h;
+  const int height = bottom + 2 * kMarginPx + text_height();
+  cv::Mat canvas(height, width, CV_8UC3, kWhite);
+  if (!title.empty()) put_text(canvas, title, kMarginPx, kMarginPx);
+  if (log_y) put_text(canvas, "(log scale)", right - text_width("(log scale)"), kMarginPx);
+  auto to_px = [&](double x, double y) {
+    return Eigen::Vector2d(left + (right - left) * x / x_max, bottom - (bottom - top) * (y - lo) / (hi - lo));
+  };
+
+  // Grid at the quarter lines, frame, tick marks and labels at the data's min and max.
+  for (int q = 1; q < 4; ++q) {
+    const int gx = left + (right - left) * q / 4, gy = top + (bottom - top) * q / 4;
+    cv::line(canvas, {gx, top}, {gx, bottom}, kLightGrey, 1);
+    cv::line(canvas, {left, gy}, {right, gy}, kLightGrey, 1);
+  }
+  cv::rectangle(canvas, {left, top}, {right, bottom}, kBlack, 1);
+  for (double y : {data_lo, data_hi}) {
+    const int py = static_cast<int>(std::lround(to_px(0.0, y).y()));
+    const std::string text = value_text(y);
+    cv::line(canvas, {left - 5, py}, {left, py}, kBlack, 1);
+    put_text(canvas, text, left - kMarginPx / 2 - 4 - text_width(text), py - text_height() / 2);
+  }
+  for (int x : {left, right}) cv::line(canvas, {x, bottom}, {x, bottom + 5}, kBlack, 1);
+  put_text(canvas, "0", left - text_width("0") / 2, bottom + kMarginPx / 2 + 2);
+  put_text(canvas, x_hi, right - text_width(x_hi) / 2, bottom + kMarginPx / 2 + 2);
+  if (!has_data) put_text(canvas, "no data", (left + right) / 2 - text_width("no data") / 2, (top + bottom) / 2);
+
+  // The curves, clipped to the plot area; a skipped value breaks the line.
+  cv::Mat plot = canvas(cv::Rect(left, top, right - left + 1, bottom - top + 1));
+  const Eigen::Vector2d plot_origin(left, top);
+  for (size_t i = 0; i < series.size(); ++i) {
+    const cv::Scalar colour = to_bgr(kPalette[i % kPalette.size()]);
+    std::vector<cv::Point> run;
+    auto flush = [&] {
+      if (run.size() == 1) cv::circle(plot, run[0], static_cast<int>(3 * kShiftScale), colour, cv::FILLED, cv::LINE_AA, kShiftBits);
+      if (run.size() > 1) cv::polylines(plot, run, false, colour, kLineWidthPx, cv::LINE_AA, kShiftBits);
+      run.clear();
+    };
+    for (size_t k = 0; k < series[i].size(); ++k) {
+      const double v = series[i][k];
+      if (!usable(v)) {
+        flush();
+        continue;
+      }
+      run.push_back(fixed_point(to_px(static_cast<double>(k), y_of(v)) - plot_origin));
+    }
+    flush();
+  }
+
+  // Legend in the top-right corner of the plot: a line sample and the name per series.
+  if (!series.empty()) {
+    int name_w = 0;
+    for (const auto& n : names) name_w = std::max(name_w, text_width(n));
+    const int row_h = text_height() + kMarginPx / 2;
+    const int box_w = 36 + name_w + 2 * kMarginPx, box_h = static_cast<int>(names.size()) * row_h + kMarginPx;
+    const cv::Rect box(right - box_w - kMarginPx, top + kMarginPx, box_w, box_h);
+    cv::rectangle(canvas, box, kWhite, cv::FILLED);
+    cv::rectangle(canvas, box, cv::Scalar(120, 120, 120), 1);
+    for (size_t i = 0; i < names.size(); ++i) {
+      const int y = box.y + kMarginPx / 2 + static_cast<int>(i) * row_h;
+      const int mid = y + text_height() / 2;
+      cv::line(canvas, {box.x + kMarginPx / 2, mid}, {box.x + kMarginPx / 2 + 28, mid},
+               to_bgr(kPalette[i % kPalette.size()]), kLineWidthPx + 1, cv::LINE_AA);
+      put_text(canvas, names[i], box.x + kMarginPx / 2 + 36, y);
+    }
+  }
+  write_png(canvas, png_path);
+}
+
+}  // namespace dsnake

@@ -1,0 +1,66 @@
+// Figure writers (PNG): a 2D image with shapes drawn over it, three orthogonal slices of a
+// volume with the cross-sections of meshes, and line plots of energy / metric curves.
+// As in the paper's figures (e.g. Fig. 12 of Levi & Gotsman, "D-Snake"), the template or the
+// initial snake is drawn in yellow and the result in red; feature points are dots (green, Fig. 2).
+//
+// Display conventions: grey values are windowed from the image's min..max to black..white and
+// shown nearest-neighbour, so voxels stay visible; each axis is scaled by its spacing, so the
+// figure has the physical aspect ratio; the image's first axis runs to the right and its second
+// axis runs DOWNWARDS (row = y index, as image files store it). Every PNG is written atomically.
+#pragma once
+
+#include "framework/image.h"
+#include "framework/shape.h"
+#include "framework/types.h"
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace dsnake {
+
+using Rgb = std::array<uint8_t, 3>;  // red, green, blue
+
+inline constexpr Rgb kTemplateYellow{255, 220, 0};  // the template / initial snake
+inline constexpr Rgb kResultRed{230, 20, 20};       // the registration result
+inline constexpr Rgb kFeatureGreen{20, 200, 60};    // landmarks / feature points
+
+// One shape drawn over an image. Borrows the positions and the connectivity: they must outlive
+// the call that draws the layer.
+template <int D>
+struct ShapeLayer {
+  const PointList<D>& points;            // n positions, physical units (same frame as the image)
+  const Connectivity& connectivity;      // 2D: closed polygon in index order; 3D: triangles
+  Rgb rgb = kResultRed;                  // line colour
+  std::vector<int> marked_vertices = {};  // vertex indices drawn as filled dots
+  std::string label = "";                // legend entry ("template", "D-Snake"); "" = none
+  Rgb marker_rgb = kFeatureGreen;        // colour of the dots
+};
+using ShapeLayer2 = ShapeLayer<2>;
+using ShapeLayer3 = ShapeLayer<3>;
+
+// The image (upscaled by an integer factor so that its longer side has at least 512 px, then
+// per axis by spacing) with each layer's closed polygon drawn antialiased, 2 px wide, in layer
+// order (later layers on top). A legend is added below when a layer has a label, a title above
+// when `title` is not empty. Throws std::runtime_error naming png_path if it cannot be written.
+void write_overlay_figure(const Image<2>& image, const std::vector<ShapeLayer2>& layers,
+                          const std::string& png_path, const std::string& title = "");
+
+// Three orthogonal slices through the voxel nearest to `centre` (physical units), side by side:
+// axial (z = const; x right, y down), coronal (y = const; x right, z down) and sagittal
+// (x = const; y right, z down), all at the same pixels per mm. Each mesh's cross-section with
+// the slice plane is drawn in its layer colour; marked vertices within half a voxel of the
+// plane are dots. One grey window (the volume's min..max) serves all three slices.
+void write_slice_figure(const Image<3>& volume, const std::vector<ShapeLayer3>& layers,
+                        const Point<3>& centre, const std::string& png_path,
+                        const std::string& title = "");
+
+// A line plot of series[i] against its index (0, 1, ...), one colour per series, a legend with
+// names[i], min/max tick labels. With log_y the y axis is log10 and non-positive values are
+// skipped; NaN and infinite values are always skipped (the line breaks there).
+void write_curve_figure(const std::vector<std::string>& names,
+                        const std::vector<std::vector<double>>& series, const std::string& png_path,
+                        const std::string& title, bool log_y);
+
+}  // namespace dsnake

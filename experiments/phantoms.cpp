@@ -1,0 +1,368 @@
+#include "experiments/phantoms.h"
+
+#include "framework/errors.h"
+#include "framework/image_filters.h"
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <functional>
+#include <map>
+#include <nlohmann/json.hpp>
+
+namespace dsnake {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// The geometry shared by image phantoms: grid, grey levels, blur.
+template <int D>
+struct PhantomCanvas {
+  Grid<D> grid;
+  double foreground = 85, background = 170, blur = 1.0;
+  bool partial_volume = false;  // grey voxels on the boundary (3^D supersampling) or a binary image
+  Point<D> center;
+};
+
+template <int D>
+PhantomCanvas<D> read_canvas(JsonReader& r, int default_size) {
+  PhantomCanvas<D> c;
+  std::vector<double> size(D, default_size);
+  r.read("size", size);
+  r.expect(int(size.size()) == D, "size", "expected " + std::to_string(D) + " integers");
+  for (int a = 0; a < D; ++a) {
+    r.expect(size[a] >= 4 && size[a] <= 4096 && size[a] == std::floor(size[a]), "size",
+             "each size must be an integer in [4, 4096]");
+    c.grid.size[a] = static_cast<int>(size[a]);
+  }
+  r.read<D>("spacing", c.grid.spacing);
+  r.expect(c.grid.spacing.minCoeff() > 0, "spacing", "must be > 0");
+  r.read<D>("origin", c.grid.origin);
+  r.read("foreground", c.foreground);
+  r.read("background", c.background);
+  r.read("blur", c.blur);
+  r.expect(c.blur >= 0, "blur", "must be >= 0");
+  r.read("partial_volume", c.partial_volume);
+  c.center = c.grid.origin + 0.5 * (c.grid.size.template cast<double>() - Point<D>::Ones()).cwiseProduct(c.grid.spacing);
+  r.read<D>("center", c.center);
+  return c;
+}
+
+// Star polygon: outer vertices at rotation + 2 pi k / arms, inner ones half-way (2 * arms).
+PointList<2> star_polygon(const Point<2>& c, int arms, double outer, double inner, double rotation_deg) {
+  PointList<2> p;
+  const double rot = rotation_deg * kPi / 180.0;
+  for (int k = 0; k < 2 * arms; ++k) {
+    const double a = rot + kPi * k / arms;
+    const double r = k % 2 == 0 ? outer : inner;
+    p.push_back(c + r * Point<2>(std::cos(a), std::sin(a)));
+  }
+  return p;
+}
+
+bool inside_polygon(const PointList<2>& poly, const Point<2>& x) {
+  bool in = false;
+  for (size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
+    const auto& a = poly[i];
+    const auto& b = poly[j];
+    if ((a.y() > x.y()) != (b.y() > x.y()) &&
+        x.x() < (b.x() - a.x()) * (x.y() - a.y()) / (b.y() - a.y()) + a.x())
+      in = !in;
+  }
+  return in;
+}
+
+// Renders the image (binary, or partial-volume by 3^D supersampling; then the blur) and the mask.
+template <int D>
+void render(Phantom<D>& ph, const PhantomCanvas<D>& c, const std::function<bool(const Point<D>&)>& inside) {
+  ph.image = Image<D>(c.grid);
+  ph.mask = Image<D>(c.grid);
+  const int64_t n = c.grid.num_voxels();
+  const int sub = c.partial_volume ? 3 : 1;
+  const int samples = D == 2 ? sub * sub : sub * sub * sub;
+#pragma omp parallel for schedule(static)
+  for (int64_t l = 0; l < n; ++l) {
+    const Point<D> x = c.grid.to_physical(c.grid.index(l));
+    int count = 0;
+    for (int s = 0; s < samples; ++s) {
+      Point<D> y = x;
+      int rest = s;
+      for (int a = 0; a < D; ++a) {
+        y[a] += ((rest % sub) - (sub - 1) / 2.0) / double(sub) * c.grid.spacing[a];
+        rest /= sub;
+      }
+      count += inside(y);
+    }
+    const double frac = double(count) / samples;
+    ph.image[l] = static_cast<float>(c.background + frac * (c.foreground - c.background));
+    ph.mask[l] = inside(x) ? 1.0f : 0.0f;
+  }
+  ph.image = gaussian_blur(ph.image, c.blur);
+}
+
+Template<2> polygon_template(PointList<2> p) {
+  Template<2> t;
+  t.connectivity = Connectivity::polygon(static_cast<int>(p.size()));
+  t.positions = std::move(p);
+  return t;
+}
+
+PointList<2> circle_points(const Point<2>& c, double r, int n) {
+  PointList<2> p;
+  for (int k = 0; k < n; ++k) {
+    const double a = 2 * kPi * k / n;
+    p.push_back(c + r * Point<2>(std::cos(a), std::sin(a)));
+  }
+  return p;
+}
+
+Template<3> scaled_icosphere(int subdivisions, const Point<3>& center, const Point<3>& axes) {
+  Template<3> t = make_icosphere(subdivisions);
+  for (auto& p : t.positions) p = center + p.cwiseProduct(axes);
+  return t;
+}
+
+}  // namespace
+
+Template<3> make_icosphere(int subdivisions) {
+  const double g = (1.0 + std::sqrt(5.0)) / 2.0;
+  PointList<3> v = {{-1, g, 0}, {1, g, 0}, {-1, -g, 0}, {1, -g, 0}, {0, -1, g}, {0, 1, g},
+                    {0, -1, -g}, {0, 1, -g}, {g, 0, -1}, {g, 0, 1}, {-g, 0, -1}, {-g, 0, 1}};
+  std::vector<Triangle> f = {{0, 11, 5}, {0, 5, 1}, {0, 1, 7}, {0, 7, 10}, {0, 10, 11},
+                             {1, 5, 9}, {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+                             {3, 9, 4}, {3, 4, 2}, {3, 2, 6}, {3, 6, 8}, {3, 8, 9},
+                             {4, 9, 5}, {2, 4, 11}, {6, 2, 10}, {8, 6, 7}, {9, 8, 1}};
+  for (auto& p : v) p.normalize();
+  for (int s = 0; s < subdivisions; ++s) {
+    std::map<std::pair<int, int>, int> midpoint;
+    auto mid = [&](int a, int b) {
+      const auto key = std::minmax(a, b);
+      auto it = midpoint.find(key);
+      if (it != midpoint.end()) return it->second;
+      v.push_back((v[a] + v[b]).normalized());
+      return midpoint[key] = static_cast<int>(v.size()) - 1;
+    };
+    std::vector<Triangle> next;
+    for (const auto& t : f) {
+      const int a = mid(t[0], t[1]), b = mid(t[1], t[2]), c = mid(t[2], t[0]);
+      next.insert(next.end(), {Triangle{t[0], a, c}, Triangle{t[1], b, a}, Triangle{t[2], c, b}, Triangle{a, b, c}});
+    }
+    f.swap(next);
+  }
+  Template<3> t;
+  t.connectivity = Connectivity::mesh(static_cast<int>(v.size()), std::move(f));
+  t.positions = std::move(v);
+  return t;
+}
+
+template <>
+Phantom<2> make_phantom<2>(JsonReader& r) {
+  std::string kind;
+  r.require("phantom", kind);
+  Phantom<2> ph;
+  ph.kind = kind;
+  auto c = read_canvas<2>(r, 128);
+  if (kind == "disk") {
+    double radius = 30;
+    r.read("radius", radius);
+    r.expect(radius > 0, "radius", "must be > 0");
+    render<2>(ph, c, [&](const Point<2>& x) { return (x - c.center).norm() < radius; });
+    ph.surface = polygon_template(circle_points(c.center, radius, 1024));
+  } else if (kind == "square") {
+    double half = 30, rotation = 0;
+    r.read("half_width", half);
+    r.read("rotation_deg", rotation);
+    r.expect(half > 0, "half_width", "must be > 0");
+    const double a = rotation * kPi / 180.0;
+    const Eigen::Matrix2d R = Eigen::Rotation2Dd(a).toRotationMatrix();
+    render<2>(ph, c, [&](const Point<2>& x) {
+      const Point<2> y = R.transpose() * (x - c.center);
+      return std::max(std::abs(y.x()), std::abs(y.y())) < half;
+    });
+    PointList<2> p;
+    const Point<2> corners[4] = {{half, -half}, {half, half}, {-half, half}, {-half, -half}};
+    constexpr int kPerSide = 128;
+    for (int s = 0; s < 4; ++s)
+      for (int k = 0; k < kPerSide; ++k) {
+        const double t = double(k) / kPerSide;
+        p.push_back(c.center + R * ((1 - t) * corners[s] + t * corners[(s + 1) % 4]));
+      }
+    ph.surface = polygon_template(std::move(p));
+  } else if (kind == "star") {
+    int arms = 5;
+    double outer = 40, inner = 18, rotation = 90;
+    r.read("arms", arms);
+    r.read("outer_radius", outer);
+    r.read("inner_radius", inner);
+    r.read("rotation_deg", rotation);
+    r.expect(arms >= 3 && arms <= 64, "arms", "must be in [3, 64]");
+    r.expect(outer > 0, "outer_radius", "must be > 0");
+    r.expect(inner > 0 && inner < outer, "inner_radius", "must be in (0, outer_radius)");
+    const PointList<2> poly = star_polygon(c.center, arms, outer, inner, rotation);
+    render<2>(ph, c, [&](const Point<2>& x) { return inside_polygon(poly, x); });
+    ph.surface = polygon_template(poly);
+  } else {
+    r.fail("phantom", "unknown 2D image phantom \"" + kind + "\" (known: disk, square, star)");
+  }
+  return ph;
+}
+
+template <>
+Phantom<3> make_phantom<3>(JsonReader& r) {
+  std::string kind;
+  r.require("phantom", kind);
+  Phantom<3> ph;
+  ph.kind = kind;
+  auto c = read_canvas<3>(r, 64);
+  Point<3> axes;
+  if (kind == "sphere") {
+    double radius = 20;
+    r.read("radius", radius);
+    r.expect(radius > 0, "radius", "must be > 0");
+    axes.setConstant(radius);
+  } else if (kind == "ellipsoid") {
+    axes = Point<3>(24, 16, 12);
+    r.read<3>("semi_axes", axes);
+    r.expect(axes.minCoeff() > 0, "semi_axes", "must be > 0");
+  } else {
+    r.fail("phantom", "unknown 3D image phantom \"" + kind + "\" (known: sphere, ellipsoid)");
+  }
+  render<3>(ph, c, [&](const Point<3>& x) { return (x - c.center).cwiseQuotient(axes).squaredNorm() < 1.0; });
+  ph.surface = scaled_icosphere(5, c.center, axes);
+  return ph;
+}
+
+template <>
+Template<2> make_template_phantom<2>(JsonReader& r) {
+  std::string kind;
+  r.require("phantom", kind);
+  Point<2> center(63.5, 63.5);
+  r.read<2>("center", center);
+  if (kind == "circle") {
+    double radius = 40;
+    int vertices = 40;
+    r.read("radius", radius);
+    r.read("vertices", vertices);
+    r.expect(radius > 0, "radius", "must be > 0");
+    r.expect(vertices >= 3 && vertices <= 100000, "vertices", "must be in [3, 100000]");
+    return polygon_template(circle_points(center, radius, vertices));
+  }
+  if (kind == "star") {
+    int arms = 5;
+    double outer = 40, inner = 18, rotation = 90;
+    r.read("arms", arms);
+    r.read("outer_radius", outer);
+    r.read("inner_radius", inner);
+    r.read("rotation_deg", rotation);
+    r.expect(arms >= 3 && arms <= 64, "arms", "must be in [3, 64]");
+    r.expect(outer > 0, "outer_radius", "must be > 0");
+    r.expect(inner > 0 && inner < outer, "inner_radius", "must be in (0, outer_radius)");
+    Template<2> t = polygon_template(star_polygon(center, arms, outer, inner, rotation));
+    for (int k = 0; k < arms; ++k) t.landmarks["tip" + std::to_string(k)] = 2 * k;
+    return t;
+  }
+  r.fail("phantom", "unknown 2D template phantom \"" + kind + "\" (known: circle, star)");
+}
+
+template <>
+Template<3> make_template_phantom<3>(JsonReader& r) {
+  std::string kind;
+  r.require("phantom", kind);
+  Point<3> center(31.5, 31.5, 31.5);
+  int subdivisions = 2;
+  r.read<3>("center", center);
+  r.read("subdivisions", subdivisions);
+  r.expect(subdivisions >= 0 && subdivisions <= 6, "subdivisions", "must be in [0, 6]");
+  Point<3> axes;
+  if (kind == "sphere") {
+    double radius = 24;
+    r.read("radius", radius);
+    r.expect(radius > 0, "radius", "must be > 0");
+    axes.setConstant(radius);
+  } else if (kind == "ellipsoid") {
+    axes = Point<3>(24, 16, 12);
+    r.read<3>("semi_axes", axes);
+    r.expect(axes.minCoeff() > 0, "semi_axes", "must be > 0");
+  } else {
+    r.fail("phantom", "unknown 3D template phantom \"" + kind + "\" (known: sphere, ellipsoid)");
+  }
+  Template<3> t = scaled_icosphere(subdivisions, center, axes);
+  const char* names[6] = {"+x", "-x", "+y", "-y", "+z", "-z"};
+  for (int k = 0; k < 6; ++k) {  // the six axis extremes, as landmarks
+    int best = 0;
+    const double sign = k % 2 == 0 ? 1.0 : -1.0;
+    for (int v = 1; v < t.num_vertices(); ++v)
+      if (sign * (t.positions[v][k / 2] - t.positions[best][k / 2]) > 0) best = v;
+    t.landmarks[names[k]] = best;
+  }
+  return t;
+}
+
+template <int D>
+std::vector<std::optional<Point<D>>> phantom_targets(const nlohmann::json& image_spec,
+                                                     const nlohmann::json& template_spec,
+                                                     const Template<D>& tmpl) {
+  std::vector<std::optional<Point<D>>> targets;
+  if (!image_spec.is_object() || !template_spec.is_object() || !image_spec.contains("phantom") ||
+      !template_spec.contains("phantom"))
+    return targets;
+  // Rebuild both phantoms' defaults through readers (the specs were validated already).
+  nlohmann::json img = image_spec, tpl = template_spec;
+  img.erase("file");
+  tpl.erase("transform");
+  const std::string ik = img.value("phantom", ""), tk = tpl.value("phantom", "");
+  JsonReader ir(img, "", "image");
+  const auto canvas = read_canvas<D>(ir, D == 2 ? 128 : 64);
+  Point<D> template_center = Point<D>::Constant(D == 2 ? 63.5 : 31.5);
+  if (tpl.contains("center"))
+    for (int a = 0; a < D; ++a) template_center[a] = tpl["center"][a].get<double>();
+
+  auto radial = [&](const Point<D>& axes) {
+    for (const auto& p : tmpl.positions) {
+      const Point<D> d = p - template_center;
+      // The direction in the template's own ellipsoid frame, mapped onto the image shape.
+      Point<D> t_axes = Point<D>::Constant(d.norm());
+      if constexpr (D == 3)
+        if (tk == "ellipsoid" && tpl.contains("semi_axes"))
+          for (int a = 0; a < 3; ++a) t_axes[a] = tpl["semi_axes"][a].get<double>();
+      const Point<D> u = d.cwiseQuotient(t_axes);
+      targets.emplace_back(canvas.center + u.normalized().cwiseProduct(axes));
+    }
+  };
+  if constexpr (D == 2) {
+    if (tk == "circle" && ik == "disk") {
+      radial(Point<2>::Constant(img.value("radius", 30.0)));
+    } else if (tk == "circle" && ik == "square") {
+      // Radial correspondence (a convention): the square's boundary point on the ray from its
+      // centre in the direction of the template vertex from the template's centre.
+      const double half = img.value("half_width", 30.0);
+      const Eigen::Matrix2d R = Eigen::Rotation2Dd(img.value("rotation_deg", 0.0) * kPi / 180.0).toRotationMatrix();
+      for (const auto& p : tmpl.positions) {
+        const Point<2> y = R.transpose() * (p - template_center).normalized();
+        targets.emplace_back(canvas.center + R * (y * half / std::max(std::abs(y.x()), std::abs(y.y()))));
+      }
+    } else if (tk == "star" && ik == "star" && img.value("arms", 5) == tpl.value("arms", 5)) {
+      const auto poly = star_polygon(canvas.center, img.value("arms", 5), img.value("outer_radius", 40.0),
+                                     img.value("inner_radius", 18.0), img.value("rotation_deg", 90.0));
+      for (const auto& p : poly) targets.emplace_back(p);
+    }
+  } else {
+    if (tk == "sphere" || tk == "ellipsoid") {
+      if (ik == "sphere") radial(Point<3>::Constant(img.value("radius", 20.0)));
+      if (ik == "ellipsoid") {
+        Point<3> axes(24, 16, 12);
+        if (img.contains("semi_axes"))
+          for (int a = 0; a < 3; ++a) axes[a] = img["semi_axes"][a].get<double>();
+        radial(axes);
+      }
+    }
+  }
+  return targets;
+}
+
+template std::vector<std::optional<Point<2>>> phantom_targets<2>(const nlohmann::json&, const nlohmann::json&,
+                                                                 const Template<2>&);
+template std::vector<std::optional<Point<3>>> phantom_targets<3>(const nlohmann::json&, const nlohmann::json&,
+                                                                 const Template<3>&);
+
+}  // namespace dsnake

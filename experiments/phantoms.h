@@ -1,0 +1,49 @@
+// Built-in synthetic phantoms with their ground truth, for the default experiment, the tests
+// and quick studies. Images follow the paper's star experiment (§8): 8-bit grey levels,
+// background 170, foreground 85; binary unless "partial_volume" is true (then boundary voxels
+// take the covered fraction), then blurred by "blur" (Gaussian sigma, physical units; 0: none).
+//  - image phantoms: "disk", "square", "star" (2D); "sphere", "ellipsoid" (3D);
+//  - template phantoms: "circle", "star" (2D); "sphere", "ellipsoid" (3D).
+// Every phantom knows its true boundary (a fine polygon / mesh) and its mask; a template
+// phantom of a matching family also gets correspondence targets (see phantom_targets).
+#pragma once
+
+#include "framework/image.h"
+#include "framework/json_reader.h"
+#include "framework/shape.h"
+
+#include <optional>
+#include <string>
+
+namespace dsnake {
+
+template <int D>
+struct Phantom {
+  std::string kind;
+  Image<D> image;        // grey levels
+  Image<D> mask;         // 1 inside (voxel centre inside the shape), 0 outside
+  Template<D> surface;   // the true boundary, finely sampled
+};
+
+// Reads the phantom's parameters from the "image" object (which has "phantom": kind) and
+// builds it. Unknown keys are rejected by the caller's reader.finish().
+template <int D>
+Phantom<D> make_phantom(JsonReader& reader);
+
+// Builds a template phantom from the "template" object (with "phantom": kind).
+template <int D>
+Template<D> make_template_phantom(JsonReader& reader);
+
+// Correspondence targets for a template phantom registered to an image phantom, where the
+// pairing is known: circle/sphere -> disk/sphere/ellipsoid (the template stretched along its
+// axes onto the shape), circle -> square (radial projection from the centres, a convention),
+// star -> star with the same arm count (vertex k to vertex k). Empty otherwise.
+template <int D>
+std::vector<std::optional<Point<D>>> phantom_targets(const nlohmann::json& image_spec,
+                                                     const nlohmann::json& template_spec,
+                                                     const Template<D>& tmpl);
+
+// A closed icosphere of radius 1 about the origin: 10 * 4^k + 2 vertices, outward triangles.
+Template<3> make_icosphere(int subdivisions);
+
+}  // namespace dsnake

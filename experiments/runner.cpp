@@ -1,0 +1,329 @@
+#include "experiments/runner.h"
+
+#include "experiments/figures.h"
+#include "framework/atomic_file.h"
+#include "framework/errors.h"
+#include "framework/mesh_io.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iomanip>
+#include <sstream>
+#include <unistd.h>
+
+#ifndef DSNAKE_VERSION
+#define DSNAKE_VERSION "unknown"
+#endif
+
+namespace dsnake {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// Progress lines on stderr: the first iteration, then at most twice a second, and each phase end.
+template <int D>
+class ProgressObserver : public EvolverObserver<D> {
+ public:
+  ProgressObserver(const std::vector<Phase<D>>& phases, std::vector<std::string> names)
+      : phases_(phases), names_(std::move(names)) {}
+  void on_iteration(const IterationInfo& info, const Snake<D>&) override {
+    const bool last = info.phase_iteration == phases_[info.phase].iterations;
+    if (info.phase_iteration != 1 && !last && seconds_since(last_print_) < 0.5) return;
+    print(info);
+  }
+  void on_phase_end(int phase, const PhaseSummary& s, const Snake<D>& snake) override {
+    std::fprintf(stderr, "dsnake: phase %d/%zu %s after %d iterations (last move %.3g, %d vertices)\n",
+                 phase + 1, phases_.size(), to_string(s.status).c_str(), s.iterations, s.last_displacement,
+                 snake.num_vertices());
+  }
+
+ private:
+  void print(const IterationInfo& info) {
+    last_print_ = Clock::now();
+    std::fprintf(stderr, "dsnake: phase %d/%zu %s iteration %d/%d  energy %.6g  max move %.3g  vertices %d\n",
+                 info.phase + 1, phases_.size(), names_[info.phase].c_str(), info.phase_iteration,
+                 phases_[info.phase].iterations, info.total_energy, info.max_displacement, info.vertices);
+  }
+  const std::vector<Phase<D>>& phases_;
+  std::vector<std::string> names_;
+  Clock::time_point last_print_{};
+};
+
+// Keeps the energy trace in memory and writes snapshots.
+template <int D>
+class RecordingObserver : public EvolverObserver<D> {
+ public:
+  RecordingObserver(std::string snapshot_dir, int snapshot_every)
+      : snapshot_dir_(std::move(snapshot_dir)), every_(snapshot_every) {}
+  void on_iteration(const IterationInfo& info, const Snake<D>& snake) override {
+    trace.push_back(info);
+    if (every_ > 0 && info.iteration % every_ == 0) {
+      fs::create_directories(snapshot_dir_);
+      std::ostringstream name;
+      name << snapshot_dir_ << "/iteration_" << std::setw(6) << std::setfill('0') << info.iteration << ".vtk";
+      write_shape<D>(snake.positions(), snake.connectivity(), name.str(), template_id_scalars(snake));
+    }
+  }
+  static std::vector<VertexScalars> template_id_scalars(const Snake<D>& snake) {
+    VertexScalars ids{"template_id", {}};
+    for (int t : snake.template_ids()) ids.values.push_back(t);
+    return {ids};
+  }
+  std::vector<IterationInfo> trace;
+
+ private:
+  std::string snapshot_dir_;
+  int every_;
+};
+
+nlohmann::ordered_json optional_number(const std::optional<double>& v) {
+  return v && std::isfinite(*v) ? nlohmann::ordered_json(*v) : nlohmann::ordered_json(nullptr);
+}
+
+std::string csv_number(double v) {
+  if (!std::isfinite(v)) return "nan";
+  std::ostringstream s;
+  s << std::setprecision(10) << v;
+  return s.str();
+}
+
+// Unique column names for the energy terms: "internal", "external", "asap_mls_2", ...
+template <int D>
+std::vector<std::string> term_names(const std::vector<WeightedEnergy<D>>& energies) {
+  std::vector<std::string> names;
+  for (size_t i = 0; i < energies.size(); ++i) {
+    std::string n = energies[i].energy->type();
+    if (std::count_if(energies.begin(), energies.end(), [&](const auto& e) { return e.energy->type() == n; }) > 1)
+      n += "_" + std::to_string(i);
+    names.push_back(n);
+  }
+  return names;
+}
+
+template <int D>
+std::string trace_csv(const std::vector<IterationInfo>& trace, const std::vector<std::string>& names) {
+  std::ostringstream s;
+  s << "iteration,phase,phase_iteration,vertices,max_displacement";
+  for (const auto& n : names) s << "," << n;
+  s << ",total\n";
+  for (const auto& t : trace) {
+    s << t.iteration << "," << t.phase << "," << t.phase_iteration << "," << t.vertices << ","
+      << csv_number(t.max_displacement);
+    for (double e : t.energy_terms) s << "," << csv_number(e);
+    s << "," << csv_number(t.total_energy) << "\n";
+  }
+  return s.str();
+}
+
+template <int D>
+std::string correspondence_csv(const Experiment<D>& ex, const Snake<D>& snake, const CorrespondenceError& err) {
+  static const char* axis[3] = {"x", "y", "z"};
+  std::map<int, std::string> landmark_of;
+  for (const auto& [name, id] : ex.tmpl.landmarks) landmark_of[id] = name;
+  std::ostringstream s;
+  s << "template_id,landmark";
+  for (int a = 0; a < D; ++a) s << ",initial_" << axis[a];
+  for (int a = 0; a < D; ++a) s << ",final_" << axis[a];
+  s << ",displacement";
+  for (int a = 0; a < D; ++a) s << ",target_" << axis[a];
+  s << ",error\n";
+  for (int t = 0; t < ex.tmpl.num_vertices(); ++t) {
+    const int v = snake.vertex_of_template_id(t);
+    s << t << "," << (landmark_of.count(t) ? landmark_of[t] : "");
+    for (int a = 0; a < D; ++a) s << "," << csv_number(ex.initial[t][a]);
+    for (int a = 0; a < D; ++a) s << "," << csv_number(v >= 0 ? snake.positions()[v][a] : NAN);
+    s << "," << csv_number(v >= 0 ? (snake.positions()[v] - ex.initial[t]).norm() : NAN);
+    const bool has_target = t < int(ex.truth.targets.size()) && ex.truth.targets[t];
+    for (int a = 0; a < D; ++a) s << "," << csv_number(has_target ? (*ex.truth.targets[t])[a] : NAN);
+    s << "," << csv_number(t < int(err.per_vertex.size()) ? err.per_vertex[t] : NAN) << "\n";
+  }
+  return s.str();
+}
+
+// Moves every entry of `staging` into `out` (replacing same-named entries), result.json last.
+void publish(const fs::path& staging, const fs::path& out) {
+  fs::create_directories(out);
+  std::vector<fs::path> entries;
+  for (const auto& e : fs::directory_iterator(staging)) entries.push_back(e.path());
+  std::stable_partition(entries.begin(), entries.end(), [](const fs::path& p) { return p.filename() != "result.json"; });
+  for (const auto& p : entries) {
+    const fs::path target = out / p.filename();
+    std::error_code ec;
+    if (fs::is_directory(target)) fs::remove_all(target, ec);
+    fs::rename(p, target);
+  }
+  fs::remove_all(staging);
+}
+
+template <int D>
+void write_figures(const Experiment<D>& ex, const Snake<D>& snake, const fs::path& dir,
+                   const std::vector<IterationInfo>& trace, const std::vector<std::string>& names);
+
+}  // namespace
+
+std::string dsnake_version() { return DSNAKE_VERSION; }
+
+template <int D>
+nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& options) {
+  const auto start = Clock::now();
+  const fs::path out = options.out_dir.empty() ? fs::path("out") / (ex.name.empty() ? "run" : ex.name)
+                                               : fs::path(options.out_dir);
+  const fs::path staging = out.string() + ".partial-" + std::to_string(::getpid());
+  fs::remove_all(staging);
+  fs::create_directories(staging);
+  try {
+    if (!options.quiet)
+      std::fprintf(stderr, "dsnake: %s: computing the %s field on %s\n", ex.name.c_str(), ex.field->type().c_str(),
+                   D == 2 ? "the image" : "the volume");
+    auto t = Clock::now();
+    ex.field->compute(ex.image);
+    const double field_s = seconds_since(t);
+
+    Snake<D> snake = Snake<D>::from_template(ex.tmpl, ex.initial);
+    const int initial_vertices = snake.num_vertices();
+    EnergyContext<D> context{&ex.tmpl, &ex.image, ex.field.get()};
+    Evolver<D> evolver(context, std::move(ex.energies));
+    const auto names = term_names(evolver.energies());
+    std::vector<std::string> phase_names;
+    for (size_t p = 0; p < ex.phases.size(); ++p) {
+      const auto& doc = ex.file.document["phases"][p];
+      phase_names.push_back(doc.contains("name") && doc["name"].is_string() ? doc["name"].template get<std::string>()
+                                                                           : "#" + std::to_string(p + 1));
+    }
+    ProgressObserver<D> progress(ex.phases, phase_names);
+    RecordingObserver<D> recorder((staging / "snapshots").string(), ex.output.snapshot_every);
+    evolver.add_observer(&recorder);
+    if (!options.quiet) evolver.add_observer(&progress);
+    t = Clock::now();
+    const EvolveSummary summary = evolver.run(snake, ex.phases);
+    const double evolve_s = seconds_since(t);
+
+    t = Clock::now();
+    const Metrics m = compute_metrics(snake, ex.truth);
+    const double metrics_s = seconds_since(t);
+    const CorrespondenceError corr = correspondence_error(snake, ex.truth.targets);
+
+    // Output files.
+    const std::string mesh_ext = D == 2 ? ".txt" : ".ply";
+    auto scalars = RecordingObserver<D>::template_id_scalars(snake);
+    VertexScalars displacement{"displacement", {}};
+    for (int v = 0; v < snake.num_vertices(); ++v) {
+      const int id = snake.template_id(v);
+      displacement.values.push_back(id >= 0 ? (snake.positions()[v] - ex.initial[id]).norm() : NAN);
+    }
+    scalars.push_back(displacement);
+    write_shape<D>(snake.positions(), snake.connectivity(), (staging / "final.vtk").string(), scalars);
+    write_shape<D>(snake.positions(), snake.connectivity(), (staging / ("final" + mesh_ext)).string());
+    write_shape<D>(ex.initial, ex.tmpl.connectivity, (staging / "initial.vtk").string());
+    write_shape<D>(ex.initial, ex.tmpl.connectivity, (staging / ("initial" + mesh_ext)).string());
+    write_file_atomically((staging / "correspondence.csv").string(), correspondence_csv(ex, snake, corr));
+    write_file_atomically((staging / "energy_trace.csv").string(), trace_csv<D>(recorder.trace, names));
+    if (ex.output.figures) write_figures(ex, snake, staging, recorder.trace, names);
+
+    nlohmann::ordered_json result;
+    result["name"] = ex.name;
+    result["metrics"] = {{"mean_surface_distance", optional_number(m.mean_surface_distance)},
+                         {"hausdorff95", optional_number(m.hausdorff95)},
+                         {"hausdorff", optional_number(m.hausdorff)},
+                         {"dice", optional_number(m.dice)},
+                         {"correspondence_error_mean", optional_number(m.correspondence_error_mean)},
+                         {"correspondence_error_max", optional_number(m.correspondence_error_max)},
+                         {"self_intersections", m.self_intersections}};
+    result["success"] = summary.status != EvolveStatus::kDiverged && ex.success.met(m);
+    result["status"] = to_string(summary.status);
+    result["iterations"] = summary.iterations;
+    result["vertices"] = {{"initial", initial_vertices}, {"final", snake.num_vertices()},
+                          {"deformation", snake.num_deformation_vertices()}};
+    nlohmann::ordered_json phases = nlohmann::ordered_json::array();
+    for (size_t p = 0; p < summary.phases.size(); ++p) {
+      const auto& ps = summary.phases[p];
+      nlohmann::ordered_json j = {{"name", phase_names[p]}, {"iterations", ps.iterations},
+                                  {"status", to_string(ps.status)}, {"last_displacement", ps.last_displacement}};
+      for (const auto& r : ps.remesh_reports)
+        j["remesh"].push_back({{"stage", r.stage}, {"vertices_before", r.vertices_before},
+                               {"vertices_after", r.vertices_after}, {"rejected_edits", r.rejected_edits}});
+      phases.push_back(j);
+    }
+    result["phases"] = phases;
+    if (!recorder.trace.empty()) {
+      nlohmann::ordered_json terms;
+      for (size_t i = 0; i < names.size(); ++i)
+        terms[names[i]] = optional_number(recorder.trace.back().energy_terms.empty()
+                                              ? std::optional<double>()
+                                              : std::optional<double>(recorder.trace.back().energy_terms[i]));
+      result["energy"] = {{"terms", terms}, {"total", recorder.trace.back().total_energy}};
+    }
+    result["timings"] = {{"field_s", field_s}, {"evolve_s", evolve_s}, {"metrics_s", metrics_s},
+                         {"total_s", seconds_since(start)}};
+    result["seed"] = ex.seed;
+    result["config"] = ex.file.document;
+    result["version"] = dsnake_version();
+    write_file_atomically((staging / "result.json").string(), result.dump(2) + "\n");
+    publish(staging, out);
+    if (!options.quiet)
+      std::fprintf(stderr, "dsnake: wrote %s (success: %s)\n", (out / "result.json").string().c_str(),
+                   result["success"].get<bool>() ? "true" : "false");
+    return result;
+  } catch (...) {
+    std::error_code ec;
+    fs::remove_all(staging, ec);
+    throw;
+  }
+}
+
+template nlohmann::ordered_json run_experiment<2>(Experiment<2>&, const RunOptions&);
+template nlohmann::ordered_json run_experiment<3>(Experiment<3>&, const RunOptions&);
+
+}  // namespace dsnake
+
+namespace dsnake {
+namespace {
+
+template <int D>
+void write_figures(const Experiment<D>& ex, const Snake<D>& snake, const fs::path& dir,
+                   const std::vector<IterationInfo>& trace, const std::vector<std::string>& names) {
+  std::vector<int> template_marks, result_marks;
+  for (const auto& [name, id] : ex.tmpl.landmarks) {
+    template_marks.push_back(id);
+    if (snake.vertex_of_template_id(id) >= 0) result_marks.push_back(snake.vertex_of_template_id(id));
+  }
+  ShapeLayer<D> initial{ex.initial, ex.tmpl.connectivity, kTemplateYellow, template_marks, "template (initial)"};
+  ShapeLayer<D> result{snake.positions(), snake.connectivity(), kResultRed, result_marks, "result"};
+  const std::string title = ex.name;
+  if constexpr (D == 2) {
+    write_overlay_figure(ex.image, {initial, result}, (dir / "overlay.png").string(), title);
+  } else {
+    Point<3> centre = Point<3>::Zero();
+    for (const auto& p : snake.positions()) centre += p;
+    centre /= std::max(1, snake.num_vertices());
+    write_slice_figure(ex.image, {initial, result}, centre, (dir / "slices.png").string(), title);
+  }
+  if (trace.empty()) return;
+  std::vector<std::string> curve_names = names;
+  curve_names.push_back("total");
+  std::vector<std::vector<double>> series(curve_names.size());
+  bool positive = true;
+  for (const auto& t : trace) {
+    for (size_t i = 0; i < names.size(); ++i) {
+      const double e = i < t.energy_terms.size() ? t.energy_terms[i] : NAN;
+      series[i].push_back(e);
+      positive &= !(std::isfinite(e) && e <= 0);
+    }
+    series.back().push_back(t.total_energy);
+    positive &= t.total_energy > 0;
+  }
+  write_curve_figure(curve_names, series, (dir / "energy.png").string(), ex.name + ": weighted energy terms", positive);
+  std::vector<double> moves;
+  for (const auto& t : trace) moves.push_back(t.max_displacement);
+  write_curve_figure({"largest vertex move"}, {moves}, (dir / "convergence.png").string(),
+                     ex.name + ": largest vertex displacement per iteration", true);
+}
+
+}  // namespace
+}  // namespace dsnake

@@ -1,0 +1,133 @@
+#include "framework/evolver.h"
+
+#include "framework/errors.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace dsnake {
+
+std::string to_string(EvolveStatus status) {
+  switch (status) {
+    case EvolveStatus::kConverged: return "converged";
+    case EvolveStatus::kIterationBudget: return "iteration_budget";
+    case EvolveStatus::kDiverged: return "diverged";
+  }
+  return "unknown";
+}
+
+template <int D>
+Evolver<D>::Evolver(EnergyContext<D> context, std::vector<WeightedEnergy<D>> energies)
+    : context_(context), energies_(std::move(energies)) {
+  DSNAKE_ASSERT(!energies_.empty(), "at least one energy");
+  for (const auto& e : energies_) DSNAKE_ASSERT(e.weight > 0 && e.energy, "positive weight");
+  proposals_.resize(energies_.size());
+}
+
+template <int D>
+void Evolver<D>::bind_if_needed(const Snake<D>& snake) {
+  if (bound_snake_ == &snake && bound_version_ == snake.topology_version()) return;
+  for (auto& e : energies_) e.energy->bind(context_, snake);
+  bound_snake_ = &snake;
+  bound_version_ = snake.topology_version();
+  for (auto& p : proposals_) p.assign(snake.num_vertices(), Point<D>::Zero());
+  next_.assign(snake.num_vertices(), Point<D>::Zero());
+}
+
+template <int D>
+double Evolver<D>::step(Snake<D>& snake) {
+  bind_if_needed(snake);
+  const int n = snake.num_vertices();
+  for (size_t e = 0; e < energies_.size(); ++e) energies_[e].energy->propose(snake, proposals_[e]);
+
+  // Weighted average over the energies that govern each vertex (§3.1, §6).
+  double max_move = 0.0;
+  auto& q = snake.positions();
+#pragma omp parallel for reduction(max : max_move) schedule(static)
+  for (int v = 0; v < n; ++v) {
+    Point<D> sum = Point<D>::Zero();
+    double weight = 0.0;
+    const bool deformation = snake.is_deformation_vertex(v);
+    for (size_t e = 0; e < energies_.size(); ++e) {
+      if (!deformation && energies_[e].energy->governs() == Governs::kDeformationVertices) continue;
+      sum += energies_[e].weight * proposals_[e][v];
+      weight += energies_[e].weight;
+    }
+    next_[v] = weight > 0 ? Point<D>(sum / weight) : q[v];
+    const double move = (next_[v] - q[v]).norm();
+    max_move = std::isfinite(move) ? std::max(max_move, move) : INFINITY;
+  }
+  q.swap(next_);
+  return max_move;
+}
+
+template <int D>
+std::vector<double> Evolver<D>::energy_terms(const Snake<D>& snake) const {
+  std::vector<double> terms;
+  for (const auto& e : energies_) terms.push_back(e.weight * e.energy->value(snake));
+  return terms;
+}
+
+template <int D>
+EvolveSummary Evolver<D>::run(Snake<D>& snake, std::vector<Phase<D>>& phases) {
+  EvolveSummary summary;
+  RemeshContext<D> remesh_context;
+  remesh_context.tmpl = context_.tmpl;
+  remesh_context.image = context_.image;
+  for (size_t p = 0; p < phases.size(); ++p) {
+    Phase<D>& phase = phases[p];
+    PhaseSummary ps;
+    std::vector<RemeshReport> last_reports(phase.remeshers.size());
+    for (int it = 1; it <= phase.iterations; ++it) {
+      const double move = step(snake);
+      ++summary.iterations;
+      ps.iterations = it;
+      ps.last_displacement = move;
+
+      IterationInfo info;
+      info.phase = static_cast<int>(p);
+      info.iteration = summary.iterations;
+      info.phase_iteration = it;
+      info.max_displacement = move;
+      if (trace_energy_) {
+        bind_if_needed(snake);
+        info.energy_terms = energy_terms(snake);
+        for (double t : info.energy_terms)
+          if (std::isfinite(t)) info.total_energy += t;
+      }
+      if (!std::isfinite(move)) {
+        ps.status = EvolveStatus::kDiverged;
+        info.vertices = snake.num_vertices();
+        for (auto* o : observers_) o->on_iteration(info, snake);
+        break;
+      }
+      const bool converged = phase.tolerance > 0 && move < phase.tolerance;
+      if (!phase.remeshers.empty() && !converged && it % std::max(1, phase.every) == 0) {
+        remesh_context.phase_iteration = it;
+        remesh_context.phase_iterations = phase.iterations;
+        for (size_t r = 0; r < phase.remeshers.size(); ++r) {
+          last_reports[r] = phase.remeshers[r]->apply(snake, remesh_context);
+          for (auto* o : observers_) o->on_remesh(last_reports[r], snake);
+        }
+      }
+      info.vertices = snake.num_vertices();
+      for (auto* o : observers_) o->on_iteration(info, snake);
+      if (converged) {
+        ps.status = EvolveStatus::kConverged;
+        break;
+      }
+    }
+    for (const auto& r : last_reports)
+      if (!r.stage.empty()) ps.remesh_reports.push_back(r);
+    summary.status = ps.status;
+    summary.phases.push_back(ps);
+    for (auto* o : observers_) o->on_phase_end(static_cast<int>(p), ps, snake);
+    if (ps.status == EvolveStatus::kDiverged) break;
+  }
+  return summary;
+}
+
+template class Evolver<2>;
+template class Evolver<3>;
+
+}  // namespace dsnake

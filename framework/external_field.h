@@ -1,0 +1,35 @@
+// ExternalField<D>: an image force field, computed once from the image and sampled at any
+// physical point (linear interpolation). Fields that are the gradient of a potential (the basic
+// edge-map field of §1) also expose it, for the energy trace and the global solve.
+#pragma once
+
+#include "framework/image.h"
+
+#include <limits>
+#include <string>
+
+namespace dsnake {
+
+template <int D>
+class ExternalField {
+ public:
+  virtual ~ExternalField() = default;
+  virtual std::string type() const = 0;
+
+  // Computes the field from the image; may be slow (the field cache lives around it).
+  virtual void compute(const Image<D>& image) = 0;
+
+  // The force at physical point x for a vertex with outward unit normal `normal` (only fields
+  // with uses_normal(), such as DDGVF, look at it). Physical units per unit step.
+  virtual Point<D> force(const Point<D>& x, const Point<D>& normal) const = 0;
+  virtual bool uses_normal() const { return false; }
+
+  // A potential P with force = -grad P, P >= 0, when the field has one; NaN otherwise.
+  virtual bool has_potential() const { return false; }
+  virtual double potential(const Point<D>& x) const { return std::numeric_limits<double>::quiet_NaN(); }
+
+  // The sampled vectors on the image grid (for figures and `dsnake field`).
+  virtual const VectorField<D>& vectors() const = 0;
+};
+
+}  // namespace dsnake

@@ -1,0 +1,119 @@
+#include "framework/image.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace dsnake {
+
+template <int D>
+int64_t Grid<D>::num_voxels() const {
+  int64_t n = 1;
+  for (int a = 0; a < D; ++a) n *= size[a];
+  return n;
+}
+
+template <int D>
+int64_t Grid<D>::linear(const GridIndex<D>& idx) const {
+  int64_t l = idx[D - 1];
+  for (int a = D - 2; a >= 0; --a) l = l * size[a] + idx[a];
+  return l;
+}
+
+template <int D>
+GridIndex<D> Grid<D>::index(int64_t l) const {
+  GridIndex<D> idx;
+  for (int a = 0; a < D; ++a) {
+    idx[a] = static_cast<int>(l % size[a]);
+    l /= size[a];
+  }
+  return idx;
+}
+
+template <int D>
+Point<D> Grid<D>::to_physical(const GridIndex<D>& idx) const {
+  return origin + idx.template cast<double>().cwiseProduct(spacing);
+}
+
+template <int D>
+Point<D> Grid<D>::to_continuous_index(const Point<D>& x) const {
+  return (x - origin).cwiseQuotient(spacing);
+}
+
+template <int D>
+bool Grid<D>::inside(const Point<D>& x) const {
+  const Point<D> c = to_continuous_index(x);
+  for (int a = 0; a < D; ++a)
+    if (!(c[a] >= 0.0 && c[a] <= size[a] - 1)) return false;
+  return true;
+}
+
+template <int D>
+bool Grid<D>::same_geometry(const Grid& o, double tol) const {
+  return size == o.size && (spacing - o.spacing).cwiseAbs().maxCoeff() <= tol &&
+         (origin - o.origin).cwiseAbs().maxCoeff() <= tol;
+}
+
+template <int D>
+typename Grid<D>::Stencil Grid<D>::stencil(const Point<D>& x) const {
+  Stencil s;
+  const Point<D> c = to_continuous_index(x);
+  std::array<int, D> lo;
+  std::array<double, D> t;
+  for (int a = 0; a < D; ++a) {
+    const double ca = std::clamp(std::isfinite(c[a]) ? c[a] : 0.0, 0.0, double(size[a] - 1));
+    lo[a] = std::min(static_cast<int>(std::floor(ca)), std::max(size[a] - 2, 0));
+    t[a] = ca - lo[a];
+  }
+  constexpr int kCorners = D == 2 ? 4 : 8;
+  for (int k = 0; k < kCorners; ++k) {
+    GridIndex<D> idx;
+    double w = 1.0;
+    for (int a = 0; a < D; ++a) {
+      const int bit = (k >> a) & 1;
+      idx[a] = std::min(lo[a] + bit, size[a] - 1);
+      w *= bit ? t[a] : 1.0 - t[a];
+    }
+    s.voxel[k] = linear(idx);
+    s.weight[k] = w;
+  }
+  return s;
+}
+
+template <int D>
+Image<D>::Image(const Grid<D>& grid, float value) : grid_(grid), data_(grid.num_voxels(), value) {}
+
+template <int D>
+double Image<D>::sample(const Point<D>& x) const {
+  const auto s = grid_.stencil(x);
+  double v = 0.0;
+  for (size_t k = 0; k < s.voxel.size(); ++k) v += s.weight[k] * data_[s.voxel[k]];
+  return v;
+}
+
+template <int D>
+VectorField<D>::VectorField(const Grid<D>& grid)
+    : grid_(grid), vectors_(grid.num_voxels(), Point<D>::Zero()) {}
+
+template <int D>
+Point<D> VectorField<D>::sample(const Point<D>& x) const {
+  const auto s = grid_.stencil(x);
+  Point<D> v = Point<D>::Zero();
+  for (size_t k = 0; k < s.voxel.size(); ++k) v += s.weight[k] * vectors_[s.voxel[k]];
+  return v;
+}
+
+template <int D>
+Image<D> VectorField<D>::component(int axis) const {
+  Image<D> img(grid_);
+  for (int64_t i = 0; i < num_voxels(); ++i) img[i] = static_cast<float>(vectors_[i][axis]);
+  return img;
+}
+
+template struct Grid<2>;
+template struct Grid<3>;
+template class Image<2>;
+template class Image<3>;
+template class VectorField<2>;
+template class VectorField<3>;
+
+}  // namespace dsnake

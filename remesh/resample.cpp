@@ -1,0 +1,67 @@
+#include "remesh/resample.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace dsnake {
+
+RemeshReport ResampleRemesher::apply(Snake<2>& snake, const RemeshContext<2>&) {
+  RemeshReport report{"resample", snake.num_vertices(), snake.num_vertices(), 0};
+  const auto& q = snake.positions();
+  const int n = snake.num_vertices();
+  bool fits = true;
+  for (int v = 0; v < n && fits; ++v) {
+    const double len = (q[(v + 1) % n] - q[v]).norm();
+    constexpr double kSlack = 1e-9;  // resampled edges land exactly on the bounds
+    fits = len <= options_.max_edge * (1 + kSlack) && (len >= options_.min_edge * (1 - kSlack) ||
+                                        (snake.is_deformation_vertex(v) && snake.is_deformation_vertex((v + 1) % n)));
+  }
+  if (fits) return report;
+
+  // Anchors: the deformation vertices, or vertex 0 when there are none.
+  std::vector<int> anchors;
+  for (int v = 0; v < n; ++v)
+    if (snake.is_deformation_vertex(v)) anchors.push_back(v);
+  if (anchors.empty()) anchors.push_back(0);
+
+  PointList<2> out;
+  std::vector<int> ids;
+  for (size_t a = 0; a < anchors.size(); ++a) {
+    const int from = anchors[a];
+    const int to = anchors[(a + 1) % anchors.size()];
+    const int count = (to - from + n - 1) % n + 1;  // edges from `from` to `to` (a full loop if equal)
+    // Arc length along the current polyline from `from` to `to`.
+    std::vector<double> s(count + 1, 0.0);
+    for (int k = 0; k < count; ++k) s[k + 1] = s[k] + (q[(from + k + 1) % n] - q[(from + k) % n]).norm();
+    const double length = s[count];
+    int m = std::max(1, static_cast<int>(std::ceil(length / options_.max_edge - 1e-12)));
+    if (length / m < options_.min_edge) m = std::max(1, static_cast<int>(std::floor(length / options_.min_edge)));
+    if (from == to) m = std::max(m, 3);  // a lone anchor still needs a polygon
+    out.push_back(q[from]);
+    ids.push_back(snake.template_id(from));
+    int seg = 0;
+    for (int j = 1; j < m; ++j) {
+      const double target = length * j / m;
+      while (seg < count - 1 && s[seg + 1] < target) ++seg;
+      const double span = s[seg + 1] - s[seg];
+      const double t = span > 0 ? (target - s[seg]) / span : 0.0;
+      out.push_back((1 - t) * q[(from + seg) % n] + t * q[(from + seg + 1) % n]);
+      ids.push_back(-1);
+    }
+  }
+  const int count = static_cast<int>(out.size());
+  snake.set_topology(std::move(out), Connectivity::polygon(count), std::move(ids));
+  report.vertices_after = count;
+  return report;
+}
+
+std::unique_ptr<Remesher<2>> make_resample_remesher(JsonReader& r) {
+  ResampleOptions o;
+  r.read("min_edge", o.min_edge);
+  r.read("max_edge", o.max_edge);
+  r.expect(o.min_edge > 0, "min_edge", "must be > 0");
+  r.expect(o.max_edge >= 2 * o.min_edge, "max_edge", "must be >= 2 * min_edge");
+  return std::make_unique<ResampleRemesher>(o);
+}
+
+}  // namespace dsnake

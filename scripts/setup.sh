@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages dsnake needs (as root; skipped when all are present) and
+# configures + builds the Release preset with ninja.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+PACKAGES=(cmake ninja-build g++ libeigen3-dev libceres-dev libopenmesh-dev libopencv-dev
+          nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libspdlog-dev
+          zlib1g-dev libfftw3-dev)
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${missing[*]}" >&2
+  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  $SUDO apt-get update -q
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+fi
+cmake --preset release >/dev/null
+cmake --build --preset release

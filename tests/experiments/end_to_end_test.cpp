@@ -1,0 +1,89 @@
+// End-to-end registrations on the built-in phantoms, checked against their ground truth.
+#include "experiments/experiment.h"
+#include "experiments/runner.h"
+
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+namespace dsnake {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("dsnake_e2e_" + std::to_string(::getpid()) + "_" + name);
+  fs::remove_all(d);
+  return d;
+}
+
+template <int D>
+nlohmann::ordered_json run_builtin(const std::string& name, const fs::path& out,
+                                   const std::vector<std::string>& overrides = {}) {
+  auto ex = build_experiment<D>(builtin_experiment(name, overrides));
+  return run_experiment(ex, RunOptions{out.string(), true});
+}
+
+TEST(EndToEnd, CircleTemplateRegistersToABlurredSquare2d) {
+  const fs::path out = fresh_dir("square");
+  const auto r = run_builtin<2>("default", out);
+  const auto& m = r["metrics"];
+  EXPECT_LT(m["mean_surface_distance"].get<double>(), 1.0);
+  EXPECT_GT(m["dice"].get<double>(), 0.9);
+  EXPECT_EQ(m["self_intersections"].get<int>(), 0);
+  EXPECT_TRUE(r["success"].get<bool>());
+  for (const char* f : {"result.json", "final.txt", "final.vtk", "initial.vtk", "correspondence.csv",
+                        "energy_trace.csv", "overlay.png", "energy.png", "convergence.png"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  // result.json is the document returned, and has the contract's keys.
+  std::ifstream in(out / "result.json");
+  const auto j = nlohmann::json::parse(in);
+  for (const char* k : {"metrics", "success", "iterations", "vertices", "timings", "config", "version"})
+    EXPECT_TRUE(j.contains(k)) << k;
+  EXPECT_EQ(j["vertices"]["initial"].get<int>(), 64);
+  EXPECT_GT(j["vertices"]["final"].get<int>(), 64);  // the resampling phase refined it
+  fs::remove_all(out);
+}
+
+TEST(EndToEnd, SphereTemplateRegistersToABlurredEllipsoid3d) {
+  const fs::path out = fresh_dir("ellipsoid");
+  const auto r = run_builtin<3>("ellipsoid", out);
+  const auto& m = r["metrics"];
+  EXPECT_LT(m["mean_surface_distance"].get<double>(), 1.0);
+  EXPECT_GT(m["dice"].get<double>(), 0.9);
+  EXPECT_EQ(m["self_intersections"].get<int>(), 0);
+  for (const char* f : {"result.json", "final.ply", "final.vtk", "slices.png", "correspondence.csv"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  fs::remove_all(out);
+}
+
+TEST(EndToEnd, SameNumbersWhateverTheThreadCount) {
+  const fs::path a = fresh_dir("threads1"), b = fresh_dir("threads2");
+  omp_set_num_threads(1);
+  const auto r1 = run_builtin<2>("default", a, {"phases[0].iterations=150"});
+  omp_set_num_threads(2);
+  const auto r2 = run_builtin<2>("default", b, {"phases[0].iterations=150"});
+  EXPECT_EQ(r1["metrics"].dump(), r2["metrics"].dump());
+  std::ifstream f1(a / "final.txt"), f2(b / "final.txt");
+  const std::string s1((std::istreambuf_iterator<char>(f1)), {}), s2((std::istreambuf_iterator<char>(f2)), {});
+  EXPECT_EQ(s1, s2);
+  fs::remove_all(a);
+  fs::remove_all(b);
+}
+
+TEST(EndToEnd, DefaultCommandWritesNonNullMetricsAndFigures) {
+  const fs::path out = fresh_dir("cli");
+  const std::string cmd = std::string(DSNAKE_EXE) + " run --quiet --out " + out.string();
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  std::ifstream in(out / "result.json");
+  const auto j = nlohmann::json::parse(in);
+  for (const auto& [k, v] : j["metrics"].items()) EXPECT_FALSE(v.is_null()) << k;
+  EXPECT_TRUE(fs::exists(out / "overlay.png"));
+  fs::remove_all(out);
+}
+
+}  // namespace
+}  // namespace dsnake

@@ -1,0 +1,161 @@
+#include "framework/evolver.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace dsnake {
+namespace {
+
+// Proposes a fixed target for every governed vertex.
+class ConstantEnergy : public Energy<2> {
+ public:
+  ConstantEnergy(Point<2> target, Governs governs) : target_(target), governs_(governs) {}
+  std::string type() const override { return "constant"; }
+  Governs governs() const override { return governs_; }
+  void bind(const EnergyContext<2>&, const Snake<2>&) override { ++binds; }
+  void propose(const Snake<2>& snake, PointList<2>& out) override {
+    for (int v = 0; v < snake.num_vertices(); ++v)
+      if (governs_ == Governs::kAllVertices || snake.is_deformation_vertex(v)) out[v] = target_;
+  }
+  double value(const Snake<2>& snake) const override {
+    double e = 0;
+    for (const auto& q : snake.positions()) e += (q - target_).squaredNorm();
+    return e;
+  }
+  int binds = 0;
+
+ private:
+  Point<2> target_;
+  Governs governs_;
+};
+
+// Moves every vertex halfway towards the origin.
+class HalfwayEnergy : public Energy<2> {
+ public:
+  std::string type() const override { return "halfway"; }
+  void bind(const EnergyContext<2>&, const Snake<2>&) override {}
+  void propose(const Snake<2>& snake, PointList<2>& out) override {
+    for (int v = 0; v < snake.num_vertices(); ++v) out[v] = 0.5 * snake.positions()[v];
+  }
+  double value(const Snake<2>& snake) const override {
+    double e = 0;
+    for (const auto& q : snake.positions()) e += q.squaredNorm();
+    return e;
+  }
+};
+
+// Inserts a free vertex in the middle of edge (0, 1) once.
+class InsertOnce : public Remesher<2> {
+ public:
+  std::string type() const override { return "insert_once"; }
+  RemeshReport apply(Snake<2>& s, const RemeshContext<2>& ctx) override {
+    ++calls;
+    iterations_seen.push_back(ctx.phase_iteration);
+    if (calls > 1) return {"insert_once", s.num_vertices(), s.num_vertices(), 0};
+    PointList<2> q = s.positions();
+    std::vector<int> ids = s.template_ids();
+    q.insert(q.begin() + 1, 0.5 * (q[0] + q[1]));
+    ids.insert(ids.begin() + 1, -1);
+    const int n = static_cast<int>(q.size());
+    s.set_topology(std::move(q), Connectivity::polygon(n), std::move(ids));
+    return {"insert_once", n - 1, n, 0};
+  }
+  int calls = 0;
+  std::vector<int> iterations_seen;
+};
+
+Snake<2> square_snake() {
+  Template<2> t{{{1, 1}, {-1, 1}, {-1, -1}, {1, -1}}, Connectivity::polygon(4), {}};
+  return Snake<2>::from_template(t, t.positions);
+}
+
+TEST(Evolver, StepIsTheWeightedAverageOfTheProposals) {
+  // Section 3.1: q = (q_int + kappa q_ext + eta q_def) / (1 + kappa + eta), here with
+  // constant proposals a, b, c and weights 1, 0.4, 0.5.
+  std::vector<WeightedEnergy<2>> e;
+  e.push_back({1.0, std::make_unique<ConstantEnergy>(Point<2>(1, 0), Governs::kAllVertices)});
+  e.push_back({0.4, std::make_unique<ConstantEnergy>(Point<2>(0, 5), Governs::kAllVertices)});
+  e.push_back({0.5, std::make_unique<ConstantEnergy>(Point<2>(-2, 2), Governs::kDeformationVertices)});
+  Evolver<2> evolver({}, std::move(e));
+  Snake<2> s = square_snake();
+  s.set_topology(s.positions(), Connectivity::polygon(4), {0, 1, -1, 3});  // vertex 2 is free
+  evolver.step(s);
+  const Point<2> deformation = (Point<2>(1, 0) + 0.4 * Point<2>(0, 5) + 0.5 * Point<2>(-2, 2)) / 1.9;
+  const Point<2> free = (Point<2>(1, 0) + 0.4 * Point<2>(0, 5)) / 1.4;  // no ASAP proposal (§6)
+  EXPECT_NEAR((s.positions()[0] - deformation).norm(), 0, 1e-15);
+  EXPECT_NEAR((s.positions()[2] - free).norm(), 0, 1e-15);
+}
+
+TEST(Evolver, PhasesStopAtTheToleranceOrTheBudget) {
+  std::vector<WeightedEnergy<2>> e;
+  e.push_back({1.0, std::make_unique<HalfwayEnergy>()});
+  Evolver<2> evolver({}, std::move(e));
+  Snake<2> s = square_snake();
+  std::vector<Phase<2>> phases(2);
+  phases[0].iterations = 100;
+  phases[0].tolerance = 1e-3;  // moves are sqrt(2) / 2^k: below 1e-3 at k = 11
+  phases[1].iterations = 3;
+  const EvolveSummary summary = evolver.run(s, phases);
+  ASSERT_EQ(summary.phases.size(), 2u);
+  EXPECT_EQ(summary.phases[0].status, EvolveStatus::kConverged);
+  EXPECT_EQ(summary.phases[0].iterations, 11);
+  EXPECT_EQ(summary.phases[1].status, EvolveStatus::kIterationBudget);
+  EXPECT_EQ(summary.iterations, 14);
+  EXPECT_NEAR(s.positions()[0].x(), std::pow(0.5, 14), 1e-18);
+}
+
+TEST(Evolver, RemeshersRunEveryKIterationsAndEnergiesRebind) {
+  std::vector<WeightedEnergy<2>> e;
+  auto constant = std::make_unique<ConstantEnergy>(Point<2>(0, 0), Governs::kAllVertices);
+  ConstantEnergy* raw = constant.get();
+  e.push_back({1.0, std::move(constant)});
+  Evolver<2> evolver({}, std::move(e));
+  evolver.set_trace_energy(false);
+  Snake<2> s = square_snake();
+  std::vector<Phase<2>> phases(1);
+  phases[0].iterations = 10;
+  phases[0].every = 4;
+  auto remesher = std::make_unique<InsertOnce>();
+  InsertOnce* r = remesher.get();
+  phases[0].remeshers.push_back(std::move(remesher));
+  evolver.run(s, phases);
+  EXPECT_EQ(r->iterations_seen, (std::vector<int>{4, 8}));
+  EXPECT_EQ(s.num_vertices(), 5);
+  EXPECT_EQ(raw->binds, 2);  // once at the start, once after the topology changed
+}
+
+TEST(Evolver, ObserversSeeEveryIterationWithTheEnergyTrace) {
+  struct Recorder : EvolverObserver<2> {
+    void on_iteration(const IterationInfo& info, const Snake<2>&) override { infos.push_back(info); }
+    std::vector<IterationInfo> infos;
+  } recorder;
+  std::vector<WeightedEnergy<2>> e;
+  e.push_back({2.0, std::make_unique<HalfwayEnergy>()});
+  Evolver<2> evolver({}, std::move(e));
+  evolver.add_observer(&recorder);
+  Snake<2> s = square_snake();
+  std::vector<Phase<2>> phases(1);
+  phases[0].iterations = 3;
+  evolver.run(s, phases);
+  ASSERT_EQ(recorder.infos.size(), 3u);
+  // After k halvings, each of the 4 vertices has |q|^2 = 2 / 4^k; weighted by 2.
+  EXPECT_NEAR(recorder.infos[2].total_energy, 2.0 * 4 * 2.0 / 64.0, 1e-15);
+  EXPECT_NEAR(recorder.infos[0].max_displacement, std::sqrt(2.0) / 2, 1e-15);
+  EXPECT_EQ(recorder.infos[2].iteration, 3);
+}
+
+TEST(Evolver, NonFiniteProposalsStopWithDivergedStatus) {
+  std::vector<WeightedEnergy<2>> e;
+  e.push_back({1.0, std::make_unique<ConstantEnergy>(Point<2>(NAN, 0), Governs::kAllVertices)});
+  Evolver<2> evolver({}, std::move(e));
+  Snake<2> s = square_snake();
+  std::vector<Phase<2>> phases(2);
+  const EvolveSummary summary = evolver.run(s, phases);
+  EXPECT_EQ(summary.status, EvolveStatus::kDiverged);
+  EXPECT_EQ(summary.iterations, 1);
+  EXPECT_EQ(summary.phases.size(), 1u);
+}
+
+}  // namespace
+}  // namespace dsnake

@@ -1,0 +1,445 @@
+// Round trips and error reports of framework/image_io: MetaImage (raw, separate .raw, zlib),
+// NIfTI-1 (.nii, .nii.gz, scaled integer types, big-endian headers), PNG, vector fields.
+#include "framework/image_io.h"
+
+#include "framework/errors.h"
+
+#include <gtest/gtest.h>
+#include <zlib.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <sstream>
+#include <unistd.h>
+
+namespace dsnake {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A fresh empty folder for the running test.
+std::string fresh_dir() {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const fs::path dir = fs::temp_directory_path() / ("dsnake_image_io_" + std::to_string(::getpid())) /
+                       (std::string(info->test_suite_name()) + "_" + info->name());
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir.string();
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+void write_file(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out.write(bytes.data(), std::streamsize(bytes.size()));
+}
+
+// Runs f, expects an InputError, and returns it for checking its parts.
+InputError expect_input_error(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e;
+  }
+  ADD_FAILURE() << "expected an InputError";
+  return InputError("", "", "");
+}
+
+bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+
+// A 3D test volume with anisotropic spacing, an offset origin and non-round values.
+Image<3> test_volume() {
+  Grid<3> g;
+  g.size = GridIndex<3>(5, 4, 3);
+  g.spacing = Point<3>(0.7, 1.3, 2.5);
+  g.origin = Point<3>(-3.2, 4.1, 10.05);
+  Image<3> im(g);
+  for (int64_t i = 0; i < im.num_voxels(); ++i) im[i] = float(std::sin(0.37 * double(i)) * 1000.0 + 0.125);
+  return im;
+}
+
+Image<2> test_image_2d() {
+  Grid<2> g;
+  g.size = GridIndex<2>(7, 5);
+  g.spacing = Point<2>(0.3, 1.7);
+  g.origin = Point<2>(2.5, -1.25);
+  Image<2> im(g);
+  for (int64_t i = 0; i < im.num_voxels(); ++i) im[i] = float(i * 3 % 256);
+  return im;
+}
+
+template <int D>
+void expect_same_image(const Image<D>& a, const Image<D>& b, bool float_geometry = false) {
+  ASSERT_EQ(a.size(), b.size());
+  for (int k = 0; k < D; ++k) {
+    // NIfTI stores spacing and origin as float32.
+    const double sa = float_geometry ? double(float(a.spacing()[k])) : a.spacing()[k];
+    const double oa = float_geometry ? double(float(a.origin()[k])) : a.origin()[k];
+    EXPECT_EQ(sa, b.spacing()[k]) << "axis " << k;
+    EXPECT_EQ(oa, b.origin()[k]) << "axis " << k;
+  }
+  EXPECT_EQ(a.data(), b.data());
+}
+
+// Files in a folder: checks that writers leave no temporary file behind.
+std::vector<std::string> files_in(const std::string& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+TEST(ImageIo, MhaRoundTripKeepsSpacingAndOrigin) {
+  const std::string dir = fresh_dir(), path = dir + "/v.mha";
+  const Image<3> im = test_volume();
+  write_image(im, path);
+  EXPECT_EQ(image_file_dimension(path), 3);
+  expect_same_image(im, read_image<3>(path));
+  EXPECT_EQ(files_in(dir), std::vector<std::string>{"v.mha"});
+}
+
+TEST(ImageIo, FileDimensionReadsOnlyTheHeaderOfLargeFiles) {
+  const std::string dir = fresh_dir();
+  Grid<3> g;
+  g.size = GridIndex<3>(64, 64, 9);
+  Image<3> im(g, 1.5f);
+  for (const std::string ext : {".mha", ".nii", ".nii.gz"}) {
+    write_image(im, dir + "/big" + ext);
+    EXPECT_EQ(image_file_dimension(dir + "/big" + ext), 3) << ext;
+    EXPECT_EQ(read_image<3>(dir + "/big" + ext).data(), im.data()) << ext;
+  }
+}
+
+TEST(ImageIo, MhdRoundTripUsesSeparateRawFile) {
+  const std::string dir = fresh_dir(), path = dir + "/v.mhd";
+  const Image<3> im = test_volume();
+  write_image(im, path);
+  EXPECT_EQ(files_in(dir), (std::vector<std::string>{"v.mhd", "v.raw"}));
+  EXPECT_TRUE(contains(read_file(path), "ElementDataFile = v.raw"));
+  EXPECT_EQ(fs::file_size(dir + "/v.raw"), size_t(im.num_voxels() * 4));
+  expect_same_image(im, read_image<3>(path));
+}
+
+TEST(ImageIo, CompressedMetaImageRoundTrip) {
+  const std::string dir = fresh_dir();
+  const Image<3> im = test_volume();
+  ImageWriteOptions options;
+  options.compress = true;
+  write_image(im, dir + "/v.mha", options);
+  EXPECT_TRUE(contains(read_file(dir + "/v.mha"), "CompressedData = True"));
+  expect_same_image(im, read_image<3>(dir + "/v.mha"));
+  write_image(im, dir + "/w.mhd", options);
+  EXPECT_TRUE(fs::exists(dir + "/w.zraw"));
+  expect_same_image(im, read_image<3>(dir + "/w.mhd"));
+}
+
+// A MetaImage as another program writes it: big-endian MET_SHORT, zlib-compressed by the test,
+// ElementSize and Position instead of ElementSpacing and Offset, a rotation matrix (ignored).
+TEST(ImageIo, ReadsForeignCompressedBigEndianMetaImage) {
+  const std::string dir = fresh_dir(), path = dir + "/f.mha";
+  const int nx = 4, ny = 3, nz = 2;
+  std::string raw;
+  std::vector<int16_t> values;
+  for (int i = 0; i < nx * ny * nz; ++i) {
+    const int16_t v = int16_t(i * 300 - 3000);
+    values.push_back(v);
+    raw.push_back(char((uint16_t(v) >> 8) & 0xff));
+    raw.push_back(char(uint16_t(v) & 0xff));
+  }
+  uLongf n = compressBound(raw.size());
+  std::string z(n, '\0');
+  ASSERT_EQ(compress(reinterpret_cast<Bytef*>(z.data()), &n, reinterpret_cast<const Bytef*>(raw.data()), raw.size()), Z_OK);
+  z.resize(n);
+  write_file(path, "ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = True\n"
+                   "CompressedData = True\nCompressedDataSize = " + std::to_string(n) +
+                   "\nTransformMatrix = 0 1 0 1 0 0 0 0 1\nPosition = 1 2 3\nElementSize = 0.5 0.25 2\n"
+                   "DimSize = 4 3 2\nElementType = MET_SHORT\nElementDataFile = LOCAL\n" + z);
+  const Image<3> im = read_image<3>(path);
+  EXPECT_EQ(im.size(), GridIndex<3>(nx, ny, nz));
+  EXPECT_EQ(im.spacing(), Point<3>(0.5, 0.25, 2));
+  EXPECT_EQ(im.origin(), Point<3>(1, 2, 3));
+  for (int i = 0; i < nx * ny * nz; ++i) EXPECT_EQ(im[i], float(values[i])) << i;
+}
+
+TEST(ImageIo, Mha2dRoundTripAndSingleSliceVolumeReadsAs2d) {
+  const std::string dir = fresh_dir();
+  const Image<2> im = test_image_2d();
+  write_image(im, dir + "/a.mha");
+  EXPECT_EQ(image_file_dimension(dir + "/a.mha"), 2);
+  expect_same_image(im, read_image<2>(dir + "/a.mha"));
+
+  Grid<3> g;
+  g.size = GridIndex<3>(7, 5, 1);
+  g.spacing = Point<3>(0.3, 1.7, 9);
+  g.origin = Point<3>(2.5, -1.25, 4);
+  Image<3> slab(g);
+  std::copy(im.data().begin(), im.data().end(), slab.data().begin());
+  write_image(slab, dir + "/slab.mha");
+  EXPECT_EQ(image_file_dimension(dir + "/slab.mha"), 2);
+  expect_same_image(im, read_image<2>(dir + "/slab.mha"));
+}
+
+TEST(ImageIo, NiftiRoundTripKeepsSpacingAndOrigin) {
+  const std::string dir = fresh_dir();
+  const Image<3> im = test_volume();
+  write_image(im, dir + "/v.nii");
+  EXPECT_EQ(fs::file_size(dir + "/v.nii"), size_t(352 + im.num_voxels() * 4));
+  EXPECT_EQ(image_file_dimension(dir + "/v.nii"), 3);
+  expect_same_image(im, read_image<3>(dir + "/v.nii"), true);
+}
+
+TEST(ImageIo, NiftiGzRoundTripKeepsSpacingAndOrigin) {
+  const std::string dir = fresh_dir(), path = dir + "/v.nii.gz";
+  const Image<3> im = test_volume();
+  write_image(im, path);
+  const std::string bytes = read_file(path);
+  ASSERT_GE(bytes.size(), 2u);
+  EXPECT_EQ(uint8_t(bytes[0]), 0x1f);  // gzip magic
+  EXPECT_EQ(uint8_t(bytes[1]), 0x8b);
+  EXPECT_EQ(image_file_dimension(path), 3);
+  expect_same_image(im, read_image<3>(path), true);
+  EXPECT_EQ(files_in(dir), std::vector<std::string>{"v.nii.gz"});
+  write_image(test_image_2d(), dir + "/a.nii.gz");
+  expect_same_image(test_image_2d(), read_image<2>(dir + "/a.nii.gz"), true);
+}
+
+// A hand-made NIfTI-1 file: 3 x 2 x 2 voxels of `datatype`, little- or big-endian.
+std::string nifti_by_hand(int16_t datatype, int16_t bitpix, float slope, float inter, const std::string& payload,
+                          bool big_endian, int16_t qform_code = 0, int16_t sform_code = 1) {
+  std::string h(352, '\0');
+  auto put = [&](size_t off, auto value) {
+    char b[sizeof(value)];
+    std::memcpy(b, &value, sizeof(value));
+    if (big_endian) std::reverse(b, b + sizeof(value));
+    std::memcpy(h.data() + off, b, sizeof(value));
+  };
+  put(0, int32_t(348));
+  const int16_t dim[8] = {3, 3, 2, 2, 1, 1, 1, 1};
+  for (int i = 0; i < 8; ++i) put(40 + 2 * i, dim[i]);
+  put(70, datatype);
+  put(72, bitpix);
+  const float pixdim[8] = {1, 0.5f, 0.75f, 2, 1, 1, 1, 1};
+  for (int i = 0; i < 8; ++i) put(76 + 4 * i, pixdim[i]);
+  put(108, 352.0f);
+  put(112, slope);
+  put(116, inter);
+  put(252, qform_code);
+  put(254, sform_code);
+  put(268, 9.0f);  // qoffset_x, used only when qform_code > 0
+  const float srow[3][4] = {{0.5f, 0, 0, -4}, {0, 0.75f, 0, 5.5f}, {0, 0, 2, 6}};
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) put(280 + 16 * r + 4 * c, srow[r][c]);
+  std::memcpy(h.data() + 344, "n+1", 4);
+  return h + payload;
+}
+
+TEST(ImageIo, NiftiAppliesSlopeAndInterceptToUint8AndInt16) {
+  const std::string dir = fresh_dir();
+  std::string u8, i16;
+  for (int i = 0; i < 12; ++i) {
+    u8.push_back(char(uint8_t(i * 20)));
+    const int16_t v = int16_t(i * 1000 - 6000);
+    i16.append(reinterpret_cast<const char*>(&v), 2);
+  }
+  write_file(dir + "/u8.nii", nifti_by_hand(2, 8, 2, 1, u8, false));
+  write_file(dir + "/i16.nii", nifti_by_hand(4, 16, 2, 1, i16, false));
+  const Image<3> a = read_image<3>(dir + "/u8.nii"), b = read_image<3>(dir + "/i16.nii");
+  ASSERT_EQ(a.size(), GridIndex<3>(3, 2, 2));
+  EXPECT_EQ(a.spacing(), Point<3>(0.5, 0.75, 2));
+  EXPECT_EQ(a.origin(), Point<3>(-4, 5.5, 6));  // from srow_*[3], since qform_code = 0
+  for (int i = 0; i < 12; ++i) {
+    EXPECT_EQ(a[i], float(2 * (i * 20) + 1)) << i;
+    EXPECT_EQ(b[i], float(2 * (i * 1000 - 6000) + 1)) << i;
+  }
+}
+
+TEST(ImageIo, NiftiReadsByteSwappedHeaderAndData) {
+  const std::string dir = fresh_dir();
+  std::string be;
+  for (int i = 0; i < 12; ++i) {
+    const uint16_t v = uint16_t(i * 5000);
+    be.push_back(char(v >> 8));
+    be.push_back(char(v & 0xff));
+  }
+  write_file(dir + "/be.nii", nifti_by_hand(512, 16, 0, 0, be, true, 1, 0));
+  const Image<3> im = read_image<3>(dir + "/be.nii");
+  EXPECT_EQ(im.spacing(), Point<3>(0.5, 0.75, 2));
+  EXPECT_EQ(im.origin(), Point<3>(9, 0, 0));  // qoffset, since qform_code = 1
+  for (int i = 0; i < 12; ++i) EXPECT_EQ(im[i], float(i * 5000)) << i;  // slope 0: no scaling
+}
+
+TEST(ImageIo, PngRoundTripOf8BitPattern) {
+  const std::string dir = fresh_dir(), path = dir + "/p.png";
+  Grid<2> g;
+  g.size = GridIndex<2>(17, 9);
+  Image<2> im(g);
+  for (int64_t i = 0; i < im.num_voxels(); ++i) im[i] = float((i * 37 + i / 17 * 11) % 256);
+  write_image(im, path);
+  EXPECT_EQ(image_file_dimension(path), 2);
+  expect_same_image(im, read_image<2>(path));
+  EXPECT_EQ(files_in(dir), std::vector<std::string>{"p.png"});
+
+  // Values outside [0, 255] are clamped.
+  im[0] = -40;
+  im[1] = 300.4f;
+  write_image(im, path);
+  const Image<2> back = read_image<2>(path);
+  EXPECT_EQ(back[0], 0.0f);
+  EXPECT_EQ(back[1], 255.0f);
+}
+
+TEST(ImageIo, VectorFieldRoundTrip2dAnd3d) {
+  const std::string dir = fresh_dir();
+  const Image<3> vol = test_volume();
+  VectorField<3> f3(vol.grid());
+  for (int64_t i = 0; i < f3.num_voxels(); ++i) f3[i] = Point<3>(vol[i], -0.5 * i, 0.25f * float(i % 7));
+  const Image<2> im = test_image_2d();
+  VectorField<2> f2(im.grid());
+  for (int64_t i = 0; i < f2.num_voxels(); ++i) f2[i] = Point<2>(0.5 * i, -im[i]);
+  for (const std::string ext : {".mha", ".nii", ".nii.gz"}) {
+    SCOPED_TRACE(ext);
+    const bool nifti = ext != ".mha";
+    write_vector_field(f3, dir + "/f3" + ext);
+    write_vector_field(f2, dir + "/f2" + ext);
+    const VectorField<3> b3 = read_vector_field<3>(dir + "/f3" + ext);
+    const VectorField<2> b2 = read_vector_field<2>(dir + "/f2" + ext);
+    ASSERT_EQ(b3.grid().size, f3.grid().size);
+    ASSERT_EQ(b2.grid().size, f2.grid().size);
+    for (int k = 0; k < 3; ++k)
+      EXPECT_EQ(b3.grid().spacing[k], nifti ? double(float(f3.grid().spacing[k])) : f3.grid().spacing[k]);
+    EXPECT_EQ(b3.data(), f3.data());  // the values are float-representable
+    EXPECT_EQ(b2.data(), f2.data());
+    // A vector field is not a scalar image.
+    const InputError e = expect_input_error([&] { read_image<3>(dir + "/f3" + ext); });
+    EXPECT_TRUE(contains(e.what(), "component")) << e.what();
+  }
+}
+
+TEST(ImageIo, MissingFileIsReportedWithItsName) {
+  const std::string dir = fresh_dir();
+  for (const std::string name : {"/none.mha", "/none.nii.gz", "/none.png"}) {
+    const InputError e = expect_input_error([&] { read_image<2>(dir + name); });
+    EXPECT_EQ(e.file(), dir + name);
+    EXPECT_TRUE(contains(e.what(), "not found")) << e.what();
+  }
+  // An .mhd whose data file is missing names the data file.
+  write_image(test_volume(), dir + "/v.mhd");
+  fs::remove(dir + "/v.raw");
+  const InputError e = expect_input_error([&] { read_image<3>(dir + "/v.mhd"); });
+  EXPECT_EQ(e.file(), dir + "/v.raw");
+}
+
+TEST(ImageIo, TruncatedDataSaysHowManyBytes) {
+  const std::string dir = fresh_dir();
+  const Image<3> im = test_volume();
+  const size_t expected = size_t(im.num_voxels()) * 4;
+  write_image(im, dir + "/v.mha");
+  std::string bytes = read_file(dir + "/v.mha");
+  write_file(dir + "/v.mha", bytes.substr(0, bytes.size() - 10));
+  InputError e = expect_input_error([&] { read_image<3>(dir + "/v.mha"); });
+  EXPECT_EQ(e.file(), dir + "/v.mha");
+  EXPECT_EQ(e.where(), "ElementDataFile");
+  EXPECT_EQ(e.message(), "data holds " + std::to_string(expected - 10) + " bytes, expected " + std::to_string(expected));
+
+  write_image(im, dir + "/v.nii");
+  bytes = read_file(dir + "/v.nii");
+  write_file(dir + "/v.nii", bytes.substr(0, bytes.size() - 4));
+  e = expect_input_error([&] { read_image<3>(dir + "/v.nii"); });
+  EXPECT_EQ(e.file(), dir + "/v.nii");
+  EXPECT_TRUE(contains(e.message(), "expected " + std::to_string(expected))) << e.what();
+
+  ImageWriteOptions zip;
+  zip.compress = true;
+  write_image(im, dir + "/z.mha", zip);
+  bytes = read_file(dir + "/z.mha");
+  write_file(dir + "/z.mha", bytes.substr(0, bytes.size() - 30));
+  e = expect_input_error([&] { read_image<3>(dir + "/z.mha"); });
+  EXPECT_EQ(e.file(), dir + "/z.mha");
+}
+
+TEST(ImageIo, NanVoxelIsNamedByIndex) {
+  const std::string dir = fresh_dir();
+  Image<3> im = test_volume();
+  im.at(GridIndex<3>(3, 2, 1)) = std::numeric_limits<float>::quiet_NaN();
+  for (const std::string ext : {".mha", ".nii"}) {
+    write_image(im, dir + "/v" + ext);
+    const InputError e = expect_input_error([&] { read_image<3>(dir + "/v" + ext); });
+    EXPECT_EQ(e.file(), dir + "/v" + ext);
+    EXPECT_EQ(e.where(), "voxel (3, 2, 1)");
+    EXPECT_TRUE(contains(e.message(), "NaN"));
+  }
+  im.at(GridIndex<3>(3, 2, 1)) = std::numeric_limits<float>::infinity();
+  write_image(im, dir + "/inf.mha");
+  const InputError e = expect_input_error([&] { read_image<3>(dir + "/inf.mha"); });
+  EXPECT_TRUE(contains(e.message(), "infinite"));
+}
+
+TEST(ImageIo, WrongDimensionIsAnInputError) {
+  const std::string dir = fresh_dir();
+  write_image(test_image_2d(), dir + "/a.mha");
+  write_image(test_image_2d(), dir + "/a.png");
+  write_image(test_volume(), dir + "/v.nii");
+  InputError e = expect_input_error([&] { read_image<3>(dir + "/a.mha"); });
+  EXPECT_EQ(e.file(), dir + "/a.mha");
+  EXPECT_EQ(e.where(), "NDims");
+  EXPECT_EQ(e.message(), "expected a 3D image, found 2D");
+  e = expect_input_error([&] { read_image<3>(dir + "/a.png"); });
+  EXPECT_EQ(e.message(), "expected a 3D image, found 2D");
+  e = expect_input_error([&] { read_image<2>(dir + "/v.nii"); });
+  EXPECT_EQ(e.file(), dir + "/v.nii");
+  EXPECT_EQ(e.message(), "expected a 2D image, found 3D");
+  e = expect_input_error([&] { write_image(test_volume(), dir + "/v.png"); });
+  EXPECT_EQ(e.file(), dir + "/v.png");
+}
+
+TEST(ImageIo, HeaderErrorsNameTheKey) {
+  const std::string dir = fresh_dir(), path = dir + "/h.mha";
+  const std::string good = "ObjectType = Image\nNDims = 2\nDimSize = 2 2\nElementSpacing = 1 1\n"
+                           "ElementType = MET_UCHAR\nElementDataFile = LOCAL\nabcd";
+  write_file(path, good);
+  EXPECT_EQ(read_image<2>(path)[3], float('d'));
+  auto replace = [&](const std::string& from, const std::string& to) {
+    std::string s = good;
+    s.replace(s.find(from), from.size(), to);
+    return s;
+  };
+  const std::vector<std::array<std::string, 3>> cases = {
+      {replace("DimSize = 2 2\n", ""), "DimSize", "missing required key"},
+      {replace("MET_UCHAR", "MET_LONG"), "ElementType", "unsupported element type MET_LONG"},
+      {replace("ElementSpacing = 1 1", "ElementSpacing = 1 0"), "ElementSpacing", "spacing must be positive"},
+      {replace("NDims = 2", "NDims = 4"), "NDims", "unsupported dimension"},
+      {replace("DimSize = 2 2", "DimSize = 2 x"), "DimSize", "expected numbers"},
+      {replace("ElementDataFile = LOCAL\nabcd", ""), "ElementDataFile", "missing required key"},
+      {"\x89PNG\r\n\x1a\n\x00\x00", "header line 1", "unreadable header"},
+  };
+  for (const auto& [text, key, part] : cases) {
+    SCOPED_TRACE(key);
+    write_file(path, text);
+    const InputError e = expect_input_error([&] { read_image<2>(path); });
+    EXPECT_EQ(e.file(), path);
+    EXPECT_EQ(e.where(), key) << e.what();
+    EXPECT_TRUE(contains(e.message(), part)) << e.what();
+  }
+  // NIfTI: an unsupported datatype (complex64 = 32) and a file too short for a header.
+  write_file(dir + "/c.nii", nifti_by_hand(32, 64, 0, 0, std::string(12 * 8, '\0'), false));
+  InputError e = expect_input_error([&] { read_image<3>(dir + "/c.nii"); });
+  EXPECT_EQ(e.where(), "datatype");
+  write_file(dir + "/s.nii", "short");
+  e = expect_input_error([&] { read_image<3>(dir + "/s.nii"); });
+  EXPECT_EQ(e.file(), dir + "/s.nii");
+  e = expect_input_error([&] { read_image<3>(dir + "/v.xyz"); });
+  EXPECT_TRUE(contains(e.message(), "unknown image format"));
+}
+
+}  // namespace
+}  // namespace dsnake
