@@ -3,8 +3,10 @@
 #include "energies/internal.h"
 
 #include "framework/errors.h"
+#include "framework/global_problem.h"
 
 #include <Eigen/SparseCholesky>
+#include <cmath>
 #include <Eigen/SparseCore>
 #include <vector>
 
@@ -163,6 +165,37 @@ double InternalEnergy<D>::value(const Snake<D>& snake) const {
     if (!ring.empty()) e += 0.5 * beta * (q[v] - mean / double(ring.size())).squaredNorm();
   }
   return e;
+}
+
+template <int D>
+bool InternalEnergy<D>::add_residuals(const Snake<D>& snake, double weight, GlobalProblem<D>& problem) const {
+  const Connectivity& c = snake.connectivity();
+  const int n = snake.num_vertices();
+  const double sa = std::sqrt(0.5 * weight * options_.alpha), sb = std::sqrt(0.5 * weight * options_.beta);
+  std::vector<int> vertices;
+  std::vector<double> coefficients;
+  for (int v = 0; v < n; ++v) {
+    const auto ring = c.neighbors(v);
+    if (sa > 0) {  // each edge once: (v, next) on a polygon, (v, w > v) on a mesh
+      for (int w : ring) {
+        if (c.is_polygon() ? w != ring[1] : w < v) continue;
+        const int pair[2] = {w, v};
+        const double diff[2] = {1.0, -1.0};
+        problem.add_linear_residual(pair, diff, sa);
+      }
+    }
+    if (sb > 0) {  // q_v - mean(ring), times ring size 2 on a polygon: the second difference
+      vertices.assign(1, v);
+      const double k = c.is_polygon() ? 2.0 : 1.0;
+      coefficients.assign(1, k);
+      for (int w : ring) {
+        vertices.push_back(w);
+        coefficients.push_back(-k / double(ring.size()));
+      }
+      problem.add_linear_residual(vertices, coefficients, sb);
+    }
+  }
+  return true;
 }
 
 template class InternalEnergy<2>;

@@ -46,6 +46,9 @@ class InternalEnergy final : public Energy<D> {
   //     the step uses the umbrella operator (its degree-normalised form): the snake scheme of
   //     §3.1 uses the step; this value is for energy traces and the global solve.
   double value(const Snake<D>& snake) const override;
+  // The residuals of value(): sqrt(w alpha / 2) (q_j - q_i) per edge, and sqrt(w beta / 2) times
+  // the second difference (2D) or the umbrella Laplacian (3D) per vertex.
+  bool add_residuals(const Snake<D>& snake, double weight, GlobalProblem<D>& problem) const override;
 
  private:
   struct Solver;  // the sparse factorisation and scratch, in the .cpp

@@ -7,7 +7,6 @@
 #include <omp.h>
 
 #include <Eigen/Geometry>
-#include <chrono>
 #include <ctime>
 #include <cmath>
 #include <cstdio>
@@ -149,10 +148,6 @@ Grid<D> make_grid(const GridIndex<D>& size, const Point<D>& spacing, const Point
   g.spacing = spacing;
   g.origin = origin;
   return g;
-}
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 TEST(Metrics, ConcentricCirclesGiveRadiusDifference) {
@@ -387,32 +382,19 @@ TEST(Metrics, ResultsDoNotDependOnThreadCount) {
   EXPECT_EQ(si_one, si_two);
 }
 
-TEST(Metrics, LargeMeshesAreFast) {
-#if !defined(__OPTIMIZE__) || defined(__SANITIZE_ADDRESS__)
-  GTEST_SKIP() << "a timing test: meaningful in optimised builds without sanitizers only";
-#endif
-  // Two ~7000-vertex meshes in an 80-voxel-wide scene, sampled every 0.2.
-  const Shape3 a = geodesic_sphere(26, 30, Point<3>(40, 40, 40));
-  const Shape3 b = geodesic_sphere(27, 31.5, Point<3>(40.8, 39.5, 40.3));
-  ASSERT_GT(a.points.size(), 6500u);
-  auto t0 = std::chrono::steady_clock::now();
-  const std::clock_t c0 = std::clock();
-  const SurfaceDistances d = surface_distances<3>(a.ref(), b.ref(), 0.2);
-  const double t_dist = seconds_since(t0), cpu_dist = double(std::clock() - c0) / CLOCKS_PER_SEC;
-  t0 = std::chrono::steady_clock::now();
-  const int si = count_self_intersections<3>(b.ref());
-  const double t_self = seconds_since(t0);
-  std::printf("[ timing   ] surface_distances %zu vs %zu vertices: %.3f s wall, %.3f s cpu (mean %.4f, "
-              "hd95 %.4f, hd %.4f); count_self_intersections %zu vertices: %.3f s\n",
-              a.points.size(), b.points.size(), t_dist, cpu_dist, d.mean, d.hausdorff95, d.hausdorff,
-              b.points.size(), t_self);
-  EXPECT_EQ(si, 0);
-  // The centres are 0.98 apart and the radii 1.5: every distance lies in [0.52, 2.48].
+// Offset spheres: the distance from b to a lies in [R_b - R_a - |c|, R_b - R_a + |c|] pointwise.
+// (Their speed at 7000 vertices is measured in experiments/bench/bench_metrics.)
+TEST(Metrics, OffsetSpheresHaveBoundedDistances) {
+  const Shape3 a = geodesic_sphere(16, 30, Point<3>(40, 40, 40));
+  const Shape3 b = geodesic_sphere(17, 31.5, Point<3>(40.8, 39.5, 40.3));
+  const SurfaceDistances d = surface_distances<3>(a.ref(), b.ref(), 0.5);
+  EXPECT_EQ(count_self_intersections<3>(b.ref()), 0);
+  // The centres are 0.98 apart and the radii differ by 1.5: every distance lies in [0.52, 2.48]
+  // (plus the chord error of the meshes).
   EXPECT_GT(d.mean, 1.0);
   EXPECT_LT(d.mean, 2.0);
-  EXPECT_LT(d.hausdorff, 2.5);
-  EXPECT_LT(t_dist, 10.0);  // brute force would take minutes; the target is well under 1 s
-  EXPECT_LT(t_self, 10.0);
+  EXPECT_LT(d.hausdorff, 2.6);
+  EXPECT_GT(d.hausdorff95, 0.52);
 }
 
 }  // namespace
