@@ -48,13 +48,57 @@ PhantomCanvas<D> read_canvas(JsonReader& r, int default_size) {
   return c;
 }
 
+// Default image size (voxels per axis) and template centre (the default image's centre).
+template <int D>
+constexpr int kDefaultImageSize = D == 2 ? 128 : 64;
+template <int D>
+Point<D> default_template_center() {
+  return Point<D>::Constant((kDefaultImageSize<D> - 1) / 2.0);
+}
+
+// The parameters of a star shape, shared by the image and the template phantom.
+struct StarShape {
+  int arms = 5;
+  double outer = 40, inner = 18, rotation_deg = 90;
+};
+
+StarShape read_star(JsonReader& r) {
+  StarShape s;
+  r.read("arms", s.arms);
+  r.read("outer_radius", s.outer);
+  r.read("inner_radius", s.inner);
+  r.read("rotation_deg", s.rotation_deg);
+  r.expect(s.arms >= 3 && s.arms <= 64, "arms", "must be in [3, 64]");
+  r.expect(s.outer > 0, "outer_radius", "must be > 0");
+  r.expect(s.inner > 0 && s.inner < s.outer, "inner_radius", "must be in (0, outer_radius)");
+  return s;
+}
+
+// Semi-axes of a "sphere" (key radius) or an "ellipsoid" (key semi_axes); fails on other kinds.
+Point<3> read_axes(JsonReader& r, const std::string& kind, double default_radius, const char* role) {
+  Point<3> axes;
+  if (kind == "sphere") {
+    double radius = default_radius;
+    r.read("radius", radius);
+    r.expect(radius > 0, "radius", "must be > 0");
+    axes.setConstant(radius);
+  } else if (kind == "ellipsoid") {
+    axes = Point<3>(24, 16, 12);
+    r.read<3>("semi_axes", axes);
+    r.expect(axes.minCoeff() > 0, "semi_axes", "must be > 0");
+  } else {
+    r.fail("phantom", "unknown 3D " + std::string(role) + " phantom \"" + kind + "\" (known: sphere, ellipsoid)");
+  }
+  return axes;
+}
+
 // Star polygon: outer vertices at rotation + 2 pi k / arms, inner ones half-way (2 * arms).
-PointList<2> star_polygon(const Point<2>& c, int arms, double outer, double inner, double rotation_deg) {
+PointList<2> star_polygon(const Point<2>& c, const StarShape& star) {
   PointList<2> p;
-  const double rot = rotation_deg * kPi / 180.0;
-  for (int k = 0; k < 2 * arms; ++k) {
-    const double a = rot + kPi * k / arms;
-    const double r = k % 2 == 0 ? outer : inner;
+  const double rot = star.rotation_deg * kPi / 180.0;
+  for (int k = 0; k < 2 * star.arms; ++k) {
+    const double a = rot + kPi * k / star.arms;
+    const double r = k % 2 == 0 ? star.outer : star.inner;
     p.push_back(c + r * Point<2>(std::cos(a), std::sin(a)));
   }
   return p;
@@ -161,7 +205,7 @@ Phantom<2> make_phantom<2>(JsonReader& r) {
   r.require("phantom", kind);
   Phantom<2> ph;
   ph.kind = kind;
-  auto c = read_canvas<2>(r, 128);
+  auto c = read_canvas<2>(r, kDefaultImageSize<2>);
   if (kind == "disk") {
     double radius = 30;
     r.read("radius", radius);
@@ -189,16 +233,7 @@ Phantom<2> make_phantom<2>(JsonReader& r) {
       }
     ph.surface = polygon_template(std::move(p));
   } else if (kind == "star") {
-    int arms = 5;
-    double outer = 40, inner = 18, rotation = 90;
-    r.read("arms", arms);
-    r.read("outer_radius", outer);
-    r.read("inner_radius", inner);
-    r.read("rotation_deg", rotation);
-    r.expect(arms >= 3 && arms <= 64, "arms", "must be in [3, 64]");
-    r.expect(outer > 0, "outer_radius", "must be > 0");
-    r.expect(inner > 0 && inner < outer, "inner_radius", "must be in (0, outer_radius)");
-    const PointList<2> poly = star_polygon(c.center, arms, outer, inner, rotation);
+    const PointList<2> poly = star_polygon(c.center, read_star(r));
     render<2>(ph, c, [&](const Point<2>& x) { return inside_polygon(poly, x); });
     ph.surface = polygon_template(poly);
   } else {
@@ -213,20 +248,8 @@ Phantom<3> make_phantom<3>(JsonReader& r) {
   r.require("phantom", kind);
   Phantom<3> ph;
   ph.kind = kind;
-  auto c = read_canvas<3>(r, 64);
-  Point<3> axes;
-  if (kind == "sphere") {
-    double radius = 20;
-    r.read("radius", radius);
-    r.expect(radius > 0, "radius", "must be > 0");
-    axes.setConstant(radius);
-  } else if (kind == "ellipsoid") {
-    axes = Point<3>(24, 16, 12);
-    r.read<3>("semi_axes", axes);
-    r.expect(axes.minCoeff() > 0, "semi_axes", "must be > 0");
-  } else {
-    r.fail("phantom", "unknown 3D image phantom \"" + kind + "\" (known: sphere, ellipsoid)");
-  }
+  auto c = read_canvas<3>(r, kDefaultImageSize<3>);
+  const Point<3> axes = read_axes(r, kind, 20, "image");
   render<3>(ph, c, [&](const Point<3>& x) { return (x - c.center).cwiseQuotient(axes).squaredNorm() < 1.0; });
   ph.surface = scaled_icosphere(5, c.center, axes);
   return ph;
@@ -236,7 +259,7 @@ template <>
 Template<2> make_template_phantom<2>(JsonReader& r) {
   std::string kind;
   r.require("phantom", kind);
-  Point<2> center(63.5, 63.5);
+  Point<2> center = default_template_center<2>();
   r.read<2>("center", center);
   if (kind == "circle") {
     double radius = 40;
@@ -248,17 +271,9 @@ Template<2> make_template_phantom<2>(JsonReader& r) {
     return polygon_template(circle_points(center, radius, vertices));
   }
   if (kind == "star") {
-    int arms = 5;
-    double outer = 40, inner = 18, rotation = 90;
-    r.read("arms", arms);
-    r.read("outer_radius", outer);
-    r.read("inner_radius", inner);
-    r.read("rotation_deg", rotation);
-    r.expect(arms >= 3 && arms <= 64, "arms", "must be in [3, 64]");
-    r.expect(outer > 0, "outer_radius", "must be > 0");
-    r.expect(inner > 0 && inner < outer, "inner_radius", "must be in (0, outer_radius)");
-    Template<2> t = polygon_template(star_polygon(center, arms, outer, inner, rotation));
-    for (int k = 0; k < arms; ++k) t.landmarks["tip" + std::to_string(k)] = 2 * k;
+    const StarShape star = read_star(r);
+    Template<2> t = polygon_template(star_polygon(center, star));
+    for (int k = 0; k < star.arms; ++k) t.landmarks["tip" + std::to_string(k)] = 2 * k;
     return t;
   }
   r.fail("phantom", "unknown 2D template phantom \"" + kind + "\" (known: circle, star)");
@@ -268,24 +283,12 @@ template <>
 Template<3> make_template_phantom<3>(JsonReader& r) {
   std::string kind;
   r.require("phantom", kind);
-  Point<3> center(31.5, 31.5, 31.5);
+  Point<3> center = default_template_center<3>();
   int subdivisions = 2;
   r.read<3>("center", center);
   r.read("subdivisions", subdivisions);
   r.expect(subdivisions >= 0 && subdivisions <= 6, "subdivisions", "must be in [0, 6]");
-  Point<3> axes;
-  if (kind == "sphere") {
-    double radius = 24;
-    r.read("radius", radius);
-    r.expect(radius > 0, "radius", "must be > 0");
-    axes.setConstant(radius);
-  } else if (kind == "ellipsoid") {
-    axes = Point<3>(24, 16, 12);
-    r.read<3>("semi_axes", axes);
-    r.expect(axes.minCoeff() > 0, "semi_axes", "must be > 0");
-  } else {
-    r.fail("phantom", "unknown 3D template phantom \"" + kind + "\" (known: sphere, ellipsoid)");
-  }
+  const Point<3> axes = read_axes(r, kind, 24, "template");
   Template<3> t = scaled_icosphere(subdivisions, center, axes);
   const char* names[6] = {"+x", "-x", "+y", "-y", "+z", "-z"};
   for (int k = 0; k < 6; ++k) {  // the six axis extremes, as landmarks
@@ -311,23 +314,17 @@ std::vector<std::optional<Point<D>>> phantom_targets(const nlohmann::json& image
   img.erase("file");
   tpl.erase("transform");
   const std::string ik = img.value("phantom", ""), tk = tpl.value("phantom", "");
-  JsonReader ir(img, "", "image");
-  const auto canvas = read_canvas<D>(ir, D == 2 ? 128 : 64);
-  Point<D> template_center = Point<D>::Constant(D == 2 ? 63.5 : 31.5);
-  if (tpl.contains("center"))
-    for (int a = 0; a < D; ++a) template_center[a] = tpl["center"][a].get<double>();
+  JsonReader ir(img, "", "image"), tr(tpl, "", "template");
+  const auto canvas = read_canvas<D>(ir, kDefaultImageSize<D>);
+  Point<D> template_center = default_template_center<D>();
+  tr.read<D>("center", template_center);
 
+  // The template's direction in its own ellipsoid frame, mapped onto the image's ellipsoid.
   auto radial = [&](const Point<D>& axes) {
-    for (const auto& p : tmpl.positions) {
-      const Point<D> d = p - template_center;
-      // The direction in the template's own ellipsoid frame, mapped onto the image shape.
-      Point<D> t_axes = Point<D>::Constant(d.norm());
-      if constexpr (D == 3)
-        if (tk == "ellipsoid" && tpl.contains("semi_axes"))
-          for (int a = 0; a < 3; ++a) t_axes[a] = tpl["semi_axes"][a].get<double>();
-      const Point<D> u = d.cwiseQuotient(t_axes);
-      targets.emplace_back(canvas.center + u.normalized().cwiseProduct(axes));
-    }
+    Point<D> template_axes = Point<D>::Ones();
+    if constexpr (D == 3) template_axes = read_axes(tr, tk, 24, "template");
+    for (const auto& p : tmpl.positions)
+      targets.emplace_back(canvas.center + (p - template_center).cwiseQuotient(template_axes).normalized().cwiseProduct(axes));
   };
   if constexpr (D == 2) {
     if (tk == "circle" && ik == "disk") {
@@ -341,21 +338,14 @@ std::vector<std::optional<Point<D>>> phantom_targets(const nlohmann::json& image
         const Point<2> y = R.transpose() * (p - template_center).normalized();
         targets.emplace_back(canvas.center + R * (y * half / std::max(std::abs(y.x()), std::abs(y.y()))));
       }
-    } else if (tk == "star" && ik == "star" && img.value("arms", 5) == tpl.value("arms", 5)) {
-      const auto poly = star_polygon(canvas.center, img.value("arms", 5), img.value("outer_radius", 40.0),
-                                     img.value("inner_radius", 18.0), img.value("rotation_deg", 90.0));
-      for (const auto& p : poly) targets.emplace_back(p);
+    } else if (tk == "star" && ik == "star") {
+      const StarShape image_star = read_star(ir), template_star = read_star(tr);
+      if (image_star.arms == template_star.arms)
+        for (const auto& p : star_polygon(canvas.center, image_star)) targets.emplace_back(p);
     }
   } else {
-    if (tk == "sphere" || tk == "ellipsoid") {
-      if (ik == "sphere") radial(Point<3>::Constant(img.value("radius", 20.0)));
-      if (ik == "ellipsoid") {
-        Point<3> axes(24, 16, 12);
-        if (img.contains("semi_axes"))
-          for (int a = 0; a < 3; ++a) axes[a] = img["semi_axes"][a].get<double>();
-        radial(axes);
-      }
-    }
+    if ((tk == "sphere" || tk == "ellipsoid") && (ik == "sphere" || ik == "ellipsoid"))
+      radial(read_axes(ir, ik, 20, "image"));
   }
   return targets;
 }
