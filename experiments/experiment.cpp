@@ -49,6 +49,7 @@ void apply_override(nlohmann::json& doc, const std::string& assignment, const st
       if (i >= node->size()) throw InputError(file, path, "index " + key + " is out of range");
       node = &(*node)[i];
     } else {
+      if (node->is_null()) *node = nlohmann::json::object();  // "output.figures=false" creates "output"
       if (!node->is_object()) throw InputError(file, path, "\"" + key + "\" names a key of something that is not an object");
       node = &(*node)[key];
     }

@@ -58,7 +58,9 @@ int main(int argc, char** argv) {
                       "Experiment file (JSON), or builtin:NAME (default, ellipsoid); none runs builtin:default");
   run_cmd->add_option("--out,-o", options.out_dir, "Output folder (default: out/<experiment name>)");
   run_cmd->add_option("--set", overrides, "Override a key of the experiment file: key.path=value (repeatable)")
-      ->take_all();
+      ->expected(1)
+      ->allow_extra_args(false)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   run_cmd->add_option("--threads,-j", threads, "OpenMP threads (default: all cores)")->check(CLI::PositiveNumber);
   run_cmd->add_flag("--quiet,-q", options.quiet, "No progress lines on stderr");
 
@@ -66,7 +68,10 @@ int main(int argc, char** argv) {
   std::vector<std::string> validate_overrides;
   auto* validate_cmd = app.add_subcommand("validate", "Check an experiment file without running it");
   validate_cmd->add_option("config", validate_config, "Experiment file (JSON) or builtin:NAME")->required();
-  validate_cmd->add_option("--set", validate_overrides, "Override a key: key.path=value (repeatable)")->take_all();
+  validate_cmd->add_option("--set", validate_overrides, "Override a key: key.path=value (repeatable)")
+      ->expected(1)
+      ->allow_extra_args(false)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
 
   try {
     app.parse(argc, argv);

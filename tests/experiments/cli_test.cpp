@@ -131,7 +131,8 @@ TEST_F(CliTest, ConfigOutOfRangeValue) {
 TEST_F(CliTest, SetOverrideIsValidatedToo) {
   const auto file = experiment("default", [](nlohmann::json&) {});
   const fs::path out = dir_ / "out";
-  const CommandResult r = dsnake("run " + file.string() + " --set energies[0].alpha=-1 --out " + out.string());
+  // --set before the file: each --set takes one value, the file stays the positional argument.
+  const CommandResult r = dsnake("run --set seed=3 --set energies[0].alpha=-1 " + file.string() + " --out " + out.string());
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("energies[0].alpha"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out));

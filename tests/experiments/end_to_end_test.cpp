@@ -74,6 +74,22 @@ TEST(EndToEnd, SameNumbersWhateverTheThreadCount) {
   fs::remove_all(b);
 }
 
+TEST(EndToEnd, SnapshotsAreWrittenEveryNIterations) {
+  const fs::path out = fresh_dir("snapshots");
+  run_builtin<2>("default", out, {"phases[0].iterations=20", "phases[1].iterations=10", "output.snapshot_every=10",
+                                  "output.figures=false"});
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(out / "snapshots")) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"iteration_000010.vtk", "iteration_000020.vtk", "iteration_000030.vtk"}));
+  EXPECT_FALSE(fs::exists(out / "overlay.png"));
+  // The trace has one row per iteration (plus the header).
+  std::ifstream trace(out / "energy_trace.csv");
+  const auto rows = std::count(std::istreambuf_iterator<char>(trace), {}, '\n');
+  EXPECT_EQ(rows, 31);
+  fs::remove_all(out);
+}
+
 TEST(EndToEnd, DefaultCommandWritesNonNullMetricsAndFigures) {
   const fs::path out = fresh_dir("cli");
   const std::string cmd = std::string(DSNAKE_EXE) + " run --quiet --out " + out.string();
