@@ -61,7 +61,7 @@ int main(int argc, char** argv) {
       ->expected(1)
       ->allow_extra_args(false)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
-  run_cmd->add_option("--threads,-j", threads, "OpenMP threads (default: all cores)")->check(CLI::PositiveNumber);
+  run_cmd->add_option("--threads,-j", threads, "OpenMP threads (default: all cores)")->check(CLI::Range(1, 1024));
   run_cmd->add_flag("--quiet,-q", options.quiet, "No progress lines on stderr");
 
   std::string validate_config;

@@ -204,8 +204,11 @@ nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& optio
     const EvolveSummary summary = evolver.run(snake, ex.phases);
     const double evolve_s = seconds_since(t);
 
+    // A diverged snake (non-finite positions) has no meaningful metrics: they stay null.
     t = Clock::now();
-    const Metrics m = compute_metrics(snake, ex.truth);
+    const bool finite = std::all_of(snake.positions().begin(), snake.positions().end(),
+                                    [](const Point<D>& p) { return p.allFinite(); });
+    const Metrics m = finite ? compute_metrics(snake, ex.truth) : Metrics{};
     const double metrics_s = seconds_since(t);
     const CorrespondenceError corr = correspondence_error(snake, ex.truth.targets);
 
@@ -224,7 +227,7 @@ nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& optio
     write_shape<D>(ex.initial, ex.tmpl.connectivity, (staging / ("initial" + mesh_ext)).string());
     write_file_atomically((staging / "correspondence.csv").string(), correspondence_csv(ex, snake, corr));
     write_file_atomically((staging / "energy_trace.csv").string(), trace_csv<D>(recorder.trace, names));
-    if (ex.output.figures) write_figures(ex, snake, staging, recorder.trace, names);
+    if (ex.output.figures && finite) write_figures(ex, snake, staging, recorder.trace, names);
 
     nlohmann::ordered_json result;
     result["name"] = ex.name;
@@ -234,7 +237,8 @@ nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& optio
                          {"dice", optional_number(m.dice)},
                          {"correspondence_error_mean", optional_number(m.correspondence_error_mean)},
                          {"correspondence_error_max", optional_number(m.correspondence_error_max)},
-                         {"self_intersections", m.self_intersections}};
+                         {"self_intersections", finite ? nlohmann::ordered_json(m.self_intersections)
+                                                       : nlohmann::ordered_json(nullptr)}};
     result["success"] = summary.status != EvolveStatus::kDiverged && ex.success.met(m);
     result["status"] = to_string(summary.status);
     result["iterations"] = summary.iterations;
