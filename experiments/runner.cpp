@@ -4,6 +4,7 @@
 #include "framework/atomic_file.h"
 #include "framework/errors.h"
 #include "framework/mesh_io.h"
+#include "remesh/quality.h"
 
 #include <chrono>
 #include <cmath>
@@ -75,7 +76,17 @@ class RecordingObserver : public EvolverObserver<D> {
     for (int t : snake.template_ids()) ids.values.push_back(t);
     return {ids};
   }
+  // Mesh quality after each 3D phase that remeshed (DESIGN.md: "mesh_quality" in result.json).
+  void on_phase_end(int phase, const PhaseSummary& summary, const Snake<D>& snake) override {
+    if constexpr (D == 3) {
+      if (summary.remesh_reports.empty()) return;
+      nlohmann::json j;
+      to_json(j, compute_mesh_quality(snake));
+      mesh_quality[phase] = j;
+    }
+  }
   std::vector<IterationInfo> trace;
+  std::map<int, nlohmann::json> mesh_quality;  // per phase index
 
  private:
   std::string snapshot_dir_;
@@ -252,9 +263,11 @@ nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& optio
       for (const auto& r : ps.remesh_reports)
         j["remesh"].push_back({{"stage", r.stage}, {"vertices_before", r.vertices_before},
                                {"vertices_after", r.vertices_after}, {"rejected_edits", r.rejected_edits}});
+      if (recorder.mesh_quality.count(int(p))) j["mesh_quality"] = recorder.mesh_quality[int(p)];
       phases.push_back(j);
     }
     result["phases"] = phases;
+    if (!recorder.mesh_quality.empty()) result["mesh_quality"] = recorder.mesh_quality.rbegin()->second;
     if (!recorder.trace.empty()) {
       nlohmann::ordered_json terms;
       for (size_t i = 0; i < names.size(); ++i)

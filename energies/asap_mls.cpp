@@ -1,0 +1,314 @@
+// ASAP-MLS deformation energy; see asap_mls.h. Levi & Gotsman, "D-Snake: Image registration by
+// as-similar-as-possible template deformation" (IEEE TVCG), §4.1-§4.4, §7 and the Appendix;
+// Schaefer et al., "Image deformation using moving least squares" (SIGGRAPH 2006).
+#include "energies/asap_mls.h"
+
+#include "energies/block_quadratic.h"
+#include "energies/residual_blocks.h"
+#include "framework/errors.h"
+
+#include <cmath>
+
+namespace dsnake {
+
+namespace {
+Point<2> perp(const Point<2>& a) { return Point<2>(-a[1], a[0]); }  // (x, y)^perp = (-y, x), §4.1
+}  // namespace
+
+// Template data of §7, per j and per (j, i) entry of the neighbourhood CSR, plus scratch.
+template <int D>
+struct AsapMlsEnergy<D>::Data {
+  using Matrix = Eigen::Matrix<double, D, D>;
+  const Template<D>* tmpl = nullptr;
+  int n = 0;
+  MlsNeighborhoods nb;
+  PointList<D> a_fixed;     // per entry: p_i - p_j (the constrained fit, T_j(p_j) = q_j)
+  PointList<D> a_free;      // per entry: p_i - p*_j (the free fit of eq. (6))
+  std::vector<double> spread_fixed, spread_free;  // per j: sum_i w_ij |a|^2
+  PointList<D> offset;      // per j: p_j - p*_j
+  std::vector<int> reverse_offsets{0}, reverse_entries;  // per k: entries e of the j with k in N(j)
+  std::vector<int> entry_owner;                           // per entry: j
+  BlockQuadratic<D> quadratic;  // 2D exact: H with E_def = q^T H q
+  std::vector<int> vertex_of_id;
+  int bound_vertices = -1;      // the snake's vertex count and topology version at the last bind
+  uint64_t bound_version = 0;
+  PointList<D> q, next;
+  std::vector<Matrix, Eigen::aligned_allocator<Matrix>> similarity;  // 3D exact: mu_j R_j
+};
+
+template <int D>
+AsapMlsEnergy<D>::AsapMlsEnergy(const AsapMlsOptions& options) : options_(options), data_(std::make_unique<Data>()) {
+  DSNAKE_ASSERT(options.neighborhood.falloff > 0 && options.power >= 1 && options.damping > 0 && options.damping <= 1,
+                "asap_mls options: falloff > 0, power >= 1, 0 < damping <= 1");
+}
+
+template <int D>
+AsapMlsEnergy<D>::~AsapMlsEnergy() = default;
+
+// The constrained optimal similarity of D_j (eq. (4) in 2D, Appendix in 3D) from positions by id.
+template <int D>
+static Eigen::Matrix<double, D, D> fixed_fit(const MlsNeighborhoods& nb, const PointList<D>& a, double spread,
+                                             int j, const PointList<D>& q) {
+  Eigen::Matrix<double, D, D> cross = Eigen::Matrix<double, D, D>::Zero();
+  const auto ids = nb.neighbors(j);
+  const auto w = nb.weights(j);
+  for (size_t k = 0; k < ids.size(); ++k) cross.noalias() += w[k] * (q[ids[k]] - q[j]) * a[nb.offsets[j] + k].transpose();
+  return best_similarity<D>(cross, spread);
+}
+
+template <int D>
+void AsapMlsEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& snake) {
+  Data& d = *data_;
+  const Template<D>* tmpl = context.tmpl ? context.tmpl : d.tmpl;
+  DSNAKE_ASSERT(tmpl != nullptr, "asap_mls is bound to a template");
+  if (tmpl != d.tmpl || tmpl->num_vertices() != d.n) {
+    const int n = tmpl->num_vertices();
+    const NeighborhoodSpec& spec = options_.neighborhood;
+    if (spec.kind == NeighborhoodKind::kNearest && spec.k > n - 1)
+      throw InputError(options_.file, options_.path.empty() ? "k" : options_.path + ".k",
+                       "k = " + std::to_string(spec.k) + " exceeds the " + std::to_string(n - 1) +
+                           " other template vertices");
+    d.tmpl = tmpl;
+    d.n = n;
+    d.nb = build_neighborhoods<D>(*tmpl, spec);
+    const PointList<D>& p = tmpl->positions;
+    const size_t entries = d.nb.index.size();
+    d.a_fixed.resize(entries);
+    d.a_free.resize(entries);
+    d.entry_owner.resize(entries);
+    d.spread_fixed.assign(n, 0.0);
+    d.spread_free.assign(n, 0.0);
+    d.offset.assign(n, Point<D>::Zero());
+    std::vector<int> count(n + 1, 0);
+    for (int j = 0; j < n; ++j) {
+      const auto ids = d.nb.neighbors(j);
+      const auto w = d.nb.weights(j);
+      Point<D> centroid = Point<D>::Zero();
+      for (size_t k = 0; k < ids.size(); ++k) centroid += w[k] * p[ids[k]];
+      if (ids.empty()) centroid = p[j];
+      d.offset[j] = p[j] - centroid;
+      for (size_t k = 0; k < ids.size(); ++k) {
+        const int e = d.nb.offsets[j] + int(k);
+        d.a_fixed[e] = p[ids[k]] - p[j];
+        d.a_free[e] = p[ids[k]] - centroid;
+        d.spread_fixed[j] += w[k] * d.a_fixed[e].squaredNorm();
+        d.spread_free[j] += w[k] * d.a_free[e].squaredNorm();
+        d.entry_owner[e] = j;
+        ++count[ids[k] + 1];
+      }
+    }
+    // reverse lists: for each k, the entries (j, k) with k in N(j) (3D exact position update)
+    for (int k = 0; k < n; ++k) count[k + 1] += count[k];
+    d.reverse_offsets = count;
+    d.reverse_entries.assign(entries, 0);
+    std::vector<int> fill(count.begin(), count.end() - 1);
+    for (size_t e = 0; e < entries; ++e) d.reverse_entries[fill[d.nb.index[e]]++] = int(e);
+    if (D == 2 && options_.variant == "exact") build_quadratic();
+    d.q.resize(n);
+    d.next.resize(n);
+    d.similarity.resize(n);
+  }
+  d.vertex_of_id.resize(d.n);
+  for (int t = 0; t < d.n; ++t) {
+    d.vertex_of_id[t] = snake.vertex_of_template_id(t);
+    DSNAKE_ASSERT(d.vertex_of_id[t] >= 0, "every template vertex is on the snake");
+  }
+  d.bound_vertices = snake.num_vertices();
+  d.bound_version = snake.topology_version();
+}
+
+template <int D>
+void AsapMlsEnergy<D>::build_quadratic() {
+  // Only the 2D instantiation uses H; the body is written for D = 2 (see the specialisation).
+}
+
+// §4.1: D_j(q) = sum w |u|^2 - (s^2 + t^2) / P with u_l = q_l - q_j, s = sum w a.u, t = sum w a^perp.u,
+// so D_j = u^T K u with K_ll' = w_l d_ll' I - w_l w_l' (a_l a_l'^T + a_l^perp a_l'^perp^T) / P, and
+// E_def = q^T H q after substituting u_l = q_l - q_j. Coordinate descent on H is eq. (5).
+template <>
+void AsapMlsEnergy<2>::build_quadratic() {
+  Data& d = *data_;
+  d.quadratic.reset(d.n);
+  for (int j = 0; j < d.n; ++j) {
+    const auto ids = d.nb.neighbors(j);
+    const auto w = d.nb.weights(j);
+    const int m = int(ids.size());
+    const double spread = d.spread_fixed[j];
+    const bool fit = spread > 1e-300;
+    std::vector<Block<2>> row_sum(m, Block<2>::Zero());
+    Block<2> total = Block<2>::Zero();
+    for (int l = 0; l < m; ++l) {
+      const Point<2>& al = d.a_fixed[d.nb.offsets[j] + l];
+      for (int k = 0; k < m; ++k) {
+        const Point<2>& ak = d.a_fixed[d.nb.offsets[j] + k];
+        Block<2> b = (l == k ? w[l] : 0.0) * Block<2>::Identity();
+        if (fit) b -= (w[l] * w[k] / spread) * (al * ak.transpose() + perp(al) * perp(ak).transpose());
+        d.quadratic.add(ids[l], ids[k], b);
+        row_sum[l] += b;
+      }
+      total += row_sum[l];
+    }
+    for (int l = 0; l < m; ++l) {  // K symmetric: column sums are the row sums transposed
+      d.quadratic.add(ids[l], j, -row_sum[l]);
+      d.quadratic.add(j, ids[l], -row_sum[l].transpose());
+    }
+    d.quadratic.add(j, j, total);
+  }
+  d.quadratic.finalize();
+}
+
+// One application of the chosen operator to the positions by id, d.q -> d.q.
+template <int D>
+void AsapMlsEnergy<D>::step() {
+  Data& d = *data_;
+  const int n = d.n;
+  if (options_.variant == "approximate") {
+    // eq. (6): q_j <- T^_j(p_j) = q*_j + M^_j (p_j - p*_j), with cross = sum w q_i (p_i - p*)^T.
+    // "jacobi": every vertex from the old positions (parallel); "gauss_seidel": one self-energy
+    // at a time, in id order, from the newest positions (§4.4), serial.
+    auto fit = [&d](int j, const PointList<D>& q) -> Point<D> {
+      const auto ids = d.nb.neighbors(j);
+      const auto w = d.nb.weights(j);
+      if (ids.empty()) return q[j];
+      Eigen::Matrix<double, D, D> cross = Eigen::Matrix<double, D, D>::Zero();
+      Point<D> centroid = Point<D>::Zero();
+      for (size_t k = 0; k < ids.size(); ++k) {
+        const Point<D>& qi = q[ids[k]];
+        centroid += w[k] * qi;
+        cross.noalias() += (w[k] * qi) * d.a_free[d.nb.offsets[j] + k].transpose();
+      }
+      return centroid + best_similarity<D>(cross, d.spread_free[j]) * d.offset[j];
+    };
+    if (options_.iteration == "gauss_seidel") {
+      for (int j = 0; j < n; ++j) d.q[j] = fit(j, d.q);
+      return;
+    }
+#pragma omp parallel for schedule(static) if (n >= 256)
+    for (int j = 0; j < n; ++j) d.next[j] = fit(j, d.q);
+    std::swap(d.q, d.next);
+    return;
+  }
+  if constexpr (D == 2) {
+    if (options_.iteration == "gauss_seidel") d.quadratic.gauss_seidel(d.q);
+    else { d.quadratic.jacobi(d.q, d.next); std::swap(d.q, d.next); }
+  } else {
+    // §4.2, phase 1: the optimal mu_j R_j of every D_j at the current positions.
+#pragma omp parallel for schedule(static) if (n >= 256)
+    for (int j = 0; j < n; ++j) d.similarity[j] = fixed_fit<D>(d.nb, d.a_fixed, d.spread_fixed[j], j, d.q);
+    // phase 2: every q_k to the minimiser of E_def with the similarities and the other vertices
+    // fixed: the weighted mean of q_i - M_k (p_i - p_k) (its own D_k) and q_j + M_j (p_k - p_j)
+    // (the D_j with k in N(j)).
+#pragma omp parallel for schedule(static) if (n >= 256)
+    for (int k = 0; k < n; ++k) {
+      const auto ids = d.nb.neighbors(k);
+      const auto w = d.nb.weights(k);
+      Point<D> sum = Point<D>::Zero();
+      double total = 0.0;
+      for (size_t e = 0; e < ids.size(); ++e) {
+        sum += w[e] * (d.q[ids[e]] - d.similarity[k] * d.a_fixed[d.nb.offsets[k] + e]);
+        total += w[e];
+      }
+      for (int r = d.reverse_offsets[k]; r < d.reverse_offsets[k + 1]; ++r) {
+        const int e = d.reverse_entries[r], j = d.entry_owner[e];
+        sum += d.nb.weight[e] * (d.q[j] + d.similarity[j] * d.a_fixed[e]);
+        total += d.nb.weight[e];
+      }
+      d.next[k] = total > 0 ? Point<D>(sum / total) : d.q[k];
+    }
+    std::swap(d.q, d.next);
+  }
+}
+
+template <int D>
+void AsapMlsEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
+  Data& d = *data_;
+  DSNAKE_ASSERT(d.tmpl != nullptr, "bind() before propose()");
+  if (d.bound_vertices != snake.num_vertices() || d.bound_version != snake.topology_version())
+    bind(EnergyContext<D>{}, snake);  // a remesh: only the template id -> vertex map changes
+  const PointList<D>& q = snake.positions();
+  for (int t = 0; t < d.n; ++t) d.q[t] = q[d.vertex_of_id[t]];
+  for (int s = 0; s < options_.power; ++s) step();
+  const double lambda = options_.damping;
+  for (int t = 0; t < d.n; ++t) {
+    const int v = d.vertex_of_id[t];
+    out[v] = lambda == 1.0 ? d.q[t] : Point<D>((1 - lambda) * q[v] + lambda * d.q[t]);
+  }
+}
+
+template <int D>
+std::vector<double> AsapMlsEnergy<D>::local_energies(const Snake<D>& snake) const {
+  const Data& d = *data_;
+  DSNAKE_ASSERT(d.tmpl != nullptr, "bind() before value()");
+  PointList<D> q(d.n);
+  for (int t = 0; t < d.n; ++t) {
+    const int v = snake.vertex_of_template_id(t);
+    DSNAKE_ASSERT(v >= 0, "every template vertex is on the snake");
+    q[t] = snake.positions()[v];
+  }
+  std::vector<double> local(d.n, 0.0);
+#pragma omp parallel for schedule(static) if (d.n >= 256)
+  for (int j = 0; j < d.n; ++j) {
+    const auto m = fixed_fit<D>(d.nb, d.a_fixed, d.spread_fixed[j], j, q);
+    const auto ids = d.nb.neighbors(j);
+    const auto w = d.nb.weights(j);
+    double e = 0.0;
+    for (size_t k = 0; k < ids.size(); ++k)
+      e += w[k] * (m * d.a_fixed[d.nb.offsets[j] + k] - (q[ids[k]] - q[j])).squaredNorm();
+    local[j] = e;
+  }
+  return local;
+}
+
+// Summed serially over j, so the value does not depend on the thread count.
+template <int D>
+double AsapMlsEnergy<D>::value(const Snake<D>& snake) const {
+  double e = 0.0;
+  for (double x : local_energies(snake)) e += x;
+  return e;
+}
+
+template <int D>
+bool AsapMlsEnergy<D>::add_residuals(const Snake<D>& snake, double weight, GlobalProblem<D>& problem) const {
+  const Data& d = *data_;
+  DSNAKE_ASSERT(d.tmpl != nullptr, "bind() before add_residuals()");
+  const double root = std::sqrt(weight);
+  for (int j = 0; j < d.n; ++j) {
+    const auto ids = d.nb.neighbors(j);
+    if (ids.empty()) continue;
+    const int m = int(ids.size());
+    std::vector<int> vertices{snake.vertex_of_template_id(j)};
+    for (int i : ids) vertices.push_back(snake.vertex_of_template_id(i));
+    std::vector<double> w(d.nb.weights(j).begin(), d.nb.weights(j).end());
+    PointList<D> a(d.a_fixed.begin() + d.nb.offsets[j], d.a_fixed.begin() + d.nb.offsets[j + 1]);
+    const double spread = d.spread_fixed[j];
+    if constexpr (D == 2) {
+      // r_i = sqrt(w_i) (M(u) a_i - u_i), M(u) a_i = (s a_i + t a_i^perp) / P linear in u (§4.1)
+      for (int i = 0; i < m; ++i) {
+        std::vector<Block<2>> blocks(m + 1, Block<2>::Zero());
+        for (int l = 0; l < m; ++l) {
+          Block<2> c = (l == i ? -1.0 : 0.0) * Block<2>::Identity();
+          if (spread > 1e-300) c += (w[l] / spread) * (a[i] * a[l].transpose() + perp(a[i]) * perp(a[l]).transpose());
+          blocks[l + 1] = c;
+          blocks[0] -= c;
+        }
+        add_block_linear_residual<2>(problem, vertices, blocks, root * std::sqrt(w[i]));
+      }
+    } else {
+      add_numeric_residual<D>(problem, vertices, D * m, [w, a, spread, root, m](const PointList<D>& q, double* r) {
+        Eigen::Matrix<double, D, D> cross = Eigen::Matrix<double, D, D>::Zero();
+        for (int i = 0; i < m; ++i) cross.noalias() += w[i] * (q[i + 1] - q[0]) * a[i].transpose();
+        const Eigen::Matrix<double, D, D> mu_r = best_similarity<D>(cross, spread);
+        for (int i = 0; i < m; ++i) {
+          const Point<D> res = root * std::sqrt(w[i]) * (mu_r * a[i] - (q[i + 1] - q[0]));
+          for (int c = 0; c < D; ++c) r[D * i + c] = res[c];
+        }
+      });
+    }
+  }
+  return true;
+}
+
+template class AsapMlsEnergy<2>;
+template class AsapMlsEnergy<3>;
+
+}  // namespace dsnake

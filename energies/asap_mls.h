@@ -1,0 +1,71 @@
+// The ASAP-MLS deformation energy of Levi & Gotsman, D-Snake (IEEE TVCG), §4:
+//   E_def(q) = sum_j D_j(q),  D_j(q) = min_{T_j similarity, T_j(p_j) = q_j} sum_{i in N(j)} w_ij |T_j(p_i) - q_i|^2,
+// with the weights of eq. (2) over a neighbourhood N(j) of template vertex j (mls_weights.h). The
+// constraint T_j(p_j) = q_j is the infinite weight w_jj of eq. (2) (§4.1: q_j* = q_j).
+// Snake view (propose), by `variant`:
+//  - "exact", 2D (§4.1): E_def is a quadratic form q^T H q; one step applies A (Jacobi, eq. (5)) or
+//    A2 (Gauss-Seidel), `power` m times (A3), damped by `damping` lambda (A4 = (1-l) I + l A2).
+//  - "exact", 3D (§4.2): alternately the optimal mu_j R_j of every D_j, then every vertex moved
+//    to its minimiser with the others frozen.
+//  - "approximate" (§4.3 eq. (6), §4.4): q_j <- T^_j(p_j), T^_j the weighted similarity fit of
+//    the neighbours (without j) (Appendix: 3x3 SVD in 3D, reflection-safe); `iteration`
+//    "gauss_seidel" updates one vertex at a time from the newest positions (serial), "jacobi"
+//    all from the old ones (parallel).
+// ASAP governs the template ("deformation") vertices only (§6); everything per template vertex
+// is precomputed once per template (§7), and a remesh only rebuilds the id -> vertex map.
+#pragma once
+
+#include "energies/mls_weights.h"
+#include "framework/energy.h"
+
+#include <memory>
+#include <string>
+
+namespace dsnake {
+
+struct AsapMlsOptions {
+  std::string variant = "approximate";   // "exact" | "approximate"
+  NeighborhoodSpec neighborhood;         // JSON: "neighborhood": "all" | "k_nearest" | "rings", "k", "rings",
+                                         //       "falloff", "weights": "inverse_distance" | "uniform"
+  std::string iteration = "gauss_seidel"; // exact 2D and approximate: "jacobi" (A) | "gauss_seidel" (A2);
+                                          // exact 3D: "jacobi" only
+  int power = 1;                          // m of A3 = A2^m (steps per proposal), >= 1
+  double damping = 1.0;                   // lambda of A4, in (0, 1]
+  std::string file, path;                 // where the options came from, for errors found at bind()
+};
+
+template <int D>
+class AsapMlsEnergy final : public Energy<D> {
+ public:
+  explicit AsapMlsEnergy(const AsapMlsOptions& options = {});
+  ~AsapMlsEnergy() override;
+
+  std::string type() const override { return "asap_mls"; }
+  Governs governs() const override { return Governs::kDeformationVertices; }
+  const AsapMlsOptions& options() const { return options_; }
+
+  // Precomputes the neighbourhoods, weights and template data (and A in 2D exact) when the
+  // template changes; otherwise only the template id -> snake vertex map. Throws InputError
+  // (naming path.k) when k exceeds the number of other template vertices.
+  void bind(const EnergyContext<D>& context, const Snake<D>& snake) override;
+  // out[v] for every deformation vertex v (see the variants above).
+  void propose(const Snake<D>& snake, PointList<D>& out) override;
+  // E_def = sum_j D_j with the optimal constrained similarity per j (closed form in 2D, SVD in 3D).
+  double value(const Snake<D>& snake) const override;
+  // Per (j, i in N(j)): sqrt(weight w_ij) (M_j(q) (p_i - p_j) - (q_i - q_j)), M_j(q) the optimal
+  // similarity eliminated in closed form; one block per j over the vertices {j} + N(j).
+  // 2D: exact linear Jacobian; 3D: central differences.
+  bool add_residuals(const Snake<D>& snake, double weight, GlobalProblem<D>& problem) const override;
+
+  // The per-j energies D_j by template id (for tests and figures).
+  std::vector<double> local_energies(const Snake<D>& snake) const;
+
+ private:
+  struct Data;
+  void build_quadratic();  // 2D exact: H of E_def = q^T H q (§4.1)
+  void step();             // one application of the variant's operator to the positions by id
+  AsapMlsOptions options_;
+  std::unique_ptr<Data> data_;
+};
+
+}  // namespace dsnake

@@ -1,0 +1,32 @@
+// Balloon (pressure) force of Cohen, "On active contour models and balloons" (CVGIP: Image
+// Understanding 1991): every vertex pushed along its outward unit normal,
+//   propose: q_v + pressure n_v   (pressure > 0 inflates, < 0 deflates; physical units per step).
+// Its energy is -pressure x (signed area / volume), whose negative gradient is the pressure times
+// the area-weighted normal; it is not a sum of squares, so it has no residuals (global solve).
+#pragma once
+
+#include "framework/energy.h"
+
+#include <string>
+
+namespace dsnake {
+
+struct BalloonOptions {
+  double pressure = 1.0;  // signed step along the normal, physical units; != 0
+};
+
+template <int D>
+class BalloonEnergy final : public Energy<D> {
+ public:
+  explicit BalloonEnergy(const BalloonOptions& options = {}) : options_(options) {}
+  std::string type() const override { return "balloon"; }
+  void bind(const EnergyContext<D>& context, const Snake<D>& snake) override;
+  void propose(const Snake<D>& snake, PointList<D>& out) override;
+  double value(const Snake<D>& snake) const override;  // -pressure * signed measure
+
+ private:
+  BalloonOptions options_;
+  PointList<D> normals_;
+};
+
+}  // namespace dsnake

@@ -1,0 +1,41 @@
+// Laplacian surface editing energy of Sorkine, Cohen-Or, Lipman, Alexa, Rössl, Seidel, "Laplacian
+// surface editing" (SGP 2004), on the template connectivity (2D contour or 3D mesh):
+//   E(q) = sum_i |T_i(q) delta_i - L(q)_i|^2,
+// delta_i = L(p)_i the umbrella delta-coordinate of the template, L(q)_i = q_i - mean of the
+// one-ring, and T_i the linearised similarity s I + [h]_x (3D) / s I + h J (2D) fitted by least
+// squares to the one-ring plus i (p -> q), which is linear in q: E is a quadratic form q^T H q.
+// Snake view: one Jacobi (one vertex moves, the others frozen) or Gauss-Seidel sweep on H, as the
+// ASAP operator of D-Snake §4.1. Governs the template vertices (like ASAP, §6).
+#pragma once
+
+#include "framework/energy.h"
+
+#include <memory>
+#include <string>
+
+namespace dsnake {
+
+struct LaplacianOptions {
+  std::string iteration = "jacobi";  // "jacobi" | "gauss_seidel"
+};
+
+template <int D>
+class LaplacianEnergy final : public Energy<D> {
+ public:
+  explicit LaplacianEnergy(const LaplacianOptions& options = {});
+  ~LaplacianEnergy() override;
+  std::string type() const override { return "laplacian"; }
+  Governs governs() const override { return Governs::kDeformationVertices; }
+  void bind(const EnergyContext<D>& context, const Snake<D>& snake) override;
+  void propose(const Snake<D>& snake, PointList<D>& out) override;
+  double value(const Snake<D>& snake) const override;
+  // One block of D residuals per template vertex: T_i(q) delta_i - L(q)_i (linear in q).
+  bool add_residuals(const Snake<D>& snake, double weight, GlobalProblem<D>& problem) const override;
+
+ private:
+  struct Data;
+  LaplacianOptions options_;
+  std::unique_ptr<Data> data_;
+};
+
+}  // namespace dsnake

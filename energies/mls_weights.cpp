@@ -1,0 +1,156 @@
+// MLS neighbourhoods and weights (eq. (2)) and similarity / rotation fits (Appendix); see
+// mls_weights.h. Schaefer, McPhail, Warren, "Image deformation using moving least squares"
+// (SIGGRAPH 2006); Umeyama, "Least-squares estimation of transformation parameters between two
+// point patterns" (PAMI 1991) for the reflection-safe rotation.
+#include "energies/mls_weights.h"
+
+#include "framework/errors.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace dsnake {
+
+namespace {
+
+// Template vertex ids within `rings` edges of j (j excluded), breadth first, in discovery order.
+std::vector<int> ring_neighbors(const Connectivity& c, int j, int rings, std::vector<int>& mark, int stamp) {
+  std::vector<int> found, frontier{j};
+  mark[j] = stamp;
+  for (int r = 0; r < rings && !frontier.empty(); ++r) {
+    std::vector<int> next;
+    for (int v : frontier)
+      for (int w : c.neighbors(v))
+        if (mark[w] != stamp) {
+          mark[w] = stamp;
+          next.push_back(w);
+          found.push_back(w);
+        }
+    frontier.swap(next);
+  }
+  return found;
+}
+
+}  // namespace
+
+// Eq. (2) over the chosen neighbourhood; O(n^2) for kAll and kNearest (built once per template, §7).
+template <int D>
+MlsNeighborhoods build_neighborhoods(const Template<D>& tmpl, const NeighborhoodSpec& spec) {
+  const int n = tmpl.num_vertices();
+  const PointList<D>& p = tmpl.positions;
+  Point<D> lo = p.empty() ? Point<D>::Zero() : p[0], hi = lo;
+  for (const auto& x : p) { lo = lo.cwiseMin(x); hi = hi.cwiseMax(x); }
+  const double coincident = 1e-12 * std::max((hi - lo).norm(), 1e-300);
+  MlsNeighborhoods nb;
+  std::vector<int> mark(n, -1), candidates;
+  std::vector<double> dist(n);
+  for (int j = 0; j < n; ++j) {
+    candidates.clear();
+    if (spec.kind == NeighborhoodKind::kRings) {
+      DSNAKE_ASSERT(tmpl.connectivity.num_vertices() == n, "ring neighbourhoods need the template connectivity");
+      candidates = ring_neighbors(tmpl.connectivity, j, spec.rings, mark, j);
+    } else {
+      for (int i = 0; i < n; ++i) {
+        dist[i] = (p[i] - p[j]).squaredNorm();
+        if (i != j) candidates.push_back(i);
+      }
+      if (spec.kind == NeighborhoodKind::kNearest && spec.k < int(candidates.size())) {
+        // ties broken by id, so the result does not depend on the sort's implementation
+        std::partial_sort(candidates.begin(), candidates.begin() + spec.k, candidates.end(),
+                          [&](int a, int b) { return dist[a] < dist[b] || (dist[a] == dist[b] && a < b); });
+        candidates.resize(spec.k);
+      }
+      std::sort(candidates.begin(), candidates.end());
+    }
+    const size_t start = nb.index.size();
+    double total = 0.0;
+    for (int i : candidates) {
+      const double d = (p[i] - p[j]).norm();
+      if (d <= coincident) continue;  // infinite weight: left out (degenerate fallback)
+      const double w = spec.uniform ? 1.0 : std::pow(d, -2.0 * spec.falloff);
+      nb.index.push_back(i);
+      nb.weight.push_back(w);
+      total += w;
+    }
+    for (size_t k = start; k < nb.weight.size(); ++k) nb.weight[k] /= total;
+    nb.offsets.push_back(int(nb.index.size()));
+  }
+  return nb;
+}
+
+// 2D: M = [[s, -t], [t, s]] / spread with s = sum w a.b, t = sum w a x b: a similarity for any
+// data, never a reflection (Schaefer et al. 2006, eq. for similarity deformations).
+template <>
+Eigen::Matrix2d best_similarity<2>(const Eigen::Matrix2d& cross, double spread) {
+  if (!(spread > 1e-300)) return Eigen::Matrix2d::Zero();
+  const double s = cross.trace(), t = cross(1, 0) - cross(0, 1);
+  Eigen::Matrix2d m;
+  m << s, -t, t, s;
+  return m / spread;
+}
+
+namespace {
+
+// The proper rotation R maximising trace(R^T cross) and t = trace(R^T cross) (Umeyama's sign
+// fix: R = U diag(1, 1, d) V^T). Fast path: V from the closed-form eigen-decomposition of
+// cross^T cross, u_k = cross v_k / s_k (k = 1, 2), and the third columns u1 x u2, v1 x v2, which
+// makes both frames right-handed, so R = U V^T is a rotation and the sign fix is automatic. Rank < 2
+// (collinear or coincident data, s2 <= 1e-6 s1) falls back to Eigen's JacobiSVD.
+Eigen::Matrix3d rotation_3d(const Eigen::Matrix3d& cross, double& t) {
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+  eig.computeDirect(cross.transpose() * cross);  // eigenvalues ascending
+  const Eigen::Vector3d lambda = eig.eigenvalues();
+  const double s1 = std::sqrt(std::max(lambda[2], 0.0)), s2 = std::sqrt(std::max(lambda[1], 0.0));
+  if (s1 > 0 && s2 > 1e-6 * s1 && eig.info() == Eigen::Success) {
+    const Eigen::Vector3d v1 = eig.eigenvectors().col(2), v2 = eig.eigenvectors().col(1);
+    const Eigen::Vector3d u1 = (cross * v1).normalized();
+    Eigen::Vector3d u2 = cross * v2;
+    u2 = (u2 - u2.dot(u1) * u1).normalized();
+    const Eigen::Vector3d u3 = u1.cross(u2), v3 = v1.cross(v2);
+    const Eigen::Matrix3d r = u1 * v1.transpose() + u2 * v2.transpose() + u3 * v3.transpose();
+    t = (r.transpose() * cross).trace();
+    if (r.allFinite()) return r;
+  }
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::Matrix3d& u = svd.matrixU();
+  const Eigen::Matrix3d& v = svd.matrixV();
+  const double d = (u * v.transpose()).determinant() < 0 ? -1.0 : 1.0;
+  const Eigen::Vector3d s = svd.singularValues();
+  t = s[0] + s[1] + d * s[2];
+  return u.col(0) * v.col(0).transpose() + u.col(1) * v.col(1).transpose() + d * u.col(2) * v.col(2).transpose();
+}
+
+}  // namespace
+
+// 3D (Appendix): M = mu R with R the proper rotation maximising trace(R^T cross) and
+// mu = trace(R^T cross) / spread >= 0 (cross = U S V^T: mu = (s1 + s2 + d s3) / spread).
+template <>
+Eigen::Matrix3d best_similarity<3>(const Eigen::Matrix3d& cross, double spread) {
+  if (!(spread > 1e-300)) return Eigen::Matrix3d::Zero();
+  double t = 0.0;
+  const Eigen::Matrix3d r = rotation_3d(cross, t);
+  return std::max(0.0, t / spread) * r;
+}
+
+template <>
+Eigen::Matrix2d best_rotation<2>(const Eigen::Matrix2d& cross) {
+  const double s = cross.trace(), t = cross(1, 0) - cross(0, 1), r = std::hypot(s, t);
+  if (!(r > 1e-300)) return Eigen::Matrix2d::Identity();
+  Eigen::Matrix2d m;
+  m << s, -t, t, s;
+  return m / r;
+}
+
+template <>
+Eigen::Matrix3d best_rotation<3>(const Eigen::Matrix3d& cross) {
+  if (!(cross.cwiseAbs().maxCoeff() > 1e-300)) return Eigen::Matrix3d::Identity();
+  double t = 0.0;
+  return rotation_3d(cross, t);
+}
+
+template MlsNeighborhoods build_neighborhoods<2>(const Template<2>&, const NeighborhoodSpec&);
+template MlsNeighborhoods build_neighborhoods<3>(const Template<3>&, const NeighborhoodSpec&);
+
+}  // namespace dsnake

@@ -1,0 +1,121 @@
+#include "remesh/delaunay.h"
+
+#include "remesh/mesh_edit.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <utility>
+#include <vector>
+
+namespace dsnake {
+
+namespace {
+
+using remesh_detail::EditMesh;
+using remesh_detail::FlipResult;
+
+// Every undirected edge once, in a fixed order (determinism).
+std::vector<std::pair<int, int>> all_edges(const EditMesh& m) {
+  std::vector<std::pair<int, int>> edges;
+  for (int f = 0; f < m.num_triangle_slots(); ++f) {
+    if (!m.tri_alive(f)) continue;
+    const auto& t = m.tri(f);
+    for (int k = 0; k < 3; ++k)
+      if (t[k] < t[(k + 1) % 3]) edges.emplace_back(t[k], t[(k + 1) % 3]);
+  }
+  return edges;
+}
+
+// Intrinsic Delaunay criterion: the angles opposite edge a-b, measured in its two triangles,
+// sum to more than pi (the empty-circumcircle test on the unfolded pair).
+bool is_delaunay_violation(const EditMesh& m, int a, int b) {
+  const int f1 = m.face_with_edge(a, b), f2 = m.face_with_edge(b, a);
+  if (f1 < 0 || f2 < 0) return false;
+  const int c = m.opposite(f1, a, b), d = m.opposite(f2, b, a);
+  const double sum = remesh_detail::angle_at(m.pos(c), m.pos(a), m.pos(b)) +
+                     remesh_detail::angle_at(m.pos(d), m.pos(a), m.pos(b));
+  return sum > std::numbers::pi + 1e-9;
+}
+
+// Edge flips until every edge is locally Delaunay (or every remaining violation is rejected).
+// A flipped edge's four outer edges are queued again. Returns the number of rejected flips.
+int delaunay_by_flips(EditMesh& m, double cos_max_dihedral) {
+  auto stack = all_edges(m);
+  std::reverse(stack.begin(), stack.end());
+  int rejected = 0;
+  int64_t budget = 20 * static_cast<int64_t>(stack.size()) + 100;
+  while (!stack.empty() && budget-- > 0) {
+    const auto [a, b] = stack.back();
+    stack.pop_back();
+    if (!is_delaunay_violation(m, a, b)) continue;
+    const int c = m.opposite(m.face_with_edge(a, b), a, b), d = m.opposite(m.face_with_edge(b, a), b, a);
+    const FlipResult r = remesh_detail::try_flip(m, a, b, cos_max_dihedral);
+    if (r == FlipResult::kRejected) ++rejected;
+    if (r != FlipResult::kFlipped) continue;
+    stack.emplace_back(a, d);
+    stack.emplace_back(d, b);
+    stack.emplace_back(b, c);
+    stack.emplace_back(c, a);
+  }
+  return rejected;
+}
+
+// Valence-driven flips (a regularity step in the spirit of §5.2): flip a-b to c-d when that
+// lowers sum (valence - 6)^2 over a, b, c, d and the smaller minimum angle of the two
+// triangles stays above the floor (or does not drop). Sweeps until nothing changes (max 5).
+int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_rad) {
+  int rejected = 0;
+  for (int sweep = 0; sweep < 5; ++sweep) {
+    int flips = 0;
+    for (const auto& [a, b] : all_edges(m)) {
+      const int f1 = m.face_with_edge(a, b), f2 = m.face_with_edge(b, a);
+      if (f1 < 0 || f2 < 0) continue;
+      const int c = m.opposite(f1, a, b), d = m.opposite(f2, b, a);
+      auto dev = [](int v) { return (v - 6) * (v - 6); };
+      const int va = m.valence(a), vb = m.valence(b), vc = m.valence(c), vd = m.valence(d);
+      const int before = dev(va) + dev(vb) + dev(vc) + dev(vd);
+      const int after = dev(va - 1) + dev(vb - 1) + dev(vc + 1) + dev(vd + 1);
+      if (after >= before) continue;
+      using remesh_detail::min_angle;
+      const double old_min = std::min(min_angle(m.pos(a), m.pos(b), m.pos(c)), min_angle(m.pos(b), m.pos(a), m.pos(d)));
+      const double new_min = std::min(min_angle(m.pos(a), m.pos(d), m.pos(c)), min_angle(m.pos(d), m.pos(b), m.pos(c)));
+      if (new_min < std::min(old_min, min_angle_rad)) continue;
+      const FlipResult r = remesh_detail::try_flip(m, a, b, cos_max_dihedral);
+      if (r == FlipResult::kRejected) ++rejected;
+      if (r == FlipResult::kFlipped) ++flips;
+    }
+    if (flips == 0) break;
+  }
+  return rejected;
+}
+
+}  // namespace
+
+RemeshReport DelaunayRemesher::apply(Snake<3>& snake, const RemeshContext<3>&) {
+  RemeshReport report{"delaunay", snake.num_vertices(), snake.num_vertices(), 0};
+  EditMesh m(snake);
+  const double cos_dihedral = std::cos(options_.max_dihedral_deg * std::numbers::pi / 180);
+  if (options_.method == "planar") report.rejected_edits += remesh_detail::planar_delaunay(m, cos_dihedral);
+  // The planar pass leaves patch seams as they were; flips finish them (and are the whole job
+  // for the "flips" method).
+  report.rejected_edits += delaunay_by_flips(m, cos_dihedral);
+  if (options_.regularize)
+    report.rejected_edits += regularize_valences(m, cos_dihedral, options_.min_angle_deg * std::numbers::pi / 180);
+  report.vertices_after = m.commit(snake);
+  return report;
+}
+
+std::unique_ptr<Remesher<3>> make_delaunay_remesher(JsonReader& r) {
+  DelaunayOptions o;
+  r.read("method", o.method);
+  r.read("max_dihedral_deg", o.max_dihedral_deg);
+  r.read("regularize", o.regularize);
+  r.read("min_angle_deg", o.min_angle_deg);
+  r.expect(o.method == "flips" || o.method == "planar", "method", "must be \"flips\" or \"planar\"");
+  r.expect(o.max_dihedral_deg > 0 && o.max_dihedral_deg < 180, "max_dihedral_deg", "must be in (0, 180)");
+  r.expect(o.min_angle_deg >= 0 && o.min_angle_deg < 60, "min_angle_deg", "must be in [0, 60)");
+  return std::make_unique<DelaunayRemesher>(o);
+}
+
+}  // namespace dsnake

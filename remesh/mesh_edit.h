@@ -1,0 +1,102 @@
+// Internal to remesh/ (not part of the public API): an editable triangle mesh for the local
+// edits of §5 (vertex moves, edge flips, 1->3 splits, half-edge collapses) with the checks
+// that keep every edit safe: the mesh stays closed and manifold, and an edit whose new
+// triangles would cross the rest of the surface is rejected (uniform hash grid over triangle
+// boxes, updated as triangles come and go).
+#pragma once
+
+#include "framework/shape.h"
+
+#include <cstdint>
+#include <span>
+#include <unordered_map>
+#include <vector>
+
+namespace dsnake::remesh_detail {
+
+// Unit normal of triangle (a, b, c) (zero if degenerate) and its doubled area.
+Point<3> triangle_normal(const Point<3>& a, const Point<3>& b, const Point<3>& c);
+double triangle_area(const Point<3>& a, const Point<3>& b, const Point<3>& c);
+// Smallest interior angle of a triangle, radians (0 if degenerate).
+double min_angle(const Point<3>& a, const Point<3>& b, const Point<3>& c);
+// Interior angle at vertex a of triangle (a, b, c), radians.
+double angle_at(const Point<3>& a, const Point<3>& b, const Point<3>& c);
+
+class EditMesh {
+ public:
+  // Copies the snake's positions, template ids and triangles; throws InputError (naming the
+  // first bad element) if the snake is not a closed manifold mesh.
+  explicit EditMesh(const Snake<3>& snake);
+
+  int num_vertices() const { return static_cast<int>(pos_.size()); }
+  const Point<3>& pos(int v) const { return pos_[v]; }
+  bool is_free(int v) const { return ids_[v] < 0; }
+  bool vertex_alive(int v) const { return !vtri_[v].empty(); }
+  const Triangle& tri(int f) const { return tri_[f]; }
+  bool tri_alive(int f) const { return alive_[f] != 0; }
+  int num_triangle_slots() const { return static_cast<int>(tri_.size()); }
+  const std::vector<int>& triangles_of(int v) const { return vtri_[v]; }
+  double mean_edge_length() const { return mean_edge_; }
+
+  // Neighbours of v in counter-clockwise order (seen from outside), into `out`.
+  void ring(int v, std::vector<int>& out) const;
+  int valence(int v) const { return static_cast<int>(vtri_[v].size()); }
+  // The triangle holding the directed edge a->b, or -1.
+  int face_with_edge(int a, int b) const;
+  bool has_edge(int a, int b) const { return face_with_edge(a, b) >= 0 || face_with_edge(b, a) >= 0; }
+  // The vertex opposite the directed edge a->b in its triangle.
+  int opposite(int f, int a, int b) const;
+
+  int add_vertex(const Point<3>& p);  // a free vertex (template id -1)
+  void set_pos(int v, const Point<3>& p) { pos_[v] = p; }  // tentative: no grid update
+  // Commits a move of v: updates the boxes of its triangles in the intersection grid.
+  void move_vertex(int v, const Point<3>& p);
+  int add_triangle(const Triangle& t);
+  void remove_triangle(int f);
+
+  // true if the triangle (a, b, c) at the current positions crosses, touches away from shared
+  // vertices, or folds onto (shared edge, opposite sides closing to < ~8 degrees) any live
+  // triangle other than those in `ignore`.
+  bool intersects(const Triangle& t, std::span<const int> ignore) const;
+  // The same for several triangles at once (a fan): one grid walk over their common box.
+  bool intersects_any(std::span<const Triangle> ts, std::span<const int> ignore) const;
+
+  // Writes back into the snake (dropping dead vertices and triangles) if anything changed.
+  // Returns the snake's vertex count.
+  int commit(Snake<3>& snake);
+  bool changed() const { return changed_; }
+
+ private:
+  void grid_insert(int f) const;
+  void build_grid() const;  // on the first intersects() call: stages that never ask pay nothing
+  int64_t cell_key(int x, int y, int z) const;
+
+  std::vector<Point<3>> pos_;
+  std::vector<int> ids_;
+  std::vector<Triangle> tri_;
+  std::vector<uint8_t> alive_;
+  std::vector<std::vector<int>> vtri_;  // live triangles per vertex
+  double mean_edge_ = 1;
+  double cell_ = 1;
+  Point<3> origin_ = Point<3>::Zero();
+  mutable std::unordered_map<int64_t, std::vector<int>> grid_;  // cell -> triangles (dead ones skipped)
+  mutable bool grid_built_ = false;
+  mutable std::vector<Point<3>> box_lo_, box_hi_;  // per triangle in the grid: its bounding box
+  mutable std::vector<uint32_t> stamp_;  // per triangle: the query that last tested it
+  mutable uint32_t query_ = 0;
+  bool changed_ = false;            // anything to write back
+  bool connectivity_changed_ = false;  // triangles added or removed (else positions only)
+};
+
+// Flips edge a-b to the other diagonal c-d of its two triangles (a, b, c) and (b, a, d).
+// kTopology: not flippable (c-d already an edge, or a or b has valence 3); kRejected: the
+// bend across a-b or c-d exceeds the limit, a new triangle is degenerate, or one would cross
+// the surface. Used by the "delaunay" stage (both of its methods).
+enum class FlipResult { kFlipped, kTopology, kRejected };
+FlipResult try_flip(EditMesh& m, int a, int b, double cos_max_dihedral);
+
+// The "planar" method of §5.2 (delaunay_planar.cpp): disc patches, mean-value parameterisation,
+// planar Delaunay, adopted patch by patch. Returns the number of patches left as they were.
+int planar_delaunay(EditMesh& m, double cos_max_dihedral);
+
+}  // namespace dsnake::remesh_detail

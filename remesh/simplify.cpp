@@ -1,0 +1,153 @@
+#include "remesh/simplify.h"
+
+#include "framework/image.h"
+#include "remesh/mesh_edit.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <tuple>
+#include <vector>
+
+namespace dsnake {
+
+namespace {
+
+using remesh_detail::EditMesh;
+
+// Distance from point p to triangle (a, b, c) (closest point by region, Ericson's method).
+double point_triangle_distance(const Point<3>& p, const Point<3>& a, const Point<3>& b, const Point<3>& c) {
+  const Point<3> ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return ap.norm();
+  const Point<3> bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return bp.norm();
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (p - (a + d1 / (d1 - d3) * ab)).norm();
+  const Point<3> cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return cp.norm();
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (p - (a + d2 / (d2 - d6) * ac)).norm();
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+    return (p - (b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b))).norm();
+  const double den = 1 / (va + vb + vc);
+  return (p - (a + ab * (vb * den) + ac * (vc * den))).norm();
+}
+
+enum class Collapse { kDone, kTopology, kRejected, kCriterion };
+
+// Collapses free vertex a onto its neighbour b. `short_edge`: forced by min_edge (no size or
+// error limit); otherwise the collapse must keep every new edge <= max_edge and the surface
+// within curvature_ratio * |ab| / 8 of a's old position.
+Collapse try_collapse(EditMesh& m, int a, int b, bool short_edge, const SimplifyOptions& o, double max_edge,
+                      double cos_max, std::vector<int>& ring_a, std::vector<int>& ring_b) {
+  const int f1 = m.face_with_edge(a, b), f2 = m.face_with_edge(b, a);
+  if (f1 < 0 || f2 < 0) return Collapse::kTopology;
+  const int c = m.opposite(f1, a, b), d = m.opposite(f2, b, a);
+  // Link condition: a and b share exactly the neighbours c and d.
+  m.ring(a, ring_a);
+  m.ring(b, ring_b);
+  int common = 0;
+  for (int x : ring_a)
+    if (std::find(ring_b.begin(), ring_b.end(), x) != ring_b.end()) ++common;
+  if (common != 2 || c == d) return Collapse::kTopology;
+  const std::vector<int> fan = m.triangles_of(a);
+  std::vector<Triangle> fresh;
+  double error = 0;
+  for (int f : fan) {
+    if (f == f1 || f == f2) continue;
+    Triangle t = m.tri(f);
+    const Point<3> old_n = remesh_detail::triangle_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]));
+    for (int& v : t)
+      if (v == a) v = b;
+    const Point<3> n = remesh_detail::triangle_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]));
+    if (n.squaredNorm() == 0 || n.dot(old_n) < cos_max) return Collapse::kRejected;
+    fresh.push_back(t);
+  }
+
+  if (!short_edge) {
+    double dist = std::numeric_limits<double>::infinity();
+    for (const auto& t : fresh) {
+      dist = std::min(dist, point_triangle_distance(m.pos(a), m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
+      for (int v : t)
+        if (v != b && (m.pos(v) - m.pos(b)).norm() > max_edge) return Collapse::kCriterion;
+    }
+    error = dist;
+    if (error > o.curvature_ratio * (m.pos(a) - m.pos(b)).norm() / 8) return Collapse::kCriterion;
+  }
+  // The collapse may lower the fans' smallest angle only while it stays above 15 degrees.
+  double old_min = 15 * std::numbers::pi / 180;
+  for (int g : {a, b})
+    for (int f : m.triangles_of(g)) {
+      const auto& t = m.tri(f);
+      old_min = std::min(old_min, remesh_detail::min_angle(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
+    }
+  for (const auto& t : fresh)
+    if (remesh_detail::min_angle(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])) < old_min) return Collapse::kRejected;
+  if (fresh.size() > 32) return Collapse::kRejected;  // a vertex of valence > 34: leave it
+  if (m.intersects_any(fresh, fan)) return Collapse::kRejected;
+  for (int f : fan) m.remove_triangle(f);
+  for (const auto& t : fresh) m.add_triangle(t);
+  return Collapse::kDone;
+}
+
+}  // namespace
+
+RemeshReport SimplifyRemesher::apply(Snake<3>& snake, const RemeshContext<3>& context) {
+  RemeshReport report{"simplify", snake.num_vertices(), snake.num_vertices(), 0};
+  const double voxel = context.image ? context.image->spacing().minCoeff() : 1.0;
+  const double min_edge = options_.min_edge > 0 ? options_.min_edge : voxel;
+  const double max_edge = options_.max_edge > 0 ? options_.max_edge : 2 * min_edge;
+  const double cos_max = std::cos(options_.max_normal_change_deg * std::numbers::pi / 180);
+  EditMesh m(snake);
+  std::vector<int> ring_a, ring_b;
+  // Candidates: each free vertex with its shortest edge, shortest first (ties by index).
+  for (int pass = 0; pass < 3; ++pass) {
+    std::vector<std::tuple<double, int, int>> cand;
+    for (int a = 0; a < m.num_vertices(); ++a) {
+      if (!m.is_free(a) || !m.vertex_alive(a)) continue;
+      m.ring(a, ring_a);
+      int best = -1;
+      double best_len = std::numeric_limits<double>::infinity();
+      for (int b : ring_a) {
+        const double len = (m.pos(a) - m.pos(b)).norm();
+        if (len < best_len) { best_len = len; best = b; }
+      }
+      if (best >= 0 && (best_len < min_edge || (options_.curvature_ratio > 0 && best_len < max_edge)))
+        cand.emplace_back(best_len, a, best);
+    }
+    std::sort(cand.begin(), cand.end());
+    int done = 0;
+    for (const auto& [len, a, b] : cand) {
+      if (!m.vertex_alive(a) || !m.vertex_alive(b) || !m.has_edge(a, b)) continue;
+      const double now = (m.pos(a) - m.pos(b)).norm();
+      const Collapse r = try_collapse(m, a, b, now < min_edge, options_, max_edge, cos_max, ring_a, ring_b);
+      if (r == Collapse::kDone) ++done;
+      if (r == Collapse::kRejected) ++report.rejected_edits;
+    }
+    if (done == 0) break;
+  }
+  report.vertices_after = m.commit(snake);
+  return report;
+}
+
+std::unique_ptr<Remesher<3>> make_simplify_remesher(JsonReader& r) {
+  SimplifyOptions o;
+  r.read("min_edge", o.min_edge);
+  r.read("max_edge", o.max_edge);
+  r.read("curvature_ratio", o.curvature_ratio);
+  r.read("max_normal_change_deg", o.max_normal_change_deg);
+  r.expect(o.min_edge >= 0, "min_edge", "must be >= 0 (0: one voxel edge)");
+  r.expect(o.max_edge >= 0, "max_edge", "must be >= 0 (0: 2 * min_edge)");
+  r.expect(o.max_edge == 0 || o.min_edge == 0 || o.min_edge < o.max_edge, "min_edge", "must be < max_edge");
+  r.expect(o.curvature_ratio >= 0 && o.curvature_ratio <= 1, "curvature_ratio", "must be in [0, 1]");
+  r.expect(o.max_normal_change_deg > 0 && o.max_normal_change_deg <= 180, "max_normal_change_deg",
+           "must be in (0, 180]");
+  return std::make_unique<SimplifyRemesher>(o);
+}
+
+}  // namespace dsnake

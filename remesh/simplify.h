@@ -1,0 +1,41 @@
+// §5.4 simplification: half-edge collapses of free vertices onto a neighbour, for
+//  - every edge shorter than min_edge (one voxel edge by default: the image's smallest
+//    spacing, 1 without an image), and
+//  - triangles that are small relative to their curvature [Hoppe et al. 1993]: a free vertex
+//    whose removal moves the surface by less than curvature_ratio * l / 8 (l: the collapsed
+//    edge's length; for a sphere of radius R the sagitta of a chord l is l^2 / 8R, so this
+//    collapses edges shorter than curvature_ratio * R), as long as no new edge exceeds max_edge.
+// A deformation vertex is never removed (an edge between two of them stays, even if short).
+// A collapse that breaks the link condition (would make the mesh non-manifold), turns a
+// triangle beyond max_normal_change_deg, pushes the smallest angle around a and b below
+// min(its old value, 15 degrees), or makes the fan cross the surface is rejected (so a short
+// edge can survive when collapsing it would do more harm).
+#pragma once
+
+#include "framework/json_reader.h"
+#include "framework/remesher.h"
+
+#include <memory>
+
+namespace dsnake {
+
+struct SimplifyOptions {
+  double min_edge = 0;                // physical units; 0: one voxel edge (image spacing, min)
+  double max_edge = 0;                // longest edge a curvature collapse may create; 0: 2 * min_edge
+  double curvature_ratio = 0.1;       // 0 disables the curvature collapses
+  double max_normal_change_deg = 45;  // largest turn of a fan triangle's normal per collapse
+};
+
+class SimplifyRemesher : public Remesher<3> {
+ public:
+  explicit SimplifyRemesher(SimplifyOptions options) : options_(options) {}
+  std::string type() const override { return "simplify"; }
+  RemeshReport apply(Snake<3>& snake, const RemeshContext<3>& context) override;
+
+ private:
+  SimplifyOptions options_;
+};
+
+std::unique_ptr<Remesher<3>> make_simplify_remesher(JsonReader& reader);
+
+}  // namespace dsnake

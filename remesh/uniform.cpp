@@ -1,0 +1,142 @@
+#include "remesh/uniform.h"
+
+#include "remesh/mesh_edit.h"
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <numbers>
+#include <optional>
+#include <vector>
+
+namespace dsnake {
+
+namespace {
+
+using remesh_detail::EditMesh;
+
+// A move may lower the smallest angle of its fan only while it stays above 15 degrees (so that
+// relaxation never creates slivers on strongly curved parts, where the surface map distorts).
+constexpr double kMinAngleFloor = 15 * std::numbers::pi / 180;
+
+// §5.1 for one vertex v with ordered ring r: the ring goes to the unit circle at angles
+// proportional to arc length, v to the mean-value combination of the ring's images
+// [Floater 2003], and the circle's centre is located in the image fan (v', r_i', r_i+1') and
+// mapped back to (v, r_i, r_i+1) with the same barycentric coordinates.
+std::optional<Point<3>> relaxed_position(const EditMesh& m, int v, const std::vector<int>& r) {
+  const int k = static_cast<int>(r.size());
+  if (k < 3) return std::nullopt;
+  const Point<3>& x = m.pos(v);
+  std::vector<double> s(k + 1, 0.0);
+  for (int i = 0; i < k; ++i) s[i + 1] = s[i] + (m.pos(r[(i + 1) % k]) - m.pos(r[i])).norm();
+  if (!(s[k] > 0)) return std::nullopt;
+  std::vector<Eigen::Vector2d> u(k);
+  for (int i = 0; i < k; ++i) {
+    const double th = 2 * std::numbers::pi * s[i] / s[k];
+    u[i] = {std::cos(th), std::sin(th)};
+  }
+  // Mean-value weights: w_i = (tan(a_{i-1}/2) + tan(a_i/2)) / |r_i - v|, a_i = angle(r_i, v, r_i+1).
+  std::vector<double> alpha(k), len(k);
+  for (int i = 0; i < k; ++i) {
+    len[i] = (m.pos(r[i]) - x).norm();
+    if (!(len[i] > 0)) return std::nullopt;
+    alpha[i] = remesh_detail::angle_at(x, m.pos(r[i]), m.pos(r[(i + 1) % k]));
+  }
+  Eigen::Vector2d uv = Eigen::Vector2d::Zero();
+  double wsum = 0;
+  for (int i = 0; i < k; ++i) {
+    const double w = (std::tan(alpha[(i + k - 1) % k] / 2) + std::tan(alpha[i] / 2)) / len[i];
+    uv += w * u[i];
+    wsum += w;
+  }
+  if (!(wsum > 0)) return std::nullopt;
+  uv /= wsum;
+  // Locate the centre (0, 0) in the fan of image triangles (uv, u_i, u_i+1).
+  for (int i = 0; i < k; ++i) {
+    const Eigen::Vector2d& a = uv;
+    const Eigen::Vector2d& b = u[i];
+    const Eigen::Vector2d& c = u[(i + 1) % k];
+    const double det = (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
+    if (std::abs(det) < 1e-14) continue;
+    const Eigen::Vector2d p = -a;
+    const double lb = (p.x() * (c - a).y() - p.y() * (c - a).x()) / det;
+    const double lc = ((b - a).x() * p.y() - (b - a).y() * p.x()) / det;
+    const double la = 1 - lb - lc;
+    constexpr double kEps = -1e-12;
+    if (la >= kEps && lb >= kEps && lc >= kEps) return la * x + lb * m.pos(r[i]) + lc * m.pos(r[(i + 1) % k]);
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+RemeshReport UniformRemesher::apply(Snake<3>& snake, const RemeshContext<3>&) {
+  RemeshReport report{"uniform", snake.num_vertices(), snake.num_vertices(), 0};
+  EditMesh m(snake);
+  const int n = m.num_vertices();
+  const double cos_max = std::cos(options_.max_normal_change_deg * std::numbers::pi / 180);
+  std::vector<std::optional<Point<3>>> proposal(n);
+  std::vector<Triangle> fan_tris;
+  for (int sweep = 0; sweep < options_.iterations; ++sweep) {
+    // Proposals from the positions at the start of the sweep (thread-count independent).
+#pragma omp parallel
+    {
+      std::vector<int> ring;
+#pragma omp for schedule(static)
+      for (int v = 0; v < n; ++v) {
+        proposal[v].reset();
+        if (!m.is_free(v) || !m.vertex_alive(v)) continue;
+        m.ring(v, ring);
+        proposal[v] = relaxed_position(m, v, ring);
+      }
+    }
+    // Serial commit in vertex order, each move checked against the current mesh.
+    for (int v = 0; v < n; ++v) {
+      if (!proposal[v]) continue;
+      const Point<3> old = m.pos(v);
+      // Moves below 1% of the mean edge are not worth their checks (the relaxation has converged).
+      if ((*proposal[v] - old).squaredNorm() < 1e-4 * m.mean_edge_length() * m.mean_edge_length()) continue;
+      const std::vector<int> fan = m.triangles_of(v);
+      if (fan.size() > 32) continue;  // valence > 32: beyond the batched check, left alone
+      std::vector<Point<3>> old_normals;
+      double old_min = kMinAngleFloor;
+      for (int f : fan) {
+        const auto& t = m.tri(f);
+        old_normals.push_back(remesh_detail::triangle_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
+        old_min = std::min(old_min, remesh_detail::min_angle(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
+      }
+      m.set_pos(v, *proposal[v]);
+      bool ok = true;
+      for (size_t i = 0; i < fan.size() && ok; ++i) {
+        const auto& t = m.tri(fan[i]);
+        const Point<3> nn = remesh_detail::triangle_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]));
+        ok = nn.squaredNorm() > 0 && nn.dot(old_normals[i]) >= cos_max &&
+             remesh_detail::min_angle(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])) >= old_min;
+      }
+      if (ok) {
+        fan_tris.clear();
+        for (int f : fan) fan_tris.push_back(m.tri(f));
+        ok = !m.intersects_any(fan_tris, fan);
+      }
+      if (!ok) {
+        m.set_pos(v, old);
+        ++report.rejected_edits;
+        continue;
+      }
+      m.move_vertex(v, *proposal[v]);  // the intersection grid sees the new boxes
+    }
+  }
+  report.vertices_after = m.commit(snake);
+  return report;
+}
+
+std::unique_ptr<Remesher<3>> make_uniform_remesher(JsonReader& r) {
+  UniformOptions o;
+  r.read("iterations", o.iterations);
+  r.read("max_normal_change_deg", o.max_normal_change_deg);
+  r.expect(o.iterations >= 1, "iterations", "must be >= 1");
+  r.expect(o.max_normal_change_deg > 0 && o.max_normal_change_deg <= 180, "max_normal_change_deg",
+           "must be in (0, 180]");
+  return std::make_unique<UniformRemesher>(o);
+}
+
+}  // namespace dsnake

@@ -1,0 +1,35 @@
+// §5.1 uniform distribution: each free vertex's one-ring is parameterised to a convex polygon
+// on the unit circle by arc length (the vertex itself by its mean-value coordinates), the
+// vertex is moved to the circle's centre, and that point is mapped back to the surface
+// through the parameterised triangles. The vertex therefore stays on the current surface and
+// cannot fold its fan over. Deformation vertices never move. Proposals are computed from the
+// old positions (in parallel), then committed one by one in vertex order, each checked: a move
+// that would turn a triangle's normal beyond max_normal_change_deg, push the fan's smallest
+// angle below min(its old value, 15 degrees), or make the fan cross the surface is rejected.
+#pragma once
+
+#include "framework/json_reader.h"
+#include "framework/remesher.h"
+
+#include <memory>
+
+namespace dsnake {
+
+struct UniformOptions {
+  int iterations = 1;                 // relaxation sweeps per application
+  double max_normal_change_deg = 45;  // largest turn of a fan triangle's normal per move
+};
+
+class UniformRemesher : public Remesher<3> {
+ public:
+  explicit UniformRemesher(UniformOptions options) : options_(options) {}
+  std::string type() const override { return "uniform"; }
+  RemeshReport apply(Snake<3>& snake, const RemeshContext<3>& context) override;
+
+ private:
+  UniformOptions options_;
+};
+
+std::unique_ptr<Remesher<3>> make_uniform_remesher(JsonReader& reader);
+
+}  // namespace dsnake
