@@ -1,9 +1,13 @@
-// The dsnake command line: run or validate an experiment file (or a built-in experiment).
-//   dsnake run [CONFIG.json | builtin:NAME] [--out DIR] [--set key.path=value ...] [--threads N] [--quiet]
+// The dsnake command line: run or validate an experiment file (or a built-in experiment), or
+// compute one external field.
+//   dsnake run [CONFIG.json | builtin:NAME] [--out DIR] [--set key.path=value ...]
+//              [--field-cache DIR] [--threads N] [--quiet]
 //   dsnake validate CONFIG.json [--set ...]
+//   dsnake field --image X --type gvf [--param key=value ...] [--field-cache DIR] --out field.mha
 // Exit codes: 0 done, 2 bad input (one line on stderr naming the file and the JSON path or
 // element), 1 anything else.
 #include "experiments/experiment.h"
+#include "experiments/field_command.h"
 #include "experiments/runner.h"
 #include "framework/errors.h"
 
@@ -21,8 +25,12 @@ ExperimentFile load(const std::string& config, const std::vector<std::string>& o
   return load_experiment_file(config, overrides);
 }
 
-int run(const std::string& config, const std::vector<std::string>& overrides, const RunOptions& options) {
-  const ExperimentFile file = load(config, overrides);
+int run(const std::string& config, const std::vector<std::string>& overrides, const std::string& field_cache,
+        const RunOptions& options) {
+  ExperimentFile file = load(config, overrides);
+  // --field-cache DIR is the field's "cache" key, for every run of a sweep alike.
+  if (!field_cache.empty() && file.document.contains("field") && file.document["field"].is_object())
+    file.document["field"]["cache"] = field_cache;
   if (file.dimension == 2) {
     auto ex = build_experiment<2>(file);
     run_experiment(ex, options);
@@ -63,6 +71,8 @@ int main(int argc, char** argv) {
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   run_cmd->add_option("--threads,-j", threads, "OpenMP threads (default: all cores)")->check(CLI::Range(1, 1024));
   run_cmd->add_flag("--quiet,-q", options.quiet, "No progress lines on stderr");
+  std::string field_cache;
+  run_cmd->add_option("--field-cache", field_cache, "Store and reuse computed fields in this folder");
 
   std::string validate_config;
   std::vector<std::string> validate_overrides;
@@ -72,6 +82,21 @@ int main(int argc, char** argv) {
       ->expected(1)
       ->allow_extra_args(false)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+
+  FieldCommandOptions field_options;
+  auto* field_cmd =
+      app.add_subcommand("field", "Compute one external field from an image and write it (2D: also a PNG)");
+  field_cmd->add_option("--image", field_options.image, "Image or volume file")->required();
+  field_cmd->add_option("--type", field_options.type, "gradient, gvf, ddgvf, vfc or distance (default gvf)");
+  field_cmd->add_option("--param", field_options.params, "A field option key=value (repeatable), e.g. --param mu=0.1")
+      ->expected(1)
+      ->allow_extra_args(false)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  field_cmd->add_option("--field-cache", field_options.cache, "Field cache folder");
+  field_cmd->add_option("--out,-o", field_options.out, "Output vector image (.mha, .mhd, .nii, .nii.gz)")->required();
+  field_cmd->add_option("--png", field_options.png, "2D figure (default: --out with .png)");
+  field_cmd->add_flag("--no-png", field_options.no_png, "No 2D figure");
+  field_cmd->add_option("--threads,-j", threads, "OpenMP threads (default: all cores)")->check(CLI::Range(1, 1024));
 
   try {
     app.parse(argc, argv);
@@ -88,7 +113,8 @@ int main(int argc, char** argv) {
 
   try {
     if (threads > 0) omp_set_num_threads(threads);
-    if (*run_cmd) return run(config, overrides, options);
+    if (*run_cmd) return run(config, overrides, field_cache, options);
+    if (*field_cmd) return run_field_command(field_options);
     return validate(validate_config, validate_overrides);
   } catch (const InputError& e) {
     std::fprintf(stderr, "dsnake: error: %s\n", e.what());

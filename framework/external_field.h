@@ -30,6 +30,13 @@ class ExternalField {
 
   // The sampled vectors on the image grid (for figures and `dsnake field`).
   virtual const VectorField<D>& vectors() const = 0;
+
+  // Field cache support (fields/field_cache.h): the computed state as bytes, and back, so that
+  // a second compute() on the same image and parameters loads instead of computing. A field
+  // that cannot be cached returns "" (it is then computed every time).
+  virtual std::string save_state() const { return {}; }
+  // Restores a state written by save_state() for an image on `grid`; false if it does not fit.
+  virtual bool load_state(const Grid<D>& grid, const std::string& bytes) { return false; }
 };
 
 }  // namespace dsnake

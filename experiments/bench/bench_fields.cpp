@@ -1,0 +1,155 @@
+// External fields on the paper's volume size (230 x 300 x 80 voxels, a smooth ellipsoid) and
+// a 512^2 disk, edge map blurred with sigma = 1: explicit GVF (100 iterations, mu = 0.2),
+// converged multigrid GVF (relative residual 1e-4), converged DDGVF, VFC (R = 32) and the
+// distance field; the second argument of each benchmark is the thread count.
+// Run: build/release/experiments/bench/bench_fields --benchmark_repetitions=5
+//        --benchmark_report_aggregates_only=true
+#include "fields/ddgvf.h"
+#include "fields/distance.h"
+#include "fields/edge_map.h"
+#include "fields/gvf.h"
+#include "fields/gvf_solver.h"
+#include "fields/vfc.h"
+
+#include <benchmark/benchmark.h>
+#include <cmath>
+#include <omp.h>
+
+namespace dsnake {
+namespace {
+
+// An ellipsoid (semi-axes 80, 110, 28 voxels; 85 inside, 170 outside, logistic edge of 1.5
+// voxels) in 230 x 300 x 80, or a disk of radius 150 in 512^2.
+template <int D>
+const Image<D>& object_image() {
+  static const Image<D> image = [] {
+    Grid<D> g;
+    Point<D> semi;
+    if constexpr (D == 3) {
+      g.size = GridIndex<3>(230, 300, 80);
+      semi = Point<3>(80, 110, 28);
+    } else {
+      g.size = GridIndex<2>(512, 512);
+      semi = Point<2>(150, 150);
+    }
+    Image<D> img(g);
+    const Point<D> c = (g.size.template cast<double>() - Point<D>::Ones()) / 2;
+#pragma omp parallel for schedule(static)
+    for (int64_t l = 0; l < g.num_voxels(); ++l) {
+      const Point<D> x = g.to_physical(g.index(l)) - c;
+      const double r = x.cwiseQuotient(semi).norm();  // 1 on the surface
+      const double d = (r - 1.0) * semi.minCoeff();    // ~ signed distance near the surface
+      img[l] = static_cast<float>(85.0 + 85.0 / (1.0 + std::exp(-d / 1.5)));
+    }
+    return img;
+  }();
+  return image;
+}
+
+// The GVF system of the object's edge map (b = |grad f|^2, c = grad f), built once.
+template <int D>
+struct GvfSystem {
+  EdgeMap<D> edges;
+  std::vector<float> b;
+  GvfSystem() : edges(compute_edge_map(object_image<D>(), EdgeMapOptions{}, false, "gvf")) {
+    b.assign(edges.f.size(), 0.f);
+    for (size_t l = 0; l < b.size(); ++l)
+      for (int a = 0; a < D; ++a) b[l] += edges.grad_f[a][l] * edges.grad_f[a][l];
+  }
+};
+template <int D>
+const GvfSystem<D>& gvf_system() {
+  static const GvfSystem<D> system;
+  return system;
+}
+
+// Solves the GVF system from v = grad f with the given solver options (the edge map excluded).
+template <int D>
+void run_solver(benchmark::State& state, const GvfSolveOptions& o) {
+  omp_set_num_threads(static_cast<int>(state.range(0)));
+  const GvfSystem<D>& s = gvf_system<D>();
+  std::array<std::vector<float>, D> v;
+  std::vector<const std::vector<float>*> c;
+  std::vector<std::vector<float>*> out;
+  for (int a = 0; a < D; ++a) c.push_back(&s.edges.grad_f[a]), out.push_back(&v[a]);
+  GvfSolveStats stats;
+  for (auto _ : state) {
+    for (int a = 0; a < D; ++a) v[a] = s.edges.grad_f[a];
+    stats = solve_gvf(s.edges.grid, s.b, c, out, o);
+  }
+  state.counters["iterations"] = stats.iterations;
+  state.counters["rel_residual"] = stats.relative_residual;
+}
+
+void BM_GvfExplicit100_3d(benchmark::State& state) {
+  GvfSolveOptions o;
+  o.solver = "explicit", o.mu = 0.2, o.iterations = 100, o.tolerance = 0;
+  run_solver<3>(state, o);
+}
+BENCHMARK(BM_GvfExplicit100_3d)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_GvfExplicit100_2d(benchmark::State& state) {
+  GvfSolveOptions o;
+  o.solver = "explicit", o.mu = 0.2, o.iterations = 100, o.tolerance = 0;
+  run_solver<2>(state, o);
+}
+BENCHMARK(BM_GvfExplicit100_2d)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_GvfMultigridConverged3d(benchmark::State& state) {
+  GvfSolveOptions o;
+  o.solver = "multigrid", o.mu = 0.2, o.tolerance = 1e-4;
+  run_solver<3>(state, o);
+}
+BENCHMARK(BM_GvfMultigridConverged3d)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_GvfMultigridConverged2d(benchmark::State& state) {
+  GvfSolveOptions o;
+  o.solver = "multigrid", o.mu = 0.2, o.tolerance = 1e-4;
+  run_solver<2>(state, o);
+}
+BENCHMARK(BM_GvfMultigridConverged2d)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_EdgeMap3d(benchmark::State& state) {
+  omp_set_num_threads(static_cast<int>(state.range(0)));
+  for (auto _ : state) benchmark::DoNotOptimize(compute_edge_map(object_image<3>(), EdgeMapOptions{}, false, "gvf"));
+}
+BENCHMARK(BM_EdgeMap3d)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_GvfField3d(benchmark::State& state) {
+  omp_set_num_threads(static_cast<int>(state.range(0)));
+  GvfField<3> field;
+  for (auto _ : state) field.compute(object_image<3>());
+  state.counters["cycles"] = field.stats().iterations;
+}
+BENCHMARK(BM_GvfField3d)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_DdgvfField3d(benchmark::State& state) {
+  omp_set_num_threads(static_cast<int>(state.range(0)));
+  DdgvfField<3> field;
+  for (auto _ : state) field.compute(object_image<3>());
+}
+BENCHMARK(BM_DdgvfField3d)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_VfcField3d(benchmark::State& state) {
+  omp_set_num_threads(static_cast<int>(state.range(0)));
+  VfcFieldOptions o;
+  o.radius = 32;
+  VfcField<3> field(o);
+  for (auto _ : state) field.compute(object_image<3>());
+  state.counters["plan_s"] = field.timings().plan_s;
+  state.counters["kernel_s"] = field.timings().kernel_s;
+  state.counters["convolve_s"] = field.timings().convolve_s;
+}
+BENCHMARK(BM_VfcField3d)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_DistanceField3d(benchmark::State& state) {
+  omp_set_num_threads(static_cast<int>(state.range(0)));
+  DistanceField<3> field;
+  for (auto _ : state) field.compute(object_image<3>());
+}
+BENCHMARK(BM_DistanceField3d)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+}  // namespace dsnake
+
+BENCHMARK_MAIN();

@@ -1,0 +1,113 @@
+// Dynamic directional GVF; see ddgvf.h.
+//
+// How we read Cheng & Foo (2006) and D-Snake §2.1. With the blurred image I_s = G_sigma * I,
+// the edge map f = |grad I_s|^2 and the GVF weight b = |grad f|^2, an edge's normal is the
+// direction of grad I_s there ("the direction of the gradient is the direction of the normal to
+// the edge"). For each axis a and sign s in {+, -}, let
+//     m_{a,s}(x) = 1 if s p dI_s/dx_a (x) > 0, else 0,
+// with p = +1 for "dark_inside" (I grows along the outward normal) and p = -1 for
+// "bright_inside". The directional component u_{a,s} is the scalar GVF of the masked edge force:
+//     mu Lap u_{a,s} - b m_{a,s} (u_{a,s} - m_{a,s} df/dx_a) = 0,
+// i.e. the edges of the other polarity along axis a are invisible to it (no source and no
+// weight: u_{a,s} diffuses through them as through flat image). A vertex with outward normal n
+// feels, along each axis, the component whose polarity agrees with its normal:
+//     F(x, n)_a = u_{a, sign(n_a)}(x),   sign(0) = +.
+// So "a vertex is attracted to edges consistent with its own normal ... blind to edges for
+// which none of their normal components agrees with its own" (§2.1); it still moves in any
+// direction (this is not a balloon force). We solve the 2D scalar problems with the GVF solver
+// (fields/gvf_solver.h), so the solver choice and tolerance are the same as for "gvf".
+#include "fields/ddgvf.h"
+
+#include "fields/field_state.h"
+#include "framework/errors.h"
+
+namespace dsnake {
+
+template <int D>
+DdgvfField<D>::DdgvfField(const DdgvfFieldOptions& options) : options_(options) {
+  DSNAKE_ASSERT(options.solve.mu > 0, "ddgvf options: mu > 0");
+  DSNAKE_ASSERT(options.polarity == "dark_inside" || options.polarity == "bright_inside", "ddgvf polarity");
+}
+
+template <int D>
+void DdgvfField<D>::compute(const Image<D>& image) {
+  const EdgeMap<D> edges = compute_edge_map(image, options_.edge, true, "ddgvf");
+  const Grid<D>& grid = edges.grid;
+  const int64_t n = grid.num_voxels();
+  vectors_ = VectorField<D>(grid);
+  for (auto& axis : components_)
+    for (auto& c : axis) c = Image<D>(grid);
+  if (edges.f_max == 0) return;  // no edges: zero components (warned by compute_edge_map)
+  const float p = options_.polarity == "dark_inside" ? 1.f : -1.f;
+  std::vector<float> b(n), b_masked(n), source(n);
+#pragma omp parallel for schedule(static)
+  for (int64_t l = 0; l < n; ++l) {
+    float s = 0;
+    for (int a = 0; a < D; ++a) s += edges.grad_f[a][l] * edges.grad_f[a][l];
+    b[l] = s;
+  }
+  for (int a = 0; a < D; ++a)
+    for (int sign = 0; sign < 2; ++sign) {
+      const float s = sign == 0 ? p : -p;
+#pragma omp parallel for schedule(static)
+      for (int64_t l = 0; l < n; ++l) {
+        const bool on = s * edges.grad_image[a][l] > 0.f;
+        b_masked[l] = on ? b[l] : 0.f;
+        source[l] = on ? edges.grad_f[a][l] : 0.f;
+      }
+      std::vector<float>& u = components_[a][sign].data();
+      u = source;  // initial guess, as for GVF
+      solve_gvf(grid, b_masked, {&source}, {&u}, options_.solve);
+    }
+#pragma omp parallel for schedule(static)
+  for (int64_t l = 0; l < n; ++l)
+    for (int a = 0; a < D; ++a) vectors_[l][a] = double(components_[a][0][l]) + components_[a][1][l];
+}
+
+template <int D>
+Point<D> DdgvfField<D>::force(const Point<D>& x, const Point<D>& normal) const {
+  DSNAKE_ASSERT(!vectors_.empty(), "compute() before force()");
+  const auto stencil = vectors_.grid().stencil(x);
+  Point<D> f;
+  for (int a = 0; a < D; ++a) {
+    const Image<D>& u = components_[a][normal[a] >= 0 ? 0 : 1];
+    double s = 0;
+    for (size_t k = 0; k < stencil.voxel.size(); ++k) s += stencil.weight[k] * u[stencil.voxel[k]];
+    f[a] = s;
+  }
+  return f;
+}
+
+template <int D>
+std::string DdgvfField<D>::save_state() const {
+  StateWriter w("dsnake-ddgvf-1");
+  w.grid(vectors_.grid());
+  for (const auto& axis : components_)
+    for (const auto& c : axis) w.array(c.data());
+  return std::move(w).bytes();
+}
+
+template <int D>
+bool DdgvfField<D>::load_state(const Grid<D>& grid, const std::string& bytes) {
+  StateReader r(bytes, "dsnake-ddgvf-1");
+  if (!r.grid(grid)) return false;
+  std::array<std::array<Image<D>, 2>, D> comps;
+  for (auto& axis : comps)
+    for (auto& c : axis) {
+      c = Image<D>(grid);
+      std::vector<float> a = r.array<float>();
+      if (a.size() != c.data().size()) return false;
+      c.data() = std::move(a);
+    }
+  if (!r.ok()) return false;
+  components_ = std::move(comps);
+  vectors_ = VectorField<D>(grid);
+  for (int64_t l = 0; l < grid.num_voxels(); ++l)
+    for (int a = 0; a < D; ++a) vectors_[l][a] = double(components_[a][0][l]) + components_[a][1][l];
+  return true;
+}
+
+template class DdgvfField<2>;
+template class DdgvfField<3>;
+
+}  // namespace dsnake

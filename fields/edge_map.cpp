@@ -1,0 +1,72 @@
+// Edge map f = |grad(G_sigma*I)|^2 and its gradient; see edge_map.h (D-Snake §2; Xu & Prince 1998).
+#include "fields/edge_map.h"
+
+#include "framework/errors.h"
+#include "framework/image_filters.h"
+
+#include <algorithm>
+#include <cstdio>
+
+namespace dsnake {
+
+template <int D>
+EdgeMap<D> compute_edge_map(const Image<D>& image, const EdgeMapOptions& options, bool with_image_gradient,
+                            const std::string& field_type) {
+  DSNAKE_ASSERT(options.sigma >= 0, "edge map: sigma >= 0");
+  EdgeMap<D> out;
+  out.grid = image.grid();
+  const Grid<D>& grid = out.grid;
+  const int64_t n = grid.num_voxels();
+  DSNAKE_ASSERT(n > 0, "a non-empty image");
+  std::vector<double> u(image.data().begin(), image.data().end()), f(n);
+  gaussian_blur(grid, u, options.sigma);
+  if (with_image_gradient)
+    for (int a = 0; a < D; ++a) out.grad_image[a].resize(n);
+#pragma omp parallel for schedule(static)
+  for (int64_t l = 0; l < n; ++l) {
+    double sum = 0.0;
+    for (int a = 0; a < D; ++a) {
+      const double g = partial_derivative(grid, u, l, a);
+      sum += g * g;
+      if (with_image_gradient) out.grad_image[a][l] = static_cast<float>(g);
+    }
+    f[l] = sum;
+  }
+  double f_max = 0.0;  // max is exact: the reduction order does not matter
+#pragma omp parallel for reduction(max : f_max) schedule(static)
+  for (int64_t l = 0; l < n; ++l) f_max = std::max(f_max, f[l]);
+  // Rounding noise of a constant image is not an edge (relative to the image's own scale).
+  double i_max = 0.0;
+  for (float v : image.data()) i_max = std::max(i_max, double(std::abs(v)));
+  if (!(f_max > 1e-24 * std::max(1.0, i_max * i_max))) {
+    std::fprintf(stderr, "warning: %s field: the image has no edges (constant after blurring); the field is zero\n",
+                 field_type.c_str());
+    out.f.assign(n, 0.0f);
+    for (int a = 0; a < D; ++a) {
+      out.grad_f[a].assign(n, 0.0f);
+      if (with_image_gradient) out.grad_image[a].assign(n, 0.0f);
+    }
+    out.f_max = 0.0;
+    return out;
+  }
+  if (options.normalize) {
+    const double scale = 1.0 / f_max;
+#pragma omp parallel for schedule(static)
+    for (int64_t l = 0; l < n; ++l) f[l] *= scale;
+    f_max = 1.0;
+  }
+  out.f_max = f_max;
+  out.f.resize(n);
+  for (int a = 0; a < D; ++a) out.grad_f[a].resize(n);
+#pragma omp parallel for schedule(static)
+  for (int64_t l = 0; l < n; ++l) {
+    out.f[l] = static_cast<float>(f[l]);
+    for (int a = 0; a < D; ++a) out.grad_f[a][l] = static_cast<float>(partial_derivative(grid, f, l, a));
+  }
+  return out;
+}
+
+template EdgeMap<2> compute_edge_map(const Image<2>&, const EdgeMapOptions&, bool, const std::string&);
+template EdgeMap<3> compute_edge_map(const Image<3>&, const EdgeMapOptions&, bool, const std::string&);
+
+}  // namespace dsnake

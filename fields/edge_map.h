@@ -1,0 +1,35 @@
+// The edge map shared by the diffused fields (GVF, DDGVF, VFC, distance): f = |grad(G_sigma*I)|^2,
+// optionally normalised to [0, 1], its gradient grad f and (for DDGVF) the gradient of the
+// blurred image. Levi & Gotsman, D-Snake, §2; Xu & Prince 1998. Float arrays, one per
+// component (structure of arrays), laid out on the image grid (x fastest), in physical units.
+#pragma once
+
+#include "framework/image.h"
+
+#include <array>
+#include <string>
+#include <vector>
+
+namespace dsnake {
+
+struct EdgeMapOptions {
+  double sigma = 1.0;     // Gaussian pre-smoothing, standard deviation in physical units, >= 0
+  bool normalize = true;  // scale f to [0, 1] by its maximum
+};
+
+template <int D>
+struct EdgeMap {
+  Grid<D> grid;
+  std::vector<float> f;                          // the edge map, one value per voxel
+  std::array<std::vector<float>, D> grad_f;      // d f / d x_a, 1/mm
+  std::array<std::vector<float>, D> grad_image;  // d (G_sigma*I) / d x_a (only if asked for)
+  double f_max = 0.0;                            // max f after normalisation (0: no edges)
+};
+
+// Builds the edge map of `image`. A constant image (f = 0 everywhere) prints a warning naming
+// `field_type` on stderr; the caller then returns a zero field. Thread-count independent.
+template <int D>
+EdgeMap<D> compute_edge_map(const Image<D>& image, const EdgeMapOptions& options, bool with_image_gradient,
+                            const std::string& field_type);
+
+}  // namespace dsnake

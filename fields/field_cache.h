@@ -1,0 +1,50 @@
+// The field cache: `"cache": "DIR"` in a field's JSON (or `--field-cache DIR` on the command
+// line) stores the computed field in DIR, keyed by a hash of the image (voxels and grid) and
+// of the field's type and parameters, so that a sweep over snake settings computes each field
+// once. CachedField<D> wraps any field that implements save_state()/load_state(): compute()
+// loads DIR/<type>-<key>.field when it exists and fits, and otherwise computes and stores it
+// (atomically: a killed run never leaves a half-written entry). A field that cannot save its
+// state is computed every time. Everything else is forwarded to the wrapped field.
+#pragma once
+
+#include "framework/external_field.h"
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+namespace dsnake {
+
+template <int D>
+class CachedField final : public ExternalField<D> {
+ public:
+  // `parameters`: a canonical text of the field's options (the JSON object without "cache").
+  CachedField(std::unique_ptr<ExternalField<D>> field, std::string dir, std::string parameters);
+
+  std::string type() const override { return field_->type(); }
+  void compute(const Image<D>& image) override;
+  Point<D> force(const Point<D>& x, const Point<D>& normal) const override { return field_->force(x, normal); }
+  bool uses_normal() const override { return field_->uses_normal(); }
+  bool has_potential() const override { return field_->has_potential(); }
+  double potential(const Point<D>& x) const override { return field_->potential(x); }
+  const VectorField<D>& vectors() const override { return field_->vectors(); }
+  std::string save_state() const override { return field_->save_state(); }
+  bool load_state(const Grid<D>& grid, const std::string& bytes) override { return field_->load_state(grid, bytes); }
+
+  // After compute(): whether the field came from the cache, and the entry's path.
+  bool loaded_from_cache() const { return loaded_; }
+  const std::string& entry_path() const { return path_; }
+  const ExternalField<D>& field() const { return *field_; }
+
+ private:
+  std::unique_ptr<ExternalField<D>> field_;
+  std::string dir_, parameters_, path_;
+  bool loaded_ = false;
+};
+
+// The cache key: a 128-bit hash (hex) of the image's voxels and grid, the dimension, the field
+// type and the parameters text.
+template <int D>
+std::string field_cache_key(const Image<D>& image, const std::string& type, const std::string& parameters);
+
+}  // namespace dsnake

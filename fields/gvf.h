@@ -1,0 +1,46 @@
+// Gradient vector flow (Xu & Prince, "Snakes, shapes, and gradient vector flow", 1998), the
+// diffused edge force that D-Snake builds on (Levi & Gotsman, §2): the fixed point v of
+//     mu Lap v - |grad f|^2 (v - grad f) = 0
+// for the edge map f = |grad(G_sigma*I)|^2 (fields/edge_map.h). The linear system and its two
+// solvers (explicit reference, multigrid default) are in fields/gvf_solver.h. Physical units:
+// an anisotropic image gives the field of the same object sampled isotropically.
+#pragma once
+
+#include "fields/edge_map.h"
+#include "fields/gvf_solver.h"
+#include "framework/external_field.h"
+
+#include <string>
+
+namespace dsnake {
+
+struct GvfFieldOptions {
+  EdgeMapOptions edge;    // JSON: "sigma", "normalize"
+  GvfSolveOptions solve;  // JSON: "mu", "solver", "tolerance", "iterations", "time_step"
+};
+
+template <int D>
+class GvfField final : public ExternalField<D> {
+ public:
+  explicit GvfField(const GvfFieldOptions& options = {});
+
+  std::string type() const override { return "gvf"; }
+  const GvfFieldOptions& options() const { return options_; }
+
+  // Edge map, then the GVF solve starting from v = grad f. A constant image gives a zero field.
+  void compute(const Image<D>& image) override;
+  // v at x, linearly interpolated (the normal is not used).
+  Point<D> force(const Point<D>& x, const Point<D>& normal) const override;
+  const VectorField<D>& vectors() const override { return vectors_; }
+  const GvfSolveStats& stats() const { return stats_; }
+
+  std::string save_state() const override;
+  bool load_state(const Grid<D>& grid, const std::string& bytes) override;
+
+ private:
+  GvfFieldOptions options_;
+  GvfSolveStats stats_;
+  VectorField<D> vectors_;
+};
+
+}  // namespace dsnake

@@ -1,0 +1,66 @@
+// Internal to the GVF solvers (gvf_solver.cpp, gvf_explicit.cpp): the grid as the solvers see
+// it. Every grid is 3D inside (a 2D grid has nz = 1 and no z neighbours), float arrays with x
+// fastest, and loops run row by row with the neighbour rows resolved once per row.
+#pragma once
+
+#include "fields/gvf_solver.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace dsnake::gvf_detail {
+
+// Grids smaller than this run on one thread (a parallel region costs more than the work).
+constexpr int64_t kParallelMin = 32768;
+
+// Wide vectors where the CPU has them (AVX2 + FMA), SSE2 otherwise; picked once at load time.
+#define DSNAKE_VECTOR_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+
+// One grid of the multigrid hierarchy (level 0 is the image grid).
+struct Level {
+  int nx = 1, ny = 1, nz = 1;
+  double h[3] = {1, 1, 1};  // spacing per axis, physical units
+  int factor[3] = {1, 1, 1};  // coarsening factor from this level to the next (1 or 2)
+  std::vector<float> b;                  // weight |grad f|^2 (averaged on coarse levels)
+  std::vector<std::vector<float>> v, rhs, res;
+  int64_t size() const { return int64_t(nx) * ny * nz; }
+};
+
+// Neighbour coupling mu / h_a^2 per axis, 0 along an axis of one voxel.
+struct Coupling {
+  float cx, cy, cz;
+};
+inline Coupling coupling(const Level& L, double mu) {
+  return {L.nx > 1 ? float(mu / (L.h[0] * L.h[0])) : 0.f, L.ny > 1 ? float(mu / (L.h[1] * L.h[1])) : 0.f,
+          L.nz > 1 ? float(mu / (L.h[2] * L.h[2])) : 0.f};
+}
+
+// Row pointers of a voxel row's neighbours; a missing neighbour has weight 0 (zero flux).
+struct RowNeighbours {
+  int64_t row, ym, yp, zm, zp;
+  float wym, wyp, wzm, wzp;
+};
+inline RowNeighbours row_neighbours(const Level& L, const Coupling& c, int y, int z) {
+  const int64_t nx = L.nx, row = (int64_t(z) * L.ny + y) * nx;
+  RowNeighbours r{row, row, row, row, row, 0, 0, 0, 0};
+  if (y > 0) r.ym = row - nx, r.wym = c.cy;
+  if (y < L.ny - 1) r.yp = row + nx, r.wyp = c.cy;
+  if (z > 0) r.zm = row - nx * L.ny, r.wzm = c.cz;
+  if (z < L.nz - 1) r.zp = row + nx * L.ny, r.wzp = c.cz;
+  return r;
+}
+
+template <int D>
+inline Level level_of(const Grid<D>& grid) {
+  Level L;
+  L.nx = grid.size[0], L.ny = grid.size[1], L.nz = D == 3 ? grid.size[D - 1] : 1;
+  for (int a = 0; a < D; ++a) L.h[a] = grid.spacing[a];
+  return L;
+}
+
+// Xu & Prince's explicit iteration on L (b set; v: initial guess in, result out); rhs_norm2 =
+// |b c|^2. Throws InputError naming "field.time_step" for an unstable step (gvf_explicit.cpp).
+GvfSolveStats solve_explicit(Level& L, const std::vector<const std::vector<float>*>& c,
+                             const std::vector<std::vector<float>*>& v, const GvfSolveOptions& o, double rhs_norm2);
+
+}  // namespace dsnake::gvf_detail

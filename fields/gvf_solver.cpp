@@ -1,0 +1,545 @@
+// The multigrid-preconditioned GVF solver and the entry point; see gvf_solver.h. The explicit
+// reference iteration is in gvf_explicit.cpp, the shared grid view in gvf_grid.h.
+#include "fields/gvf_solver.h"
+
+#include "fields/gvf_grid.h"
+
+#include "framework/errors.h"
+
+#include <Eigen/Dense>
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+namespace dsnake {
+
+namespace {
+
+using namespace gvf_detail;
+
+// Red-black Gauss-Seidel on one row of one field, the voxels from `first` in steps of 2:
+// v_i = (rhs_i + sum_nb w v_nb) / (b_i + sum_nb w). The row's end voxels (one x neighbour) are
+// done apart so that the inner loop has no branches.
+DSNAKE_VECTOR_CLONES
+void smooth_row(float* u, const float* rhs, const float* __restrict b, const RowNeighbours& r, float cx, int nx,
+                int first) {
+  const float* __restrict f = rhs + r.row;
+  float* __restrict u0 = u + r.row;
+  const float *__restrict uym = u + r.ym, *__restrict uyp = u + r.yp, *__restrict uzm = u + r.zm,
+              *__restrict uzp = u + r.zp;
+  const float wym = r.wym, wyp = r.wyp, wzm = r.wzm, wzp = r.wzp, side = wym + wyp + wzm + wzp;
+  auto one = [&](int i, float wl, float wr) {  // an end voxel of the row
+    const float diag = b[i] + side + wl + wr;
+    if (!(diag > 0.f)) return;  // a lone voxel without weight: nothing couples it
+    const float s = f[i] + wym * uym[i] + wyp * uyp[i] + wzm * uzm[i] + wzp * uzp[i] +
+                    (wl > 0 ? wl * u0[i - 1] : 0.f) + (wr > 0 ? wr * u0[i + 1] : 0.f);
+    u0[i] = s / diag;
+  };
+  if (nx == 1) {
+    if (first == 0) one(0, 0.f, 0.f);
+    return;
+  }
+  if (first == 0) one(0, 0.f, cx);
+  const float base = side + 2.f * cx;
+  for (int i = first == 0 ? 2 : 1; i < nx - 1; i += 2) {
+    const float s = f[i] + cx * (u0[i - 1] + u0[i + 1]) + wym * uym[i] + wyp * uyp[i] + wzm * uzm[i] + wzp * uzp[i];
+    u0[i] = s / (b[i] + base);
+  }
+  if (((nx - 1) & 1) == first) one(nx - 1, cx, 0.f);
+}
+
+// One Gauss-Seidel sweep in two colours, `first` then `second` (voxels with
+// (x + y + z) % 2 == colour), over all fields, in one pass over memory: the second colour
+// follows the first with a lag of one plane (2D: one row), so a row's second colour is updated
+// once all its neighbours have their first-colour values, while those rows are still in cache.
+// Rows at the boundary of a thread's block wait for a barrier. The result equals a full
+// first-colour half-sweep followed by a full second-colour one, whatever the thread count.
+void smooth_sweep(Level& L, const Coupling& c, int first) {
+  const int K = int(L.v.size());
+  const int64_t rows = int64_t(L.ny) * L.nz;
+  const int64_t lag = L.nz > 1 ? L.ny : 1;  // rows between a row and its farthest neighbour
+  auto update = [&](int64_t yz, int colour) {
+    const int y = int(yz % L.ny), z = int(yz / L.ny);
+    const RowNeighbours r = row_neighbours(L, c, y, z);
+    for (int k = 0; k < K; ++k)
+      smooth_row(L.v[k].data(), L.rhs[k].data(), L.b.data() + r.row, r, c.cx, L.nx, (colour + y + z) & 1);
+  };
+  const int second = 1 - first;
+#pragma omp parallel if(L.size() >= kParallelMin)
+  {
+    const int t = omp_get_thread_num(), T = omp_get_num_threads();
+    const int64_t begin = rows * t / T, end = rows * (t + 1) / T;
+    // Interior rows [begin + lag, end - lag): all neighbours belong to this block.
+    for (int64_t yz = begin; yz < end; ++yz) {
+      update(yz, first);
+      if (yz - lag >= begin + lag && yz - lag < end - lag) update(yz - lag, second);
+    }
+#pragma omp barrier
+    for (int64_t yz = begin; yz < end; ++yz)
+      if (!(yz >= begin + lag && yz < end - lag)) update(yz, second);
+  }
+}
+
+// Sum of squares of n floats in a fixed order (8 interleaved partial sums, then the tail), so
+// that it vectorises and still does not depend on the thread count.
+DSNAKE_VECTOR_CLONES
+double sum_squares(const float* __restrict e, int n) {
+  float lanes[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  int i = 0;
+  for (; i + 8 <= n; i += 8)
+    for (int j = 0; j < 8; ++j) lanes[j] += e[i + j] * e[i + j];
+  double s = 0;
+  for (int j = 0; j < 8; ++j) s += lanes[j];
+  for (; i < n; ++i) s += double(e[i]) * e[i];
+  return s;
+}
+
+// out = rhs - A u on one row: A u = b u + sum over existing neighbours of w (u - u_nb).
+DSNAKE_VECTOR_CLONES
+void residual_row(const float* u, const float* rhs, float* res, const float* __restrict b, const RowNeighbours& r,
+                  float cx, int nx) {
+  const float* __restrict f = rhs + r.row;
+  const float *__restrict u0 = u + r.row, *__restrict uym = u + r.ym, *__restrict uyp = u + r.yp,
+              *__restrict uzm = u + r.zm, *__restrict uzp = u + r.zp;
+  float* __restrict out = res + r.row;
+  const float wym = r.wym, wyp = r.wyp, wzm = r.wzm, wzp = r.wzp, side = wym + wyp + wzm + wzp;
+  auto at = [&](int i, float lap_x, float wx) {
+    return f[i] + lap_x + wym * uym[i] + wyp * uyp[i] + wzm * uzm[i] + wzp * uzp[i] - (side + wx + b[i]) * u0[i];
+  };
+  if (nx == 1) {
+    out[0] = at(0, 0.f, 0.f);
+    return;
+  }
+  out[0] = at(0, cx * u0[1], cx);
+  const float diag = side + 2.f * cx;  // spelled out: a lambda would not inline into the AVX2 clone
+  for (int i = 1; i < nx - 1; ++i)
+    out[i] = f[i] + cx * (u0[i - 1] + u0[i + 1]) + wym * uym[i] + wyp * uyp[i] + wzm * uzm[i] + wzp * uzp[i] -
+             (diag + b[i]) * u0[i];
+  out[nx - 1] = at(nx - 1, cx * u0[nx - 2], cx);
+}
+
+// res = rhs - A v for all fields. With `norms`, also returns the sums of squares of res and of
+// rhs (per row, then in row order: independent of the thread count).
+std::pair<double, double> residual(Level& L, const Coupling& c, bool norms = false) {
+  const int nx = L.nx, K = int(L.v.size());
+  const int64_t rows = int64_t(L.ny) * L.nz;
+  std::vector<double> rr(norms ? rows : 0), bb(norms ? rows : 0);
+#pragma omp parallel for schedule(static) if(L.size() >= kParallelMin)
+  for (int64_t yz = 0; yz < rows; ++yz) {
+    const RowNeighbours r = row_neighbours(L, c, int(yz % L.ny), int(yz / L.ny));
+    double s2 = 0, b2 = 0;
+    for (int k = 0; k < K; ++k) {
+      residual_row(L.v[k].data(), L.rhs[k].data(), L.res[k].data(), L.b.data() + r.row, r, c.cx, nx);
+      if (norms) s2 += sum_squares(L.res[k].data() + r.row, nx), b2 += sum_squares(L.rhs[k].data() + r.row, nx);
+    }
+    if (norms) rr[yz] = s2, bb[yz] = b2;
+  }
+  double s = 0, t = 0;
+  for (size_t yz = 0; yz < rr.size(); ++yz) s += rr[yz], t += bb[yz];
+  return {s, t};
+}
+
+// Grid transfer along one axis. An even axis is coarsened cell-centred (coarse cell I = fine
+// cells 2I, 2I + 1, at I - 1/4 and I + 1/4 in coarse units); an odd axis vertex-centred (coarse
+// node I = fine node 2I, the ends stay the ends). Either way the coarse grid is uniform with
+// twice the spacing and covers the same extent. Prolongation P is linear interpolation; the
+// residual is restricted with R = P^T / factor, so that the V-cycle is a symmetric operator
+// (a valid preconditioner for conjugate gradients); b is restricted with R normalised to an
+// average. Factor 1: identity.
+struct AxisTransfer {
+  std::vector<std::vector<std::pair<int, float>>> transpose, average;  // per coarse index
+  // Prolongation: fine i = w_near * coarse near + (1 - w_near) * coarse far.
+  std::vector<int> near, far;
+  std::vector<float> w_near;
+};
+AxisTransfer axis_transfer(int n_fine, int n_coarse, int factor) {
+  AxisTransfer t;
+  t.near.resize(n_fine), t.far.resize(n_fine), t.w_near.resize(n_fine);
+  for (int i = 0; i < n_fine; ++i) {
+    const int I = factor == 1 ? i : i / 2;
+    t.near[i] = I;
+    if (factor == 1) {
+      t.far[i] = i, t.w_near[i] = 1.f;
+    } else if (n_fine % 2 == 0) {  // cell-centred
+      t.far[i] = (i % 2 == 0) ? std::max(I - 1, 0) : std::min(I + 1, n_coarse - 1);
+      t.w_near[i] = 0.75f;
+    } else {  // vertex-centred
+      t.far[i] = std::min(I + 1, n_coarse - 1);
+      t.w_near[i] = (i % 2 == 0) ? 1.f : 0.5f;
+    }
+  }
+  // R = P^T / factor, merging repeated (clamped) entries.
+  std::vector<std::map<int, float>> rows(n_coarse);
+  for (int i = 0; i < n_fine; ++i) {
+    rows[t.near[i]][i] += t.w_near[i] / factor;
+    if (t.w_near[i] < 1.f) rows[t.far[i]][i] += (1.f - t.w_near[i]) / factor;
+  }
+  t.transpose.resize(n_coarse), t.average.resize(n_coarse);
+  for (int I = 0; I < n_coarse; ++I) {
+    float sum = 0;
+    for (const auto& [i, w] : rows[I]) t.transpose[I].push_back({i, w}), sum += w;
+    for (const auto& [i, w] : rows[I]) t.average[I].push_back({i, w / sum});
+  }
+  return t;
+}
+
+// Coarse cell count along an axis for the transfers above.
+int coarse_size(int n, int factor) { return factor == 1 ? n : (n % 2 == 0 ? n / 2 : (n + 1) / 2); }
+
+struct Transfer {
+  AxisTransfer x, y, z;
+};
+Transfer transfer(const Level& F, const Level& C) {
+  return {axis_transfer(F.nx, C.nx, F.factor[0]), axis_transfer(F.ny, C.ny, F.factor[1]),
+          axis_transfer(F.nz, C.nz, F.factor[2])};
+}
+
+// coarse = R fine (separable; R = P^T / factor or its normalised average): the y/z weights combine fine rows into one
+// (contiguous, vectorised), then the x weights pick from it.
+void restrict_to(const Level& F, const Level& C, const Transfer& t, bool average, const float* fine, float* coarse) {
+  auto weights = [&](const AxisTransfer& a, int I) -> const std::vector<std::pair<int, float>>& {
+    return average ? a.average[I] : a.transpose[I];
+  };
+#pragma omp parallel if(F.size() >= kParallelMin)
+  {
+    std::vector<float> row(F.nx);
+#pragma omp for schedule(static)
+    for (int64_t zy = 0; zy < int64_t(C.nz) * C.ny; ++zy) {
+      const int z = int(zy / C.ny), y = int(zy % C.ny);
+      std::fill(row.begin(), row.end(), 0.f);
+      for (const auto& [fz, wz] : weights(t.z, z))
+        for (const auto& [fy, wy] : weights(t.y, y)) {
+          const float* __restrict src = fine + (int64_t(fz) * F.ny + fy) * F.nx;
+          const float w = wz * wy;
+          float* __restrict dst = row.data();
+          for (int x = 0; x < F.nx; ++x) dst[x] += w * src[x];
+        }
+      float* out = coarse + (int64_t(z) * C.ny + y) * C.nx;
+      if (!average) {  // R = P^T / factor along x: scatter each fine value (in x order)
+        const float inv = 1.f / F.factor[0];
+        std::fill_n(out, C.nx, 0.f);
+        for (int x = 0; x < F.nx; ++x) {
+          const float w = t.x.w_near[x] * inv;
+          out[t.x.near[x]] += w * row[x];
+          out[t.x.far[x]] += (inv - w) * row[x];
+        }
+      } else {
+        for (int x = 0; x < C.nx; ++x) {
+          float s = 0;
+          for (const auto& [fx, wx] : weights(t.x, x)) s += wx * row[fx];
+          out[x] = s;
+        }
+      }
+    }
+  }
+}
+
+// fine += P coarse (separable linear interpolation): y/z first on a coarse row, then x.
+void prolongate_add(const Level& F, const Level& C, const Transfer& t, const float* coarse, float* fine) {
+  const AxisTransfer &ax = t.x, &ay = t.y, &az = t.z;
+#pragma omp parallel if(F.size() >= kParallelMin)
+  {
+    std::vector<float> row(C.nx);
+#pragma omp for schedule(static)
+    for (int64_t zy = 0; zy < int64_t(F.nz) * F.ny; ++zy) {
+      const int z = int(zy / F.ny), y = int(zy % F.ny);
+      const int zs[2] = {az.near[z], az.far[z]}, ys[2] = {ay.near[y], ay.far[y]};
+      const float wz[2] = {az.w_near[z], 1.f - az.w_near[z]}, wy[2] = {ay.w_near[y], 1.f - ay.w_near[y]};
+      std::fill(row.begin(), row.end(), 0.f);
+      for (int p = 0; p < 2; ++p)
+        for (int q = 0; q < 2; ++q) {
+          const float w = wz[p] * wy[q];
+          if (w == 0.f) continue;
+          const float* __restrict src = coarse + (int64_t(zs[p]) * C.ny + ys[q]) * C.nx;
+          float* __restrict dst = row.data();
+          for (int x = 0; x < C.nx; ++x) dst[x] += w * src[x];
+        }
+      float* out = fine + (int64_t(z) * F.ny + y) * F.nx;
+      for (int x = 0; x < F.nx; ++x) out[x] += ax.w_near[x] * row[ax.near[x]] + (1.f - ax.w_near[x]) * row[ax.far[x]];
+    }
+  }
+}
+
+constexpr int64_t kCoarsestVoxels = 400;  // dense direct solve below this size
+constexpr int kPreSmooth = 2, kPostSmooth = 2;  // red-black sweeps per V-cycle and level
+
+// The multigrid hierarchy for one solve: levels, and the coarsest grid's factorisation.
+class Multigrid {
+ public:
+  Multigrid(const Level& finest_shape, const std::vector<float>& b, int K, double mu) : mu_(mu) {
+    levels_.push_back(finest_shape);
+    levels_[0].b = b;
+    for (;;) {
+      Level& F = levels_.back();
+      alloc(F, K);
+      if (F.size() <= kCoarsestVoxels) break;
+      const int n[3] = {F.nx, F.ny, F.nz};
+      const double h_min = std::min({n[0] > 1 ? F.h[0] : 1e300, n[1] > 1 ? F.h[1] : 1e300, n[2] > 1 ? F.h[2] : 1e300});
+      Level C;
+      bool any = false;
+      int cn[3];
+      for (int a = 0; a < 3; ++a) {
+        // Semi-coarsening: only the axes whose spacing is within 1.5x of the finest.
+        F.factor[a] = (n[a] > 1 && F.h[a] < 1.5 * h_min) ? 2 : 1;
+        any |= F.factor[a] == 2;
+        cn[a] = coarse_size(n[a], F.factor[a]);
+        C.h[a] = F.h[a] * F.factor[a];
+      }
+      if (!any) break;
+      C.nx = cn[0], C.ny = cn[1], C.nz = cn[2];
+      C.b.resize(C.size());
+      transfers_.push_back(transfer(F, C));
+      restrict_to(F, C, transfers_.back(), true, F.b.data(), C.b.data());
+      levels_.push_back(std::move(C));
+    }
+    factor_coarsest();
+  }
+
+  std::vector<Level>& levels() { return levels_; }
+
+  // One V(2,2) cycle from level l with the current v as initial guess.
+  void cycle(size_t l) {
+    Level& L = levels_[l];
+    const Coupling c = coupling(L, mu_);
+    if (l + 1 == levels_.size()) {
+      solve_coarsest();
+      return;
+    }
+    for (int s = 0; s < kPreSmooth; ++s) smooth_sweep(L, c, 0);
+    residual(L, c);
+    Level& C = levels_[l + 1];
+    for (size_t k = 0; k < L.v.size(); ++k) {
+      restrict_to(L, C, transfers_[l], false, L.res[k].data(), C.rhs[k].data());
+      std::fill(C.v[k].begin(), C.v[k].end(), 0.f);
+    }
+    cycle(l + 1);
+    for (size_t k = 0; k < L.v.size(); ++k) prolongate_add(L, C, transfers_[l], C.v[k].data(), L.v[k].data());
+    for (int s = 0; s < kPostSmooth; ++s) smooth_sweep(L, c, 1);
+  }
+
+ private:
+  static void alloc(Level& L, int K) {
+    L.v.assign(K, std::vector<float>(L.size()));
+    L.rhs.assign(K, std::vector<float>(L.size()));
+    L.res.assign(K, std::vector<float>(L.size()));
+  }
+
+  // Dense A on the coarsest grid, LDL^T-factorised once (A is shared by all fields).
+  void factor_coarsest() {
+    Level& L = levels_.back();
+    const Coupling c = coupling(L, mu_);
+    const int64_t n = L.size();
+    Eigen::MatrixXd A = Eigen::MatrixXd::Zero(n, n);
+    for (int z = 0; z < L.nz; ++z)
+      for (int y = 0; y < L.ny; ++y)
+        for (int x = 0; x < L.nx; ++x) {
+          const int64_t l = (int64_t(z) * L.ny + y) * L.nx + x;
+          A(l, l) += L.b[l];
+          auto link = [&](int64_t m, double w) { A(l, l) += w, A(l, m) -= w; };
+          if (x > 0) link(l - 1, c.cx);
+          if (x < L.nx - 1) link(l + 1, c.cx);
+          if (y > 0) link(l - L.nx, c.cy);
+          if (y < L.ny - 1) link(l + L.nx, c.cy);
+          if (z > 0) link(l - int64_t(L.nx) * L.ny, c.cz);
+          if (z < L.nz - 1) link(l + int64_t(L.nx) * L.ny, c.cz);
+        }
+    // A tiny regularisation keeps the pure-diffusion (b = 0) null space harmless.
+    const double eps = 1e-12 * std::max(1.0, A.diagonal().maxCoeff());
+    A.diagonal().array() += eps;
+    coarsest_.compute(A);
+  }
+
+  void solve_coarsest() {
+    Level& L = levels_.back();
+    for (size_t k = 0; k < L.v.size(); ++k) {
+      Eigen::VectorXd r(L.size());
+      for (int64_t l = 0; l < L.size(); ++l) r[l] = L.rhs[k][l];
+      const Eigen::VectorXd x = coarsest_.solve(r);
+      for (int64_t l = 0; l < L.size(); ++l) L.v[k][l] = float(x[l]);
+    }
+  }
+
+  double mu_;
+  std::vector<Level> levels_;
+  std::vector<Transfer> transfers_;  // from level l to l + 1
+  Eigen::LDLT<Eigen::MatrixXd> coarsest_;
+};
+
+// Dot product in fixed chunks (8 interleaved lanes each), summed in chunk order: vectorised and
+// independent of the thread count.
+DSNAKE_VECTOR_CLONES
+double dot_chunk(const float* __restrict a, const float* __restrict b, int64_t n) {
+  float lanes[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  int64_t i = 0;
+  for (; i + 8 <= n; i += 8)
+    for (int j = 0; j < 8; ++j) lanes[j] += a[i + j] * b[i + j];
+  double s = 0;
+  for (int j = 0; j < 8; ++j) s += lanes[j];
+  for (; i < n; ++i) s += double(a[i]) * b[i];
+  return s;
+}
+double dot(const std::vector<float>& a, const std::vector<float>& b) {
+  constexpr int64_t kChunk = 4096;
+  const int64_t n = int64_t(a.size()), chunks = (n + kChunk - 1) / kChunk;
+  std::vector<double> part(chunks);
+#pragma omp parallel for schedule(static) if(n >= kParallelMin)
+  for (int64_t c = 0; c < chunks; ++c)
+    part[c] = dot_chunk(a.data() + c * kChunk, b.data() + c * kChunk, std::min(kChunk, n - c * kChunk));
+  double s = 0;
+  for (double x : part) s += x;
+  return s;
+}
+
+// out = A u on one row (as residual_row with rhs = 0, sign flipped).
+DSNAKE_VECTOR_CLONES
+void apply_row(const float* u, float* res, const float* __restrict b, const RowNeighbours& r, float cx, int nx) {
+  const float *__restrict u0 = u + r.row, *__restrict uym = u + r.ym, *__restrict uyp = u + r.yp,
+              *__restrict uzm = u + r.zm, *__restrict uzp = u + r.zp;
+  float* __restrict out = res + r.row;
+  const float wym = r.wym, wyp = r.wyp, wzm = r.wzm, wzp = r.wzp, side = wym + wyp + wzm + wzp;
+  auto at = [&](int i, float lap_x, float wx) {
+    return (side + wx + b[i]) * u0[i] - lap_x - wym * uym[i] - wyp * uyp[i] - wzm * uzm[i] - wzp * uzp[i];
+  };
+  if (nx == 1) {
+    out[0] = at(0, 0.f, 0.f);
+    return;
+  }
+  out[0] = at(0, cx * u0[1], cx);
+  const float diag = side + 2.f * cx;  // spelled out: a lambda would not inline into the AVX2 clone
+  for (int i = 1; i < nx - 1; ++i)
+    out[i] = (diag + b[i]) * u0[i] - cx * (u0[i - 1] + u0[i + 1]) - wym * uym[i] - wyp * uyp[i] - wzm * uzm[i] -
+             wzp * uzp[i];
+  out[nx - 1] = at(nx - 1, cx * u0[nx - 2], cx);
+}
+
+// Conjugate gradients on A x = b c, preconditioned by one multigrid V-cycle per iteration (a
+// symmetric positive definite preconditioner: symmetric smoothing, R = P^T / factor, exact
+// coarsest solve). The V-cycle alone stalls where the coarse grids see the image border
+// differently from the fine one (odd sizes, masked DDGVF weights); CG removes those few slow
+// modes. The K fields run K independent CG recurrences that share the V-cycles' passes.
+GvfSolveStats solve_multigrid_pcg(Level shape, const std::vector<float>& b,
+                                  const std::vector<const std::vector<float>*>& c,
+                                  const std::vector<std::vector<float>*>& x, const GvfSolveOptions& o) {
+  const int K = int(x.size());
+  Multigrid mg(shape, b, K, o.mu);
+  Level& L = mg.levels()[0];
+  const int64_t n = L.size(), rows = int64_t(L.ny) * L.nz;
+  const Coupling cp = coupling(L, o.mu);
+  // r = b c - A x.
+  for (int k = 0; k < K; ++k) {
+    L.v[k] = *x[k];
+#pragma omp parallel for schedule(static) if(n >= kParallelMin)
+    for (int64_t l = 0; l < n; ++l) L.rhs[k][l] = b[l] * (*c[k])[l];
+  }
+  const auto [r2_start, f2] = residual(L, cp, true);
+  std::vector<std::vector<float>> r(K), p(K, std::vector<float>(n));
+  for (int k = 0; k < K; ++k) r[k].swap(L.res[k]), L.res[k].resize(n);
+  GvfSolveStats st;
+  auto relative = [&](double r2) { return f2 > 0 ? std::sqrt(r2 / f2) : (r2 > 0 ? 1.0 : 0.0); };
+  st.relative_residual = relative(r2_start);
+  // z = M r: a V-cycle from zero with r as right-hand side; z is left in L.v.
+  auto precondition = [&] {
+    for (int k = 0; k < K; ++k) L.rhs[k].swap(r[k]), std::fill(L.v[k].begin(), L.v[k].end(), 0.f);
+    mg.cycle(0);
+    for (int k = 0; k < K; ++k) L.rhs[k].swap(r[k]);
+  };
+  const int max_it = o.iterations > 0 ? o.iterations : 100;
+  if (o.tolerance > 0 && st.relative_residual <= o.tolerance) return st;
+  precondition();
+  std::vector<double> rz(K);
+  for (int k = 0; k < K; ++k) p[k] = L.v[k], rz[k] = dot(r[k], L.v[k]);
+  while (st.iterations < max_it) {
+    // ap = A p (in L.res), then x += alpha p, r -= alpha ap.
+    std::vector<double> alpha(K, 0.0);
+#pragma omp parallel for schedule(static) if(n >= kParallelMin)
+    for (int64_t yz = 0; yz < rows; ++yz) {
+      const RowNeighbours rn = row_neighbours(L, cp, int(yz % L.ny), int(yz / L.ny));
+      for (int k = 0; k < K; ++k) apply_row(p[k].data(), L.res[k].data(), b.data() + rn.row, rn, cp.cx, L.nx);
+    }
+    double r2 = 0;
+    for (int k = 0; k < K; ++k) {
+      const double pap = dot(p[k], L.res[k]);
+      alpha[k] = pap > 0 ? rz[k] / pap : 0.0;
+      const float a = float(alpha[k]);
+      float* __restrict xk = x[k]->data();
+      float* __restrict rk = r[k].data();
+      const float *__restrict pk = p[k].data(), *__restrict apk = L.res[k].data();
+#pragma omp parallel for schedule(static) if(n >= kParallelMin)
+      for (int64_t l = 0; l < n; ++l) xk[l] += a * pk[l], rk[l] -= a * apk[l];
+      r2 += dot(r[k], r[k]);
+    }
+    ++st.iterations;
+    st.relative_residual = relative(r2);
+    if (o.tolerance > 0 && st.relative_residual <= o.tolerance) break;
+    if (st.iterations == max_it) break;
+    precondition();
+    for (int k = 0; k < K; ++k) {
+      const double rz_new = dot(r[k], L.v[k]);
+      const float beta = rz[k] > 0 ? float(rz_new / rz[k]) : 0.f;
+      rz[k] = rz_new;
+      float* __restrict pk = p[k].data();
+      const float* __restrict zk = L.v[k].data();
+#pragma omp parallel for schedule(static) if(n >= kParallelMin)
+      for (int64_t l = 0; l < n; ++l) pk[l] = zk[l] + beta * pk[l];
+    }
+  }
+  return st;
+}
+
+}  // namespace
+
+template <int D>
+GvfSolveStats solve_gvf(const Grid<D>& grid, const std::vector<float>& b,
+                        const std::vector<const std::vector<float>*>& c, const std::vector<std::vector<float>*>& v,
+                        const GvfSolveOptions& o) {
+  DSNAKE_ASSERT(o.mu > 0, "GVF: mu > 0");
+  DSNAKE_ASSERT(c.size() == v.size(), "GVF: one source per field");
+  const int64_t n = grid.num_voxels();
+  DSNAKE_ASSERT(int64_t(b.size()) == n, "GVF: b on the grid");
+  Level shape = level_of(grid);
+  // |b c|^2, the scale of the relative residual.
+  double rhs_norm2 = 0;
+  for (size_t k = 0; k < c.size(); ++k)
+    for (int64_t l = 0; l < n; ++l) {
+      const double r = double(b[l]) * (*c[k])[l];
+      rhs_norm2 += r * r;
+    }
+  if (o.solver == "explicit") {
+    shape.b = b;
+    return solve_explicit(shape, c, v, o, rhs_norm2);
+  }
+  DSNAKE_ASSERT(o.solver == "multigrid", "GVF: solver is explicit or multigrid");
+  return solve_multigrid_pcg(shape, b, c, v, o);
+}
+
+template <int D>
+double gvf_relative_residual(const Grid<D>& grid, const std::vector<float>& b,
+                             const std::vector<const std::vector<float>*>& c,
+                             const std::vector<const std::vector<float>*>& v, double mu) {
+  Level L = level_of(grid);
+  L.b = b;
+  const int K = int(v.size());
+  L.v.resize(K), L.rhs.resize(K), L.res.assign(K, std::vector<float>(L.size()));
+  for (int k = 0; k < K; ++k) {
+    L.v[k] = *v[k];
+    L.rhs[k].resize(L.size());
+    for (int64_t l = 0; l < L.size(); ++l) L.rhs[k][l] = b[l] * (*c[k])[l];
+  }
+  const auto [r2, f2] = residual(L, coupling(L, mu), true);
+  return f2 > 0 ? std::sqrt(r2 / f2) : (r2 > 0 ? 1.0 : 0.0);
+}
+
+template GvfSolveStats solve_gvf(const Grid<2>&, const std::vector<float>&, const std::vector<const std::vector<float>*>&,
+                                 const std::vector<std::vector<float>*>&, const GvfSolveOptions&);
+template GvfSolveStats solve_gvf(const Grid<3>&, const std::vector<float>&, const std::vector<const std::vector<float>*>&,
+                                 const std::vector<std::vector<float>*>&, const GvfSolveOptions&);
+template double gvf_relative_residual(const Grid<2>&, const std::vector<float>&,
+                                      const std::vector<const std::vector<float>*>&,
+                                      const std::vector<const std::vector<float>*>&, double);
+template double gvf_relative_residual(const Grid<3>&, const std::vector<float>&,
+                                      const std::vector<const std::vector<float>*>&,
+                                      const std::vector<const std::vector<float>*>&, double);
+
+}  // namespace dsnake

@@ -1,0 +1,51 @@
+// The GVF linear system shared by GVF and DDGVF (Xu & Prince 1998; D-Snake §2):
+// for K fields v_k that share the weight b = |grad f|^2, find the fixed point of
+//     mu Lap(v_k) - b (v_k - c_k) = 0,
+// discretised on the image grid with the 2D+1-point Laplacian in physical units
+// (sum over axes of (v[i-1] - 2v[i] + v[i+1]) / h_a^2) and zero flux at the border.
+// Written as A v = b c with A = diag(b) - mu Lap (symmetric, positive semi-definite).
+// Two solvers reach the same discrete fixed point:
+//  - "explicit": Xu & Prince's iteration v += dt (mu Lap v - b (v - c)), the reference;
+//  - "multigrid": V-cycles with red-black Gauss-Seidel, coarsening the axes whose spacing is
+//    finest (semi-coarsening for anisotropic voxels), exact dense solve on the coarsest grid.
+// Both stop at a relative residual |b c - A v|_2 / |b c|_2 <= tolerance or after a number of
+// iterations (V-cycles). Float arrays (x fastest); OpenMP over z-slabs (2D: rows); the results
+// do not depend on the thread count (red-black updates are independent within a colour and
+// every sum is accumulated per row, then in row order).
+#pragma once
+
+#include "framework/image.h"
+
+#include <string>
+#include <vector>
+
+namespace dsnake {
+
+struct GvfSolveOptions {
+  double mu = 0.2;          // diffusion weight, > 0 (physical units: mm^2 per unit b)
+  std::string solver = "multigrid";  // "multigrid" or "explicit"
+  double tolerance = 1e-4;  // relative residual to stop at; 0: run all iterations
+  int iterations = 0;       // max iterations (explicit) or V-cycles (multigrid); 0: 100000 / 100
+  double time_step = 0.0;   // explicit only: 0 = 0.9 x the stability bound
+};
+
+struct GvfSolveStats {
+  int iterations = 0;              // iterations or V-cycles done
+  double relative_residual = 0.0;  // at the end (explicit: of the last iterate's update)
+  double time_step = 0.0;          // explicit: the step used
+};
+
+// Solves for v (in: initial guess; out: solution), given b and the sources c (same sizes as the
+// grid). Throws InputError naming "field.time_step" if an explicit step is unstable.
+template <int D>
+GvfSolveStats solve_gvf(const Grid<D>& grid, const std::vector<float>& b,
+                        const std::vector<const std::vector<float>*>& c, const std::vector<std::vector<float>*>& v,
+                        const GvfSolveOptions& options);
+
+// The relative residual |b c - A v|_2 / |b c|_2 (1 when b c = 0 and v != 0, 0 when both vanish).
+template <int D>
+double gvf_relative_residual(const Grid<D>& grid, const std::vector<float>& b,
+                             const std::vector<const std::vector<float>*>& c,
+                             const std::vector<const std::vector<float>*>& v, double mu);
+
+}  // namespace dsnake

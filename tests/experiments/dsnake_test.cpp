@@ -1,0 +1,38 @@
+// A D-Snake end to end from an experiment file: ASAP-MLS with the internal and external
+// forces, then the 3D remeshing pipeline, checked against the phantom's ground truth.
+#include "experiments/experiment.h"
+#include "experiments/runner.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+namespace dsnake {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(DSnake, SphereToEllipsoidWithRemeshingFromTheExampleFile) {
+  const fs::path out = fs::temp_directory_path() / ("dsnake_example_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  auto ex = build_experiment<3>(load_experiment_file(
+      std::string(DSNAKE_SOURCE_DIR) + "/experiments/examples/dsnake_sphere_to_ellipsoid.json",
+      {"phases[0].iterations=250", "phases[1].iterations=50", "output.figures=false"}));
+  const auto r = run_experiment(ex, RunOptions{out.string(), true});
+  const auto& m = r["metrics"];
+  EXPECT_LT(m["mean_surface_distance"].get<double>(), 1.0);
+  EXPECT_GT(m["dice"].get<double>(), 0.9);
+  EXPECT_EQ(m["self_intersections"].get<int>(), 0);
+  // Refined, yet every template vertex is still there; the mesh stayed a closed sphere.
+  EXPECT_EQ(r["vertices"]["deformation"].get<int>(), 162);
+  EXPECT_GT(r["vertices"]["final"].get<int>(), 500);
+  ASSERT_TRUE(r.contains("mesh_quality"));
+  EXPECT_TRUE(r["mesh_quality"]["closed"].get<bool>());
+  EXPECT_EQ(r["mesh_quality"]["euler_characteristic"].get<int>(), 2);
+  EXPECT_GE(r["mesh_quality"]["share_min_angle_ge_20"].get<double>(), 0.95);
+  EXPECT_TRUE(r["phases"][1].contains("mesh_quality"));
+  fs::remove_all(out);
+}
+
+}  // namespace
+}  // namespace dsnake

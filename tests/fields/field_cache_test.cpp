@@ -1,0 +1,143 @@
+// Field cache: the second compute with the same image and parameters loads the stored field
+// (identical vectors, no solve), a changed voxel or parameter misses, a corrupt entry is
+// recomputed, and every cacheable field type round-trips its state.
+#include "fields/field_cache.h"
+#include "fields/gvf.h"
+#include "fields/registry.h"
+#include "framework/errors.h"
+
+#include <filesystem>
+#include <fstream>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <unistd.h>
+
+namespace dsnake {
+namespace {
+
+std::string fresh_dir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / ("dsnake_cache_" + name + "_" + std::to_string(getpid()));
+  std::filesystem::remove_all(dir);
+  return dir.string();
+}
+
+template <int D>
+std::unique_ptr<ExternalField<D>> make(const std::string& json) {
+  const nlohmann::json j = nlohmann::json::parse(json);
+  JsonReader reader(j, "exp.json", "field");
+  return field_registry<D>().create(reader);
+}
+
+Image<2> disk(float inside) {
+  Grid<2> grid;
+  grid.size = GridIndex<2>(40, 36);
+  grid.spacing = Point<2>(1.0, 1.2);
+  Image<2> image(grid);
+  for (int64_t l = 0; l < image.num_voxels(); ++l)
+    image[l] = (grid.to_physical(grid.index(l)) - Point<2>(19, 21)).norm() < 9 ? inside : 0.0f;
+  return image;
+}
+
+TEST(FieldCache, SecondComputeLoadsIdenticalField) {
+  const std::string dir = fresh_dir("gvf");
+  const std::string json = R"({"type": "gvf", "mu": 0.2, "cache": ")" + dir + R"("})";
+  const Image<2> image = disk(1.0f);
+  auto first = make<2>(json);
+  auto* cached = dynamic_cast<CachedField<2>*>(first.get());
+  ASSERT_NE(cached, nullptr);
+  first->compute(image);
+  EXPECT_FALSE(cached->loaded_from_cache());
+  ASSERT_TRUE(std::filesystem::exists(cached->entry_path()));
+  const auto& solved = dynamic_cast<const GvfField<2>&>(cached->field());
+  EXPECT_GT(solved.stats().iterations, 0);
+
+  auto second = make<2>(json);
+  auto* again = dynamic_cast<CachedField<2>*>(second.get());
+  second->compute(image);
+  EXPECT_TRUE(again->loaded_from_cache());
+  EXPECT_EQ(again->entry_path(), cached->entry_path());
+  // The loaded field is bit-identical, and the stored solver statistics come with it.
+  ASSERT_EQ(second->vectors().data(), first->vectors().data());
+  EXPECT_EQ(dynamic_cast<const GvfField<2>&>(again->field()).stats().iterations, solved.stats().iterations);
+  EXPECT_EQ(second->force(Point<2>(10.3, 7.7), Point<2>::Zero()), first->force(Point<2>(10.3, 7.7), Point<2>::Zero()));
+
+  // A changed voxel, a changed parameter: misses (new entries).
+  Image<2> changed = image;
+  changed[5] += 0.5f;
+  auto third = make<2>(json);
+  third->compute(changed);
+  EXPECT_FALSE(dynamic_cast<CachedField<2>*>(third.get())->loaded_from_cache());
+  auto fourth = make<2>(R"({"type": "gvf", "mu": 0.3, "cache": ")" + dir + R"("})");
+  fourth->compute(image);
+  EXPECT_FALSE(dynamic_cast<CachedField<2>*>(fourth.get())->loaded_from_cache());
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), {}), 3);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(FieldCache, CorruptEntryIsRecomputed) {
+  const std::string dir = fresh_dir("corrupt");
+  const std::string json = R"({"type": "gvf", "cache": ")" + dir + R"("})";
+  const Image<2> image = disk(1.0f);
+  auto first = make<2>(json);
+  first->compute(image);
+  const std::string path = dynamic_cast<CachedField<2>*>(first.get())->entry_path();
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << "dsnake-gvf-1 truncated";
+  auto second = make<2>(json);
+  testing::internal::CaptureStderr();
+  second->compute(image);
+  EXPECT_NE(testing::internal::GetCapturedStderr().find("does not fit"), std::string::npos);
+  EXPECT_FALSE(dynamic_cast<CachedField<2>*>(second.get())->loaded_from_cache());
+  EXPECT_EQ(second->vectors().data(), first->vectors().data());
+  std::filesystem::remove_all(dir);
+}
+
+TEST(FieldCache, EveryCacheableTypeRoundTrips3d) {
+  Grid<3> grid;
+  grid.size = GridIndex<3>(20, 18, 10);
+  grid.spacing = Point<3>(1, 1, 2);
+  Image<3> image(grid);
+  for (int64_t l = 0; l < image.num_voxels(); ++l)
+    image[l] = (grid.to_physical(grid.index(l)) - Point<3>(10, 9, 9)).norm() < 6 ? 1.0f : 0.0f;
+  const std::string dir = fresh_dir("types");
+  for (const std::string type : {"gvf", "ddgvf", "vfc", "distance"}) {
+    const std::string json = R"({"type": ")" + type + R"(", "cache": ")" + dir + R"("})";
+    auto a = make<3>(json), b = make<3>(json);
+    a->compute(image);
+    b->compute(image);
+    EXPECT_TRUE(dynamic_cast<CachedField<3>*>(b.get())->loaded_from_cache()) << type;
+    ASSERT_EQ(a->vectors().data(), b->vectors().data()) << type;
+    const Point<3> x(7.3, 8.1, 5.5), n(0.6, -0.8, 0.0);
+    EXPECT_EQ(a->force(x, n), b->force(x, n)) << type;
+    EXPECT_EQ(a->has_potential(), b->has_potential()) << type;
+    if (a->has_potential()) {
+      EXPECT_EQ(a->potential(x), b->potential(x)) << type;
+    }
+  }
+  std::filesystem::remove_all(dir);
+}
+
+TEST(FieldCache, KeyDependsOnGridAndParameters) {
+  Image<2> a = disk(1.0f), b = a;
+  Grid<2> g = b.grid();
+  g.origin = Point<2>(0.5, 0);
+  Image<2> shifted(g);
+  shifted.data() = a.data();
+  EXPECT_EQ(field_cache_key(a, "gvf", "{}"), field_cache_key(b, "gvf", "{}"));
+  EXPECT_NE(field_cache_key(a, "gvf", "{}"), field_cache_key(shifted, "gvf", "{}"));
+  EXPECT_NE(field_cache_key(a, "gvf", "{}"), field_cache_key(a, "ddgvf", "{}"));
+  EXPECT_NE(field_cache_key(a, "gvf", R"({"mu":0.2})"), field_cache_key(a, "gvf", R"({"mu":0.3})"));
+}
+
+TEST(FieldCache, RegistryRejectsEmptyCache) {
+  const nlohmann::json j = nlohmann::json::parse(R"({"type": "gvf", "cache": ""})");
+  JsonReader reader(j, "exp.json", "field");
+  try {
+    field_registry<2>().create(reader);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("field.cache"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace dsnake
