@@ -79,7 +79,8 @@ struct InternalEnergy<D>::Solver {
   Eigen::SimplicialLDLT<SparseMatrix> ldlt;
   Eigen::VectorXd row_scale;  // S, n entries
   Eigen::VectorXd inverse_d;  // 1 / D of the LDL^T (vectorD() returns a copy)
-  Eigen::MatrixXd rhs, work;  // n x D
+  PointList<D> points;        // n, in the factorisation's order: one pass over L for all D columns
+  std::vector<int> order;     // order[v] = row of vertex v in the permuted system
   uint64_t topology_version = 0;
   int num_vertices = -1;
 };
@@ -110,15 +111,18 @@ void InternalEnergy<D>::bind(const EnergyContext<D>&, const Snake<D>& snake) {
   s.ldlt.compute(system);
   DSNAKE_ASSERT(s.ldlt.info() == Eigen::Success, "gamma I + A is positive definite");
   s.inverse_d = s.ldlt.vectorD().cwiseInverse();
-  s.rhs.resize(n, D);
-  s.work.resize(n, D);
+  s.points.assign(n, Point<D>::Zero());
+  s.order.resize(n);
+  const auto& perm = s.ldlt.permutationP().indices();
+  for (int v = 0; v < n; ++v) s.order[v] = perm.size() == n ? perm[v] : v;
   s.topology_version = snake.topology_version();
   s.num_vertices = n;
 }
 
 // Kass 1988, eqs. (19)-(20) without the external term: x_t = (A + gamma I)^{-1} (gamma x_{t-1}).
-// The solve is spelled out (P, L, D, L^T, P^-1) into preallocated scratch: Eigen's solve()
-// allocates (an in-place permutation mask, a copy of D).
+// The solve P^T L^{-T} D^{-1} L^{-1} P is spelled out over L's compressed columns with a D-vector
+// per row, so that L is read once for all coordinates (Eigen's triangular solves take one
+// right-hand column at a time, three passes over L) and nothing is allocated.
 template <int D>
 void InternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   Solver& s = *solver_;
@@ -127,15 +131,16 @@ void InternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   const int n = snake.num_vertices();
   DSNAKE_ASSERT(int(out.size()) == n, "out has one entry per vertex");
   const PointList<D>& q = snake.positions();
-  for (int v = 0; v < n; ++v)
-    for (int a = 0; a < D; ++a) s.rhs(v, a) = options_.gamma * s.row_scale[v] * q[v][a];
-  s.work.noalias() = s.ldlt.permutationP() * s.rhs;
-  s.ldlt.matrixL().solveInPlace(s.work);
-  s.work.array().colwise() *= s.inverse_d.array();
-  s.ldlt.matrixU().solveInPlace(s.work);
-  s.rhs.noalias() = s.ldlt.permutationPinv() * s.work;
-  for (int v = 0; v < n; ++v)
-    for (int a = 0; a < D; ++a) out[v][a] = s.rhs(v, a);
+  PointList<D>& y = s.points;
+  for (int v = 0; v < n; ++v) y[s.order[v]] = options_.gamma * s.row_scale[v] * q[v];
+  // L is unit lower triangular, stored by columns without its diagonal (Eigen's LDL^T layout).
+  const SparseMatrix& L = s.ldlt.matrixL().nestedExpression();
+  for (int i = 0; i < n; ++i)  // forward: L y = b
+    for (typename SparseMatrix::InnerIterator it(L, i); it; ++it) y[it.row()] -= it.value() * y[i];
+  for (int i = 0; i < n; ++i) y[i] *= s.inverse_d[i];
+  for (int i = n - 1; i >= 0; --i)  // backward: L^T x = y
+    for (typename SparseMatrix::InnerIterator it(L, i); it; ++it) y[i] -= it.value() * y[it.row()];
+  for (int v = 0; v < n; ++v) out[v] = y[s.order[v]];
 }
 
 // Kass 1988 eq. (1)'s E_int, discretised with unit parameter steps (see internal.h).
