@@ -37,11 +37,7 @@ void ArapEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& snake)
   d.q.resize(d.n);
   d.next.resize(d.n);
   d.rotation.resize(d.n);
-  d.vertex_of_id.resize(d.n);
-  for (int t = 0; t < d.n; ++t) {
-    d.vertex_of_id[t] = snake.vertex_of_template_id(t);
-    DSNAKE_ASSERT(d.vertex_of_id[t] >= 0, "every template vertex is on the snake");
-  }
+  map_template_vertices(snake, d.n, d.vertex_of_id);
   d.bound_vertices = snake.num_vertices();
   d.bound_version = snake.topology_version();
 }

@@ -4,6 +4,7 @@
 #include "energies/asap_mls.h"
 
 #include "energies/block_quadratic.h"
+#include "energies/mls_weights.h"
 #include "energies/residual_blocks.h"
 #include "framework/errors.h"
 
@@ -108,11 +109,7 @@ void AsapMlsEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& sna
     d.next.resize(n);
     d.similarity.resize(n);
   }
-  d.vertex_of_id.resize(d.n);
-  for (int t = 0; t < d.n; ++t) {
-    d.vertex_of_id[t] = snake.vertex_of_template_id(t);
-    DSNAKE_ASSERT(d.vertex_of_id[t] >= 0, "every template vertex is on the snake");
-  }
+  map_template_vertices(snake, d.n, d.vertex_of_id);
   d.bound_vertices = snake.num_vertices();
   d.bound_version = snake.topology_version();
 }

@@ -153,4 +153,16 @@ Eigen::Matrix3d best_rotation<3>(const Eigen::Matrix3d& cross) {
 template MlsNeighborhoods build_neighborhoods<2>(const Template<2>&, const NeighborhoodSpec&);
 template MlsNeighborhoods build_neighborhoods<3>(const Template<3>&, const NeighborhoodSpec&);
 
+template <int D>
+void map_template_vertices(const Snake<D>& snake, int n, std::vector<int>& vertex_of_id) {
+  vertex_of_id.resize(n);
+  for (int t = 0; t < n; ++t) {
+    vertex_of_id[t] = snake.vertex_of_template_id(t);
+    DSNAKE_ASSERT(vertex_of_id[t] >= 0, "every template vertex is on the snake");
+  }
+}
+
+template void map_template_vertices<2>(const Snake<2>&, int, std::vector<int>&);
+template void map_template_vertices<3>(const Snake<3>&, int, std::vector<int>&);
+
 }  // namespace dsnake

@@ -51,4 +51,9 @@ Eigen::Matrix<double, D, D> best_similarity(const Eigen::Matrix<double, D, D>& c
 template <int D>
 Eigen::Matrix<double, D, D> best_rotation(const Eigen::Matrix<double, D, D>& cross);
 
+// The snake vertex of every template id 0..n-1, into vertex_of_id (n entries). Every template
+// vertex is on the snake: remeshers never remove a deformation vertex (remesher.h).
+template <int D>
+void map_template_vertices(const Snake<D>& snake, int n, std::vector<int>& vertex_of_id);
+
 }  // namespace dsnake
