@@ -82,17 +82,17 @@ void smooth_sweep(Level& L, const Coupling& c, int first) {
   }
 }
 
-// Sum of squares of n floats in a fixed order (8 interleaved partial sums, then the tail), so
-// that it vectorises and still does not depend on the thread count.
+// Dot product in fixed chunks (8 interleaved lanes each), summed in chunk order: vectorised and
+// independent of the thread count.
 DSNAKE_VECTOR_CLONES
-double sum_squares(const float* __restrict e, int n) {
+double dot_chunk(const float* __restrict a, const float* __restrict b, int64_t n) {
   float lanes[8] = {0, 0, 0, 0, 0, 0, 0, 0};
-  int i = 0;
+  int64_t i = 0;
   for (; i + 8 <= n; i += 8)
-    for (int j = 0; j < 8; ++j) lanes[j] += e[i + j] * e[i + j];
+    for (int j = 0; j < 8; ++j) lanes[j] += a[i + j] * b[i + j];
   double s = 0;
   for (int j = 0; j < 8; ++j) s += lanes[j];
-  for (; i < n; ++i) s += double(e[i]) * e[i];
+  for (; i < n; ++i) s += double(a[i]) * b[i];
   return s;
 }
 
@@ -132,7 +132,12 @@ std::pair<double, double> residual(Level& L, const Coupling& c, bool norms = fal
     double s2 = 0, b2 = 0;
     for (int k = 0; k < K; ++k) {
       residual_row(L.v[k].data(), L.rhs[k].data(), L.res[k].data(), L.b.data() + r.row, r, c.cx, nx);
-      if (norms) s2 += sum_squares(L.res[k].data() + r.row, nx), b2 += sum_squares(L.rhs[k].data() + r.row, nx);
+      if (norms) {
+        const float* res = L.res[k].data() + r.row;
+        const float* rhs = L.rhs[k].data() + r.row;
+        s2 += dot_chunk(res, res, nx);
+        b2 += dot_chunk(rhs, rhs, nx);
+      }
     }
     if (norms) rr[yz] = s2, bb[yz] = b2;
   }
@@ -367,19 +372,6 @@ class Multigrid {
   Eigen::LDLT<Eigen::MatrixXd> coarsest_;
 };
 
-// Dot product in fixed chunks (8 interleaved lanes each), summed in chunk order: vectorised and
-// independent of the thread count.
-DSNAKE_VECTOR_CLONES
-double dot_chunk(const float* __restrict a, const float* __restrict b, int64_t n) {
-  float lanes[8] = {0, 0, 0, 0, 0, 0, 0, 0};
-  int64_t i = 0;
-  for (; i + 8 <= n; i += 8)
-    for (int j = 0; j < 8; ++j) lanes[j] += a[i + j] * b[i + j];
-  double s = 0;
-  for (int j = 0; j < 8; ++j) s += lanes[j];
-  for (; i < n; ++i) s += double(a[i]) * b[i];
-  return s;
-}
 double dot(const std::vector<float>& a, const std::vector<float>& b) {
   constexpr int64_t kChunk = 4096;
   const int64_t n = int64_t(a.size()), chunks = (n + kChunk - 1) / kChunk;
