@@ -1,7 +1,9 @@
 // Remesher<D>: changes a snake's vertices and connectivity (§5). Contract: every deformation
 // vertex keeps its template id and its position, and is never collapsed or merged; the result
-// is a closed polygon / closed manifold mesh. After apply(), snake.topology_version() has been
-// bumped if anything changed, which is how energies learn to rebind.
+// is a closed polygon / closed manifold mesh. A remesher that changes vertices or connectivity
+// goes through Snake::set_topology(), which bumps snake.topology_version(): that is how energies
+// learn to rebind. One that only moves free vertices writes snake.positions() in place and
+// leaves the version (and every energy's precomputation) as it is.
 #pragma once
 
 #include "framework/shape.h"

@@ -274,9 +274,9 @@ bool EditMesh::intersects_any(std::span<const Triangle> ts, std::span<const int>
 
 int EditMesh::commit(Snake<3>& snake) {
   if (!changed_) return snake.num_vertices();
-  if (!connectivity_changed_) {  // positions only (uniform): keep the connectivity as built
-    Connectivity c = snake.connectivity();
-    snake.set_topology(PointList<3>(pos_.begin(), pos_.end()), std::move(c), ids_);
+  if (!connectivity_changed_) {  // positions only (uniform): the topology version stays, so
+    // energies keep their factorisations (only free vertices moved; remesher.h)
+    std::copy(pos_.begin(), pos_.end(), snake.positions().begin());
     changed_ = false;
     return snake.num_vertices();
   }

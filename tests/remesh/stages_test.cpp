@@ -131,6 +131,9 @@ TEST(UniformRemesher, MovesFreeVerticesAlongTheSurfaceTowardsTheirRingCentre) {
   };
   UniformRemesher({1, 45}).apply(s, {});
   EXPECT_LT(off_centre(s), 0.5 * off_centre(before));
+  // Only positions changed: the connectivity and the topology version (energies' caches) stay.
+  EXPECT_EQ(s.topology_version(), before.topology_version());
+  EXPECT_EQ(s.connectivity().triangles(), before.connectivity().triangles());
   // Every vertex stays on the surface it was on (mapped back through the parameterised fan).
   const auto d = distances_to_surface<3>({before.positions(), before.connectivity()}, s.positions());
   for (double x : d) EXPECT_LT(x, 1e-9);
