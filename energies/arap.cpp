@@ -98,22 +98,18 @@ bool ArapEnergy<D>::add_residuals(const Snake<D>& snake, double weight, GlobalPr
   for (int i = 0; i < d.n; ++i) {
     const auto ring = t.connectivity.neighbors(i);
     if (ring.empty()) continue;
-    std::vector<int> vertices{snake.vertex_of_template_id(i)};
-    PointList<D> e;  // p_i - p_j
+    // r_ij = (q_j - q_i) - R_i (p_j - p_i), R_i an auxiliary block started at its best fit.
+    const int centre = snake.vertex_of_template_id(i);
+    std::vector<int> others;
+    PointList<D> a;
+    Eigen::Matrix<double, D, D> cross = Eigen::Matrix<double, D, D>::Zero();
     for (int j : ring) {
-      vertices.push_back(snake.vertex_of_template_id(j));
-      e.push_back(t.positions[i] - t.positions[j]);
+      others.push_back(snake.vertex_of_template_id(j));
+      a.push_back(t.positions[j] - t.positions[i]);
+      cross.noalias() += (snake.positions()[others.back()] - snake.positions()[centre]) * a.back().transpose();
     }
-    const int m = int(ring.size());
-    add_numeric_residual<D>(problem, vertices, D * m, [e, m, root](const PointList<D>& q, double* r) {
-      Eigen::Matrix<double, D, D> cross = Eigen::Matrix<double, D, D>::Zero();
-      for (int k = 0; k < m; ++k) cross.noalias() += (q[0] - q[k + 1]) * e[k].transpose();
-      const Eigen::Matrix<double, D, D> rot = best_rotation<D>(cross);
-      for (int k = 0; k < m; ++k) {
-        const Point<D> res = root * ((q[0] - q[k + 1]) - rot * e[k]);
-        for (int c = 0; c < D; ++c) r[D * k + c] = res[c];
-      }
-    });
+    add_transform_residuals<D>(problem, centre, others, a, std::vector<double>(ring.size(), root), false,
+                               best_rotation<D>(cross));
   }
   return true;
 }

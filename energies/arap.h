@@ -27,6 +27,7 @@ class ArapEnergy final : public Energy<D> {
   // One block per vertex i over {i} + N(i): (q_i - q_j) - R_i(q) (p_i - p_j), R_i(q) the optimal
   // rotation in closed form (Jacobian by central differences).
   bool add_residuals(const Snake<D>& snake, double weight, GlobalProblem<D>& problem) const override;
+  bool has_least_squares_form() const override { return true; }
 
  private:
   struct Data;

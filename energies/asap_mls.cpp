@@ -272,35 +272,20 @@ bool AsapMlsEnergy<D>::add_residuals(const Snake<D>& snake, double weight, Globa
   for (int j = 0; j < d.n; ++j) {
     const auto ids = d.nb.neighbors(j);
     if (ids.empty()) continue;
-    const int m = int(ids.size());
-    std::vector<int> vertices{snake.vertex_of_template_id(j)};
-    for (int i : ids) vertices.push_back(snake.vertex_of_template_id(i));
-    std::vector<double> w(d.nb.weights(j).begin(), d.nb.weights(j).end());
-    PointList<D> a(d.a_fixed.begin() + d.nb.offsets[j], d.a_fixed.begin() + d.nb.offsets[j + 1]);
-    const double spread = d.spread_fixed[j];
-    if constexpr (D == 2) {
-      // r_i = sqrt(w_i) (M(u) a_i - u_i), M(u) a_i = (s a_i + t a_i^perp) / P linear in u (§4.1)
-      for (int i = 0; i < m; ++i) {
-        std::vector<Block<2>> blocks(m + 1, Block<2>::Zero());
-        for (int l = 0; l < m; ++l) {
-          Block<2> c = (l == i ? -1.0 : 0.0) * Block<2>::Identity();
-          if (spread > 1e-300) c += (w[l] / spread) * (a[i] * a[l].transpose() + perp(a[i]) * perp(a[l]).transpose());
-          blocks[l + 1] = c;
-          blocks[0] -= c;
-        }
-        add_block_linear_residual<2>(problem, vertices, blocks, root * std::sqrt(w[i]));
-      }
-    } else {
-      add_numeric_residual<D>(problem, vertices, D * m, [w, a, spread, root, m](const PointList<D>& q, double* r) {
-        Eigen::Matrix<double, D, D> cross = Eigen::Matrix<double, D, D>::Zero();
-        for (int i = 0; i < m; ++i) cross.noalias() += w[i] * (q[i + 1] - q[0]) * a[i].transpose();
-        const Eigen::Matrix<double, D, D> mu_r = best_similarity<D>(cross, spread);
-        for (int i = 0; i < m; ++i) {
-          const Point<D> res = root * std::sqrt(w[i]) * (mu_r * a[i] - (q[i + 1] - q[0]));
-          for (int c = 0; c < D; ++c) r[D * i + c] = res[c];
-        }
-      });
+    // §4: r_i = sqrt(w_ij) (T_j(p_i) - q_i) with T_j(p) = q_j + e^sigma_j R_j (p - p_j) (the
+    // infinite w_jj of eq. (2) pins T_j(p_j) = q_j), T_j an auxiliary block started at its best fit.
+    const int centre = snake.vertex_of_template_id(j);
+    std::vector<int> others;
+    std::vector<double> scales;
+    Eigen::Matrix<double, D, D> cross = Eigen::Matrix<double, D, D>::Zero();
+    const PointList<D> a(d.a_fixed.begin() + d.nb.offsets[j], d.a_fixed.begin() + d.nb.offsets[j + 1]);
+    const auto w = d.nb.weights(j);
+    for (int k = 0; k < int(ids.size()); ++k) {
+      others.push_back(snake.vertex_of_template_id(ids[k]));
+      scales.push_back(root * std::sqrt(w[k]));
+      cross.noalias() += w[k] * (snake.positions()[others.back()] - snake.positions()[centre]) * a[k].transpose();
     }
+    add_transform_residuals<D>(problem, centre, others, a, scales, true, best_similarity<D>(cross, d.spread_fixed[j]));
   }
   return true;
 }

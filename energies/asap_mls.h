@@ -56,6 +56,7 @@ class AsapMlsEnergy final : public Energy<D> {
   // similarity eliminated in closed form; one block per j over the vertices {j} + N(j).
   // 2D: exact linear Jacobian; 3D: central differences.
   bool add_residuals(const Snake<D>& snake, double weight, GlobalProblem<D>& problem) const override;
+  bool has_least_squares_form() const override { return true; }
 
   // The per-j energies D_j by template id (for tests and figures).
   std::vector<double> local_energies(const Snake<D>& snake) const;

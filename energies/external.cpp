@@ -2,7 +2,9 @@
 #include "energies/external.h"
 
 #include "framework/errors.h"
+#include "energies/residual_blocks.h"
 #include "framework/external_field.h"
+#include "framework/potential.h"
 
 #include <limits>
 
@@ -17,6 +19,7 @@ template <int D>
 void ExternalEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& snake) {
   DSNAKE_ASSERT(context.field != nullptr, "the external energy is bound to a computed field");
   field_ = context.field;
+  potential_ = context.potential;
   normals_.reserve(snake.num_vertices());
 }
 
@@ -43,10 +46,22 @@ void ExternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
 template <int D>
 double ExternalEnergy<D>::value(const Snake<D>& snake) const {
   DSNAKE_ASSERT(field_ != nullptr, "bind() before value()");
-  if (!field_->has_potential()) return std::numeric_limits<double>::quiet_NaN();
   double e = 0.0;
-  for (const Point<D>& x : snake.positions()) e += field_->potential(x);
+  if (potential_) {
+    for (const Point<D>& x : snake.positions()) e += potential_->value(x);
+  } else if (field_->has_potential()) {
+    for (const Point<D>& x : snake.positions()) e += field_->potential(x);
+  } else {
+    e = std::numeric_limits<double>::quiet_NaN();
+  }
   return e;
+}
+
+template <int D>
+bool ExternalEnergy<D>::add_residuals(const Snake<D>& snake, double weight, GlobalProblem<D>& problem) const {
+  if (!potential_) return false;
+  for (int v = 0; v < snake.num_vertices(); ++v) add_potential_residual<D>(problem, v, *potential_, weight);
+  return true;
 }
 
 template class ExternalEnergy<2>;

@@ -28,12 +28,19 @@ class ExternalEnergy final : public Energy<D> {
   // (computed only when the field uses it). Parallel over vertices.
   void propose(const Snake<D>& snake, PointList<D>& out) override;
 
-  // sum_v P(q_v) when the field has a potential P >= 0, NaN otherwise.
+  // sum_v P(q_v) with the context's smooth potential if there is one, else the field's own
+  // potential P >= 0 if it has one; NaN otherwise.
   double value(const Snake<D>& snake) const override;
+
+  // r_v = sqrt(weight (P(q_v) + 1e-12)) for every vertex, P the context's smooth potential;
+  // false without one.
+  bool add_residuals(const Snake<D>& snake, double weight, GlobalProblem<D>& problem) const override;
+  bool has_least_squares_form() const override { return true; }
 
  private:
   ExternalOptions options_;
   const ExternalField<D>* field_ = nullptr;
+  const Potential<D>* potential_ = nullptr;
   PointList<D> normals_;  // scratch, n entries
 };
 

@@ -49,6 +49,7 @@ class InternalEnergy final : public Energy<D> {
   // The residuals of value(): sqrt(w alpha / 2) (q_j - q_i) per edge, and sqrt(w beta / 2) times
   // the second difference (2D) or the umbrella Laplacian (3D) per vertex.
   bool add_residuals(const Snake<D>& snake, double weight, GlobalProblem<D>& problem) const override;
+  bool has_least_squares_form() const override { return true; }
 
  private:
   struct Solver;  // the sparse factorisation and scratch, in the .cpp

@@ -31,6 +31,7 @@ class LaplacianEnergy final : public Energy<D> {
   double value(const Snake<D>& snake) const override;
   // One block of D residuals per template vertex: T_i(q) delta_i - L(q)_i (linear in q).
   bool add_residuals(const Snake<D>& snake, double weight, GlobalProblem<D>& problem) const override;
+  bool has_least_squares_form() const override { return true; }
 
  private:
   struct Data;

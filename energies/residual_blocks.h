@@ -1,13 +1,15 @@
 // Residual blocks shared by the deformation energies' global view (Ceres stays in the .cpp):
 //  - block-linear residuals r = scale * sum_k C_k q_{v_k} with D x D blocks C_k (exact Jacobian);
-//  - general residuals r(q_{v_0}, ..., q_{v_m}) given as a function, with a central-difference
-//    Jacobian (for terms whose optimal rotation is eliminated in closed form: 3D ASAP, ARAP).
+//  - transform residuals r_k = c_k (S a_k - (q_{v_k} - q_centre)) with a per-centre rotation or
+//    similarity S as an auxiliary parameter block (ASAP's T_j of §4, ARAP's R_i), with
+//    automatic derivatives. S is an angle (2D) or a unit quaternion (3D, Ceres' quaternion
+//    manifold), times e^sigma for a similarity.
 #pragma once
 
 #include "framework/global_problem.h"
+#include "framework/potential.h"
 
 #include <Eigen/Core>
-#include <functional>
 #include <vector>
 
 namespace dsnake {
@@ -19,12 +21,16 @@ template <int D>
 void add_block_linear_residual(GlobalProblem<D>& problem, const std::vector<int>& vertices,
                                const std::vector<Block<D>>& blocks, double scale);
 
-// residual(q, r): q holds the listed vertices' positions in order, r has num_residuals entries.
+// Adds one auxiliary block S for `centre`, initialised to `initial` (a rotation, or mu R with
+// mu > 0 for a similarity), and the residuals r_k = scales[k] (S a[k] - (q_{others[k]} - q_centre)).
 template <int D>
-using ResidualFunction = std::function<void(const PointList<D>& q, double* r)>;
+void add_transform_residuals(GlobalProblem<D>& problem, int centre, const std::vector<int>& others,
+                             const PointList<D>& a, const std::vector<double>& scales, bool with_scale,
+                             const Block<D>& initial);
 
+// Adds r = sqrt(weight (P(q_v) + 1e-12)) for vertex v (the offset keeps the square root
+// differentiable where P = 0), with the exact derivative weight grad P / (2 r).
 template <int D>
-void add_numeric_residual(GlobalProblem<D>& problem, const std::vector<int>& vertices, int num_residuals,
-                          ResidualFunction<D> residual);
+void add_potential_residual(GlobalProblem<D>& problem, int v, const Potential<D>& potential, double weight);
 
 }  // namespace dsnake

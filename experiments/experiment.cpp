@@ -4,6 +4,7 @@
 #include "experiments/builtin.h"
 #include "experiments/corruption.h"
 #include "experiments/phantoms.h"
+#include "fields/potential.h"
 #include "fields/registry.h"
 #include "framework/errors.h"
 #include "framework/image_io.h"
@@ -183,6 +184,34 @@ ExperimentFile builtin_experiment(const std::string& name, const std::vector<std
   return finish_file(std::move(f), overrides);
 }
 
+// The "global" object: Ceres' options and the external term's potential (issue 7). Present for
+// a global solve, or for a snake run whose energies should be reported with the same potential.
+void read_global(JsonReader r, GlobalSolverOptions& g, std::optional<PotentialOptions>& potential) {
+  r.read("linear_solver", g.linear_solver);
+  r.expect(g.linear_solver == "sparse_normal_cholesky" || g.linear_solver == "sparse_schur" ||
+               g.linear_solver == "dense_qr",
+           "linear_solver", "must be \"sparse_normal_cholesky\", \"sparse_schur\" or \"dense_qr\"");
+  r.read("max_iterations", g.max_iterations);
+  r.expect(g.max_iterations >= 1 && g.max_iterations <= 1000000, "max_iterations", "must be in [1, 1000000]");
+  r.read("initial_trust_region_radius", g.initial_trust_region_radius);
+  r.read("max_trust_region_radius", g.max_trust_region_radius);
+  r.expect(g.initial_trust_region_radius > 0, "initial_trust_region_radius", "must be > 0");
+  r.expect(g.max_trust_region_radius >= g.initial_trust_region_radius, "max_trust_region_radius",
+           "must be >= initial_trust_region_radius");
+  r.read("function_tolerance", g.function_tolerance);
+  r.expect(g.function_tolerance >= 0, "function_tolerance", "must be >= 0");
+  r.read("gradient_tolerance", g.gradient_tolerance);
+  r.expect(g.gradient_tolerance >= 0, "gradient_tolerance", "must be >= 0");
+  r.read("parameter_tolerance", g.parameter_tolerance);
+  r.expect(g.parameter_tolerance >= 0, "parameter_tolerance", "must be >= 0");
+  r.read("threads", g.threads);
+  r.expect(g.threads >= 1 && g.threads <= 256, "threads", "must be in [1, 256]");
+  r.read("remesh_rounds", g.remesh_rounds);
+  r.expect(g.remesh_rounds >= 0 && g.remesh_rounds <= 1000, "remesh_rounds", "must be in [0, 1000]");
+  potential = read_potential_options(r);
+  r.finish();
+}
+
 template <int D>
 Experiment<D> build_experiment(const ExperimentFile& file) {
   DSNAKE_ASSERT(file.dimension == D, "dimension matches");
@@ -201,8 +230,8 @@ Experiment<D> build_experiment(const ExperimentFile& file) {
   ex.seed = static_cast<uint64_t>(seed);
   top.read("solver", ex.solver);
   top.expect(ex.solver == "snake" || ex.solver == "global", "solver", "must be \"snake\" or \"global\"");
-  if (ex.solver == "global")
-    top.fail("solver", "the global (Ceres) solve is not available in this version; use \"snake\"");
+  if (top.has("global")) read_global(top.child("global"), ex.global, ex.potential);
+  else if (ex.solver == "global") ex.potential = PotentialOptions{};
 
   // The image: a file or a phantom, then corruptions in order.
   std::optional<Phantom<D>> phantom;
@@ -309,6 +338,8 @@ Experiment<D> build_experiment(const ExperimentFile& file) {
       r.read("weight", we.weight);
       r.expect(we.weight > 0, "weight", "must be > 0");
       we.energy = energy_registry<D>().create(r);
+      if (ex.solver == "global" && !we.energy->has_least_squares_form())
+        r.fail("type", "the " + we.energy->type() + " energy has no least-squares form, so \"solver\": \"global\" cannot use it");
       governs_all |= we.energy->governs() == Governs::kAllVertices;
       ex.energies.push_back(std::move(we));
     }

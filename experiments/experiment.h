@@ -5,7 +5,9 @@
 #pragma once
 
 #include "framework/evolver.h"
+#include "fields/potential.h"
 #include "framework/external_field.h"
+#include "framework/global_problem.h"
 #include "framework/metrics.h"
 
 #include <memory>
@@ -48,6 +50,8 @@ struct Experiment {
   std::string name;
   uint64_t seed = 0;
   std::string solver = "snake";
+  GlobalSolverOptions global;               // "global": Ceres' options
+  std::optional<PotentialOptions> potential;  // the external term's potential (global view)
   Image<D> image;
   Template<D> tmpl;
   PointList<D> initial;  // the placed template: the snake's start

@@ -4,15 +4,19 @@
 //              [--field-cache DIR] [--threads N] [--quiet]
 //   dsnake validate CONFIG.json [--set ...]
 //   dsnake field --image X --type gvf [--param key=value ...] [--field-cache DIR] --out field.mha
+//   dsnake sweep SWEEP.json --out DIR [-j N] [--threads T] [--manifest parallel|slurm]
+//                [--aggregate-only] [--quiet]                    (experiments/sweep.h)
 // Exit codes: 0 done, 2 bad input (one line on stderr naming the file and the JSON path or
-// element), 1 anything else.
+// element), 1 anything else (for a sweep: a run failed), 130 a sweep stopped by a signal.
 #include "experiments/experiment.h"
 #include "experiments/field_command.h"
 #include "experiments/runner.h"
+#include "experiments/sweep.h"
 #include "framework/errors.h"
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <filesystem>
 #include <omp.h>
 
 namespace {
@@ -47,6 +51,16 @@ int validate(const std::string& config, const std::vector<std::string>& override
   else build_experiment<3>(file);
   std::printf("%s: valid %dD experiment\n", file.path.c_str(), file.dimension);
   return 0;
+}
+
+// Expands the sweep file and runs it (children: this executable), or writes its manifest, or
+// only aggregates finished runs.
+int sweep(const std::string& file, SweepOptions options) {
+  const Sweep s = load_sweep(file, /*validate=*/!options.aggregate_only);
+  options.executable = std::filesystem::read_symlink("/proc/self/exe").string();
+  const SweepSummary summary = run_sweep(s, options);
+  if (summary.interrupted) return 130;
+  return summary.failed > 0 ? 1 : 0;
 }
 
 }  // namespace
@@ -98,6 +112,22 @@ int main(int argc, char** argv) {
   field_cmd->add_flag("--no-png", field_options.no_png, "No 2D figure");
   field_cmd->add_option("--threads,-j", threads, "OpenMP threads (default: all cores)")->check(CLI::Range(1, 1024));
 
+  std::string sweep_file;
+  SweepOptions sweep_options;
+  auto* sweep_cmd = app.add_subcommand(
+      "sweep", "Run an experiment over methods x parameter grid x corruption levels x seeds (resumable)");
+  sweep_cmd->add_option("sweep", sweep_file, "Sweep file (JSON; format in experiments/sweep.h)")->required();
+  sweep_cmd->add_option("--out,-o", sweep_options.out_dir, "Output folder (runs/, results.csv, breakdown.csv)")->required();
+  sweep_cmd->add_option("--jobs,-j", sweep_options.jobs, "Runs at once (child processes; default 1)")->check(CLI::Range(1, 1024));
+  sweep_cmd->add_option("--threads", sweep_options.threads, "OpenMP threads per run (default: 1 with -j > 1, else all)")
+      ->check(CLI::Range(1, 1024));
+  auto* manifest_opt = sweep_cmd->add_option("--manifest", sweep_options.manifest,
+                        "Write the unfinished runs for GNU parallel (manifest.txt) or Slurm (also sweep.slurm); run nothing")
+      ->check(CLI::IsMember({"parallel", "slurm"}));
+  sweep_cmd->add_flag("--aggregate-only", sweep_options.aggregate_only, "Only rebuild results.csv and breakdown.csv")
+      ->excludes(manifest_opt);
+  sweep_cmd->add_flag("--quiet,-q", sweep_options.quiet, "No progress lines on stderr");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -115,6 +145,7 @@ int main(int argc, char** argv) {
     if (threads > 0) omp_set_num_threads(threads);
     if (*run_cmd) return run(config, overrides, field_cache, options);
     if (*field_cmd) return run_field_command(field_options);
+    if (*sweep_cmd) return sweep(sweep_file, sweep_options);
     return validate(validate_config, validate_overrides);
   } catch (const InputError& e) {
     std::fprintf(stderr, "dsnake: error: %s\n", e.what());

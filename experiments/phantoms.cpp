@@ -1,7 +1,9 @@
 #include "experiments/phantoms.h"
 
+#include "experiments/paper_phantoms.h"
 #include "framework/errors.h"
 #include "framework/image_filters.h"
+#include "framework/metrics.h"
 
 #include <Eigen/Geometry>
 #include <cmath>
@@ -25,9 +27,10 @@ struct PhantomCanvas {
 };
 
 template <int D>
-PhantomCanvas<D> read_canvas(JsonReader& r, int default_size) {
+PhantomCanvas<D> read_canvas(JsonReader& r, const GridIndex<D>& default_size, double default_blur) {
   PhantomCanvas<D> c;
-  std::vector<double> size(D, default_size);
+  c.blur = default_blur;
+  std::vector<double> size(default_size.data(), default_size.data() + D);
   r.read("size", size);
   r.expect(int(size.size()) == D, "size", "expected " + std::to_string(D) + " integers");
   for (int a = 0; a < D; ++a) {
@@ -48,12 +51,23 @@ PhantomCanvas<D> read_canvas(JsonReader& r, int default_size) {
   return c;
 }
 
-// Default image size (voxels per axis) and template centre (the default image's centre).
+// Default image size (voxels per axis), blur and template centre (the default image's centre)
+// of a phantom kind. The paper's phantoms (§8) are binary by default (blur 0), as the paper's
+// corruptions expect; the older ones keep a blur of 1.
 template <int D>
 constexpr int kDefaultImageSize = D == 2 ? 128 : 64;
 template <int D>
-Point<D> default_template_center() {
-  return Point<D>::Constant((kDefaultImageSize<D> - 1) / 2.0);
+GridIndex<D> default_image_size(const std::string& kind) {
+  const GridIndex<D> paper = paper_image_size<D>(kind);
+  return paper.minCoeff() > 0 ? paper : GridIndex<D>::Constant(kDefaultImageSize<D>);
+}
+template <int D>
+double default_blur(const std::string& kind) {
+  return paper_image_size<D>(kind).minCoeff() > 0 ? 0.0 : 1.0;
+}
+template <int D>
+Point<D> default_template_center(const std::string& kind) {
+  return 0.5 * (default_image_size<D>(kind).template cast<double>() - Point<D>::Ones());
 }
 
 // The parameters of a star shape, shared by the image and the template phantom.
@@ -87,7 +101,8 @@ Point<3> read_axes(JsonReader& r, const std::string& kind, double default_radius
     r.read<3>("semi_axes", axes);
     r.expect(axes.minCoeff() > 0, "semi_axes", "must be > 0");
   } else {
-    r.fail("phantom", "unknown 3D " + std::string(role) + " phantom \"" + kind + "\" (known: sphere, ellipsoid)");
+    r.fail("phantom", "unknown 3D " + std::string(role) + " phantom \"" + kind + "\" (known: sphere, ellipsoid, " +
+                          (std::string(role) == "image" ? paper_image_kinds<3>() : paper_template_kinds<3>()) + ")");
   }
   return axes;
 }
@@ -141,6 +156,96 @@ void render(Phantom<D>& ph, const PhantomCanvas<D>& c, const std::function<bool(
     ph.image[l] = static_cast<float>(c.background + frac * (c.foreground - c.background));
     ph.mask[l] = inside(x) ? 1.0f : 0.0f;
   }
+  ph.image = gaussian_blur(ph.image, c.blur);
+}
+
+// Paints a solid tube (the points within `radius` of segment a-b) at grey level `level` over
+// the image: the covered fraction of each voxel (3^D sub-voxel centres) with partial volume,
+// else the voxels whose centre it covers. Tubes are painted one after the other, so overlapping
+// ones give the same image for any thread count.
+template <int D>
+void paint_tube(Image<D>& image, const PhantomCanvas<D>& c, const typename PaperImageShape<D>::Tube& tube, double level) {
+  const Grid<D>& g = c.grid;
+  GridIndex<D> lo, extent;
+  for (int a = 0; a < D; ++a) {
+    const double x0 = std::min(tube.a[a], tube.b[a]) - tube.radius, x1 = std::max(tube.a[a], tube.b[a]) + tube.radius;
+    lo[a] = std::max(0, int(std::floor((x0 - g.origin[a]) / g.spacing[a])));
+    extent[a] = std::min(g.size[a] - 1, int(std::ceil((x1 - g.origin[a]) / g.spacing[a]))) - lo[a] + 1;
+    if (extent[a] <= 0) return;
+  }
+  const Point<D> axis = tube.b - tube.a;
+  const double len2 = axis.squaredNorm();
+  auto covered = [&](const Point<D>& x) {
+    const double t = len2 > 0 ? std::clamp((x - tube.a).dot(axis) / len2, 0.0, 1.0) : 0.0;
+    return (x - tube.a - t * axis).squaredNorm() < tube.radius * tube.radius;
+  };
+  const int sub = c.partial_volume ? 3 : 1, samples = D == 2 ? sub * sub : sub * sub * sub;
+  const int64_t n = extent.template cast<int64_t>().prod();
+#pragma omp parallel for schedule(static)
+  for (int64_t l = 0; l < n; ++l) {
+    GridIndex<D> i;
+    int64_t rest = l;
+    for (int a = 0; a < D; ++a) {
+      i[a] = lo[a] + int(rest % extent[a]);
+      rest /= extent[a];
+    }
+    const Point<D> x = g.to_physical(i);
+    int count = 0;
+    for (int s = 0; s < samples; ++s) {
+      Point<D> y = x;
+      int r = s;
+      for (int a = 0; a < D; ++a, r /= sub) y[a] += ((r % sub) - (sub - 1) / 2.0) / double(sub) * g.spacing[a];
+      count += covered(y);
+    }
+    float& v = image.at(i);
+    v = static_cast<float>(v + double(count) / samples * (level - v));
+  }
+}
+
+// Renders the interior of a closed boundary (polygon or mesh) as render() does, with the
+// rasteriser of the metrics (framework/metrics.h), so that the mask is exactly the Dice mask of
+// the true surface; partial volume counts the 3^D sub-voxel centres on a grid 3 times finer.
+template <int D>
+void render_surface(Phantom<D>& ph, const PhantomCanvas<D>& c, const PaperImageShape<D>& shape) {
+  ph.surface = shape.surface;
+  const SurfaceRef<D> surface{ph.surface.positions, ph.surface.connectivity};
+  ph.mask = rasterize_interior<D>(surface, c.grid);
+  ph.image = Image<D>(c.grid);
+  const int64_t n = c.grid.num_voxels();
+  if (!c.partial_volume) {
+    for (int64_t l = 0; l < n; ++l)
+      ph.image[l] = static_cast<float>(ph.mask[l] != 0 ? c.foreground : c.background);
+  } else {
+    // One layer of voxels (along the last axis) at a time: the 3x finer grid of a whole volume
+    // would take 27 times the image's memory.
+    constexpr int sub = 3, last = D - 1;
+    const int samples = D == 2 ? sub * sub : sub * sub * sub;
+    const int64_t per_layer = n / c.grid.size[last];
+    for (int k = 0; k < c.grid.size[last]; ++k) {
+      Grid<D> fine = c.grid;
+      fine.size = c.grid.size * sub;
+      fine.size[last] = sub;
+      fine.spacing = c.grid.spacing / sub;
+      fine.origin = c.grid.origin - fine.spacing;  // sub-voxel centres at -1/3, 0, +1/3 voxel
+      fine.origin[last] += k * c.grid.spacing[last];
+      const Image<D> inside = rasterize_interior<D>(surface, fine);
+#pragma omp parallel for schedule(static)
+      for (int64_t m = 0; m < per_layer; ++m) {
+        const int64_t l = k * per_layer + m;
+        GridIndex<D> i = c.grid.index(l);
+        i[last] = 0;
+        int count = 0;
+        for (int s = 0; s < samples; ++s) {
+          GridIndex<D> f = sub * i;
+          int rest = s;
+          for (int a = 0; a < D; ++a, rest /= sub) f[a] += rest % sub;
+          count += inside.at(f) != 0;
+        }
+        ph.image[l] = static_cast<float>(c.background + double(count) / samples * (c.foreground - c.background));
+      }
+    }
+  }
+  for (const auto& tube : shape.tubes) paint_tube(ph.image, c, tube, shape.tube_level);
   ph.image = gaussian_blur(ph.image, c.blur);
 }
 
@@ -205,8 +310,10 @@ Phantom<2> make_phantom<2>(JsonReader& r) {
   r.require("phantom", kind);
   Phantom<2> ph;
   ph.kind = kind;
-  auto c = read_canvas<2>(r, kDefaultImageSize<2>);
-  if (kind == "disk") {
+  auto c = read_canvas<2>(r, default_image_size<2>(kind), default_blur<2>(kind));
+  if (auto shape = make_paper_image<2>(r, kind, c.center)) {
+    render_surface<2>(ph, c, *shape);
+  } else if (kind == "disk") {
     double radius = 30;
     r.read("radius", radius);
     r.expect(radius > 0, "radius", "must be > 0");
@@ -237,7 +344,8 @@ Phantom<2> make_phantom<2>(JsonReader& r) {
     render<2>(ph, c, [&](const Point<2>& x) { return inside_polygon(poly, x); });
     ph.surface = polygon_template(poly);
   } else {
-    r.fail("phantom", "unknown 2D image phantom \"" + kind + "\" (known: disk, square, star)");
+    r.fail("phantom", "unknown 2D image phantom \"" + kind + "\" (known: disk, square, star, " +
+                          paper_image_kinds<2>() + ")");
   }
   return ph;
 }
@@ -248,7 +356,11 @@ Phantom<3> make_phantom<3>(JsonReader& r) {
   r.require("phantom", kind);
   Phantom<3> ph;
   ph.kind = kind;
-  auto c = read_canvas<3>(r, kDefaultImageSize<3>);
+  auto c = read_canvas<3>(r, default_image_size<3>(kind), default_blur<3>(kind));
+  if (auto shape = make_paper_image<3>(r, kind, c.center)) {
+    render_surface<3>(ph, c, *shape);
+    return ph;
+  }
   const Point<3> axes = read_axes(r, kind, 20, "image");
   render<3>(ph, c, [&](const Point<3>& x) { return (x - c.center).cwiseQuotient(axes).squaredNorm() < 1.0; });
   ph.surface = scaled_icosphere(5, c.center, axes);
@@ -259,8 +371,9 @@ template <>
 Template<2> make_template_phantom<2>(JsonReader& r) {
   std::string kind;
   r.require("phantom", kind);
-  Point<2> center = default_template_center<2>();
+  Point<2> center = default_template_center<2>(kind);
   r.read<2>("center", center);
+  if (auto t = make_paper_template<2>(r, kind, center)) return std::move(*t);
   if (kind == "circle") {
     double radius = 40;
     int vertices = 40;
@@ -276,16 +389,18 @@ Template<2> make_template_phantom<2>(JsonReader& r) {
     for (int k = 0; k < star.arms; ++k) t.landmarks["tip" + std::to_string(k)] = 2 * k;
     return t;
   }
-  r.fail("phantom", "unknown 2D template phantom \"" + kind + "\" (known: circle, star)");
+  r.fail("phantom", "unknown 2D template phantom \"" + kind + "\" (known: circle, star, " +
+                        paper_template_kinds<2>() + ")");
 }
 
 template <>
 Template<3> make_template_phantom<3>(JsonReader& r) {
   std::string kind;
   r.require("phantom", kind);
-  Point<3> center = default_template_center<3>();
-  int subdivisions = 2;
+  Point<3> center = default_template_center<3>(kind);
   r.read<3>("center", center);
+  if (auto t = make_paper_template<3>(r, kind, center)) return std::move(*t);
+  int subdivisions = 2;
   r.read("subdivisions", subdivisions);
   r.expect(subdivisions >= 0 && subdivisions <= 6, "subdivisions", "must be in [0, 6]");
   const Point<3> axes = read_axes(r, kind, 24, "template");
@@ -315,9 +430,10 @@ std::vector<std::optional<Point<D>>> phantom_targets(const nlohmann::json& image
   tpl.erase("transform");
   const std::string ik = img.value("phantom", ""), tk = tpl.value("phantom", "");
   JsonReader ir(img, "", "image"), tr(tpl, "", "template");
-  const auto canvas = read_canvas<D>(ir, kDefaultImageSize<D>);
-  Point<D> template_center = default_template_center<D>();
+  const auto canvas = read_canvas<D>(ir, default_image_size<D>(ik), default_blur<D>(ik));
+  Point<D> template_center = default_template_center<D>(tk);
   tr.read<D>("center", template_center);
+  if (auto paper = paper_targets<D>(ir, ik, canvas.center, tr, tk, tmpl)) return std::move(*paper);
 
   // The template's direction in its own ellipsoid frame, mapped onto the image's ellipsoid.
   auto radial = [&](const Point<D>& axes) {

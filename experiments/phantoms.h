@@ -3,7 +3,11 @@
 // background 170, foreground 85; binary unless "partial_volume" is true (then boundary voxels
 // take the covered fraction), then blurred by "blur" (Gaussian sigma, physical units; 0: none).
 //  - image phantoms: "disk", "square", "star" (2D); "sphere", "ellipsoid" (3D);
-//  - template phantoms: "circle", "star" (2D); "sphere", "ellipsoid" (3D).
+//  - template phantoms: "circle", "star" (2D); "sphere", "ellipsoid" (3D);
+//  - the paper's phantoms (experiments/paper_phantoms.h, binary by default: blur 0):
+//    image and template "puzzle", "lung_slice" (2D, default images 128^2), "star" (80^3),
+//    "tetris", "bone" (64^3), "lung" (230 x 300 x 80, with bronchi) (3D); templates "bar" and
+//    "c_shape" (3D). A template's default "center" is the centre of its family's default image.
 // Every phantom knows its true boundary (a fine polygon / mesh) and its mask; a template
 // phantom of a matching family also gets correspondence targets (see phantom_targets).
 #pragma once
@@ -37,7 +41,8 @@ Template<D> make_template_phantom(JsonReader& reader);
 // Correspondence targets for a template phantom registered to an image phantom, where the
 // pairing is known: circle/sphere -> disk/sphere/ellipsoid (the template stretched along its
 // axes onto the shape), circle -> square (radial projection from the centres, a convention),
-// star -> star with the same arm count (vertex k to vertex k). Empty otherwise.
+// star -> star with the same arm count (vertex k to vertex k); the paper's phantoms to the same
+// family (see paper_targets in experiments/paper_phantoms.h). Empty otherwise.
 template <int D>
 std::vector<std::optional<Point<D>>> phantom_targets(const nlohmann::json& image_spec,
                                                      const nlohmann::json& template_spec,

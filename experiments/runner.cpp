@@ -3,6 +3,8 @@
 #include "experiments/figures.h"
 #include "framework/atomic_file.h"
 #include "framework/errors.h"
+#include "framework/global_solver.h"
+#include "framework/potential.h"
 #include "framework/mesh_io.h"
 #include "remesh/quality.h"
 
@@ -31,10 +33,10 @@ double seconds_since(Clock::time_point t) { return std::chrono::duration<double>
 template <int D>
 class ProgressObserver : public EvolverObserver<D> {
  public:
-  ProgressObserver(const std::vector<Phase<D>>& phases, std::vector<std::string> names)
-      : phases_(phases), names_(std::move(names)) {}
+  ProgressObserver(const std::vector<Phase<D>>& phases, std::vector<std::string> names, bool global)
+      : phases_(phases), names_(std::move(names)), global_(global) {}
   void on_iteration(const IterationInfo& info, const Snake<D>&) override {
-    const bool last = info.phase_iteration == phases_[info.phase].iterations;
+    const bool last = !global_ && info.phase_iteration == phases_[info.phase].iterations;
     if (info.phase_iteration != 1 && !last && seconds_since(last_print_) < 0.5) return;
     print(info);
   }
@@ -47,12 +49,18 @@ class ProgressObserver : public EvolverObserver<D> {
  private:
   void print(const IterationInfo& info) {
     last_print_ = Clock::now();
-    std::fprintf(stderr, "dsnake: phase %d/%zu %s iteration %d/%d  energy %.6g  max move %.3g  vertices %d\n",
-                 info.phase + 1, phases_.size(), names_[info.phase].c_str(), info.phase_iteration,
-                 phases_[info.phase].iterations, info.total_energy, info.max_displacement, info.vertices);
+    if (global_)
+      std::fprintf(stderr, "dsnake: phase %d/%zu %s Ceres iteration %d  energy %.6g  max move %.3g  vertices %d\n",
+                   info.phase + 1, phases_.size(), names_[info.phase].c_str(), info.phase_iteration,
+                   info.total_energy, info.max_displacement, info.vertices);
+    else
+      std::fprintf(stderr, "dsnake: phase %d/%zu %s iteration %d/%d  energy %.6g  max move %.3g  vertices %d\n",
+                   info.phase + 1, phases_.size(), names_[info.phase].c_str(), info.phase_iteration,
+                   phases_[info.phase].iterations, info.total_energy, info.max_displacement, info.vertices);
   }
   const std::vector<Phase<D>>& phases_;
   std::vector<std::string> names_;
+  bool global_ = false;
   Clock::time_point last_print_{};
 };
 
@@ -157,8 +165,15 @@ std::string correspondence_csv(const Experiment<D>& ex, const Snake<D>& snake, c
   return s.str();
 }
 
-// Moves every entry of `staging` into `out` (replacing same-named entries), result.json last.
+// Publishes `staging` as `out`: a rename when `out` is new, else moves every entry into `out`
+// (replacing same-named entries), result.json last.
 void publish(const fs::path& staging, const fs::path& out) {
+  if (!fs::exists(out)) {  // a new folder appears in one step
+    if (out.has_parent_path()) fs::create_directories(out.parent_path());
+    std::error_code ec;
+    fs::rename(staging, out, ec);
+    if (!ec) return;
+  }
   fs::create_directories(out);
   std::vector<fs::path> entries;
   for (const auto& e : fs::directory_iterator(staging)) entries.push_back(e.path());
@@ -170,6 +185,58 @@ void publish(const fs::path& staging, const fs::path& out) {
     fs::rename(p, target);
   }
   fs::remove_all(staging);
+}
+
+// The external term's smooth potential on the image grid (fields/potential.h).
+template <int D>
+class GridPotential final : public Potential<D> {
+ public:
+  explicit GridPotential(SmoothPotential<D> p) : p_(std::move(p)) {}
+  double value(const Point<D>& x) const override { return p_.value(x); }
+  double value_and_gradient(const Point<D>& x, Point<D>& g) const override { return p_.value_and_gradient(x, g); }
+
+ private:
+  SmoothPotential<D> p_;
+};
+
+template <int D>
+std::unique_ptr<Potential<D>> make_potential(const PotentialOptions& o, const Image<D>& image,
+                                             const ExternalField<D>* field) {
+  return std::make_unique<GridPotential<D>>(SmoothPotential<D>(compute_potential<D>(o, image, field), o.interpolation));
+}
+
+// result.json's "global": the solver options and Ceres' summary of every solve, per phase.
+template <int D>
+nlohmann::ordered_json global_json(const Experiment<D>& ex, const std::vector<std::vector<GlobalSolveSummary>>& solves) {
+  const GlobalSolverOptions& g = ex.global;
+  nlohmann::ordered_json j = {{"linear_solver", g.linear_solver}, {"max_iterations", g.max_iterations},
+                              {"initial_trust_region_radius", g.initial_trust_region_radius},
+                              {"max_trust_region_radius", g.max_trust_region_radius},
+                              {"function_tolerance", g.function_tolerance},
+                              {"gradient_tolerance", g.gradient_tolerance},
+                              {"parameter_tolerance", g.parameter_tolerance}, {"threads", g.threads},
+                              {"remesh_rounds", g.remesh_rounds}};
+  int iterations = 0, residual_evaluations = 0, jacobian_evaluations = 0;
+  nlohmann::ordered_json phases = nlohmann::ordered_json::array();
+  for (const auto& phase : solves) {
+    nlohmann::ordered_json list = nlohmann::ordered_json::array();
+    for (const auto& s : phase) {
+      list.push_back({{"iterations", s.iterations}, {"successful_steps", s.successful_steps},
+                      {"residual_evaluations", s.residual_evaluations},
+                      {"jacobian_evaluations", s.jacobian_evaluations}, {"initial_cost", s.initial_cost},
+                      {"final_cost", s.final_cost}, {"termination", s.termination}, {"message", s.message},
+                      {"time_s", s.time_s}});
+      iterations += s.iterations;
+      residual_evaluations += s.residual_evaluations;
+      jacobian_evaluations += s.jacobian_evaluations;
+    }
+    phases.push_back(list);
+  }
+  j["iterations"] = iterations;
+  j["residual_evaluations"] = residual_evaluations;
+  j["jacobian_evaluations"] = jacobian_evaluations;
+  j["solves"] = phases;
+  return j;
 }
 
 template <int D>
@@ -198,21 +265,41 @@ nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& optio
 
     Snake<D> snake = Snake<D>::from_template(ex.tmpl, ex.initial);
     const int initial_vertices = snake.num_vertices();
-    EnergyContext<D> context{&ex.tmpl, &ex.image, ex.field.get()};
-    Evolver<D> evolver(context, std::move(ex.energies));
-    const auto names = term_names(evolver.energies());
+    // The external term's smooth potential (the global view; also reported for a snake run).
+    std::unique_ptr<Potential<D>> potential;
+    double potential_s = 0.0;
+    if (ex.potential) {
+      t = Clock::now();
+      potential = make_potential<D>(*ex.potential, ex.image, ex.field.get());
+      potential_s = seconds_since(t);
+    }
+    EnergyContext<D> context{&ex.tmpl, &ex.image, ex.field.get(), potential.get()};
     std::vector<std::string> phase_names;
     for (size_t p = 0; p < ex.phases.size(); ++p) {
       const auto& doc = ex.file.document["phases"][p];
       phase_names.push_back(doc.contains("name") && doc["name"].is_string() ? doc["name"].template get<std::string>()
                                                                            : "#" + std::to_string(p + 1));
     }
-    ProgressObserver<D> progress(ex.phases, phase_names);
+    ProgressObserver<D> progress(ex.phases, phase_names, ex.solver == "global");
     RecordingObserver<D> recorder((staging / "snapshots").string(), ex.output.snapshot_every);
-    evolver.add_observer(&recorder);
-    if (!options.quiet) evolver.add_observer(&progress);
+    std::vector<std::string> names;
+    EvolveSummary summary;
+    nlohmann::ordered_json global_report;
     t = Clock::now();
-    const EvolveSummary summary = evolver.run(snake, ex.phases);
+    if (ex.solver == "global") {
+      GlobalSolver<D> solver(context, std::move(ex.energies), ex.global);
+      names = term_names(solver.energies());
+      solver.add_observer(&recorder);
+      if (!options.quiet) solver.add_observer(&progress);
+      summary = solver.run(snake, ex.phases);
+      global_report = global_json(ex, solver.solves());
+    } else {
+      Evolver<D> evolver(context, std::move(ex.energies));
+      names = term_names(evolver.energies());
+      evolver.add_observer(&recorder);
+      if (!options.quiet) evolver.add_observer(&progress);
+      summary = evolver.run(snake, ex.phases);
+    }
     const double evolve_s = seconds_since(t);
 
     // A diverged snake (non-finite positions) has no meaningful metrics: they stay null.
@@ -276,8 +363,11 @@ nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& optio
                                               : std::optional<double>(recorder.trace.back().energy_terms[i]));
       result["energy"] = {{"terms", terms}, {"total", recorder.trace.back().total_energy}};
     }
-    result["timings"] = {{"field_s", field_s}, {"evolve_s", evolve_s}, {"metrics_s", metrics_s},
-                         {"total_s", seconds_since(start)}};
+    if (ex.potential)
+      result["potential"] = {{"type", ex.potential->type}, {"interpolation", ex.potential->interpolation}};
+    if (!global_report.is_null()) result["global"] = global_report;
+    result["timings"] = {{"field_s", field_s}, {"potential_s", potential_s}, {"evolve_s", evolve_s},
+                         {"metrics_s", metrics_s}, {"total_s", seconds_since(start)}};
     result["seed"] = ex.seed;
     result["config"] = ex.file.document;
     result["version"] = dsnake_version();

@@ -16,6 +16,7 @@ namespace dsnake {
 template <int D> class ExternalField;
 template <int D> class Image;
 template <int D> class GlobalProblem;  // Ceres lives behind this in framework/global_problem.*
+template <int D> class Potential;
 
 // What an energy is bound to: the template and, where there is one, the image and its field.
 template <int D>
@@ -23,6 +24,8 @@ struct EnergyContext {
   const Template<D>* tmpl = nullptr;
   const Image<D>* image = nullptr;
   const ExternalField<D>* field = nullptr;
+  // The smooth potential of the external term's global view (framework/potential.h), if any.
+  const Potential<D>* potential = nullptr;
 };
 
 enum class Governs {
@@ -54,6 +57,8 @@ class Energy {
   virtual bool add_residuals(const Snake<D>& snake, double weight, GlobalProblem<D>& problem) const {
     return false;
   }
+  // Whether add_residuals() can succeed (the global solver checks this when it reads the file).
+  virtual bool has_least_squares_form() const { return false; }
 };
 
 }  // namespace dsnake

@@ -62,7 +62,8 @@ double Evolver<D>::step(Snake<D>& snake) {
 }
 
 template <int D>
-std::vector<double> Evolver<D>::energy_terms(const Snake<D>& snake) const {
+std::vector<double> Evolver<D>::energy_terms(const Snake<D>& snake) {
+  bind_if_needed(snake);
   std::vector<double> terms;
   for (const auto& e : energies_) terms.push_back(e.weight * e.energy->value(snake));
   return terms;
@@ -90,7 +91,6 @@ EvolveSummary Evolver<D>::run(Snake<D>& snake, std::vector<Phase<D>>& phases) {
       info.phase_iteration = it;
       info.max_displacement = move;
       if (trace_energy_) {
-        bind_if_needed(snake);
         info.energy_terms = energy_terms(snake);
         for (double t : info.energy_terms)
           if (std::isfinite(t)) info.total_energy += t;

@@ -80,8 +80,8 @@ class Evolver {
   // One iteration of the averaged update; returns the largest displacement.
   double step(Snake<D>& snake);
 
-  // w_e E_e(q) per term, in the order given.
-  std::vector<double> energy_terms(const Snake<D>& snake) const;
+  // w_e E_e(q) per term, in the order given (binds the energies to the snake first if needed).
+  std::vector<double> energy_terms(const Snake<D>& snake);
   const std::vector<WeightedEnergy<D>>& energies() const { return energies_; }
 
  private:

@@ -3,13 +3,17 @@
 // cost functions include Ceres themselves). Energies add residual blocks r_k with
 // E_e(q) = sum_k |r_k(q)|^2 (energy.h); the total E = sum_e w_e E_e is then
 // sum_of_squares(), which is twice Ceres' cost (Ceres minimises 1/2 sum |r|^2).
-// The Ceres solve that uses it comes with the global-solve baseline.
+// Besides the vertex positions, an energy may add auxiliary parameter blocks (ASAP's per-vertex
+// similarity, ARAP's per-vertex rotation): they are the first group of the Schur ordering, since
+// no residual couples two of them.
 #pragma once
 
 #include "framework/shape.h"
 
+#include <functional>
 #include <memory>
 #include <span>
+#include <string>
 #include <vector>
 
 namespace ceres {
@@ -18,6 +22,39 @@ class Problem;
 }  // namespace ceres
 
 namespace dsnake {
+
+// The auxiliary blocks' parameterisations. A rotation in 2D is an angle (Euclidean); a rotation
+// in 3D is a unit quaternion [w, x, y, z] on Ceres' quaternion manifold; a similarity appends
+// the log-scale: [angle, log s] in 2D, [w, x, y, z, log s] in 3D (quaternion x Euclidean).
+enum class AuxiliaryKind { kEuclidean, kQuaternion, kQuaternionAndScale };
+
+// Ceres solver options (the experiment file's "global" object; see experiments/experiment.cpp).
+struct GlobalSolverOptions {
+  std::string linear_solver = "sparse_normal_cholesky";  // or "sparse_schur", "dense_qr"
+  int max_iterations = 200;
+  // Levenberg-Marquardt's trust region (in the scaled step norm): a small radius keeps the solve
+  // local, near the start, as the snake is; Ceres' defaults (1e4, 1e16) let its first
+  // Gauss-Newton step jump to the membrane energy's collapsed minimum (measured: Dice 0).
+  double initial_trust_region_radius = 1.0;
+  double max_trust_region_radius = 10.0;
+  double function_tolerance = 1e-10;
+  double gradient_tolerance = 1e-12;
+  double parameter_tolerance = 1e-10;
+  int threads = 1;  // Ceres' threads (part of the file, so the numbers do not depend on --threads)
+  int remesh_rounds = 2;  // a phase with remeshers: solve, then (remesh, re-solve) this many times
+};
+
+// What Ceres reports (its Summary), for result.json.
+struct GlobalSolveSummary {
+  int iterations = 0;  // successful + unsuccessful steps
+  int successful_steps = 0;
+  int residual_evaluations = 0, jacobian_evaluations = 0;
+  double initial_cost = 0, final_cost = 0;  // sum_k |r_k|^2 (twice Ceres' own cost)
+  std::string termination;                  // "convergence", "no_convergence", "failure"
+  std::string message;
+  double time_s = 0;
+  bool usable = false;
+};
 
 template <int D>
 class GlobalProblem {
@@ -34,13 +71,26 @@ class GlobalProblem {
   // Adds a Ceres cost function whose parameter blocks are the listed vertices' positions
   // (D doubles each); the problem takes ownership of `cost`.
   void add_residual_block(ceres::CostFunction* cost, const std::vector<int>& vertices);
+  // Adds an auxiliary parameter block initialised to `initial`; returns its index.
+  int add_auxiliary_block(std::span<const double> initial, AuxiliaryKind kind);
+  // Adds a cost function whose parameter blocks are the listed auxiliary blocks, then the
+  // listed vertices' positions.
+  void add_residual_block(ceres::CostFunction* cost, const std::vector<int>& auxiliary, const std::vector<int>& vertices);
 
   int num_vertices() const;
   int num_residual_blocks() const;
   double* vertex(int v);                 // the parameter block of vertex v
   PointList<D> positions() const;        // the current parameter values
   double sum_of_squares() const;         // sum_k |r_k|^2 at the current parameters
+  int num_auxiliary_blocks() const;
+  double* auxiliary(int b);              // the parameter block of auxiliary block b
   ceres::Problem& problem();
+
+  // Minimises sum_k |r_k|^2 over all parameter blocks with Ceres' trust-region solver.
+  // `on_iteration(i)` is called after every iteration with the current positions in place
+  // (positions()); returning false stops the solve.
+  GlobalSolveSummary solve(const GlobalSolverOptions& options,
+                           const std::function<bool(int iteration)>& on_iteration = {});
 
  private:
   struct Impl;

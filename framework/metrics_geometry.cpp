@@ -158,9 +158,17 @@ bool segments_intersect(const Point<2>& a, const Point<2>& b, const Point<2>& c,
 // an edge of one meets the other (the ends of their common segment lie on edges).
 bool triangles_intersect(const std::array<Point<3>, 3>& p, const std::array<Point<3>, 3>& q) {
   std::array<double, 3> dq, dp;
+  // orient3d is a product of three lengths: values within rounding of zero (relative to the
+  // pair's extent cubed) are zero, so that coplanar triangles (a flat subdivided face) take the
+  // coplanar test instead of giving false crossings.
+  Point<3> lo = p[0], hi = p[0];
+  for (int k = 0; k < 3; ++k) lo = lo.cwiseMin(p[k]).cwiseMin(q[k]), hi = hi.cwiseMax(p[k]).cwiseMax(q[k]);
+  const double extent = (hi - lo).maxCoeff(), eps = 1e-12 * extent * extent * extent;
   for (int k = 0; k < 3; ++k) {
     dq[k] = orient3d(p[0], p[1], p[2], q[k]);
     dp[k] = orient3d(q[0], q[1], q[2], p[k]);
+    if (std::abs(dq[k]) <= eps) dq[k] = 0;
+    if (std::abs(dp[k]) <= eps) dp[k] = 0;
   }
   auto one_side = [](const std::array<double, 3>& s) {
     return (s[0] > 0 && s[1] > 0 && s[2] > 0) || (s[0] < 0 && s[1] < 0 && s[2] < 0);

@@ -1,0 +1,101 @@
+// Potentials for the global solve (fields/potential.h): the least-squares integration of a
+// field ("integrated", DCT Poisson solve) on the paper's volume size (230 x 300 x 80 voxels, a
+// smooth ellipsoid, the force being the gradient field grad f of its edge map, sigma = 1) and
+// on a 512^2 disk; and one evaluation of the smooth interpolant (value and gradient) at random
+// points, cubic and linear, 2D and 3D. The second argument of the integration benchmarks is
+// the thread count.
+// Run: build/release/experiments/bench/bench_potential --benchmark_repetitions=5
+//        --benchmark_report_aggregates_only=true
+#include "fields/gradient.h"
+#include "fields/potential.h"
+
+#include <benchmark/benchmark.h>
+#include <cmath>
+#include <omp.h>
+#include <random>
+
+namespace dsnake {
+namespace {
+
+// An ellipsoid (semi-axes 80, 110, 28 voxels; 85 inside, 170 outside, logistic edge of 1.5
+// voxels) in 230 x 300 x 80, or a disk of radius 150 in 512^2.
+template <int D>
+const Image<D>& object_image() {
+  static const Image<D> image = [] {
+    Grid<D> g;
+    Point<D> semi;
+    if constexpr (D == 3) {
+      g.size = GridIndex<3>(230, 300, 80);
+      semi = Point<3>(80, 110, 28);
+    } else {
+      g.size = GridIndex<2>(512, 512);
+      semi = Point<2>(150, 150);
+    }
+    Image<D> img(g);
+    const Point<D> c = (g.size.template cast<double>() - Point<D>::Ones()) / 2;
+#pragma omp parallel for schedule(static)
+    for (int64_t l = 0; l < g.num_voxels(); ++l) {
+      const Point<D> x = g.to_physical(g.index(l)) - c;
+      const double r = x.cwiseQuotient(semi).norm();
+      const double d = (r - 1.0) * semi.minCoeff();
+      img[l] = static_cast<float>(85.0 + 85.0 / (1.0 + std::exp(-d / 1.5)));
+    }
+    return img;
+  }();
+  return image;
+}
+
+// The edge-map gradient field of the object, computed once.
+template <int D>
+const GradientField<D>& object_field() {
+  static const GradientField<D> field = [] {
+    GradientField<D> f;
+    f.compute(object_image<D>());
+    return f;
+  }();
+  return field;
+}
+
+template <int D>
+void BM_IntegratedPotential(benchmark::State& state) {
+  const Image<D>& image = object_image<D>();
+  const GradientField<D>& field = object_field<D>();
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(int(state.range(1)));
+  PotentialOptions o;
+  o.type = "integrated";
+  for (auto _ : state) benchmark::DoNotOptimize(compute_potential<D>(o, image, &field).data().data());
+  omp_set_num_threads(threads);
+  state.counters["voxels"] = double(image.num_voxels());
+}
+BENCHMARK_TEMPLATE(BM_IntegratedPotential, 3)->Args({3, 1})->Args({3, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_TEMPLATE(BM_IntegratedPotential, 2)->Args({2, 1})->Args({2, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// One value_and_gradient at a random point of a random 64^D grid; range(0): 0 cubic, 1 linear.
+template <int D>
+void BM_SmoothPotentialEvaluate(benchmark::State& state) {
+  Grid<D> grid;
+  grid.size = GridIndex<D>::Constant(64);
+  grid.spacing = Point<D>::Ones();
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<double> unit(0, 1);
+  std::vector<double> values(grid.num_voxels());
+  for (double& v : values) v = unit(rng);
+  const SmoothPotential<D> p(grid, values, state.range(0) == 0 ? "cubic" : "linear");
+  std::vector<Point<D>> points(4096);
+  for (Point<D>& x : points)
+    for (int a = 0; a < D; ++a) x[a] = 63 * unit(rng);
+  size_t i = 0;
+  Point<D> g;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(p.value_and_gradient(points[i], g));
+    i = (i + 1) & 4095;
+  }
+}
+BENCHMARK_TEMPLATE(BM_SmoothPotentialEvaluate, 2)->Arg(0)->Arg(1);
+BENCHMARK_TEMPLATE(BM_SmoothPotentialEvaluate, 3)->Arg(0)->Arg(1);
+
+}  // namespace
+}  // namespace dsnake
+
+BENCHMARK_MAIN();

@@ -1,0 +1,110 @@
+// dsnake sweep: one experiment expanded over methods x parameter grid x corruption levels x
+// seeds (the robustness study of §8 and the breakdown points of Figs. 13-18), run in parallel as
+// child processes, resumable, and aggregated into one table.
+//
+// The sweep file (JSON; unknown keys are errors that name the JSON path):
+//   {
+//     "description": "free text (optional)",
+//     "base": "star.json",            // the experiment file, relative to the sweep file
+//                                     // (or "builtin:NAME")
+//     "grid": {                       // optional: the cartesian product of these overrides
+//       "energies[1].weight": [0.1, 0.2],          // key paths as in `dsnake run --set`
+//       "field.type": ["gvf", "ddgvf"]},
+//     "corruptions": [                // optional: levels, each replaces "corruption"
+//       [],
+//       [{"type": "outliers", "fraction": 0.01}],
+//       [{"type": "noise", "sigma": 30}]],
+//     "seeds": [0, 1, 2],             // or {"count": 10, "first": 0}; optional: the base's seed
+//     "methods": {                    // optional named variants, in this order
+//       "gvf_snake": {"base": "gvf_snake.json", "overrides": {"energies[0].alpha": 0.5}},
+//       "dsnake": {"overrides": {}}},
+//     "success": {"dice": 0.9}        // optional: replaces every run's "success" thresholds
+//   }
+// Every run is method x grid point x corruption level x seed; its experiment document is the
+// method's base with, in order, the method's overrides, the grid point's, the level's
+// "corruption", the seed and "success". Its id "<method>-g<grid>-c<level>-s<seed>-<hash>"
+// names the indices and a hash of that document: the same sweep file gives the same ids, and
+// editing the base or an override gives the affected runs new ids (and fresh folders).
+//
+// The output folder:
+//   runs/<id>/        the runner's folder (result.json is written last: a run is finished
+//                     exactly when runs/<id>/result.json exists)
+//   configs/<id>.json the resolved experiment (relative file paths made absolute)
+//   logs/<id>.log     the run's stderr
+//   results.csv       one row per run (written atomically)
+//   breakdown.csv     success rate per method x grid point x corruption type x level over seeds,
+//                     and each group's breakdown level (first level below 50% success)
+//   manifest.txt, sweep.slurm   with --manifest: the unfinished runs as command lines for
+//                     GNU parallel, and a Slurm job-array script that runs one line per task
+#pragma once
+
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace dsnake {
+
+struct SweepRun {
+  std::string id;                 // stable, file-name safe
+  std::string method;             // "" when the sweep has no "methods"
+  int grid_point = 0;             // index into the cartesian product (last key fastest)
+  std::vector<std::pair<std::string, nlohmann::json>> parameters;  // grid key -> value
+  int corruption_level = 0;       // index into "corruptions" (0 without it)
+  nlohmann::json corruption;      // the run's corruption list ([] when clean)
+  uint64_t seed = 0;
+  nlohmann::json config;          // the resolved experiment document
+  std::string label() const;      // "dsnake/outliers=0.01/seed=3" (grid point included if any)
+};
+
+struct Sweep {
+  std::string path;                           // the sweep file, for messages
+  std::vector<std::string> grid_keys;         // in file order
+  std::vector<SweepRun> runs;                 // method, then grid point, level, seed
+};
+
+// Reads and expands a sweep file. With `validate`, every (method, grid point, level) is built
+// as an experiment once (first seed) so that a bad value fails before anything runs. Throws
+// InputError naming the sweep file and the JSON path (or the run and the experiment's path).
+Sweep load_sweep(const std::string& path, bool validate = true);
+
+struct SweepOptions {
+  std::string out_dir;
+  std::string executable;        // the dsnake binary run for each run (absolute path)
+  int jobs = 1;                  // runs at once
+  int threads = 0;               // OpenMP threads per run; 0: 1 when jobs > 1, else the default
+  std::string manifest;          // "", "parallel" or "slurm": write the runs, run nothing
+  bool aggregate_only = false;   // only rebuild results.csv and breakdown.csv
+  bool quiet = false;            // no progress lines on stderr
+};
+
+struct SweepSummary {
+  int total = 0;
+  int skipped = 0;      // finished before this invocation
+  int completed = 0;    // finished by this invocation
+  int failed = 0;       // a run's process failed (see logs/<id>.log); rerun to retry
+  bool interrupted = false;
+};
+
+// Runs (or writes the manifest of) the unfinished runs, then aggregates. Parallel runs are
+// child processes of `options.executable` that die with the sweep, so a killed sweep leaves
+// only whole run folders and staging folders that the next invocation removes.
+SweepSummary run_sweep(const Sweep& sweep, const SweepOptions& options);
+
+// The aggregates (sweep_report.cpp). `results[i]` is runs[i]'s result.json, or nullopt if
+// the run has not finished.
+std::string results_csv(const Sweep& sweep, const std::vector<std::optional<nlohmann::json>>& results);
+std::string breakdown_csv(const Sweep& sweep, const std::vector<std::optional<nlohmann::json>>& results);
+
+// A corruption list as a label and its place on a severity axis: [] -> ("clean", "clean", 0);
+// [{"type":"outliers","fraction":0.01}] -> ("outliers", "outliers=0.01", 0.01). A list of
+// several corruptions has the type "noise+perturb" and its level index as magnitude.
+struct CorruptionLevel {
+  std::string type, label;
+  double magnitude = 0;
+};
+CorruptionLevel describe_corruption(const nlohmann::json& list, int level_index);
+
+}  // namespace dsnake

@@ -1,0 +1,87 @@
+// Potentials for the global (Ceres) solve (issue 7). The snake of Levi & Gotsman (D-Snake, §3.1,
+// §4) only needs forces, but a global least-squares solve needs an energy whose gradient is the
+// force: E_ext(x) = P(x) with F = -grad P. GVF, DDGVF and VFC (§2) are not gradients of any
+// potential, so three are offered:
+//   "edge":       the classical edge potential -|grad(G_sigma * I)|^2 (§1; Kass, Witkin and
+//                 Terzopoulos 1988), normalised by its maximum and shifted: P = max f - f = 1 - f;
+//   "distance":   the distance (physical units) to the nearest edge voxel (Cohen & Cohen 1993),
+//                 edges as in fields/distance.h;
+//   "integrated": the P whose negative gradient best matches the field's sampled vectors in
+//                 least squares (a Neumann Poisson problem, solved exactly with a DCT).
+// SmoothPotential interpolates a potential smoothly (C^1 cubic, or linear) with exact
+// derivatives, for Ceres' residuals and its GradientChecker.
+#pragma once
+
+#include "framework/external_field.h"
+#include "framework/image.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace dsnake {
+
+class JsonReader;
+
+struct PotentialOptions {
+  std::string type = "integrated";     // JSON "potential": "edge" | "distance" | "integrated"
+  std::string interpolation = "cubic";  // JSON "interpolation": "cubic" | "linear"
+  double sigma = 1.0;  // JSON "sigma": Gaussian pre-smoothing of the edge map ("edge" and
+                       // "distance"), standard deviation in physical units, >= 0
+};
+
+// Reads "potential", "interpolation" and "sigma" (all optional) and range-checks them; errors
+// name the key. Does not call reader.finish(): the caller's object holds other keys.
+PotentialOptions read_potential_options(JsonReader& reader);
+
+// The potential P on the image grid, P >= 0 with min P = 0 (all zero for an image without
+// edges or a zero field). `field` (computed on `image`'s grid) is used by "integrated" only
+// and may be null otherwise. For a field with uses_normal() (DDGVF), vectors() is the
+// polarity-blind field (both signs summed per axis), so "integrated" integrates that field,
+// without DDGVF's normal test. Deterministic for any thread count.
+template <int D>
+Image<D> compute_potential(const PotentialOptions& options, const Image<D>& image, const ExternalField<D>* field);
+
+// The least-squares integration behind "integrated", in double precision: P on field.grid()
+// minimising, over all grid edges (x, x + e_a),
+//     sum ((P[x + e_a] - P[x]) / h_a + (F_a[x] + F_a[x + e_a]) / 2)^2,
+// i.e. -grad P ~ F with the force averaged onto the edge. The normal equations are the Neumann
+// Poisson problem  L P = div g  (L the 2D+1-point Laplacian with zero-flux borders, g the edge
+// targets), solved exactly with a DCT-II / DCT-III pair (FFTW REDFT10 / REDFT01), eigenvalues
+// sum_a 4 sin^2(pi k_a / (2 N_a)) / h_a^2, the constant mode set to zero; then shifted so that
+// min P = 0. x fastest, like the grid. Deterministic for any thread count.
+template <int D>
+std::vector<double> integrate_field(const VectorField<D>& field);
+
+// A potential given on a grid, interpolated in physical coordinates (origin, spacing) with
+// derivatives exactly consistent with the value:
+//   "cubic":  Catmull-Rom (cubic Hermite with central-difference slopes, Keys' kernel, a = -0.5),
+//             C^1; reproduces quadratics exactly away from the border. 2D uses Ceres'
+//             BiCubicInterpolator on a Grid2D (row = y, col = x); 3D applies the same 1D kernel
+//             separably (tricubic).
+//   "linear": (bi/tri)linear, piecewise exact derivatives (the gradient jumps across cells).
+// Outside the grid, indices are clamped the way Ceres' Grid2D does: the cubic blends to the
+// border value within one voxel beyond the outermost voxel centres and is constant (zero
+// gradient) further out; the linear one is the value at the nearest point of the grid's box.
+// Immutable after construction; copies share the data; const methods are thread-safe.
+template <int D>
+class SmoothPotential {
+ public:
+  SmoothPotential(const Image<D>& values, const std::string& interpolation);
+  // values: one per voxel of `grid`, x fastest.
+  SmoothPotential(const Grid<D>& grid, std::vector<double> values, const std::string& interpolation);
+
+  const Grid<D>& grid() const;
+  const std::string& interpolation() const;
+
+  // P(x), x in physical units. NaN for a non-finite x.
+  double value(const Point<D>& x) const;
+  // P(x) and dP/dx (1 / physical unit) in `gradient`.
+  double value_and_gradient(const Point<D>& x, Point<D>& gradient) const;
+
+ private:
+  struct Impl;
+  std::shared_ptr<const Impl> impl_;
+};
+
+}  // namespace dsnake

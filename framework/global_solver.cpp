@@ -1,0 +1,132 @@
+#include "framework/global_solver.h"
+
+#include "framework/errors.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace dsnake {
+
+template <int D>
+GlobalSolver<D>::GlobalSolver(EnergyContext<D> context, std::vector<WeightedEnergy<D>> energies,
+                              GlobalSolverOptions options)
+    : context_(context), energies_(std::move(energies)), options_(std::move(options)) {
+  DSNAKE_ASSERT(!energies_.empty(), "at least one energy");
+  for (const auto& e : energies_) DSNAKE_ASSERT(e.weight > 0 && e.energy, "positive weight");
+}
+
+template <int D>
+void GlobalSolver<D>::bind(const Snake<D>& snake) {
+  if (bound_version_ == snake.topology_version() && bound_vertices_ == snake.num_vertices()) return;
+  for (auto& e : energies_) e.energy->bind(context_, snake);
+  bound_version_ = snake.topology_version();
+  bound_vertices_ = snake.num_vertices();
+}
+
+template <int D>
+std::string GlobalSolver<D>::first_term_without_residuals(const Snake<D>& snake) {
+  bind(snake);
+  for (const auto& e : energies_) {
+    GlobalProblem<D> problem(snake);
+    if (!e.energy->add_residuals(snake, e.weight, problem)) return e.energy->type();
+  }
+  return "";
+}
+
+template <int D>
+std::vector<double> GlobalSolver<D>::energy_terms(const Snake<D>& snake) {
+  bind(snake);
+  std::vector<double> terms;
+  for (const auto& e : energies_) terms.push_back(e.weight * e.energy->value(snake));
+  return terms;
+}
+
+// Builds E = sum_e w_e E_e as residual blocks at the snake's positions and minimises it.
+template <int D>
+GlobalSolveSummary GlobalSolver<D>::solve(Snake<D>& snake, const std::function<bool(int)>& on_iteration) {
+  bind(snake);
+  GlobalProblem<D> problem(snake);
+  for (const auto& e : energies_)
+    DSNAKE_ASSERT(e.energy->add_residuals(snake, e.weight, problem),
+                  "the " + e.energy->type() + " energy has no least-squares form");
+  std::function<bool(int)> callback;
+  if (on_iteration)
+    callback = [&](int iteration) {
+      snake.positions() = problem.positions();
+      return on_iteration(iteration);
+    };
+  const GlobalSolveSummary summary = problem.solve(options_, callback);
+  snake.positions() = problem.positions();
+  return summary;
+}
+
+template <int D>
+EvolveSummary GlobalSolver<D>::run(Snake<D>& snake, std::vector<Phase<D>>& phases) {
+  EvolveSummary summary;
+  solves_.assign(phases.size(), {});
+  RemeshContext<D> remesh_context;
+  remesh_context.tmpl = context_.tmpl;
+  remesh_context.image = context_.image;
+  for (size_t p = 0; p < phases.size(); ++p) {
+    Phase<D>& phase = phases[p];
+    PhaseSummary ps;
+    const int rounds = phase.remeshers.empty() ? 0 : std::max(0, options_.remesh_rounds);
+    std::vector<RemeshReport> last_reports(phase.remeshers.size());
+    PointList<D> previous = snake.positions();
+    for (int round = 0; round <= rounds; ++round) {
+      if (round > 0) {  // remesh at the point of the phase's schedule this round stands for
+        remesh_context.phase_iterations = phase.iterations;
+        remesh_context.phase_iteration = std::max(1, phase.iterations * round / (rounds + 1));
+        for (size_t r = 0; r < phase.remeshers.size(); ++r) {
+          last_reports[r] = phase.remeshers[r]->apply(snake, remesh_context);
+          for (auto* o : observers_) o->on_remesh(last_reports[r], snake);
+        }
+        previous = snake.positions();
+      }
+      const auto on_iteration = [&](int ceres_iteration) {
+        if (ceres_iteration == 0) return true;  // Ceres reports its start as iteration 0
+        ++summary.iterations;
+        ++ps.iterations;
+        IterationInfo info;
+        info.phase = int(p);
+        info.iteration = summary.iterations;
+        info.phase_iteration = ps.iterations;
+        double move = 0.0;
+        for (int v = 0; v < snake.num_vertices(); ++v) {
+          const double d = (snake.positions()[v] - previous[v]).norm();
+          move = std::isfinite(d) ? std::max(move, d) : INFINITY;
+        }
+        previous = snake.positions();
+        info.max_displacement = move;
+        ps.last_displacement = move;
+        info.energy_terms = energy_terms(snake);
+        for (double t : info.energy_terms)
+          if (std::isfinite(t)) info.total_energy += t;
+        info.vertices = snake.num_vertices();
+        for (auto* o : observers_) o->on_iteration(info, snake);
+        return std::isfinite(move);
+      };
+      const GlobalSolveSummary s = solve(snake, on_iteration);
+      solves_[p].push_back(s);
+      const bool finite = std::all_of(snake.positions().begin(), snake.positions().end(),
+                                      [](const Point<D>& x) { return x.allFinite(); });
+      if (!finite || !s.usable) {
+        ps.status = EvolveStatus::kDiverged;
+        break;
+      }
+      ps.status = s.termination == "convergence" ? EvolveStatus::kConverged : EvolveStatus::kIterationBudget;
+    }
+    for (const auto& r : last_reports)
+      if (!r.stage.empty()) ps.remesh_reports.push_back(r);
+    summary.status = ps.status;
+    summary.phases.push_back(ps);
+    for (auto* o : observers_) o->on_phase_end(int(p), ps, snake);
+    if (ps.status == EvolveStatus::kDiverged) break;
+  }
+  return summary;
+}
+
+template class GlobalSolver<2>;
+template class GlobalSolver<3>;
+
+}  // namespace dsnake
