@@ -187,24 +187,6 @@ void publish(const fs::path& staging, const fs::path& out) {
   fs::remove_all(staging);
 }
 
-// The external term's smooth potential on the image grid (fields/potential.h).
-template <int D>
-class GridPotential final : public Potential<D> {
- public:
-  explicit GridPotential(SmoothPotential<D> p) : p_(std::move(p)) {}
-  double value(const Point<D>& x) const override { return p_.value(x); }
-  double value_and_gradient(const Point<D>& x, Point<D>& g) const override { return p_.value_and_gradient(x, g); }
-
- private:
-  SmoothPotential<D> p_;
-};
-
-template <int D>
-std::unique_ptr<Potential<D>> make_potential(const PotentialOptions& o, const Image<D>& image,
-                                             const ExternalField<D>* field) {
-  return std::make_unique<GridPotential<D>>(SmoothPotential<D>(compute_potential<D>(o, image, field), o.interpolation));
-}
-
 // result.json's "global": the solver options and Ceres' summary of every solve, per phase.
 template <int D>
 nlohmann::ordered_json global_json(const Experiment<D>& ex, const std::vector<std::vector<GlobalSolveSummary>>& solves) {
@@ -266,7 +248,7 @@ nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& optio
     Snake<D> snake = Snake<D>::from_template(ex.tmpl, ex.initial);
     const int initial_vertices = snake.num_vertices();
     // The external term's smooth potential (the global view; also reported for a snake run).
-    std::unique_ptr<Potential<D>> potential;
+    std::unique_ptr<SmoothPotential<D>> potential;
     double potential_s = 0.0;
     if (ex.potential) {
       t = Clock::now();

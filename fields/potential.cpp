@@ -396,4 +396,15 @@ template std::vector<double> integrate_field(const VectorField<3>&);
 template class SmoothPotential<2>;
 template class SmoothPotential<3>;
 
+template <int D>
+std::unique_ptr<SmoothPotential<D>> make_potential(const PotentialOptions& options, const Image<D>& image,
+                                                   const ExternalField<D>* field) {
+  return std::make_unique<SmoothPotential<D>>(compute_potential<D>(options, image, field), options.interpolation);
+}
+
+template std::unique_ptr<SmoothPotential<2>> make_potential<2>(const PotentialOptions&, const Image<2>&,
+                                                               const ExternalField<2>*);
+template std::unique_ptr<SmoothPotential<3>> make_potential<3>(const PotentialOptions&, const Image<3>&,
+                                                               const ExternalField<3>*);
+
 }  // namespace dsnake

@@ -14,6 +14,7 @@
 
 #include "framework/external_field.h"
 #include "framework/image.h"
+#include "framework/potential.h"
 
 #include <memory>
 #include <string>
@@ -65,7 +66,7 @@ std::vector<double> integrate_field(const VectorField<D>& field);
 // gradient) further out; the linear one is the value at the nearest point of the grid's box.
 // Immutable after construction; copies share the data; const methods are thread-safe.
 template <int D>
-class SmoothPotential {
+class SmoothPotential final : public Potential<D> {
  public:
   SmoothPotential(const Image<D>& values, const std::string& interpolation);
   // values: one per voxel of `grid`, x fastest.
@@ -75,13 +76,19 @@ class SmoothPotential {
   const std::string& interpolation() const;
 
   // P(x), x in physical units. NaN for a non-finite x.
-  double value(const Point<D>& x) const;
+  double value(const Point<D>& x) const override;
   // P(x) and dP/dx (1 / physical unit) in `gradient`.
-  double value_and_gradient(const Point<D>& x, Point<D>& gradient) const;
+  double value_and_gradient(const Point<D>& x, Point<D>& gradient) const override;
 
  private:
   struct Impl;
   std::shared_ptr<const Impl> impl_;
 };
+
+// The potential an experiment's "global" object asks for, ready to sample: compute_potential on
+// the image grid, interpolated as options.interpolation says.
+template <int D>
+std::unique_ptr<SmoothPotential<D>> make_potential(const PotentialOptions& options, const Image<D>& image,
+                                                   const ExternalField<D>* field);
 
 }  // namespace dsnake
