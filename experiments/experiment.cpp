@@ -189,8 +189,9 @@ ExperimentFile builtin_experiment(const std::string& name, const std::vector<std
 void read_global(JsonReader r, GlobalSolverOptions& g, std::optional<PotentialOptions>& potential) {
   r.read("linear_solver", g.linear_solver);
   r.expect(g.linear_solver == "sparse_normal_cholesky" || g.linear_solver == "sparse_schur" ||
-               g.linear_solver == "dense_qr",
-           "linear_solver", "must be \"sparse_normal_cholesky\", \"sparse_schur\" or \"dense_qr\"");
+               g.linear_solver == "iterative_schur" || g.linear_solver == "cgnr" || g.linear_solver == "dense_qr",
+           "linear_solver",
+           "must be \"sparse_normal_cholesky\", \"sparse_schur\", \"iterative_schur\", \"cgnr\" or \"dense_qr\"");
   r.read("max_iterations", g.max_iterations);
   r.expect(g.max_iterations >= 1 && g.max_iterations <= 1000000, "max_iterations", "must be in [1, 1000000]");
   r.read("initial_trust_region_radius", g.initial_trust_region_radius);

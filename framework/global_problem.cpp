@@ -150,12 +150,16 @@ GlobalSolveSummary GlobalProblem<D>::solve(const GlobalSolverOptions& options,
   ceres::Solver::Options o;
   if (options.linear_solver == "sparse_normal_cholesky") {
     o.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  } else if (options.linear_solver == "sparse_schur") {
-    o.linear_solver_type = ceres::SPARSE_SCHUR;
+  } else if (options.linear_solver == "sparse_schur" || options.linear_solver == "iterative_schur") {
+    o.linear_solver_type = options.linear_solver == "sparse_schur" ? ceres::SPARSE_SCHUR : ceres::ITERATIVE_SCHUR;
+    o.preconditioner_type = ceres::SCHUR_JACOBI;
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
     for (auto& b : impl_->auxiliary) ordering->AddElementToGroup(b.data(), 0);
     for (int v = 0; v < impl_->num_vertices; ++v) ordering->AddElementToGroup(vertex(v), 1);
     if (!impl_->auxiliary.empty()) o.linear_solver_ordering = ordering;
+  } else if (options.linear_solver == "cgnr") {
+    o.linear_solver_type = ceres::CGNR;
+    o.preconditioner_type = ceres::JACOBI;
   } else if (options.linear_solver == "dense_qr") {
     o.linear_solver_type = ceres::DENSE_QR;
   } else {

@@ -30,7 +30,9 @@ enum class AuxiliaryKind { kEuclidean, kQuaternion, kQuaternionAndScale };
 
 // Ceres solver options (the experiment file's "global" object; see experiments/experiment.cpp).
 struct GlobalSolverOptions {
-  std::string linear_solver = "sparse_normal_cholesky";  // or "sparse_schur", "dense_qr"
+  // "sparse_normal_cholesky", "sparse_schur" (eliminates the auxiliary blocks), or the
+  // matrix-free "cgnr" and "iterative_schur" (conjugate gradients), or "dense_qr" (tiny problems)
+  std::string linear_solver = "sparse_normal_cholesky";
   int max_iterations = 200;
   // Levenberg-Marquardt's trust region (in the scaled step norm): a small radius keeps the solve
   // local, near the start, as the snake is; Ceres' defaults (1e4, 1e16) let its first

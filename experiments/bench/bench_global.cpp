@@ -3,7 +3,8 @@
 // over 2-ring neighbourhoods) on the star template subdivided 0, 2, 3 and 4 times (26, 386,
 // 1538 and 6146 vertices; the 2000 and 7000 are between subdivision levels), started a
 // similarity away from the truth (experiments/ablation/global/star_clean.json).
-//  - BM_GlobalSolve: one Ceres solve (at most 100 iterations); counters: Ceres iterations,
+//  - BM_GlobalSolve: one Ceres solve (at most 100 iterations; linear solver 0 sparse normal
+//    Cholesky, 1 sparse Schur eliminating the per-vertex similarities, 2 CGNR); counters: Ceres iterations,
 //    residual evaluations, and the final mean surface distance to the true star (msd).
 //  - BM_Snake: the snake from the same start until its largest move is below 1e-3 (at most 500
 //    iterations); counters: iterations and msd.
@@ -59,6 +60,8 @@ void BM_GlobalSolve(benchmark::State& state) {
   GlobalSolverOptions options = ex.global;
   options.max_iterations = 100;
   options.threads = threads;
+  static const char* solvers[] = {"sparse_normal_cholesky", "sparse_schur", "cgnr"};
+  options.linear_solver = solvers[state.range(2)];
   Snake<3> snake = Snake<3>::from_template(ex.tmpl, ex.initial);
   GlobalSolveSummary summary;
   for (auto _ : state) {
@@ -73,7 +76,7 @@ void BM_GlobalSolve(benchmark::State& state) {
   state.counters["residual_evaluations"] = summary.residual_evaluations;
   state.counters["msd"] = compute_metrics(snake, ex.truth).mean_surface_distance.value_or(-1);
 }
-BENCHMARK(BM_GlobalSolve)->ArgsProduct({{0, 2, 3, 4}, {1, 2}})->ArgNames({"subdiv", "threads"})
+BENCHMARK(BM_GlobalSolve)->ArgsProduct({{0, 2, 3, 4}, {1, 2}, {0, 1, 2}})->ArgNames({"subdiv", "threads", "solver"})
     ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 
 void BM_Snake(benchmark::State& state) {

@@ -93,6 +93,22 @@ TEST(GlobalRun, SameNumbersWhateverTheThreadCount) {
   fs::remove_all(b);
 }
 
+// A phase with remeshers solves, remeshes and re-solves from the remeshed state remesh_rounds
+// times: the built-in default's second phase resamples the contour by arc length.
+TEST(GlobalRun, PhasesWithRemeshingSolveRemeshAndResolve) {
+  const fs::path out = fresh_dir("remesh");
+  auto ex = build_experiment<2>(builtin_experiment(
+      "default", {"solver=global", "global.max_iterations=15", "global.remesh_rounds=2"}));
+  const auto r = run_experiment(ex, RunOptions{out.string(), true});
+  const auto& solves = r["global"]["solves"];
+  ASSERT_EQ(solves.size(), 2u);
+  EXPECT_EQ(solves[0].size(), 1u);  // no remeshers: one solve
+  EXPECT_EQ(solves[1].size(), 3u);  // solve, (remesh, solve) x 2
+  EXPECT_GT(r["vertices"]["final"].get<int>(), r["vertices"]["initial"].get<int>());
+  EXPECT_EQ(r["phases"][1]["remesh"][0]["stage"], "resample");
+  fs::remove_all(out);
+}
+
 TEST(GlobalRun, BadGlobalConfigurationsNameTheJsonPath) {
   const auto where = [](const std::vector<std::string>& overrides) {
     try {
