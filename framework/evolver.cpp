@@ -43,7 +43,7 @@ double Evolver<D>::step(Snake<D>& snake) {
   // Weighted average over the energies that govern each vertex (§3.1, §6).
   double max_move = 0.0;
   auto& q = snake.positions();
-#pragma omp parallel for reduction(max : max_move) schedule(static)
+#pragma omp parallel for reduction(max : max_move) schedule(static) if (n >= 256)
   for (int v = 0; v < n; ++v) {
     Point<D> sum = Point<D>::Zero();
     double weight = 0.0;

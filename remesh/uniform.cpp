@@ -78,7 +78,7 @@ RemeshReport UniformRemesher::apply(Snake<3>& snake, const RemeshContext<3>&) {
   std::vector<Triangle> fan_tris;
   for (int sweep = 0; sweep < options_.iterations; ++sweep) {
     // Proposals from the positions at the start of the sweep (thread-count independent).
-#pragma omp parallel
+#pragma omp parallel if (n >= 256)
     {
       std::vector<int> ring;
 #pragma omp for schedule(static)
