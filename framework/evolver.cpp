@@ -62,11 +62,19 @@ double Evolver<D>::step(Snake<D>& snake) {
 }
 
 template <int D>
+std::vector<double> weighted_energy_terms(const std::vector<WeightedEnergy<D>>& energies, const Snake<D>& snake) {
+  std::vector<double> terms;
+  for (const auto& e : energies) terms.push_back(e.weight * e.energy->value(snake));
+  return terms;
+}
+
+template std::vector<double> weighted_energy_terms<2>(const std::vector<WeightedEnergy<2>>&, const Snake<2>&);
+template std::vector<double> weighted_energy_terms<3>(const std::vector<WeightedEnergy<3>>&, const Snake<3>&);
+
+template <int D>
 std::vector<double> Evolver<D>::energy_terms(const Snake<D>& snake) {
   bind_if_needed(snake);
-  std::vector<double> terms;
-  for (const auto& e : energies_) terms.push_back(e.weight * e.energy->value(snake));
-  return terms;
+  return weighted_energy_terms(energies_, snake);
 }
 
 template <int D>

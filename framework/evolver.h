@@ -22,6 +22,10 @@ struct WeightedEnergy {
   std::unique_ptr<Energy<D>> energy;
 };
 
+// w_e E_e(q) per term, in the order given; the energies must be bound to the snake.
+template <int D>
+std::vector<double> weighted_energy_terms(const std::vector<WeightedEnergy<D>>& energies, const Snake<D>& snake);
+
 template <int D>
 struct Phase {
   int iterations = 100;     // iteration budget

@@ -24,21 +24,9 @@ void GlobalSolver<D>::bind(const Snake<D>& snake) {
 }
 
 template <int D>
-std::string GlobalSolver<D>::first_term_without_residuals(const Snake<D>& snake) {
-  bind(snake);
-  for (const auto& e : energies_) {
-    GlobalProblem<D> problem(snake);
-    if (!e.energy->add_residuals(snake, e.weight, problem)) return e.energy->type();
-  }
-  return "";
-}
-
-template <int D>
 std::vector<double> GlobalSolver<D>::energy_terms(const Snake<D>& snake) {
   bind(snake);
-  std::vector<double> terms;
-  for (const auto& e : energies_) terms.push_back(e.weight * e.energy->value(snake));
-  return terms;
+  return weighted_energy_terms(energies_, snake);
 }
 
 // Builds E = sum_e w_e E_e as residual blocks at the snake's positions and minimises it.

@@ -17,14 +17,11 @@ namespace dsnake {
 template <int D>
 class GlobalSolver {
  public:
-  // Every energy must have a least-squares form (add_residuals returns true); the external term
-  // needs context.potential. Checked by check(), which names the first term that has none.
+  // Every energy must have a least-squares form (has_least_squares_form(); the experiment reader
+  // checks it); the external term needs context.potential.
   GlobalSolver(EnergyContext<D> context, std::vector<WeightedEnergy<D>> energies, GlobalSolverOptions options);
 
   void add_observer(EvolverObserver<D>* observer) { observers_.push_back(observer); }
-
-  // The type of the first energy without a least-squares form, or "" when all have one.
-  std::string first_term_without_residuals(const Snake<D>& snake);
 
   // Runs the phases on the snake in place. Ceres' summary of every solve is in solves().
   EvolveSummary run(Snake<D>& snake, std::vector<Phase<D>>& phases);

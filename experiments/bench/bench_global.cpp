@@ -76,7 +76,11 @@ void BM_GlobalSolve(benchmark::State& state) {
   state.counters["residual_evaluations"] = summary.residual_evaluations;
   state.counters["msd"] = compute_metrics(snake, ex.truth).mean_surface_distance.value_or(-1);
 }
-BENCHMARK(BM_GlobalSolve)->ArgsProduct({{0, 2, 3, 4}, {1, 2}, {0, 1, 2}})->ArgNames({"subdiv", "threads", "solver"})
+// The factorising solvers only up to 386 vertices: at 1538 the normal equations' supernodes
+// (2-ring similarities couple 4-ring neighbourhoods) make one solve take over a minute.
+BENCHMARK(BM_GlobalSolve)->ArgsProduct({{0, 2}, {1, 2}, {0, 1}})->ArgNames({"subdiv", "threads", "solver"})
+    ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+BENCHMARK(BM_GlobalSolve)->ArgsProduct({{0, 2, 3, 4}, {1, 2}, {2}})->ArgNames({"subdiv", "threads", "solver"})
     ->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
 
 void BM_Snake(benchmark::State& state) {
