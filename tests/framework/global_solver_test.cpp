@@ -16,6 +16,7 @@
 
 #include <cmath>
 #include <random>
+#include <sstream>
 
 namespace dsnake {
 namespace {
@@ -221,6 +222,9 @@ void asap_alone_reaches_a_similarity(const Template<D>& t, const std::string& sp
   const GlobalSolveSummary summary = solver.solve(snake);
   EXPECT_TRUE(summary.usable) << summary.message;
   const double end = solver.energy_terms(snake)[0];
+  std::ostringstream ratio;
+  ratio << end / start;
+  ::testing::Test::RecordProperty("asap_ratio_" + std::to_string(D) + "d_" + std::to_string(seed), ratio.str());
   EXPECT_LE(end, 1e-8 * start) << summary.message;
   double scale = 0;
   const double rms = similarity_rms<D>(t.positions, snake.positions(), scale);
@@ -273,6 +277,9 @@ TEST(GlobalSolver, ReachesAtMostTheSnakesEnergyOnASmooth2dCase) {
   const EvolveSummary summary = solver.run(global, global_phases);
   EXPECT_NE(summary.status, EvolveStatus::kDiverged);
   const double global_energy = total(solver.energy_terms(global));
+  RecordProperty("start_energy", std::to_string(e0));
+  RecordProperty("snake_energy", std::to_string(snake_energy));
+  RecordProperty("global_energy", std::to_string(global_energy));
   EXPECT_LE(global_energy, snake_energy + 0.01 * (e0 - snake_energy))
       << "start " << e0 << ", snake " << snake_energy << ", global " << global_energy;
   ASSERT_EQ(solver.solves().size(), 1u);
