@@ -4,7 +4,7 @@
 //              [--field-cache DIR] [--threads N] [--quiet]
 //   dsnake validate CONFIG.json [--set ...]
 //   dsnake field --image X --type gvf [--param key=value ...] [--field-cache DIR] --out field.mha
-//   dsnake sweep SWEEP.json --out DIR [-j N] [--threads T] [--manifest parallel|slurm]
+//   dsnake sweep SWEEP.json [--out DIR] [-j N] [--threads T] [--manifest parallel|slurm]
 //                [--aggregate-only] [--quiet]                    (experiments/sweep.h)
 // Exit codes: 0 done, 2 bad input (one line on stderr naming the file and the JSON path or
 // element), 1 anything else (for a sweep: a run failed), 130 a sweep stopped by a signal.
@@ -57,6 +57,8 @@ int validate(const std::string& config, const std::vector<std::string>& override
 // only aggregates finished runs.
 int sweep(const std::string& file, SweepOptions options) {
   const Sweep s = load_sweep(file, /*validate=*/!options.aggregate_only);
+  if (options.out_dir.empty())  // DESIGN.md's `dsnake sweep FILE`: out/<the sweep file's name>
+    options.out_dir = (std::filesystem::path("out") / std::filesystem::path(file).stem()).string();
   options.executable = std::filesystem::read_symlink("/proc/self/exe").string();
   const SweepSummary summary = run_sweep(s, options);
   if (summary.interrupted) return 130;
@@ -117,7 +119,8 @@ int main(int argc, char** argv) {
   auto* sweep_cmd = app.add_subcommand(
       "sweep", "Run an experiment over methods x parameter grid x corruption levels x seeds (resumable)");
   sweep_cmd->add_option("sweep", sweep_file, "Sweep file (JSON; format in experiments/sweep.h)")->required();
-  sweep_cmd->add_option("--out,-o", sweep_options.out_dir, "Output folder (runs/, results.csv, breakdown.csv)")->required();
+  sweep_cmd->add_option("--out,-o", sweep_options.out_dir,
+                        "Output folder (runs/, results.csv, breakdown.csv; default out/<sweep file name>)");
   sweep_cmd->add_option("--jobs,-j", sweep_options.jobs, "Runs at once (child processes; default 1)")->check(CLI::Range(1, 1024));
   sweep_cmd->add_option("--threads", sweep_options.threads, "OpenMP threads per run (default: 1 with -j > 1, else all)")
       ->check(CLI::Range(1, 1024));
