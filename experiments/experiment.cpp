@@ -153,14 +153,25 @@ void read_success(JsonReader r, SuccessCriteria& s) {
 }  // namespace
 
 bool SuccessCriteria::met(const Metrics& m) const {
-  auto at_most = [](const std::optional<double>& limit, const std::optional<double>& v) {
-    return !limit || (v && *v <= *limit);
+  auto at_most = [this](const std::optional<double>& limit, const std::optional<double>& v) {
+    return !limit || (v ? *v <= *limit : skip_null_metrics);
   };
   return at_most(mean_surface_distance, m.mean_surface_distance) && at_most(hausdorff95, m.hausdorff95) &&
-         at_most(hausdorff, m.hausdorff) && (!dice || (m.dice && *m.dice >= *dice)) &&
+         at_most(hausdorff, m.hausdorff) && (!dice || (m.dice ? *m.dice >= *dice : skip_null_metrics)) &&
          at_most(correspondence_error_mean, m.correspondence_error_mean) &&
          at_most(correspondence_error_max, m.correspondence_error_max) &&
          (!self_intersections || m.self_intersections <= *self_intersections);
+}
+
+SuccessCriteria SuccessCriteria::defaults() {
+  SuccessCriteria s;
+  s.mean_surface_distance = 1.0;
+  s.hausdorff95 = 2.0;
+  s.correspondence_error_max = 2.0;
+  s.dice = 0.9;
+  s.self_intersections = 0;
+  s.skip_null_metrics = true;
+  return s;
 }
 
 ExperimentFile load_experiment_file(const std::string& path, const std::vector<std::string>& overrides) {
@@ -374,6 +385,7 @@ Experiment<D> build_experiment(const ExperimentFile& file) {
     }
   }
   if (top.has("success")) read_success(top.child("success"), ex.success);
+  else ex.success = SuccessCriteria::defaults();
   if (top.has("output")) {
     JsonReader r = top.child("output");
     r.read("snapshot_every", ex.output.snapshot_every);

@@ -32,11 +32,17 @@ ExperimentFile load_experiment_file(const std::string& path, const std::vector<s
 ExperimentFile builtin_experiment(const std::string& name, const std::vector<std::string>& overrides = {});
 
 
-struct SuccessCriteria {  // thresholds: distances and errors at most, dice at least
+// Thresholds: distances and errors at most, dice at least. Without a "success" object in the
+// file, the defaults of the paper's robustness study apply (issue 8): mean surface distance <= 1,
+// HD95 <= 2, correspondence error max <= 2, Dice >= 0.9, no self-intersections, each only where
+// the ground truth gives the metric.
+struct SuccessCriteria {
   std::optional<double> mean_surface_distance, hausdorff95, hausdorff, dice;
   std::optional<double> correspondence_error_mean, correspondence_error_max;
   std::optional<int> self_intersections;
-  bool met(const Metrics& m) const;  // a threshold on a null metric is not met
+  bool skip_null_metrics = false;    // true for the defaults
+  bool met(const Metrics& m) const;  // a threshold on a null metric is not met (unless skipped)
+  static SuccessCriteria defaults();
 };
 
 struct OutputOptions {

@@ -1,5 +1,6 @@
 #include "experiments/phantoms.h"
 
+#include "experiments/bunny.h"
 #include "experiments/paper_phantoms.h"
 #include "framework/errors.h"
 #include "framework/image_filters.h"
@@ -102,7 +103,7 @@ Point<3> read_axes(JsonReader& r, const std::string& kind, double default_radius
     r.expect(axes.minCoeff() > 0, "semi_axes", "must be > 0");
   } else {
     r.fail("phantom", "unknown 3D " + std::string(role) + " phantom \"" + kind + "\" (known: sphere, ellipsoid, " +
-                          (std::string(role) == "image" ? paper_image_kinds<3>() : paper_template_kinds<3>()) + ")");
+                          (std::string(role) == "image" ? paper_image_kinds<3>() + ", mesh, points" : paper_template_kinds<3>() + ", bunny") + ")");
   }
   return axes;
 }
@@ -356,6 +357,11 @@ Phantom<3> make_phantom<3>(JsonReader& r) {
   r.require("phantom", kind);
   Phantom<3> ph;
   ph.kind = kind;
+  if (const GridIndex<3> size = mesh_image_size(r, kind); size.minCoeff() > 0) {  // experiments/bunny.h
+    const auto c = read_canvas<3>(r, size, 0.0);
+    render_surface<3>(ph, c, PaperImageShape<3>{*make_mesh_image_surface(r, kind, c.center), {}});
+    return ph;
+  }
   auto c = read_canvas<3>(r, default_image_size<3>(kind), default_blur<3>(kind));
   if (auto shape = make_paper_image<3>(r, kind, c.center)) {
     render_surface<3>(ph, c, *shape);
@@ -397,6 +403,7 @@ template <>
 Template<3> make_template_phantom<3>(JsonReader& r) {
   std::string kind;
   r.require("phantom", kind);
+  if (auto t = make_bunny_template(r, kind)) return std::move(*t);  // experiments/bunny.h
   Point<3> center = default_template_center<3>(kind);
   r.read<3>("center", center);
   if (auto t = make_paper_template<3>(r, kind, center)) return std::move(*t);
@@ -430,6 +437,8 @@ std::vector<std::optional<Point<D>>> phantom_targets(const nlohmann::json& image
   tpl.erase("transform");
   const std::string ik = img.value("phantom", ""), tk = tpl.value("phantom", "");
   JsonReader ir(img, "", "image"), tr(tpl, "", "template");
+  if constexpr (D == 3)
+    if (tk == "bunny") return bunny_targets(tr, tmpl);  // experiments/bunny.h
   const auto canvas = read_canvas<D>(ir, default_image_size<D>(ik), default_blur<D>(ik));
   Point<D> template_center = default_template_center<D>(tk);
   tr.read<D>("center", template_center);

@@ -8,6 +8,8 @@
 //    image and template "puzzle", "lung_slice" (2D, default images 128^2), "star" (80^3),
 //    "tetris", "bone" (64^3), "lung" (230 x 300 x 80, with bronchi) (3D); templates "bar" and
 //    "c_shape" (3D). A template's default "center" is the centre of its family's default image.
+//  - from a mesh file (experiments/bunny.h): image "mesh" (any closed mesh, key "mesh") and
+//    "points" (small balls); template "bunny" (the simplified, stretched, ear-twisted bunny).
 // Every phantom knows its true boundary (a fine polygon / mesh) and its mask; a template
 // phantom of a matching family also gets correspondence targets (see phantom_targets).
 #pragma once

@@ -94,6 +94,8 @@ void absolutise_paths(json& doc, const std::string& base_dir) {
   };
   fix("image", "file");
   fix("template", "file");
+  fix("image", "mesh");  // the "mesh" and "bunny" phantoms read a mesh file
+  fix("template", "mesh");
   fix("ground_truth", "mask");
   fix("ground_truth", "surface");
   fix("ground_truth", "correspondence");
