@@ -336,12 +336,28 @@ double FacetGrid<D>::distance(const Point<D>& p, Scratch& s) const {
       hi = cell_of(p + reach);
     }
     for_each_shell_cell<D>(c, r, lo, hi, [&](const GridIndex<D>& cell) { visit_cell(p, cell, s, best); });
-    // Every unvisited facet lies outside the cube of cells [c - r, c + r]: it is at least as
-    // far as the nearest face of that cube that is not on the grid's border.
+    // Every unvisited facet lies in the grid's box, outside the cube of cells [c - r, c + r]:
+    // beyond a face of that cube that is not on the grid's border. Its distance is at least the
+    // distance along that face's axis, combined with the gaps between p and the box on the other
+    // axes (p may lie outside the box, e.g. a collapsed snake far from the surface; without the
+    // gaps the search would walk every cell of the grid).
+    double gap2 = 0;
+    Point<D> gap;
+    for (int a = 0; a < D; ++a) {
+      gap[a] = std::max({0.0, lo_[a] - p[a], p[a] - (lo_[a] + dims_[a] * cell_)});
+      gap2 += gap[a] * gap[a];
+    }
     double bound = kInfinity;
     for (int a = 0; a < D; ++a) {
-      if (c[a] - r > 0) bound = std::min(bound, p[a] - (lo_[a] + (c[a] - r) * cell_));
-      if (c[a] + r < dims_[a] - 1) bound = std::min(bound, lo_[a] + (c[a] + r + 1) * cell_ - p[a]);
+      const double others = gap2 - gap[a] * gap[a];
+      if (c[a] - r > 0) {
+        const double d = p[a] - (lo_[a] + (c[a] - r) * cell_);
+        bound = std::min(bound, std::sqrt(d * d + others));
+      }
+      if (c[a] + r < dims_[a] - 1) {
+        const double d = lo_[a] + (c[a] + r + 1) * cell_ - p[a];
+        bound = std::min(bound, std::sqrt(d * d + others));
+      }
     }
     if (bound == kInfinity || bound - tolerance_ > best) break;
   }
