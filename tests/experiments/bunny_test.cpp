@@ -3,7 +3,7 @@
 // index.js files (no network), the "mesh" and "points" image phantoms and the "bunny" template
 // (experiments/bunny.h) on small closed meshes, and reduced runs of experiments/paper/
 // {three_points,bone,bunny}_*.json through the dsnake executable that assert the direction of the
-// results of docs/reproduction/bunny_bone.md.
+// results of REPRODUCTION.md (Figures 1, 10, 11-12).
 #include "experiments/bunny.h"
 #include "experiments/paper_phantoms.h"
 #include "experiments/phantoms.h"
@@ -288,7 +288,7 @@ TEST_F(BunnyTest, BunnyStandInDSnakeBeatsDdgvf) {
 }
 
 // Fig. 1, reduced (150 iterations): the classical snake leaves the sphere (it collapses under
-// alpha 0.5) while the D-Snake stays a similarity of the template (docs/reproduction/bunny_bone.md).
+// alpha 0.5) while the D-Snake stays a similarity of the template (REPRODUCTION.md (Figures 1, 10, 11-12)).
 TEST_F(BunnyTest, ThreePointsDSnakeStaysSpherical) {
   const json c = run("three_points_classical.json", {"phases[0].iterations=150"});
   const json d = run("three_points_dsnake.json", {"phases[0].iterations=150"});

@@ -1,6 +1,6 @@
 // The paper's figure experiments (Levi & Gotsman, D-Snake: Figs. 2, 4, 6 and 9), run through the
 // dsnake command from the files in experiments/paper/, the lung at half size. Each test asserts
-// the direction of the paper's claim as we measured it (docs/reproduction/figures.md): D-Snake
+// the direction of the paper's claim as we measured it (REPRODUCTION.md (Figures 2, 4, 6, 8, 9)): D-Snake
 // keeps its feature points, its corner and its template correspondence where the classical or
 // DDGVF snake from the same start does not. Fig. 8 (bar -> C) is
 // tests/energies/asap_mls_figures_test.cpp (Fig8BarBecomesTheC): the runner starts a snake from

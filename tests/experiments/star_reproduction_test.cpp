@@ -2,7 +2,7 @@
 // few seeds per level: experiments/paper/star_dsnake.json and star_gvf_snake.json run through
 // the dsnake executable with the same corruption overrides as experiments/paper/star_robustness.json
 // and star_beyond.json. Each test asserts the direction of one result of
-// docs/reproduction/star.md (measured there over 10 seeds), so a change in the code that
+// REPRODUCTION.md (the star section) (measured there over 10 seeds), so a change in the code that
 // reverses a reported result fails here.
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
