@@ -12,6 +12,9 @@
 #include "experiments/field_command.h"
 #include "experiments/runner.h"
 #include "experiments/sweep.h"
+
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include "framework/errors.h"
 
 #include <CLI/CLI.hpp>
@@ -45,7 +48,17 @@ int run(const std::string& config, const std::vector<std::string>& overrides, co
   return 0;
 }
 
+// Checks an experiment file, or a sweep file (one with "base"): every run it expands to is built.
 int validate(const std::string& config, const std::vector<std::string>& overrides) {
+  if (overrides.empty() && config.rfind("builtin:", 0) != 0) {
+    std::ifstream in(config);
+    const auto doc = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false, /*ignore_comments=*/true);
+    if (doc.is_object() && doc.contains("base")) {
+      const Sweep s = load_sweep(config, /*validate=*/true);
+      std::printf("%s: valid sweep of %zu runs\n", config.c_str(), s.runs.size());
+      return 0;
+    }
+  }
   const ExperimentFile file = load(config, overrides);
   if (file.dimension == 2) build_experiment<2>(file);
   else build_experiment<3>(file);
@@ -92,8 +105,8 @@ int main(int argc, char** argv) {
 
   std::string validate_config;
   std::vector<std::string> validate_overrides;
-  auto* validate_cmd = app.add_subcommand("validate", "Check an experiment file without running it");
-  validate_cmd->add_option("config", validate_config, "Experiment file (JSON) or builtin:NAME")->required();
+  auto* validate_cmd = app.add_subcommand("validate", "Check an experiment or sweep file without running it");
+  validate_cmd->add_option("config", validate_config, "Experiment file (JSON), sweep file, or builtin:NAME")->required();
   validate_cmd->add_option("--set", validate_overrides, "Override a key: key.path=value (repeatable)")
       ->expected(1)
       ->allow_extra_args(false)
