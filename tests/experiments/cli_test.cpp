@@ -103,6 +103,19 @@ TEST_F(CliTest, ValidateAcceptsTheBuiltinsAndAGoodFile) {
   EXPECT_NE(r.out.find("valid 2D experiment"), std::string::npos);
 }
 
+TEST_F(CliTest, ValidateChecksEveryRunOfASweepFile) {
+  const auto good = write("sweep.json", R"({"base": "builtin:default", "grid": {"energies[0].alpha": [0.1, 0.2]},
+                                          "seeds": [0, 1, 2]})");
+  const CommandResult r = dsnake("validate " + good.string());
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("valid sweep of 6 runs"), std::string::npos) << r.out;
+  const auto bad = write("bad_sweep.json", R"({"base": "builtin:default", "grid": {"energies[0].alpha": [0.1, -1]}})");
+  const CommandResult b = dsnake("validate " + bad.string());
+  EXPECT_EQ(b.exit_code, 2);
+  EXPECT_EQ(std::count(b.err.begin(), b.err.end(), '\n'), 1) << b.err;
+  EXPECT_NE(b.err.find("alpha"), std::string::npos) << b.err;
+}
+
 TEST_F(CliTest, ConfigSyntaxError) {
   const auto file = write("exp.json", "{\n  \"dimension\": 2,\n  \"seed\": 1,,\n}\n");
   expect_bad_input(file, {file.string(), "JSON syntax error", "line 3"});
