@@ -372,6 +372,17 @@ Experiment<D> build_experiment(const ExperimentFile& file) {
       r.expect(ph.iterations >= 0 && ph.iterations <= 10000000, "iterations", "must be in [0, 10000000]");
       r.expect(ph.tolerance >= 0, "tolerance", "must be >= 0");
       r.expect(ph.every >= 1, "every", "must be >= 1");
+      if (r.has("weights")) {
+        r.read("weights", ph.weights);
+        r.expect(ph.weights.size() == ex.energies.size(), "weights",
+                 "expected one weight per energy (" + std::to_string(ex.energies.size()) + ")");
+        bool any = false;
+        for (double w : ph.weights) {
+          r.expect(w >= 0 && std::isfinite(w), "weights", "every weight must be >= 0");
+          any |= w > 0;
+        }
+        r.expect(any, "weights", "at least one weight must be > 0");
+      }
       if (r.has("remesh")) {
         const auto& stages = r.raw("remesh");
         if (!stages.is_array()) r.fail("remesh", "expected an array of remeshing stages");

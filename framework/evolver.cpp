@@ -20,9 +20,25 @@ template <int D>
 Evolver<D>::Evolver(EnergyContext<D> context, std::vector<WeightedEnergy<D>> energies)
     : context_(context), energies_(std::move(energies)) {
   DSNAKE_ASSERT(!energies_.empty(), "at least one energy");
-  for (const auto& e : energies_) DSNAKE_ASSERT(e.weight > 0 && e.energy, "positive weight");
+  for (const auto& e : energies_) {
+    DSNAKE_ASSERT(e.weight > 0 && e.energy, "positive weight");
+    base_weights_.push_back(e.weight);
+  }
   proposals_.resize(energies_.size());
 }
+
+template <int D>
+void apply_phase_weights(std::vector<WeightedEnergy<D>>& energies, const std::vector<double>& base,
+                         const std::vector<double>& phase_weights) {
+  DSNAKE_ASSERT(phase_weights.empty() || phase_weights.size() == energies.size(), "one weight per energy");
+  for (size_t e = 0; e < energies.size(); ++e) {
+    energies[e].weight = phase_weights.empty() ? base[e] : phase_weights[e];
+    DSNAKE_ASSERT(energies[e].weight >= 0, "non-negative weight");
+  }
+}
+
+template void apply_phase_weights<2>(std::vector<WeightedEnergy<2>>&, const std::vector<double>&, const std::vector<double>&);
+template void apply_phase_weights<3>(std::vector<WeightedEnergy<3>>&, const std::vector<double>&, const std::vector<double>&);
 
 template <int D>
 void Evolver<D>::bind_if_needed(const Snake<D>& snake) {
@@ -38,7 +54,8 @@ template <int D>
 double Evolver<D>::step(Snake<D>& snake) {
   bind_if_needed(snake);
   const int n = snake.num_vertices();
-  for (size_t e = 0; e < energies_.size(); ++e) energies_[e].energy->propose(snake, proposals_[e]);
+  for (size_t e = 0; e < energies_.size(); ++e)
+    if (energies_[e].weight > 0) energies_[e].energy->propose(snake, proposals_[e]);
 
   // Weighted average over the energies that govern each vertex (§3.1, §6).
   double max_move = 0.0;
@@ -49,6 +66,7 @@ double Evolver<D>::step(Snake<D>& snake) {
     double weight = 0.0;
     const bool deformation = snake.is_deformation_vertex(v);
     for (size_t e = 0; e < energies_.size(); ++e) {
+      if (energies_[e].weight == 0) continue;  // switched off for this phase
       if (!deformation && energies_[e].energy->governs() == Governs::kDeformationVertices) continue;
       sum += energies_[e].weight * proposals_[e][v];
       weight += energies_[e].weight;
@@ -64,7 +82,7 @@ double Evolver<D>::step(Snake<D>& snake) {
 template <int D>
 std::vector<double> weighted_energy_terms(const std::vector<WeightedEnergy<D>>& energies, const Snake<D>& snake) {
   std::vector<double> terms;
-  for (const auto& e : energies) terms.push_back(e.weight * e.energy->value(snake));
+  for (const auto& e : energies) terms.push_back(e.weight > 0 ? e.weight * e.energy->value(snake) : 0.0);
   return terms;
 }
 
@@ -85,6 +103,7 @@ EvolveSummary Evolver<D>::run(Snake<D>& snake, std::vector<Phase<D>>& phases) {
   remesh_context.image = context_.image;
   for (size_t p = 0; p < phases.size(); ++p) {
     Phase<D>& phase = phases[p];
+    apply_phase_weights(energies_, base_weights_, phase.weights);
     PhaseSummary ps;
     std::vector<RemeshReport> last_reports(phase.remeshers.size());
     for (int it = 1; it <= phase.iterations; ++it) {

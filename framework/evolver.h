@@ -22,7 +22,13 @@ struct WeightedEnergy {
   std::unique_ptr<Energy<D>> energy;
 };
 
-// w_e E_e(q) per term, in the order given; the energies must be bound to the snake.
+// Sets every energy's weight for `phase` (its "weights", or `base`), in place.
+template <int D>
+void apply_phase_weights(std::vector<WeightedEnergy<D>>& energies, const std::vector<double>& base,
+                         const std::vector<double>& phase_weights);
+
+// w_e E_e(q) per term, in the order given (0 for a term switched off, w_e = 0); the energies
+// must be bound to the snake.
 template <int D>
 std::vector<double> weighted_energy_terms(const std::vector<WeightedEnergy<D>>& energies, const Snake<D>& snake);
 
@@ -31,6 +37,9 @@ struct Phase {
   int iterations = 100;     // iteration budget
   double tolerance = 0.0;   // stop when the largest displacement (physical units) is below; 0: never
   int every = 1;            // run the remesher pipeline every `every` iterations
+  // Per-energy weights for this phase, in the energies' order (empty: their own weights); 0
+  // switches a term off, e.g. §3's first phase with the deformation and external forces only.
+  std::vector<double> weights;
   std::vector<std::unique_ptr<Remesher<D>>> remeshers;  // applied in order
 };
 
@@ -94,6 +103,7 @@ class Evolver {
   EnergyContext<D> context_;
   std::vector<WeightedEnergy<D>> energies_;
   std::vector<EvolverObserver<D>*> observers_;
+  std::vector<double> base_weights_;  // the energies' own weights (phases may override them)
   bool trace_energy_ = true;
   uint64_t bound_version_ = ~uint64_t(0);
   const Snake<D>* bound_snake_ = nullptr;

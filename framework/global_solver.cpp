@@ -12,7 +12,10 @@ GlobalSolver<D>::GlobalSolver(EnergyContext<D> context, std::vector<WeightedEner
                               GlobalSolverOptions options)
     : context_(context), energies_(std::move(energies)), options_(std::move(options)) {
   DSNAKE_ASSERT(!energies_.empty(), "at least one energy");
-  for (const auto& e : energies_) DSNAKE_ASSERT(e.weight > 0 && e.energy, "positive weight");
+  for (const auto& e : energies_) {
+    DSNAKE_ASSERT(e.weight > 0 && e.energy, "positive weight");
+    base_weights_.push_back(e.weight);
+  }
 }
 
 template <int D>
@@ -35,7 +38,7 @@ GlobalSolveSummary GlobalSolver<D>::solve(Snake<D>& snake, const std::function<b
   bind(snake);
   GlobalProblem<D> problem(snake);
   for (const auto& e : energies_)
-    DSNAKE_ASSERT(e.energy->add_residuals(snake, e.weight, problem),
+    DSNAKE_ASSERT(e.weight == 0 || e.energy->add_residuals(snake, e.weight, problem),
                   "the " + e.energy->type() + " energy has no least-squares form");
   std::function<bool(int)> callback;
   if (on_iteration)
@@ -57,6 +60,7 @@ EvolveSummary GlobalSolver<D>::run(Snake<D>& snake, std::vector<Phase<D>>& phase
   remesh_context.image = context_.image;
   for (size_t p = 0; p < phases.size(); ++p) {
     Phase<D>& phase = phases[p];
+    apply_phase_weights(energies_, base_weights_, phase.weights);
     PhaseSummary ps;
     const int rounds = phase.remeshers.empty() ? 0 : std::max(0, options_.remesh_rounds);
     std::vector<RemeshReport> last_reports(phase.remeshers.size());

@@ -41,6 +41,7 @@ class GlobalSolver {
   std::vector<WeightedEnergy<D>> energies_;
   GlobalSolverOptions options_;
   std::vector<EvolverObserver<D>*> observers_;
+  std::vector<double> base_weights_;  // the energies' own weights (phases may override them)
   std::vector<std::vector<GlobalSolveSummary>> solves_;
   uint64_t bound_version_ = ~uint64_t(0);
   int bound_vertices_ = -1;

@@ -123,6 +123,10 @@ TEST(GlobalRun, BadGlobalConfigurationsNameTheJsonPath) {
   EXPECT_EQ(where({"global.linear_solver=cholmod"}), "global.linear_solver");
   EXPECT_EQ(where({"global.potential=gvf"}), "global.potential");
   EXPECT_EQ(where({"global.max_trust_region_radius=0.5"}), "global.max_trust_region_radius");
+  EXPECT_EQ(where({"phases[0].weights=[1, 1]"}), "phases[0].weights");
+  EXPECT_EQ(where({"phases[0].weights=[0, 0, 0]"}), "phases[0].weights");
+  EXPECT_EQ(where({"phases[0].weights=[1, -1, 1]"}), "phases[0].weights");
+  EXPECT_EQ(where({"phases[0].weights=[0, 1, 1]"}), "(accepted)");
   EXPECT_EQ(where({"solver=global"}), "(accepted)");
 }
 

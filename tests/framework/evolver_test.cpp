@@ -87,6 +87,43 @@ TEST(Evolver, StepIsTheWeightedAverageOfTheProposals) {
   EXPECT_NEAR((s.positions()[2] - free).norm(), 0, 1e-15);
 }
 
+// A phase's weights switch terms off and on (§3: a first phase with some forces only); the
+// energy trace reports 0 for a term that is off.
+TEST(Evolver, PhaseWeightsSwitchTermsOffAndOn) {
+  std::vector<WeightedEnergy<2>> e;
+  e.push_back({1.0, std::make_unique<ConstantEnergy>(Point<2>(1, 0), Governs::kAllVertices)});
+  e.push_back({3.0, std::make_unique<HalfwayEnergy>()});
+  Evolver<2> evolver({}, std::move(e));
+  std::vector<double> constant_terms;
+  struct Trace : EvolverObserver<2> {
+    std::vector<double>* terms;
+    void on_iteration(const IterationInfo& info, const Snake<2>&) override { terms->push_back(info.energy_terms[0]); }
+  } trace;
+  trace.terms = &constant_terms;
+  evolver.add_observer(&trace);
+  Snake<2> s = square_snake();
+  std::vector<Phase<2>> phases(3);
+  phases[0].iterations = 1;
+  phases[0].weights = {0.0, 1.0};  // halfway only: q -> q / 2
+  phases[1].iterations = 1;        // the energies' own weights: (1 * (1, 0) + 3 * q / 2) / 4
+  phases[2].iterations = 1;
+  phases[2].weights = {2.0, 0.0};  // constant only: q -> (1, 0)
+  evolver.run(s, phases);
+  ASSERT_EQ(constant_terms.size(), 3u);
+  EXPECT_EQ(constant_terms[0], 0.0);
+  EXPECT_GT(constant_terms[1], 0.0);
+  EXPECT_NEAR((s.positions()[1] - Point<2>(1, 0)).norm(), 0, 1e-15);
+  Snake<2> check = square_snake();
+  const Point<2> after_phase2 = (Point<2>(1, 0) + 3.0 * 0.25 * check.positions()[1]) / 4.0;
+  // replay the first two phases to check the weighted average of phase 2
+  std::vector<Phase<2>> two(2);
+  two[0].iterations = 1;
+  two[0].weights = {0.0, 1.0};
+  two[1].iterations = 1;
+  evolver.run(check, two);
+  EXPECT_NEAR((check.positions()[1] - after_phase2).norm(), 0, 1e-15);
+}
+
 TEST(Evolver, PhasesStopAtTheToleranceOrTheBudget) {
   std::vector<WeightedEnergy<2>> e;
   e.push_back({1.0, std::make_unique<HalfwayEnergy>()});
