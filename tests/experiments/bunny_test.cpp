@@ -10,6 +10,8 @@
 #include "framework/mesh_io.h"
 
 #include <Eigen/Geometry>
+#include "tests/experiments/temp_dir_test.h"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -32,22 +34,9 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 constexpr double kPi = 3.14159265358979323846;
 
-class BunnyTest : public ::testing::Test {
+class BunnyTest : public test_support::TempDirTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("dsnake_bunny_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
 
-  static std::string slurp(const fs::path& p) {
-    std::ifstream in(p);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-  }
   static int shell(const std::string& cmd) {
     const int status = std::system(cmd.c_str());
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -68,7 +57,6 @@ class BunnyTest : public ::testing::Test {
     return json::parse(in);
   }
 
-  fs::path dir_;
   int runs_ = 0;
 };
 

@@ -3,6 +3,8 @@
 #include "experiments/builtin.h"
 #include "framework/image_io.h"
 
+#include "tests/experiments/temp_dir_test.h"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -21,15 +23,8 @@ struct CommandResult {
   std::string out, err;
 };
 
-class CliTest : public ::testing::Test {
+class CliTest : public test_support::TempDirTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("dsnake_cli_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
 
   CommandResult dsnake(const std::string& args) {
     const std::string out = (dir_ / "stdout.txt").string(), err = (dir_ / "stderr.txt").string();
@@ -40,12 +35,6 @@ class CliTest : public ::testing::Test {
     r.out = slurp(out);
     r.err = slurp(err);
     return r;
-  }
-  static std::string slurp(const fs::path& p) {
-    std::ifstream in(p);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
   }
   fs::path write(const std::string& name, const std::string& text) {
     std::ofstream(dir_ / name) << text;
@@ -83,7 +72,6 @@ class CliTest : public ::testing::Test {
       s += "3 " + std::to_string(f[k][0]) + " " + std::to_string(f[k][1]) + " " + std::to_string(f[k][2]) + "\n";
     return s;
   }
-  fs::path dir_;
 };
 
 TEST_F(CliTest, HelpOnEveryCommand) {

@@ -5,6 +5,8 @@
 // DDGVF snake from the same start does not. Fig. 8 (bar -> C) is
 // tests/energies/asap_mls_figures_test.cpp (Fig8BarBecomesTheC): the runner starts a snake from
 // its template, so it cannot express a bar snake with a C template.
+#include "tests/experiments/temp_dir_test.h"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -56,15 +58,8 @@ std::vector<std::string> split_csv_line(const std::string& line) {
   return cells;
 }
 
-class FiguresReproductionTest : public ::testing::Test {
+class FiguresReproductionTest : public test_support::TempDirTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("dsnake_figs_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
 
   // Runs experiments/paper/<name>.json with the --set overrides on one thread and reads its output.
   PaperRun run(const std::string& name, const std::vector<std::string>& overrides = {}) {
@@ -99,7 +94,6 @@ class FiguresReproductionTest : public ::testing::Test {
     return r;
   }
 
-  fs::path dir_;
 };
 
 // Distance from p to the closed polygon c.

@@ -4,6 +4,8 @@
 // and star_beyond.json. Each test asserts the direction of one result of
 // REPRODUCTION.md (the star section) (measured there over 10 seeds), so a change in the code that
 // reverses a reported result fails here.
+#include "tests/experiments/temp_dir_test.h"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -22,22 +24,9 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-class StarReproductionTest : public ::testing::Test {
+class StarReproductionTest : public test_support::TempDirTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("dsnake_star_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
 
-  static std::string slurp(const fs::path& p) {
-    std::ifstream in(p);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-  }
 
   // Runs experiments/paper/<file> on one thread with `corruption` (a JSON list, as in the sweep
   // files), `seed` and the extra --set overrides `sets`; no figures. Returns result.json.
@@ -62,7 +51,6 @@ class StarReproductionTest : public ::testing::Test {
   static bool success(const json& r) { return r.at("success").get<bool>(); }
   static double metric(const json& r, const std::string& key) { return r.at("metrics").at(key).get<double>(); }
 
-  fs::path dir_;
   int runs_ = 0;
 };
 

@@ -4,6 +4,8 @@
 #include "experiments/sweep.h"
 #include "framework/errors.h"
 
+#include "tests/experiments/temp_dir_test.h"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -58,26 +60,16 @@ struct CommandResult {
   std::string err;
 };
 
-class SweepTest : public ::testing::Test {
+class SweepTest : public test_support::TempDirTest {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("dsnake_sweep_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    TempDirTest::SetUp();
     write("exp.json", tiny_experiment().dump(2));
   }
-  void TearDown() override { fs::remove_all(dir_); }
 
   fs::path write(const std::string& name, const std::string& text) {
     std::ofstream(dir_ / name) << text;
     return dir_ / name;
-  }
-  static std::string slurp(const fs::path& p) {
-    std::ifstream in(p);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
   }
   CommandResult shell(const std::string& cmd) {
     const fs::path err = dir_ / "stderr.txt";
@@ -118,7 +110,6 @@ class SweepTest : public ::testing::Test {
     for (std::string line; std::getline(in, line);) n += line.find(fragment) != std::string::npos;
     return n;
   }
-  fs::path dir_;
 };
 
 TEST_F(SweepTest, ExpandsTheCartesianProductInOrderWithStableIds) {
