@@ -491,14 +491,14 @@ GvfSolveStats solve_gvf(const Grid<D>& grid, const std::vector<float>& b,
   const int64_t n = grid.num_voxels();
   DSNAKE_ASSERT(int64_t(b.size()) == n, "GVF: b on the grid");
   Level shape = level_of(grid);
-  // |b c|^2, the scale of the relative residual.
-  double rhs_norm2 = 0;
-  for (size_t k = 0; k < c.size(); ++k)
-    for (int64_t l = 0; l < n; ++l) {
-      const double r = double(b[l]) * (*c[k])[l];
-      rhs_norm2 += r * r;
-    }
   if (o.solver == "explicit") {
+    // |b c|^2, the scale of the relative residual (the multigrid solver computes its own).
+    double rhs_norm2 = 0;
+    for (size_t k = 0; k < c.size(); ++k)
+      for (int64_t l = 0; l < n; ++l) {
+        const double r = double(b[l]) * (*c[k])[l];
+        rhs_norm2 += r * r;
+      }
     shape.b = b;
     return solve_explicit(shape, c, v, o, rhs_norm2);
   }
