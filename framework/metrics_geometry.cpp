@@ -326,6 +326,24 @@ double FacetGrid<D>::distance(const Point<D>& p, Scratch& s) const {
     best = facet_distance(p, s.hint);
     s.stamp[s.hint] = s.query;
   }
+  // A point farther from the grid's box than the box is large (a collapsed or distant surface)
+  // has every cell within the nearest facet's reach: when the facets are fewer than the cells,
+  // testing every facet (with box culling) finds the same minimum with less work.
+  double gap2 = 0;
+  for (int a = 0; a < D; ++a) {
+    const double g = std::max({0.0, lo_[a] - p[a], p[a] - (lo_[a] + dims_[a] * cell_)});
+    gap2 += g * g;
+  }
+  const double size = dims_.maxCoeff() * cell_;
+  if (gap2 > size * size && int64_t(num_facets()) < dims_.template cast<int64_t>().prod()) {
+    for (int f = 0; f < num_facets(); ++f) {
+      const double reach = best + tolerance_;
+      if (box_distance2<D>(p, box_lo_[f], box_hi_[f]) > reach * reach) continue;
+      const double d = facet_distance(p, f);
+      if (d < best) best = d, s.hint = f;
+    }
+    return best;
+  }
   const GridIndex<D> c = cell_of(p);
   for (int r = 0;; ++r) {
     // Only cells that overlap the box of half-width `best` around p can hold a nearer facet.

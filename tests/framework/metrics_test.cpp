@@ -179,6 +179,23 @@ TEST(Metrics, ConcentricSpheresGiveRadiusDifference) {
   EXPECT_NEAR(d.mean, 1.0, 0.02);
 }
 
+// A collapsed snake far inside the truth (the case of a failed run): the truth's samples lie
+// farther from the tiny surface's grid than the grid is large, which takes the all-facets path;
+// the distances must still be the radius difference (within the chord errors).
+TEST(Metrics, ATinySurfaceFarFromTheOtherGivesTheRadiusDifference) {
+  const Shape3 tiny = geodesic_sphere(16, 0.05), outer = geodesic_sphere(16, 11);
+  const double d11 = 11 - brute_distance(outer, Point<3>::Zero());
+  const SurfaceDistances d = surface_distances<3>(tiny.ref(), outer.ref(), 0.4);
+  for (double v : {d.mean, d.hausdorff95, d.hausdorff}) {
+    EXPECT_GE(v, 10.95 - d11 - 1e-9);
+    EXPECT_LE(v, 10.95 + 0.05 + 1e-9);
+  }
+  // and the search agrees with brute force from far away and from near by
+  const PointList<3> q = {Point<3>(40, -3, 2), Point<3>(0.3, 0.2, -0.1), Point<3>(-25, 30, 12), Point<3>(0, 0, 0.06)};
+  const std::vector<double> dq = distances_to_surface<3>(tiny.ref(), q);
+  for (size_t i = 0; i < q.size(); ++i) EXPECT_NEAR(dq[i], brute_distance(tiny, q[i]), 1e-12) << i;
+}
+
 TEST(Metrics, ShapeAgainstItselfIsZero) {
   const Shape2 c = circle(37, 5, Point<2>(3, -2));
   const SurfaceDistances d2 = surface_distances<2>(c.ref(), c.ref(), 0.1);
