@@ -13,6 +13,8 @@
 #include <Eigen/Geometry>
 #include <ceres/ceres.h>
 #include <cmath>
+#include "tests/energy_fixtures.h"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <random>
@@ -20,40 +22,13 @@
 namespace dsnake {
 namespace {
 
+using test_support::perturbed;
+using test_support::wobbly_polygon;
+using test_support::wobbly_sphere;
+template <int D>
+std::unique_ptr<Energy<D>> make(const std::string& json) { return test_support::make_energy<D>(json); }
+
 constexpr double kPi = 3.14159265358979323846;
-
-Template<2> wobbly_polygon(int n) {
-  Template<2> t;
-  for (int i = 0; i < n; ++i) {
-    const double a = 2 * kPi * i / n, r = 10 + 2 * std::sin(3 * a) + std::cos(7 * a);
-    t.positions.push_back(Point<2>(r * std::cos(a), r * std::sin(a)));
-  }
-  t.connectivity = Connectivity::polygon(n);
-  return t;
-}
-
-Template<3> wobbly_sphere(int subdivisions) {
-  Template<3> t = make_icosphere(subdivisions);
-  for (auto& p : t.positions) p *= 10 * (1 + 0.15 * std::sin(3 * p[0] + 2 * p[1]) + 0.1 * p[2] * p[2]);
-  return t;
-}
-
-template <int D>
-std::unique_ptr<Energy<D>> make(const std::string& json) {
-  const auto spec = nlohmann::json::parse(json);
-  JsonReader r(spec, "test.json", "energies[0]");
-  return energy_registry<D>().create(r);
-}
-
-template <int D>
-PointList<D> perturbed(const PointList<D>& p, double amount, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-amount, amount);
-  PointList<D> q = p;
-  for (auto& x : q)
-    for (int a = 0; a < D; ++a) x[a] += u(rng);
-  return q;
-}
 
 // ARAP: zero for rigid motions (rotations + translations), positive under scaling; 2D and 3D.
 TEST(Arap, RigidMotionsAreFreeScalingIsNot) {
