@@ -6,8 +6,10 @@
 #include "framework/global_problem.h"
 
 #include <Eigen/SparseCholesky>
-#include <cmath>
 #include <Eigen/SparseCore>
+#include <algorithm>
+#include <cmath>
+#include <span>
 #include <vector>
 
 namespace dsnake {
@@ -76,6 +78,13 @@ SparseMatrix mesh_system(const Connectivity& c, const InternalOptions& o, Eigen:
 // factorised once per topology, plus n x D scratch so that propose() allocates nothing.
 template <int D>
 struct InternalEnergy<D>::Solver {
+  // Chebyshev: A as one-ring stencils (mesh: neighbours and 1 / valence; polygon: Kass's band),
+  // spectrum [lo, hi] of gamma I + A, iteration count, and n x D scratch.
+  int iterations = 0;  // 0: direct
+  double lo = 1, hi = 1;
+  std::vector<int> ring_offsets, ring;
+  std::vector<double> inverse_valence;
+  PointList<D> x, r, d, d_next, ld;
   Eigen::SimplicialLDLT<SparseMatrix> ldlt;
   Eigen::VectorXd row_scale;  // S, n entries
   Eigen::VectorXd inverse_d;  // 1 / D of the LDL^T (vectorD() returns a copy)
@@ -90,6 +99,26 @@ InternalEnergy<D>::InternalEnergy(const InternalOptions& options)
     : options_(options), solver_(std::make_unique<Solver>()) {
   DSNAKE_ASSERT(options.alpha >= 0 && options.beta >= 0 && options.gamma > 0,
                 "internal energy options: alpha >= 0, beta >= 0, gamma > 0");
+  DSNAKE_ASSERT(options.solver == "auto" || options.solver == "direct" || options.solver == "chebyshev",
+                "internal energy solver: auto, direct or chebyshev");
+  DSNAKE_ASSERT(options.tolerance > 0 && options.tolerance < 1, "internal energy tolerance in (0, 1)");
+}
+
+namespace {
+
+// Chebyshev iterations k with 1 / T_k(sigma) <= eps, sigma = (hi + lo) / (hi - lo): the error
+// bound of the semi-iteration on a spectrum in [lo, hi] (Saad, Iterative Methods, §12.3).
+int chebyshev_count(double lo, double hi, double eps) {
+  if (!(hi > lo)) return 0;
+  const double sigma = (hi + lo) / (hi - lo);
+  return std::max(1, static_cast<int>(std::ceil(std::acosh(1.0 / eps) / std::acosh(sigma))));
+}
+
+}  // namespace
+
+template <int D>
+int InternalEnergy<D>::chebyshev_iterations() const {
+  return solver_->iterations;
 }
 
 template <int D>
@@ -101,8 +130,39 @@ void InternalEnergy<D>::bind(const EnergyContext<D>&, const Snake<D>& snake) {
   const int n = snake.num_vertices();
   DSNAKE_ASSERT(n == c.num_vertices() && n >= 3, "a closed polygon or mesh of >= 3 vertices");
   Solver& s = *solver_;
+  s.topology_version = snake.topology_version();
+  s.num_vertices = n;
+  // Chebyshev: the error in the valence-weighted norm ||e||_W (A is self-adjoint in it) shrinks by
+  // 1 / T_k(sigma); ||e||_inf <= ||e||_W / sqrt(w_min) and ||e_0||_W <= sqrt(sum w) ||e_0||_inf turn
+  // the tolerance on the largest vertex error into eps.
+  const bool polygon = c.is_polygon();
+  const double a = options_.alpha, b = options_.beta;
+  s.lo = options_.gamma;
+  s.hi = options_.gamma + (polygon ? 4 * a + 16 * b : 2 * a + 4 * b);
+  double weight_sum = 0, weight_min = 1e300;
+  for (int v = 0; v < n; ++v) {
+    const double w = polygon ? 1.0 : ring_weight(c, v);
+    weight_sum += w;
+    weight_min = std::min(weight_min, w);
+  }
+  const int count = chebyshev_count(s.lo, s.hi, options_.tolerance / std::sqrt(weight_sum / weight_min));
+  const bool chebyshev = options_.solver == "chebyshev" || (options_.solver == "auto" && !polygon && count <= 32);
+  s.iterations = chebyshev ? std::max(count, 1) : 0;
+  if (chebyshev) {
+    s.ring_offsets.assign(1, 0);
+    s.ring.clear();
+    s.inverse_valence.resize(n);
+    for (int v = 0; v < n; ++v) {
+      const auto ring = c.neighbors(v);
+      s.ring.insert(s.ring.end(), ring.begin(), ring.end());
+      s.ring_offsets.push_back(static_cast<int>(s.ring.size()));
+      s.inverse_valence[v] = 1.0 / ring_weight(c, v);
+    }
+    for (PointList<D>* p : {&s.x, &s.r, &s.d, &s.d_next, &s.ld}) p->assign(n, Point<D>::Zero());
+    return;
+  }
   SparseMatrix system;
-  if (c.is_polygon()) {
+  if (polygon) {
     system = polygon_system(n, options_);
     s.row_scale = Eigen::VectorXd::Ones(n);
   } else {
@@ -115,8 +175,6 @@ void InternalEnergy<D>::bind(const EnergyContext<D>&, const Snake<D>& snake) {
   s.order.resize(n);
   const auto& perm = s.ldlt.permutationP().indices();
   for (int v = 0; v < n; ++v) s.order[v] = perm.size() == n ? perm[v] : v;
-  s.topology_version = snake.topology_version();
-  s.num_vertices = n;
 }
 
 // Kass 1988, eqs. (19)-(20) without the external term: x_t = (A + gamma I)^{-1} (gamma x_{t-1}).
@@ -128,8 +186,17 @@ void InternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   Solver& s = *solver_;
   if (s.num_vertices != snake.num_vertices() || s.topology_version != snake.topology_version())
     bind(EnergyContext<D>{}, snake);
+  DSNAKE_ASSERT(int(out.size()) == snake.num_vertices(), "out has one entry per vertex");
+  if (s.iterations > 0)
+    propose_chebyshev(snake, out);
+  else
+    propose_direct(snake, out);
+}
+
+template <int D>
+void InternalEnergy<D>::propose_direct(const Snake<D>& snake, PointList<D>& out) {
+  Solver& s = *solver_;
   const int n = snake.num_vertices();
-  DSNAKE_ASSERT(int(out.size()) == n, "out has one entry per vertex");
   const PointList<D>& q = snake.positions();
   PointList<D>& y = s.points;
   for (int v = 0; v < n; ++v) y[s.order[v]] = options_.gamma * s.row_scale[v] * q[v];
@@ -141,6 +208,78 @@ void InternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   for (int i = n - 1; i >= 0; --i)  // backward: L^T x = y
     for (typename SparseMatrix::InnerIterator it(L, i); it; ++it) y[i] -= it.value() * y[it.row()];
   for (int v = 0; v < n; ++v) out[v] = y[s.order[v]];
+}
+
+// The same step by Chebyshev semi-iteration (Saad, Iterative Methods, Alg. 12.1) on
+// (gamma I + A) x = gamma q from x0 = q, with A's spectrum bounds in place of inner products:
+//   r0 = gamma q - M q, d0 = r0 / theta; x += d; r -= M d; d = rho' rho d + 2 rho' / delta r.
+// A is applied as stencils: on a mesh (L y)_v = y_v - mean of y over v's one-ring and
+// A = alpha L + beta L^2 (two passes when beta > 0); on a polygon Kass's five-point band. Every
+// pass writes per vertex only, so 1 and 2 threads give the same bits.
+template <int D>
+void InternalEnergy<D>::propose_chebyshev(const Snake<D>& snake, PointList<D>& out) {
+  Solver& s = *solver_;
+  const int n = snake.num_vertices();
+  const PointList<D>& q = snake.positions();
+  const double gamma = options_.gamma, alpha = options_.alpha, beta = options_.beta;
+  const double theta = 0.5 * (s.hi + s.lo), delta = 0.5 * (s.hi - s.lo), sigma = theta / delta;
+  const int* offsets = s.ring_offsets.data();
+  const int* ring = s.ring.data();
+  const double* inv_val = s.inverse_valence.data();
+  // The polygon's D1^T D1 = 2 y_v - y_{v-1} - y_{v+1} is twice the umbrella over {v-1, v+1}.
+  const double lap_scale = snake.connectivity().is_polygon() ? 2.0 : 1.0;
+  PointList<D>&x = s.x, &r = s.r, &ld = s.ld;
+  // (L y)_v = y_v - mean of y over v's ring (times 2 on a polygon); 0 for an isolated vertex.
+  auto laplacian = [=](const PointList<D>& y, int v) -> Point<D> {
+    Point<D> sum = Point<D>::Zero();
+    for (int k = offsets[v]; k < offsets[v + 1]; ++k) sum += y[ring[k]];
+    return lap_scale * (y[v] - inv_val[v] * sum) * (offsets[v + 1] > offsets[v] ? 1.0 : 0.0);
+  };
+  // (M y)_v = gamma y_v + alpha (L y)_v + beta (L (L y))_v with ly = L y for all vertices
+  // (on a polygon D2^T D2 = (D1^T D1)^2 for the cyclic differences).
+  auto apply = [&](const PointList<D>& y, const PointList<D>& ly, int v) -> Point<D> {
+    Point<D> m = gamma * y[v] + alpha * ly[v];
+    if (beta > 0) m += beta * laplacian(ly, v);
+    return m;
+  };
+  const int iterations = s.iterations;
+  const bool parallel = n >= 256;
+#pragma omp parallel if (parallel)
+  {
+    double rho = 1.0 / sigma;  // per thread: every thread runs the same scalar recurrence
+    // x0 = q, r0 = gamma q - M q, d0 = r0 / theta.
+#pragma omp for schedule(static)
+    for (int v = 0; v < n; ++v) ld[v] = laplacian(q, v);
+#pragma omp for schedule(static)
+    for (int v = 0; v < n; ++v) {
+      x[v] = q[v];
+      r[v] = gamma * q[v] - apply(q, ld, v);
+      s.d[v] = r[v] / theta;
+    }
+    for (int k = 0; k < iterations; ++k) {
+      const double rho_next = 1.0 / (2.0 * sigma - rho);
+      // d_k and d_{k+1} alternate between the two buffers: no shared swap, no extra barrier
+      const PointList<D>& d = k % 2 == 0 ? s.d : s.d_next;
+      PointList<D>& d_next = k % 2 == 0 ? s.d_next : s.d;
+      if (k + 1 < iterations) {
+        if (beta > 0) {
+#pragma omp for schedule(static)
+          for (int v = 0; v < n; ++v) ld[v] = laplacian(d, v);
+        }
+#pragma omp for schedule(static)
+        for (int v = 0; v < n; ++v) {
+          const Point<D> md = beta > 0 ? apply(d, ld, v) : Point<D>(gamma * d[v] + alpha * laplacian(d, v));
+          r[v] -= md;
+          x[v] += d[v];
+          d_next[v] = rho_next * rho * d[v] + (2.0 * rho_next / delta) * r[v];
+        }
+      } else {
+#pragma omp for schedule(static) nowait
+        for (int v = 0; v < n; ++v) out[v] = x[v] + d[v];
+      }
+      rho = rho_next;
+    }
+  }
 }
 
 // Kass 1988 eq. (1)'s E_int, discretised with unit parameter steps (see internal.h).

@@ -21,6 +21,17 @@ struct InternalOptions {
   double alpha = 0.5;  // tension: weight of the first differences, >= 0
   double beta = 0.0;   // rigidity: weight of the second differences, >= 0
   double gamma = 1.0;  // Kass's step viscosity (inverse step size), > 0
+  // How (gamma I + A) x = gamma q is solved:
+  //  - "direct": sparse LDL^T, factorised once per topology (exact to rounding);
+  //  - "chebyshev": Chebyshev semi-iteration from x0 = q over the known spectrum of gamma I + A
+  //    ([gamma, gamma + 2 alpha + 4 beta] on a mesh, [gamma, gamma + 4 alpha + 16 beta] on a
+  //    polygon), with the iteration count fixed in advance so that every vertex's error is at most
+  //    `tolerance` times the step's largest displacement; no factorisation, no reductions (the
+  //    result does not depend on the thread count), one or two one-ring passes per iteration;
+  //  - "auto" (default): chebyshev on meshes when that needs <= 32 iterations (a well-conditioned
+  //    step: (2 alpha + 4 beta) / gamma <= ~11), direct otherwise and on polygons.
+  std::string solver = "auto";
+  double tolerance = 1e-10;  // chebyshev: error bound relative to the largest displacement, (0, 1)
 };
 
 template <int D>
@@ -32,7 +43,8 @@ class InternalEnergy final : public Energy<D> {
   std::string type() const override { return "internal"; }
   const InternalOptions& options() const { return options_; }
 
-  // Builds and factorises gamma I + A for the snake's connectivity (always rebuilds).
+  // Builds and factorises gamma I + A for the snake's connectivity (always rebuilds); with the
+  // Chebyshev solver, builds the one-ring table and the iteration count instead.
   void bind(const EnergyContext<D>& context, const Snake<D>& snake) override;
 
   // out[v] = ((gamma I + A)^{-1} gamma q)_v for every vertex; rebinds first if the snake's
@@ -46,6 +58,8 @@ class InternalEnergy final : public Energy<D> {
   //     the step uses the umbrella operator (its degree-normalised form): the snake scheme of
   //     §3.1 uses the step; this value is for energy traces and the global solve.
   double value(const Snake<D>& snake) const override;
+  // Chebyshev iterations per step for the bound snake; 0 when the direct solve is used.
+  int chebyshev_iterations() const;
   // The residuals of value(): sqrt(w alpha / 2) (q_j - q_i) per edge, and sqrt(w beta / 2) times
   // the second difference (2D) or the umbrella Laplacian (3D) per vertex.
   bool add_residuals(const Snake<D>& snake, double weight, GlobalProblem<D>& problem) const override;
@@ -53,6 +67,9 @@ class InternalEnergy final : public Energy<D> {
 
  private:
   struct Solver;  // the sparse factorisation and scratch, in the .cpp
+
+  void propose_direct(const Snake<D>& snake, PointList<D>& out);
+  void propose_chebyshev(const Snake<D>& snake, PointList<D>& out);
 
   InternalOptions options_;
   std::unique_ptr<Solver> solver_;

@@ -98,7 +98,7 @@ namespace {
 // cross^T cross, u_k = cross v_k / s_k (k = 1, 2), and the third columns u1 x u2, v1 x v2, which
 // makes both frames right-handed, so R = U V^T is a rotation and the sign fix is automatic. Rank < 2
 // (collinear or coincident data, s2 <= 1e-6 s1) falls back to Eigen's JacobiSVD.
-Eigen::Matrix3d rotation_3d(const Eigen::Matrix3d& cross, double& t) {
+Eigen::Matrix3d rotation_3d_eigen(const Eigen::Matrix3d& cross, double& t) {
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
   eig.computeDirect(cross.transpose() * cross);  // eigenvalues ascending
   const Eigen::Vector3d lambda = eig.eigenvalues();
@@ -120,6 +120,77 @@ Eigen::Matrix3d rotation_3d(const Eigen::Matrix3d& cross, double& t) {
   const Eigen::Vector3d s = svd.singularValues();
   t = s[0] + s[1] + d * s[2];
   return u.col(0) * v.col(0).transpose() + u.col(1) * v.col(1).transpose() + d * u.col(2) * v.col(2).transpose();
+}
+
+// The same rotation by Horn's quaternion method ("Closed-form solution of absolute orientation
+// using unit quaternions", JOSA A 1987): trace(R(q)^T cross) = q^T N q for a symmetric traceless
+// 4x4 N built from cross, so R's quaternion is N's top eigenvector. The top eigenvalue is the
+// largest root of det(N - l I) = l^4 + c2 l^2 + c1 l + c0, found by Newton's method from an upper
+// bound (Theobald's QCP, Acta Cryst. A 2005), and the eigenvector is a column of adj(N - l I).
+// No trigonometry: about a third of the cost of the eigen-decomposition above. The top root is
+// separated from the next by 2 (s2 + d s3); when that gap is below 1e-3 |cross| (rank < 2, or a
+// reflection with s2 ~ s3) the adjugate is too inaccurate and the eigen path decides instead.
+Eigen::Matrix3d rotation_3d(const Eigen::Matrix3d& cross, double& t) {
+  // S = cross^T (Horn's S_ab = sum a_a b_b for data a -> b with cross = sum b a^T).
+  const double sxx = cross(0, 0), sxy = cross(1, 0), sxz = cross(2, 0);
+  const double syx = cross(0, 1), syy = cross(1, 1), syz = cross(2, 1);
+  const double szx = cross(0, 2), szy = cross(1, 2), szz = cross(2, 2);
+  Eigen::Matrix4d n;
+  n << sxx + syy + szz, syz - szy, szx - sxz, sxy - syx,  //
+      syz - szy, sxx - syy - szz, sxy + syx, szx + sxz,    //
+      szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy,   //
+      sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz;
+  const double frob2 = cross.squaredNorm();
+  if (!(frob2 > 1e-300) || !std::isfinite(frob2)) return rotation_3d_eigen(cross, t);
+  const double c2 = -2.0 * frob2, c1 = -8.0 * cross.determinant(), c0 = n.determinant();
+  // Newton from sqrt(3) |cross| >= s1 + s2 + s3 >= the top root: monotone from above.
+  double l = std::sqrt(3.0 * frob2);
+  for (int it = 0; it < 60; ++it) {
+    const double l2 = l * l;
+    const double p = (l2 + c2) * l2 + c1 * l + c0, dp = (4.0 * l2 + 2.0 * c2) * l + c1;
+    if (!(dp > 0)) break;
+    const double step = p / dp;
+    l -= step;
+    if (std::abs(step) <= 1e-15 * l) break;
+  }
+  // adj(N - l I) = prod_{k != top} (l_k - l) q q^T: its largest diagonal entry picks the column.
+  Eigen::Matrix4d a = n;
+  a.diagonal().array() -= l;
+  double best = -1.0;
+  int col = 0;
+  Eigen::Vector4d adj_col;
+  for (int j = 0; j < 4; ++j) {
+    int r[3], k = 0;
+    for (int i = 0; i < 4; ++i)
+      if (i != j) r[k++] = i;
+    const double m = (a(r[0], r[0]) * (a(r[1], r[1]) * a(r[2], r[2]) - a(r[1], r[2]) * a(r[2], r[1])) -
+                      a(r[0], r[1]) * (a(r[1], r[0]) * a(r[2], r[2]) - a(r[1], r[2]) * a(r[2], r[0])) +
+                      a(r[0], r[2]) * (a(r[1], r[0]) * a(r[2], r[1]) - a(r[1], r[1]) * a(r[2], r[0])));
+    if (std::abs(m) > best) best = std::abs(m), col = j;
+  }
+  const double scale = std::sqrt(frob2);
+  if (!(best > 1e-3 * scale * scale * scale)) return rotation_3d_eigen(cross, t);
+  // Column `col` of the adjugate: cofactors C_{i,col} = (-1)^{i+col} det(minor without row col, column i).
+  for (int i = 0; i < 4; ++i) {
+    int rr[3], cc[3], kr = 0, kc = 0;
+    for (int x = 0; x < 4; ++x) {
+      if (x != col) rr[kr++] = x;
+      if (x != i) cc[kc++] = x;
+    }
+    const double m = a(rr[0], cc[0]) * (a(rr[1], cc[1]) * a(rr[2], cc[2]) - a(rr[1], cc[2]) * a(rr[2], cc[1])) -
+                     a(rr[0], cc[1]) * (a(rr[1], cc[0]) * a(rr[2], cc[2]) - a(rr[1], cc[2]) * a(rr[2], cc[0])) +
+                     a(rr[0], cc[2]) * (a(rr[1], cc[0]) * a(rr[2], cc[1]) - a(rr[1], cc[1]) * a(rr[2], cc[0]));
+    adj_col[i] = ((i + col) % 2 == 0) ? m : -m;
+  }
+  const Eigen::Vector4d q = adj_col.normalized();
+  const double w = q[0], x = q[1], y = q[2], z = q[3];
+  Eigen::Matrix3d r;
+  r << w * w + x * x - y * y - z * z, 2 * (x * y - w * z), 2 * (x * z + w * y),  //
+      2 * (x * y + w * z), w * w - x * x + y * y - z * z, 2 * (y * z - w * x),      //
+      2 * (x * z - w * y), 2 * (y * z + w * x), w * w - x * x - y * y + z * z;
+  if (!r.allFinite()) return rotation_3d_eigen(cross, t);
+  t = (r.transpose() * cross).trace();
+  return r;
 }
 
 }  // namespace

@@ -21,6 +21,11 @@ std::unique_ptr<Energy<D>> make_internal(JsonReader& reader) {
   reader.read("alpha", o.alpha);
   reader.read("beta", o.beta);
   reader.read("gamma", o.gamma);
+  reader.read("solver", o.solver);
+  reader.read("tolerance", o.tolerance);
+  reader.expect(o.solver == "auto" || o.solver == "direct" || o.solver == "chebyshev", "solver",
+                "must be auto, direct or chebyshev");
+  reader.expect(o.tolerance > 0 && o.tolerance < 1, "tolerance", "must be in (0, 1)");
   reader.expect(o.alpha >= 0, "alpha", "must be >= 0");
   reader.expect(o.beta >= 0, "beta", "must be >= 0");
   reader.expect(o.gamma > 0, "gamma", "must be > 0");

@@ -367,6 +367,38 @@ TEST(AsapMls, SimilarityFit3dMatchesSvd) {
   }
 }
 
+// The rotation fit recovers a known rotation from cross = R diag(s) V^T-type data at any scale
+// (1e-8 to 1e8), including planar data (s3 = 0) and a reflection whose best proper rotation is
+// unique only up to s2 > s3 (s2 = 1.001 s3), to rounding times the fit's conditioning squared.
+TEST(AsapMls, RotationFit3dRecoversKnownRotationAtAnyScale) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> g;
+  auto random_rotation = [&] {
+    Eigen::Quaterniond q(g(rng), g(rng), g(rng), g(rng));
+    return q.normalized().toRotationMatrix();
+  };
+  for (int trial = 0; trial < 300; ++trial) {
+    const double scale = std::pow(10.0, -8 + 16.0 * (trial % 17) / 16.0);
+    const Eigen::Matrix3d r = random_rotation(), v = random_rotation();
+    Eigen::Vector3d s(3.0, 1.0 + (trial % 3), trial % 2 == 0 ? 0.0 : 0.5);
+    double d = 1;
+    Eigen::Matrix3d flip = Eigen::Matrix3d::Identity();
+    if (trial % 5 == 4) {  // improper data: the best proper rotation drops the smallest direction
+      s = Eigen::Vector3d(3.0, 1.001, 1.0);
+      flip(2, 2) = -1, d = -1;
+    }
+    // cross = U S V^T with U = r V flip: the optimal proper rotation is U diag(1,1,d) V^T.
+    const Eigen::Matrix3d u = r * v * flip;
+    const Eigen::Matrix3d c = scale * u * s.asDiagonal() * v.transpose();
+    const Eigen::Matrix3d expected = u * Eigen::Vector3d(1, 1, d).asDiagonal() * v.transpose();
+    // the fit's sensitivity grows as 1 / (s2 + d s3): the reflection case is 1000x worse conditioned
+    const double conditioning = s[0] / (s[1] + d * s[2]);
+    EXPECT_LT((best_rotation<3>(c) - expected).norm(), 1e-14 * std::max(1.0, conditioning * conditioning)) << trial;
+    const Eigen::Matrix3d m = best_similarity<3>(c, scale);
+    EXPECT_NEAR(m.determinant(), std::pow(s[0] + s[1] + d * s[2], 3), 1e-8 * std::pow(s.sum(), 3)) << trial;
+  }
+}
+
 // The parallel loops (per-vertex writes only) give bit-identical proposals and values for 1 and 2
 // threads (642 vertices: above the parallel threshold).
 TEST(AsapMls, SameResultsForOneAndTwoThreads) {

@@ -3,12 +3,14 @@
 // energy registry's error messages.
 #include "energies/internal.h"
 #include "energies/registry.h"
+#include "experiments/phantoms.h"
 #include "framework/errors.h"
 
 #include <Eigen/Dense>
 #include <cmath>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <omp.h>
 #include <random>
 
 namespace dsnake {
@@ -194,8 +196,10 @@ TEST(InternalEnergy, IcosahedronShrinksSymmetrically3d) {
 }
 
 TEST(InternalEnergy, StepMatchesDenseSolve3d) {
-  const InternalOptions o{0.7, 0.3, 2.0};
+  for (const char* solver : {"direct", "chebyshev"})
   for (bool split : {false, true}) {
+    InternalOptions o{0.7, 0.3, 2.0};
+    o.solver = solver;
     Template<3> mesh = icosahedron(Point<3>::Zero(), 3.0);
     if (split) mesh = with_split_face(mesh);
     ASSERT_EQ(mesh.connectivity.closed_manifold_problem(), "");
@@ -214,8 +218,97 @@ TEST(InternalEnergy, StepMatchesDenseSolve3d) {
     for (int i = 0; i < n; ++i) q.row(i) = snake.positions()[i].transpose();
     const Eigen::MatrixXd expected = m.partialPivLu().solve(o.gamma * q);
     for (int i = 0; i < n; ++i)
-      for (int a = 0; a < 3; ++a) EXPECT_NEAR(out[i][a], expected(i, a), 1e-10) << split;
+      for (int a = 0; a < 3; ++a) EXPECT_NEAR(out[i][a], expected(i, a), 1e-10) << split << solver;
   }
+}
+
+// A jittered icosphere with 642 vertices (above the parallel threshold), moved off its rest shape.
+Snake<3> jittered_icosphere_snake(unsigned seed, double jitter) {
+  Template<3> t = make_icosphere(3);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-jitter, jitter);
+  for (auto& x : t.positions) x = 10.0 * x + Point<3>(u(rng), u(rng), u(rng));
+  return Snake<3>::from_template(t, t.positions);
+}
+
+// The Chebyshev step's error bound holds: every vertex within `tolerance` times the step's largest
+// displacement of the exact (LDL^T) step, for mild and stiff parameters and a loose and the
+// default tolerance; the loose one needs fewer iterations and its error is not below rounding
+// (so the bound is exercised, not trivially met).
+TEST(InternalEnergy, ChebyshevWithinItsBoundOfTheDirectStep3d) {
+  const Snake<3> snake = jittered_icosphere_snake(2, 0.4);
+  const int n = snake.num_vertices();
+  for (const InternalOptions base : {InternalOptions{0.1, 0.0, 1.0}, InternalOptions{0.5, 0.01, 1.0},
+                                     InternalOptions{3.0, 1.0, 1.0}}) {
+    InternalOptions direct_options = base;
+    direct_options.solver = "direct";
+    InternalEnergy<3> direct(direct_options);
+    PointList<3> exact(n);
+    direct.propose(snake, exact);
+    EXPECT_EQ(direct.chebyshev_iterations(), 0);
+    double max_move = 0;
+    for (int v = 0; v < n; ++v) max_move = std::max(max_move, (exact[v] - snake.positions()[v]).norm());
+    ASSERT_GT(max_move, 1e-3);
+    int loose_iterations = 0;
+    for (double tolerance : {1e-4, 1e-10}) {
+      InternalOptions o = base;
+      o.solver = "chebyshev";
+      o.tolerance = tolerance;
+      InternalEnergy<3> cheb(o);
+      PointList<3> out(n);
+      cheb.propose(snake, out);
+      double max_error = 0;
+      for (int v = 0; v < n; ++v) max_error = std::max(max_error, (out[v] - exact[v]).norm());
+      EXPECT_LE(max_error, tolerance * max_move) << base.alpha << " " << tolerance;
+      if (tolerance == 1e-4) {
+        loose_iterations = cheb.chebyshev_iterations();
+        EXPECT_GT(max_error, 1e-13 * max_move) << "the loose solve stops early";
+      } else {
+        EXPECT_GT(cheb.chebyshev_iterations(), loose_iterations);
+      }
+    }
+  }
+}
+
+// The semi-iteration also runs on polygons (Kass's band as a stencil), for n = 3 (the band folds
+// onto itself) and larger.
+TEST(InternalEnergy, ChebyshevMatchesDenseSolve2d) {
+  for (int n : {3, 5, 300}) {
+    InternalOptions o{0.7, 0.3, 2.0};
+    o.solver = "chebyshev";
+    Snake<2> snake = polygon_snake(random_polygon(n, 9));
+    InternalEnergy<2> energy(o);
+    PointList<2> out(n);
+    energy.propose(snake, out);
+    const Eigen::MatrixXd m = o.gamma * Eigen::MatrixXd::Identity(n, n) + kass_matrix(n, o.alpha, o.beta);
+    const Eigen::MatrixXd expected = m.partialPivLu().solve(o.gamma * as_matrix(snake.positions()));
+    for (int i = 0; i < n; ++i)
+      for (int a = 0; a < 2; ++a) EXPECT_NEAR(out[i][a], expected(i, a), 1e-9) << n;
+  }
+}
+
+// "auto" takes the semi-iteration on well-conditioned meshes only; the Chebyshev step gives the
+// same bits on 1 and 2 threads (per-vertex writes, the recurrence replicated per thread).
+TEST(InternalEnergy, AutoSolverChoiceAndThreadIndependence) {
+  const Snake<3> snake = jittered_icosphere_snake(4, 0.4);
+  const int n = snake.num_vertices();
+  InternalEnergy<3> mild(InternalOptions{0.1, 0.01, 1.0});
+  PointList<3> a(n), b(n);
+  omp_set_num_threads(1);
+  mild.propose(snake, a);
+  omp_set_num_threads(2);
+  mild.propose(snake, b);
+  EXPECT_GT(mild.chebyshev_iterations(), 0);
+  EXPECT_LE(mild.chebyshev_iterations(), 12);
+  for (int v = 0; v < n; ++v) EXPECT_EQ(a[v], b[v]);
+  InternalEnergy<3> stiff(InternalOptions{50.0, 0.0, 1.0});
+  stiff.propose(snake, a);
+  EXPECT_EQ(stiff.chebyshev_iterations(), 0);
+  InternalEnergy<2> polygon(InternalOptions{0.1, 0.0, 1.0});
+  Snake<2> p = polygon_snake(random_polygon(400, 2));
+  PointList<2> out(400);
+  polygon.propose(p, out);
+  EXPECT_EQ(polygon.chebyshev_iterations(), 0);
 }
 
 TEST(InternalEnergy, ValueGradient3d) {
@@ -318,6 +411,13 @@ TEST(EnergyRegistry, UnknownTypeNamesPathAndKnownTypes) {
   EXPECT_NE(msg.find("snakeoil"), std::string::npos) << msg;
   EXPECT_NE(msg.find("internal"), std::string::npos) << msg;
   EXPECT_NE(msg.find("external"), std::string::npos) << msg;
+}
+
+TEST(EnergyRegistry, BadInternalSolverNamesPath) {
+  std::string msg = error_of(R"({"type": "internal", "solver": "cg"})");
+  EXPECT_NE(msg.find("energies[0].solver"), std::string::npos) << msg;
+  msg = error_of(R"({"type": "internal", "solver": "chebyshev", "tolerance": 0})");
+  EXPECT_NE(msg.find("energies[0].tolerance"), std::string::npos) << msg;
 }
 
 TEST(EnergyRegistry, UnknownKeyNamesPath) {
