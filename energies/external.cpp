@@ -24,6 +24,9 @@ void ExternalEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& sn
 }
 
 // §3.1: q_i^ext(t+1) = q_i(t) + tau F_ext(q_i(t)).
+// How many vertices ahead the sampling loop prefetches a field's voxels (a latency-hiding hint).
+constexpr int kPrefetchAhead = 8;
+
 template <int D>
 void ExternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   DSNAKE_ASSERT(field_ != nullptr, "bind() before propose()");
@@ -37,6 +40,7 @@ void ExternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   const PointList<D>& normals = normals_;
 #pragma omp parallel for schedule(static) if (n >= 256)
   for (int v = 0; v < n; ++v) {
+    if (v + kPrefetchAhead < n) field.prefetch(q[v + kPrefetchAhead]);
     const Point<D> normal = with_normals ? normals[v] : Point<D>::Zero();
     out[v] = q[v] + tau * field.force(q[v], normal);
   }

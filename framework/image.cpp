@@ -53,27 +53,34 @@ bool Grid<D>::same_geometry(const Grid& o, double tol) const {
          (origin - o.origin).cwiseAbs().maxCoeff() <= tol;
 }
 
+// Clamped corner indices lo..lo+1 per axis (lo + 1 = lo on an axis of one voxel) and the weights
+// w_k = prod_a (bit_a(k) ? t_a : 1 - t_a), multiplied in axis order. The corners are offsets from
+// the base voxel, so the per-corner work is one add (the sampling loops of every field force).
 template <int D>
 typename Grid<D>::Stencil Grid<D>::stencil(const Point<D>& x) const {
   Stencil s;
-  const Point<D> c = to_continuous_index(x);
-  std::array<int, D> lo;
+  int64_t base = 0, stride = 1;
+  std::array<int64_t, D> step;
   std::array<double, D> t;
   for (int a = 0; a < D; ++a) {
-    const double ca = std::clamp(std::isfinite(c[a]) ? c[a] : 0.0, 0.0, double(size[a] - 1));
-    lo[a] = std::min(static_cast<int>(std::floor(ca)), std::max(size[a] - 2, 0));
-    t[a] = ca - lo[a];
+    const double c = (x[a] - origin[a]) / spacing[a];
+    const double ca = std::clamp(std::isfinite(c) ? c : 0.0, 0.0, double(size[a] - 1));
+    const int lo = std::min(static_cast<int>(std::floor(ca)), std::max(size[a] - 2, 0));
+    t[a] = ca - lo;
+    base += lo * stride;
+    step[a] = size[a] > 1 ? stride : 0;
+    stride *= size[a];
   }
   constexpr int kCorners = D == 2 ? 4 : 8;
   for (int k = 0; k < kCorners; ++k) {
-    GridIndex<D> idx;
+    int64_t voxel = base;
     double w = 1.0;
     for (int a = 0; a < D; ++a) {
       const int bit = (k >> a) & 1;
-      idx[a] = std::min(lo[a] + bit, size[a] - 1);
+      voxel += bit * step[a];
       w *= bit ? t[a] : 1.0 - t[a];
     }
-    s.voxel[k] = linear(idx);
+    s.voxel[k] = voxel;
     s.weight[k] = w;
   }
   return s;
@@ -100,6 +107,14 @@ Point<D> VectorField<D>::sample(const Point<D>& x) const {
   Point<D> v = Point<D>::Zero();
   for (size_t k = 0; k < s.voxel.size(); ++k) v += s.weight[k] * vectors_[s.voxel[k]];
   return v;
+}
+
+template <int D>
+void VectorField<D>::prefetch(const Point<D>& x) const {
+  if (vectors_.empty()) return;
+  const auto s = grid_.stencil(x);
+  for (size_t k = 0; k < s.voxel.size(); ++k) __builtin_prefetch(&vectors_[s.voxel[k]]);
+  __builtin_prefetch(reinterpret_cast<const char*>(&vectors_[s.voxel.back()]) + sizeof(Point<D>) - 1);
 }
 
 template <int D>

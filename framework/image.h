@@ -76,6 +76,10 @@ class VectorField {
   const PointList<D>& data() const { return vectors_; }
 
   Point<D> sample(const Point<D>& x) const;  // linear interpolation per component
+  // Asks the CPU to fetch the voxels sample(x) will read (a hint: no effect on results). Loops
+  // over a snake's vertices call it a few vertices ahead, so that the stencils of consecutive
+  // vertices, scattered over a large volume, load in parallel instead of one miss at a time.
+  void prefetch(const Point<D>& x) const;
   Image<D> component(int axis) const;        // one component as a scalar image
 
  private:
