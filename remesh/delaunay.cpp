@@ -92,9 +92,8 @@ int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_r
 
 }  // namespace
 
-RemeshReport DelaunayRemesher::apply(Snake<3>& snake, const RemeshContext<3>&) {
-  RemeshReport report{"delaunay", snake.num_vertices(), snake.num_vertices(), 0};
-  EditMesh m(snake);
+RemeshReport DelaunayRemesher::run(EditMesh& m, const RemeshContext<3>&) {
+  RemeshReport report{"delaunay", 0, 0, 0};
   const double cos_dihedral = std::cos(options_.max_dihedral_deg * std::numbers::pi / 180);
   if (options_.method == "planar") report.rejected_edits += remesh_detail::planar_delaunay(m, cos_dihedral);
   // The planar pass leaves patch seams as they were; flips finish them (and are the whole job
@@ -102,7 +101,6 @@ RemeshReport DelaunayRemesher::apply(Snake<3>& snake, const RemeshContext<3>&) {
   report.rejected_edits += delaunay_by_flips(m, cos_dihedral);
   if (options_.regularize)
     report.rejected_edits += regularize_valences(m, cos_dihedral, options_.min_angle_deg * std::numbers::pi / 180);
-  report.vertices_after = m.commit(snake);
   return report;
 }
 
