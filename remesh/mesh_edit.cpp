@@ -235,27 +235,36 @@ void EditMesh::grid_update(int f) const {
   grid_insert(f);
 }
 
+// Each triangle (v, a, b) of the fan links a -> b; the ring follows the links from the first
+// triangle's a. The links are gathered once into small arrays (no rescan of the triangles).
 void EditMesh::ring(int v, std::vector<int>& out) const {
   out.clear();
   const auto& fan = vtri_[v];
   if (fan.empty()) return;
-  // next[a] = b for each triangle (v, a, b) in counter-clockwise order.
-  auto next_of = [&](int a) {
-    for (int f : fan) {
-      const auto& t = tri_[f];
-      for (int k = 0; k < 3; ++k)
-        if (t[k] == v && t[(k + 1) % 3] == a) return t[(k + 2) % 3];
-    }
-    return -1;
-  };
-  const auto& t0 = tri_[fan[0]];
-  int start = -1;
-  for (int k = 0; k < 3; ++k)
-    if (t0[k] == v) start = t0[(k + 1) % 3];
+  constexpr int kMax = 64;
+  std::array<int, kMax> from_small, to_small;
+  std::vector<int> from_big, to_big;
+  const int n = static_cast<int>(fan.size());
+  int* from = from_small.data();
+  int* to = to_small.data();
+  if (n > kMax) {
+    from_big.resize(n);
+    to_big.resize(n);
+    from = from_big.data();
+    to = to_big.data();
+  }
+  for (int i = 0; i < n; ++i) {
+    const auto& t = tri_[fan[i]];
+    const int k = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
+    from[i] = t[(k + 1) % 3];
+    to[i] = t[(k + 2) % 3];
+  }
+  const int start = from[0];
   int a = start;
   do {
     out.push_back(a);
-    a = next_of(a);
+    const int* it = std::find(from, from + n, a);
+    a = it == from + n ? -1 : to[it - from];
   } while (a >= 0 && a != start && out.size() <= fan.size());
   DSNAKE_ASSERT(a == start && out.size() == fan.size(), "one-ring of a vertex is not a closed fan");
 }
