@@ -20,9 +20,9 @@ constexpr double kFoldCos = 0.990268;  // cos(8 degrees): closer than that acros
 // both ends strictly on one side of the plane (by a relative margin of 1e-9, far above
 // rounding, so that the exact test could only have said "no" as well: t would be outside
 // [0, 1] by more than 1e-9).
+// tlo, thi: the triangle's bounding box (the caller has it).
 bool segment_hits_triangle(const Point<3>& p, const Point<3>& q, const Point<3>& a, const Point<3>& b,
-                           const Point<3>& c) {
-  const Point<3> tlo = a.cwiseMin(b).cwiseMin(c), thi = a.cwiseMax(b).cwiseMax(c);
+                           const Point<3>& c, const Point<3>& tlo, const Point<3>& thi) {
   const double slack = 1e-9 * (thi - tlo).maxCoeff();
   if ((p.cwiseMax(q).array() < tlo.array() - slack).any() || (p.cwiseMin(q).array() > thi.array() + slack).any())
     return false;
@@ -68,8 +68,9 @@ bool strictly_one_side(const std::array<Point<3>, 3>& p, const std::array<Point<
 // Whether triangles A and B (vertex ids ta, tb, positions pa, pb) conflict, given the vertices
 // they share: disjoint ones must not touch; with one shared vertex, neither opposite edge may
 // pierce the other triangle; with a shared edge, they must not fold onto each other.
-bool pair_conflicts(const Triangle& ta, const std::array<Point<3>, 3>& pa, const Triangle& tb,
-                    const std::array<Point<3>, 3>& pb) {
+// loa, hia, lob, hib: the triangles' bounding boxes.
+bool pair_conflicts(const Triangle& ta, const std::array<Point<3>, 3>& pa, const Point<3>& loa, const Point<3>& hia,
+                    const Triangle& tb, const std::array<Point<3>, 3>& pb, const Point<3>& lob, const Point<3>& hib) {
   int shared = 0, ia = -1, ib = -1;  // ia/ib: a shared corner's index in A/B
   int sa[3] = {0, 0, 0}, sb[3] = {0, 0, 0};
   for (int i = 0; i < 3; ++i)
@@ -81,8 +82,8 @@ bool pair_conflicts(const Triangle& ta, const std::array<Point<3>, 3>& pa, const
   }
   if (shared == 3) return true;  // a duplicate triangle
   if (shared == 1) {
-    return segment_hits_triangle(pa[(ia + 1) % 3], pa[(ia + 2) % 3], pb[0], pb[1], pb[2]) ||
-           segment_hits_triangle(pb[(ib + 1) % 3], pb[(ib + 2) % 3], pa[0], pa[1], pa[2]);
+    return segment_hits_triangle(pa[(ia + 1) % 3], pa[(ia + 2) % 3], pb[0], pb[1], pb[2], lob, hib) ||
+           segment_hits_triangle(pb[(ib + 1) % 3], pb[(ib + 2) % 3], pa[0], pa[1], pa[2], loa, hia);
   }
   // Shared edge: the opening angle between the two half-planes must exceed 8 degrees.
   int oa = 0, ob = 0;
@@ -370,7 +371,7 @@ bool EditMesh::intersects_any(std::span<const Triangle> ts, std::span<const int>
           const std::array<Point<3>, 3> q = {pos_[s[0]], pos_[s[1]], pos_[s[2]]};
           for (int i = 0; i < n; ++i) {
             if ((flo.array() > hi[i].array() + pad).any() || (fhi.array() < lo[i].array() - pad).any()) continue;
-            if (pair_conflicts(ts[i], p[i], s, q)) return true;
+            if (pair_conflicts(ts[i], p[i], lo[i], hi[i], s, q, flo, fhi)) return true;
           }
         }
   return false;
@@ -381,8 +382,12 @@ bool EditMesh::intersects_any_brute_force(std::span<const Triangle> ts, std::spa
     if (!alive_[f] || std::find(ignore.begin(), ignore.end(), f) != ignore.end()) continue;
     const auto& s = tri_[f];
     const std::array<Point<3>, 3> q = {pos_[s[0]], pos_[s[1]], pos_[s[2]]};
-    for (const auto& t : ts)
-      if (pair_conflicts(t, {pos_[t[0]], pos_[t[1]], pos_[t[2]]}, s, q)) return true;
+    const Point<3> slo = q[0].cwiseMin(q[1]).cwiseMin(q[2]), shi = q[0].cwiseMax(q[1]).cwiseMax(q[2]);
+    for (const auto& t : ts) {
+      const std::array<Point<3>, 3> p = {pos_[t[0]], pos_[t[1]], pos_[t[2]]};
+      const Point<3> lo = p[0].cwiseMin(p[1]).cwiseMin(p[2]), hi = p[0].cwiseMax(p[1]).cwiseMax(p[2]);
+      if (pair_conflicts(t, p, lo, hi, s, q, slo, shi)) return true;
+    }
   }
   return false;
 }

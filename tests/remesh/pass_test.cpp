@@ -6,7 +6,7 @@
 //   segment-triangle solve written here);
 // - min_angle (one atan2, at the corner opposite the shortest edge) is the smallest of the three;
 // - apply_pass (one EditMesh for all stages, one write-back) gives the very same snake and
-//   vertex counts as applying the stages one by one.
+//   vertex counts as applying the stages one by one, and the same with 1 and 2 threads.
 #include "framework/metrics_geometry.h"
 #include "remesh/delaunay.h"
 #include "remesh/mesh_edit.h"
@@ -18,6 +18,7 @@
 
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <memory>
 #include <numbers>
@@ -235,6 +236,21 @@ TEST(ApplyPass, SameSnakeAsTheStagesOneByOne) {
     EXPECT_EQ(shared.connectivity().triangles(), one_by_one.connectivity().triangles());
     EXPECT_EQ(shared.connectivity().closed_manifold_problem(), "");
   }
+}
+
+// The parallel parts (uniform's proposals, simplify's shortest edges) only read the mesh and
+// are gathered in vertex order: a pass gives the same snake with 1 and 2 threads.
+TEST(ApplyPass, SameSnakeWithOneAndTwoThreads) {
+  const Snake<3> base = jittered_torus(60, 24, 2);
+  Snake<3> one = base, two = base;
+  auto stages = full_pass(0.3);
+  omp_set_num_threads(1);
+  apply_pass(stages, one, {});
+  omp_set_num_threads(2);
+  apply_pass(stages, two, {});
+  EXPECT_NE(one.num_vertices(), base.num_vertices());
+  EXPECT_EQ(one.positions(), two.positions());
+  EXPECT_EQ(one.connectivity().triangles(), two.connectivity().triangles());
 }
 
 }  // namespace
