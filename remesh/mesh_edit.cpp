@@ -342,22 +342,31 @@ bool EditMesh::intersects_any(std::span<const Triangle> ts, std::span<const int>
   }
   for (int f : ignore)
     if (f >= 0 && static_cast<size_t>(f) < stamp_.size()) stamp_[f] = query_;
-  // Corners and boxes of the query triangles, and their common box.
+  // Corners and boxes of the query triangles, and their common box; the boxes padded once.
   constexpr int kMax = 32;
   std::array<std::array<Point<3>, 3>, kMax> p;
-  std::array<Point<3>, kMax> lo, hi;
+  std::array<Point<3>, kMax> lo, hi, lo_pad, hi_pad;
   const int n = static_cast<int>(ts.size());
   DSNAKE_ASSERT(n <= kMax, "too many query triangles");
   Point<3> all_lo = Point<3>::Constant(std::numeric_limits<double>::infinity()), all_hi = -all_lo;
+  const double pad = 1e-9 * cell_;
   for (int i = 0; i < n; ++i) {
     p[i] = {pos_[ts[i][0]], pos_[ts[i][1]], pos_[ts[i][2]]};
     lo[i] = p[i][0].cwiseMin(p[i][1]).cwiseMin(p[i][2]);
     hi[i] = p[i][0].cwiseMax(p[i][1]).cwiseMax(p[i][2]);
+    lo_pad[i] = lo[i].array() - pad;
+    hi_pad[i] = hi[i].array() + pad;
     all_lo = all_lo.cwiseMin(lo[i]);
     all_hi = all_hi.cwiseMax(hi[i]);
   }
-  const double pad = 1e-9 * cell_;
-  const auto r = cell_range((all_lo.array() - pad).matrix(), (all_hi.array() + pad).matrix());
+  const Point<3> all_lo_pad = all_lo.array() - pad, all_hi_pad = all_hi.array() + pad;
+  // Box [flo, fhi] entirely beyond the padded box [qlo, qhi] along some axis.
+  auto apart = [](const Point<3>& flo, const Point<3>& fhi, const Point<3>& qlo, const Point<3>& qhi) {
+    return flo[0] > qhi[0] || flo[1] > qhi[1] || flo[2] > qhi[2] || fhi[0] < qlo[0] || fhi[1] < qlo[1] ||
+           fhi[2] < qlo[2];
+  };
+  const auto r = cell_range(all_lo_pad, all_hi_pad);
+  std::array<Point<3>, 3> q;
   for (int z = r[2]; z <= r[5]; ++z)
     for (int y = r[1]; y <= r[4]; ++y)
       for (int x = r[0]; x <= r[3]; ++x)
@@ -366,11 +375,15 @@ bool EditMesh::intersects_any(std::span<const Triangle> ts, std::span<const int>
           stamp_[f] = query_;
           const Point<3>& flo = box_lo_[f];
           const Point<3>& fhi = box_hi_[f];
-          if ((flo.array() > all_hi.array() + pad).any() || (fhi.array() < all_lo.array() - pad).any()) continue;
+          if (apart(flo, fhi, all_lo_pad, all_hi_pad)) continue;
           const auto& s = tri_[f];
-          const std::array<Point<3>, 3> q = {pos_[s[0]], pos_[s[1]], pos_[s[2]]};
+          bool loaded = false;  // f's corners, fetched for the first query triangle near it
           for (int i = 0; i < n; ++i) {
-            if ((flo.array() > hi[i].array() + pad).any() || (fhi.array() < lo[i].array() - pad).any()) continue;
+            if (apart(flo, fhi, lo_pad[i], hi_pad[i])) continue;
+            if (!loaded) {
+              q = {pos_[s[0]], pos_[s[1]], pos_[s[2]]};
+              loaded = true;
+            }
             if (pair_conflicts(ts[i], p[i], lo[i], hi[i], s, q, flo, fhi)) return true;
           }
         }
