@@ -106,35 +106,18 @@ RemeshReport SimplifyRemesher::run(EditMesh& m, const RemeshContext<3>& context)
   const double cos_max = std::cos(options_.max_normal_change_deg * std::numbers::pi / 180);
   std::vector<int> ring_a, ring_b, fan;
   std::vector<Triangle> fresh;
-  std::vector<int> nearest;         // per vertex: the neighbour across its shortest edge, or -1
-  std::vector<double> nearest_len;  // and that edge's length
   // Candidates: each free vertex with its shortest edge, shortest first (ties by index).
   for (int pass = 0; pass < 3; ++pass) {
-    // Each vertex's shortest edge in parallel (read-only), gathered in vertex order.
-    const int n = m.num_vertices();
-    nearest.assign(n, -1);
-    nearest_len.resize(n);
-#pragma omp parallel if (n >= 256)
-    {
-      std::vector<int> ring;
-#pragma omp for schedule(static)
-      for (int a = 0; a < n; ++a) {
-        if (!m.is_free(a) || !m.vertex_alive(a)) continue;
-        m.ring(a, ring);
-        int best = -1;
-        double best_len = std::numeric_limits<double>::infinity();
-        for (int b : ring) {
-          const double len = (m.pos(a) - m.pos(b)).norm();
-          if (len < best_len) { best_len = len; best = b; }
-        }
-        nearest[a] = best;
-        nearest_len[a] = best_len;
-      }
-    }
     std::vector<std::tuple<double, int, int>> cand;
-    for (int a = 0; a < n; ++a) {
-      const int best = nearest[a];
-      const double best_len = nearest_len[a];
+    for (int a = 0; a < m.num_vertices(); ++a) {
+      if (!m.is_free(a) || !m.vertex_alive(a)) continue;
+      m.ring(a, ring_a);
+      int best = -1;
+      double best_len = std::numeric_limits<double>::infinity();
+      for (int b : ring_a) {
+        const double len = (m.pos(a) - m.pos(b)).norm();
+        if (len < best_len) { best_len = len; best = b; }
+      }
       if (best >= 0 && (best_len < min_edge || (options_.curvature_ratio > 0 && best_len < max_edge)))
         cand.emplace_back(best_len, a, best);
     }

@@ -263,8 +263,9 @@ TEST(ApplyPass, SameSnakeAsTheStagesOneByOne) {
   }
 }
 
-// The parallel parts (uniform's proposals, simplify's shortest edges) only read the mesh and
-// are gathered in vertex order: a pass gives the same snake with 1 and 2 threads.
+// The parallel part (uniform's proposals, from the positions at the start of a sweep) only
+// reads the mesh and is gathered in vertex order: a pass gives the same snake with 1 and 2
+// threads.
 TEST(ApplyPass, SameSnakeWithOneAndTwoThreads) {
   const Snake<3> base = jittered_torus(60, 24, 2);
   Snake<3> one = base, two = base;
