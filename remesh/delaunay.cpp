@@ -2,6 +2,7 @@
 
 #include "remesh/mesh_edit.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -33,6 +34,17 @@ bool is_delaunay_violation(const EditMesh& m, int a, int b) {
   const int f1 = m.face_with_edge(a, b), f2 = m.face_with_edge(b, a);
   if (f1 < 0 || f2 < 0) return false;
   const int c = m.opposite(f1, a, b), d = m.opposite(f2, b, a);
+  // Cheap filter first: with u, v the edges from c and from d to a and b, and gamma, delta the
+  // two angles, s = |u_c x v_c| (u_d . v_d) + (u_c . v_c) |u_d x v_d| is sin(gamma + delta)
+  // times the four lengths; gamma + delta is in [0, 2 pi], so sin > 1e-6 means a sum below
+  // pi (no violation) and sin < -1e-6 a sum above pi + 1e-6 (a violation), with margins far
+  // above rounding. Only sums within ~1e-6 of pi (or degenerate triangles) take the atan2s.
+  const Point<3> uc = m.pos(a) - m.pos(c), vc = m.pos(b) - m.pos(c);
+  const Point<3> ud = m.pos(a) - m.pos(d), vd = m.pos(b) - m.pos(d);
+  const double sc = uc.cross(vc).norm(), cc = uc.dot(vc), sd = ud.cross(vd).norm(), cd = ud.dot(vd);
+  const double sine = sc * cd + cc * sd, scale = std::sqrt((sc * sc + cc * cc) * (sd * sd + cd * cd));
+  if (sine > 1e-6 * scale) return false;
+  if (sine < -1e-6 * scale) return true;
   const double sum = remesh_detail::angle_at(m.pos(c), m.pos(a), m.pos(b)) +
                      remesh_detail::angle_at(m.pos(d), m.pos(a), m.pos(b));
   return sum > std::numbers::pi + 1e-9;
@@ -92,9 +104,8 @@ int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_r
 
 }  // namespace
 
-RemeshReport DelaunayRemesher::apply(Snake<3>& snake, const RemeshContext<3>&) {
-  RemeshReport report{"delaunay", snake.num_vertices(), snake.num_vertices(), 0};
-  EditMesh m(snake);
+RemeshReport DelaunayRemesher::run(EditMesh& m, const RemeshContext<3>&) {
+  RemeshReport report{"delaunay", 0, 0, 0};
   const double cos_dihedral = std::cos(options_.max_dihedral_deg * std::numbers::pi / 180);
   if (options_.method == "planar") report.rejected_edits += remesh_detail::planar_delaunay(m, cos_dihedral);
   // The planar pass leaves patch seams as they were; flips finish them (and are the whole job
@@ -102,7 +113,6 @@ RemeshReport DelaunayRemesher::apply(Snake<3>& snake, const RemeshContext<3>&) {
   report.rejected_edits += delaunay_by_flips(m, cos_dihedral);
   if (options_.regularize)
     report.rejected_edits += regularize_valences(m, cos_dihedral, options_.min_angle_deg * std::numbers::pi / 180);
-  report.vertices_after = m.commit(snake);
   return report;
 }
 

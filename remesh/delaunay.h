@@ -14,6 +14,7 @@
 
 #include "framework/json_reader.h"
 #include "framework/remesher.h"
+#include "remesh/pass.h"
 
 #include <memory>
 #include <string>
@@ -27,11 +28,11 @@ struct DelaunayOptions {
   double min_angle_deg = 25;     // floor on triangle angles for the valence flips
 };
 
-class DelaunayRemesher : public Remesher<3> {
+class DelaunayRemesher : public EditStage {
  public:
   explicit DelaunayRemesher(DelaunayOptions options) : options_(options) {}
   std::string type() const override { return "delaunay"; }
-  RemeshReport apply(Snake<3>& snake, const RemeshContext<3>& context) override;
+  RemeshReport run(remesh_detail::EditMesh& m, const RemeshContext<3>& context) override;
 
  private:
   DelaunayOptions options_;

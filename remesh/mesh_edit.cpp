@@ -16,14 +16,24 @@ constexpr double kFoldCos = 0.990268;  // cos(8 degrees): closer than that acros
 
 // Closed segment [p, q] against the closed triangle (a, b, c), Moller-Trumbore; a segment
 // parallel to the triangle's plane counts as missing it (the coplanar case is left to the
-// fold and normal checks of the edits).
+// fold and normal checks of the edits). Two cheap rejections come first: disjoint boxes, and
+// both ends strictly on one side of the plane (by a relative margin of 1e-9, far above
+// rounding, so that the exact test could only have said "no" as well: t would be outside
+// [0, 1] by more than 1e-9).
+// tlo, thi: the triangle's bounding box (the caller has it).
 bool segment_hits_triangle(const Point<3>& p, const Point<3>& q, const Point<3>& a, const Point<3>& b,
-                           const Point<3>& c) {
-  const Point<3> tlo = a.cwiseMin(b).cwiseMin(c), thi = a.cwiseMax(b).cwiseMax(c);
+                           const Point<3>& c, const Point<3>& tlo, const Point<3>& thi) {
   const double slack = 1e-9 * (thi - tlo).maxCoeff();
   if ((p.cwiseMax(q).array() < tlo.array() - slack).any() || (p.cwiseMin(q).array() > thi.array() + slack).any())
     return false;
-  const Point<3> d = q - p, e1 = b - a, e2 = c - a;
+  const Point<3> e1 = b - a, e2 = c - a;
+  const Point<3> n = e1.cross(e2);
+  const double dp = n.dot(p - a), dq = n.dot(q - a);
+  if ((dp > 0 && dq > 0) || (dp < 0 && dq < 0)) {
+    const double small = std::min(std::abs(dp), std::abs(dq)), large = std::max(std::abs(dp), std::abs(dq));
+    if (small > 1e-9 * large) return false;
+  }
+  const Point<3> d = q - p;
   const Point<3> h = d.cross(e2);
   const double det = e1.dot(h);
   const double scale = d.norm() * e1.norm() * e2.norm();
@@ -39,21 +49,41 @@ bool segment_hits_triangle(const Point<3>& p, const Point<3>& q, const Point<3>&
   return t >= -1e-12 && t <= 1 + 1e-12;
 }
 
+// true if the three points lie strictly on one side of the plane of triangle q, by a margin
+// (1e-10 of |n|_1 |x - q0|_inf, which bounds |n . (x - q0)|) far above rounding: then the
+// two triangles cannot meet, whatever the exact test would compute.
+bool strictly_one_side(const std::array<Point<3>, 3>& p, const std::array<Point<3>, 3>& q) {
+  const Point<3> n = (q[1] - q[0]).cross(q[2] - q[0]);
+  const double n1 = n.lpNorm<1>();
+  int above = 0, below = 0;
+  for (const auto& x : p) {
+    const Point<3> r = x - q[0];
+    const double d = n.dot(r), margin = 1e-10 * n1 * r.lpNorm<Eigen::Infinity>();
+    if (d > margin) ++above;
+    else if (d < -margin) ++below;
+  }
+  return above == 3 || below == 3;
+}
+
 // Whether triangles A and B (vertex ids ta, tb, positions pa, pb) conflict, given the vertices
 // they share: disjoint ones must not touch; with one shared vertex, neither opposite edge may
 // pierce the other triangle; with a shared edge, they must not fold onto each other.
-bool pair_conflicts(const Triangle& ta, const std::array<Point<3>, 3>& pa, const Triangle& tb,
-                    const std::array<Point<3>, 3>& pb) {
+// loa, hia, lob, hib: the triangles' bounding boxes.
+bool pair_conflicts(const Triangle& ta, const std::array<Point<3>, 3>& pa, const Point<3>& loa, const Point<3>& hia,
+                    const Triangle& tb, const std::array<Point<3>, 3>& pb, const Point<3>& lob, const Point<3>& hib) {
   int shared = 0, ia = -1, ib = -1;  // ia/ib: a shared corner's index in A/B
   int sa[3] = {0, 0, 0}, sb[3] = {0, 0, 0};
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j)
       if (ta[i] == tb[j]) { ++shared; sa[i] = 1; sb[j] = 1; ia = i; ib = j; }
-  if (shared == 0) return detail::triangles_intersect(pa, pb);
+  if (shared == 0) {
+    if (strictly_one_side(pa, pb) || strictly_one_side(pb, pa)) return false;
+    return detail::triangles_intersect(pa, pb);
+  }
   if (shared == 3) return true;  // a duplicate triangle
   if (shared == 1) {
-    return segment_hits_triangle(pa[(ia + 1) % 3], pa[(ia + 2) % 3], pb[0], pb[1], pb[2]) ||
-           segment_hits_triangle(pb[(ib + 1) % 3], pb[(ib + 2) % 3], pa[0], pa[1], pa[2]);
+    return segment_hits_triangle(pa[(ia + 1) % 3], pa[(ia + 2) % 3], pb[0], pb[1], pb[2], lob, hib) ||
+           segment_hits_triangle(pb[(ib + 1) % 3], pb[(ib + 2) % 3], pa[0], pa[1], pa[2], loa, hia);
   }
   // Shared edge: the opening angle between the two half-planes must exceed 8 degrees.
   int oa = 0, ob = 0;
@@ -86,8 +116,13 @@ double angle_at(const Point<3>& a, const Point<3>& b, const Point<3>& c) {
   return std::atan2(u.cross(v).norm(), u.dot(v));
 }
 
+// The smallest angle is the one opposite the shortest edge (law of sines): one atan2, not three
+// (the same value as the smallest of the three, up to ties within rounding).
 double min_angle(const Point<3>& a, const Point<3>& b, const Point<3>& c) {
-  return std::min({angle_at(a, b, c), angle_at(b, c, a), angle_at(c, a, b)});
+  const double ab = (b - a).squaredNorm(), bc = (c - b).squaredNorm(), ca = (a - c).squaredNorm();
+  if (bc <= ab && bc <= ca) return angle_at(a, b, c);
+  if (ca <= ab) return angle_at(b, c, a);
+  return angle_at(c, a, b);
 }
 
 EditMesh::EditMesh(const Snake<3>& snake)
@@ -95,74 +130,142 @@ EditMesh::EditMesh(const Snake<3>& snake)
   const auto& c = snake.connectivity();
   const std::string problem = c.closed_manifold_problem();
   if (!problem.empty()) throw InputError("", "remeshing input mesh", problem);
+  for (auto& list : vtri_) list.reserve(8);  // valence 6 and a little more without regrowth
+  tri_.reserve(c.triangles().size() * 2);
+  alive_.reserve(c.triangles().size() * 2);
+  for (const auto& t : c.triangles()) add_triangle(t);
+  refresh_mean_edge();
+  changed_ = connectivity_changed_ = false;
+}
+
+void EditMesh::refresh_mean_edge() {
   double total = 0;
   int count = 0;
-  origin_ = pos_.empty() ? Point<3>(Point<3>::Zero()) : pos_[0];
-  for (const auto& t : c.triangles())
+  for (size_t f = 0; f < tri_.size(); ++f) {
+    if (!alive_[f]) continue;
+    const auto& t = tri_[f];
     for (int k = 0; k < 3; ++k) {
       total += (pos_[t[k]] - pos_[t[(k + 1) % 3]]).norm();
       ++count;
     }
+  }
   mean_edge_ = count > 0 ? total / count : 1.0;
-  cell_ = std::max(2 * mean_edge_, 1e-9);
-  tri_.reserve(c.triangles().size() * 2);
-  for (const auto& t : c.triangles()) add_triangle(t);
-  changed_ = connectivity_changed_ = false;
 }
 
-int64_t EditMesh::cell_key(int x, int y, int z) const {
-  constexpr int64_t kOff = 1 << 20;
-  return ((int64_t(x) + kOff) << 42) | ((int64_t(y) + kOff) << 21) | (int64_t(z) + kOff);
-}
-
+// Cells of two mean edges, grown if the mesh's box would need more than ~4 cells per triangle
+// (a long thin mesh); the grid covers the box of the live vertices at build time.
 void EditMesh::build_grid() const {
   grid_built_ = true;
-  grid_.reserve(tri_.size());
+  Point<3> lo = Point<3>::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  int live = 0;
+  for (size_t f = 0; f < tri_.size(); ++f) {
+    if (!alive_[f]) continue;
+    ++live;
+    for (int v : tri_[f]) {
+      lo = lo.cwiseMin(pos_[v]);
+      hi = hi.cwiseMax(pos_[v]);
+    }
+  }
+  if (live == 0 || !lo.allFinite() || !hi.allFinite()) lo = hi = Point<3>::Zero();
+  origin_ = lo;
+  cell_ = std::max(2 * mean_edge_, 1e-9);
+  const double max_cells = 4.0 * live + 64;
+  auto count = [&](int k) { return std::floor((hi[k] - lo[k]) / cell_) + 1; };
+  while (count(0) * count(1) * count(2) > max_cells) cell_ *= 1.25;
+  for (int k = 0; k < 3; ++k) dims_[k] = static_cast<int>(count(k));
+  cells_.assign(static_cast<size_t>(dims_[0]) * dims_[1] * dims_[2], {});
   for (int f = 0; f < static_cast<int>(tri_.size()); ++f)
     if (alive_[f]) grid_insert(f);
 }
 
+std::array<int, 6> EditMesh::cell_range(const Point<3>& lo, const Point<3>& hi) const {
+  std::array<int, 6> r;
+  for (int k = 0; k < 3; ++k) {
+    const double top = dims_[k] - 1;
+    double a = std::floor((lo[k] - origin_[k]) / cell_), b = std::floor((hi[k] - origin_[k]) / cell_);
+    a = a >= 0 ? std::min(a, top) : 0;  // also maps NaN to 0
+    b = b >= 0 ? std::min(b, top) : 0;
+    r[k] = static_cast<int>(a);
+    r[k + 3] = static_cast<int>(b);
+  }
+  return r;
+}
+
 void EditMesh::grid_insert(int f) const {
   const auto& t = tri_[f];
-  Point<3> lo = pos_[t[0]], hi = pos_[t[0]];
-  for (int k = 1; k < 3; ++k) {
-    lo = lo.cwiseMin(pos_[t[k]]);
-    hi = hi.cwiseMax(pos_[t[k]]);
-  }
+  const Point<3> lo = pos_[t[0]].cwiseMin(pos_[t[1]]).cwiseMin(pos_[t[2]]);
+  const Point<3> hi = pos_[t[0]].cwiseMax(pos_[t[1]]).cwiseMax(pos_[t[2]]);
   if (box_lo_.size() <= static_cast<size_t>(f)) {
-    box_lo_.resize(tri_.capacity());
-    box_hi_.resize(tri_.capacity());
+    const size_t n = std::max(tri_.capacity(), static_cast<size_t>(f) + 1);
+    box_lo_.resize(n);
+    box_hi_.resize(n);
+    range_.resize(n);
   }
   box_lo_[f] = lo;
   box_hi_[f] = hi;
-  const Eigen::Vector3i a = ((lo - origin_) / cell_).array().floor().cast<int>();
-  const Eigen::Vector3i b = ((hi - origin_) / cell_).array().floor().cast<int>();
-  for (int x = a.x(); x <= b.x(); ++x)
-    for (int y = a.y(); y <= b.y(); ++y)
-      for (int z = a.z(); z <= b.z(); ++z) grid_[cell_key(x, y, z)].push_back(f);
+  const auto r = range_[f] = cell_range(lo, hi);
+  for (int z = r[2]; z <= r[5]; ++z)
+    for (int y = r[1]; y <= r[4]; ++y)
+      for (int x = r[0]; x <= r[3]; ++x) cells_[x + static_cast<size_t>(dims_[0]) * (y + static_cast<size_t>(dims_[1]) * z)].push_back(f);
 }
 
+void EditMesh::grid_erase(int f) const {
+  const auto& r = range_[f];
+  for (int z = r[2]; z <= r[5]; ++z)
+    for (int y = r[1]; y <= r[4]; ++y)
+      for (int x = r[0]; x <= r[3]; ++x) {
+        auto& cell = cells_[x + static_cast<size_t>(dims_[0]) * (y + static_cast<size_t>(dims_[1]) * z)];
+        auto it = std::find(cell.begin(), cell.end(), f);
+        DSNAKE_ASSERT(it != cell.end(), "a triangle is missing from its grid cell");
+        *it = cell.back();
+        cell.pop_back();
+      }
+}
+
+// A moved corner: a new box; the cell lists change only if the cell range does.
+void EditMesh::grid_update(int f) const {
+  const auto& t = tri_[f];
+  const Point<3> lo = pos_[t[0]].cwiseMin(pos_[t[1]]).cwiseMin(pos_[t[2]]);
+  const Point<3> hi = pos_[t[0]].cwiseMax(pos_[t[1]]).cwiseMax(pos_[t[2]]);
+  if (cell_range(lo, hi) == range_[f]) {
+    box_lo_[f] = lo;
+    box_hi_[f] = hi;
+    return;
+  }
+  grid_erase(f);
+  grid_insert(f);
+}
+
+// Each triangle (v, a, b) of the fan links a -> b; the ring follows the links from the first
+// triangle's a. The links are gathered once into small arrays (no rescan of the triangles).
 void EditMesh::ring(int v, std::vector<int>& out) const {
   out.clear();
   const auto& fan = vtri_[v];
   if (fan.empty()) return;
-  // next[a] = b for each triangle (v, a, b) in counter-clockwise order.
-  auto next_of = [&](int a) {
-    for (int f : fan) {
-      const auto& t = tri_[f];
-      for (int k = 0; k < 3; ++k)
-        if (t[k] == v && t[(k + 1) % 3] == a) return t[(k + 2) % 3];
-    }
-    return -1;
-  };
-  const auto& t0 = tri_[fan[0]];
-  int start = -1;
-  for (int k = 0; k < 3; ++k)
-    if (t0[k] == v) start = t0[(k + 1) % 3];
+  constexpr int kMax = 64;
+  std::array<int, kMax> from_small, to_small;
+  std::vector<int> from_big, to_big;
+  const int n = static_cast<int>(fan.size());
+  int* from = from_small.data();
+  int* to = to_small.data();
+  if (n > kMax) {
+    from_big.resize(n);
+    to_big.resize(n);
+    from = from_big.data();
+    to = to_big.data();
+  }
+  for (int i = 0; i < n; ++i) {
+    const auto& t = tri_[fan[i]];
+    const int k = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
+    from[i] = t[(k + 1) % 3];
+    to[i] = t[(k + 2) % 3];
+  }
+  const int start = from[0];
   int a = start;
   do {
     out.push_back(a);
-    a = next_of(a);
+    const int* it = std::find(from, from + n, a);
+    a = it == from + n ? -1 : to[it - from];
   } while (a >= 0 && a != start && out.size() <= fan.size());
   DSNAKE_ASSERT(a == start && out.size() == fan.size(), "one-ring of a vertex is not a closed fan");
 }
@@ -186,9 +289,8 @@ int EditMesh::opposite(int f, int a, int b) const {
 void EditMesh::move_vertex(int v, const Point<3>& p) {
   pos_[v] = p;
   changed_ = true;
-  // Stale cells keep the triangle listed; the box test in intersects() skips it there.
   if (grid_built_)
-    for (int f : vtri_[v]) grid_insert(f);
+    for (int f : vtri_[v]) grid_update(f);
 }
 
 int EditMesh::add_vertex(const Point<3>& p) {
@@ -203,7 +305,10 @@ int EditMesh::add_triangle(const Triangle& t) {
   const int f = static_cast<int>(tri_.size());
   tri_.push_back(t);
   alive_.push_back(1);
-  for (int v : t) vtri_[v].push_back(f);
+  for (int v : t) {
+    if (vtri_[v].empty()) ++live_vertices_;
+    vtri_[v].push_back(f);
+  }
   if (grid_built_) grid_insert(f);
   changed_ = connectivity_changed_ = true;
   return f;
@@ -215,7 +320,9 @@ void EditMesh::remove_triangle(int f) {
   for (int v : tri_[f]) {
     auto& list = vtri_[v];
     list.erase(std::find(list.begin(), list.end(), f));
+    if (list.empty()) --live_vertices_;
   }
+  if (grid_built_) grid_erase(f);
   changed_ = connectivity_changed_ = true;
 }
 
@@ -223,6 +330,8 @@ bool EditMesh::intersects(const Triangle& t, std::span<const int> ignore) const 
   return intersects_any(std::span<const Triangle>(&t, 1), ignore);
 }
 
+// Candidates come from the cells under the query's common box, each tested once (stamped,
+// the ignored ones stamped beforehand), box against box before the exact pair tests.
 bool EditMesh::intersects_any(std::span<const Triangle> ts, std::span<const int> ignore) const {
   if (ts.empty()) return false;
   if (!grid_built_) build_grid();
@@ -231,44 +340,68 @@ bool EditMesh::intersects_any(std::span<const Triangle> ts, std::span<const int>
     std::fill(stamp_.begin(), stamp_.end(), 0);
     query_ = 1;
   }
-  // Corners and boxes of the query triangles, and their common box.
+  for (int f : ignore)
+    if (f >= 0 && static_cast<size_t>(f) < stamp_.size()) stamp_[f] = query_;
+  // Corners and boxes of the query triangles, and their common box; the boxes padded once.
   constexpr int kMax = 32;
   std::array<std::array<Point<3>, 3>, kMax> p;
-  std::array<Point<3>, kMax> lo, hi;
+  std::array<Point<3>, kMax> lo, hi, lo_pad, hi_pad;
   const int n = static_cast<int>(ts.size());
   DSNAKE_ASSERT(n <= kMax, "too many query triangles");
   Point<3> all_lo = Point<3>::Constant(std::numeric_limits<double>::infinity()), all_hi = -all_lo;
+  const double pad = 1e-9 * cell_;
   for (int i = 0; i < n; ++i) {
     p[i] = {pos_[ts[i][0]], pos_[ts[i][1]], pos_[ts[i][2]]};
     lo[i] = p[i][0].cwiseMin(p[i][1]).cwiseMin(p[i][2]);
     hi[i] = p[i][0].cwiseMax(p[i][1]).cwiseMax(p[i][2]);
+    lo_pad[i] = lo[i].array() - pad;
+    hi_pad[i] = hi[i].array() + pad;
     all_lo = all_lo.cwiseMin(lo[i]);
     all_hi = all_hi.cwiseMax(hi[i]);
   }
-  const double pad = 1e-9 * cell_;
-  const Eigen::Vector3i a = ((all_lo.array() - pad - origin_.array()) / cell_).floor().cast<int>();
-  const Eigen::Vector3i b = ((all_hi.array() + pad - origin_.array()) / cell_).floor().cast<int>();
-  for (int x = a.x(); x <= b.x(); ++x)
-    for (int y = a.y(); y <= b.y(); ++y)
-      for (int z = a.z(); z <= b.z(); ++z) {
-        auto it = grid_.find(cell_key(x, y, z));
-        if (it == grid_.end()) continue;
-        for (int f : it->second) {
-          if (!alive_[f] || stamp_[f] == query_) continue;
+  const Point<3> all_lo_pad = all_lo.array() - pad, all_hi_pad = all_hi.array() + pad;
+  // Box [flo, fhi] entirely beyond the padded box [qlo, qhi] along some axis.
+  auto apart = [](const Point<3>& flo, const Point<3>& fhi, const Point<3>& qlo, const Point<3>& qhi) {
+    return flo[0] > qhi[0] || flo[1] > qhi[1] || flo[2] > qhi[2] || fhi[0] < qlo[0] || fhi[1] < qlo[1] ||
+           fhi[2] < qlo[2];
+  };
+  const auto r = cell_range(all_lo_pad, all_hi_pad);
+  std::array<Point<3>, 3> q;
+  for (int z = r[2]; z <= r[5]; ++z)
+    for (int y = r[1]; y <= r[4]; ++y)
+      for (int x = r[0]; x <= r[3]; ++x)
+        for (int f : cells_[x + static_cast<size_t>(dims_[0]) * (y + static_cast<size_t>(dims_[1]) * z)]) {
+          if (stamp_[f] == query_) continue;
           stamp_[f] = query_;
-          // Cheap box rejection (cached boxes) before the exact tests.
           const Point<3>& flo = box_lo_[f];
           const Point<3>& fhi = box_hi_[f];
-          if ((flo.array() > all_hi.array() + pad).any() || (fhi.array() < all_lo.array() - pad).any()) continue;
-          if (std::find(ignore.begin(), ignore.end(), f) != ignore.end()) continue;
+          if (apart(flo, fhi, all_lo_pad, all_hi_pad)) continue;
           const auto& s = tri_[f];
-          const std::array<Point<3>, 3> q = {pos_[s[0]], pos_[s[1]], pos_[s[2]]};
+          bool loaded = false;  // f's corners, fetched for the first query triangle near it
           for (int i = 0; i < n; ++i) {
-            if ((flo.array() > hi[i].array() + pad).any() || (fhi.array() < lo[i].array() - pad).any()) continue;
-            if (pair_conflicts(ts[i], p[i], s, q)) return true;
+            if (apart(flo, fhi, lo_pad[i], hi_pad[i])) continue;
+            if (!loaded) {
+              q = {pos_[s[0]], pos_[s[1]], pos_[s[2]]};
+              loaded = true;
+            }
+            if (pair_conflicts(ts[i], p[i], lo[i], hi[i], s, q, flo, fhi)) return true;
           }
         }
-      }
+  return false;
+}
+
+bool EditMesh::intersects_any_brute_force(std::span<const Triangle> ts, std::span<const int> ignore) const {
+  for (int f = 0; f < static_cast<int>(tri_.size()); ++f) {
+    if (!alive_[f] || std::find(ignore.begin(), ignore.end(), f) != ignore.end()) continue;
+    const auto& s = tri_[f];
+    const std::array<Point<3>, 3> q = {pos_[s[0]], pos_[s[1]], pos_[s[2]]};
+    const Point<3> slo = q[0].cwiseMin(q[1]).cwiseMin(q[2]), shi = q[0].cwiseMax(q[1]).cwiseMax(q[2]);
+    for (const auto& t : ts) {
+      const std::array<Point<3>, 3> p = {pos_[t[0]], pos_[t[1]], pos_[t[2]]};
+      const Point<3> lo = p[0].cwiseMin(p[1]).cwiseMin(p[2]), hi = p[0].cwiseMax(p[1]).cwiseMax(p[2]);
+      if (pair_conflicts(t, p, lo, hi, s, q, slo, shi)) return true;
+    }
+  }
   return false;
 }
 

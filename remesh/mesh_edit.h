@@ -1,15 +1,16 @@
 // Internal to remesh/ (not part of the public API): an editable triangle mesh for the local
 // edits of §5 (vertex moves, edge flips, 1->3 splits, half-edge collapses) with the checks
 // that keep every edit safe: the mesh stays closed and manifold, and an edit whose new
-// triangles would cross the rest of the surface is rejected (uniform hash grid over triangle
-// boxes, updated as triangles come and go).
+// triangles would cross the rest of the surface is rejected (a flat uniform grid over triangle
+// boxes, each triangle listed exactly in the cells its box covers, updated as triangles come,
+// go and move). One EditMesh may serve all the stages of a pass (remesh/pass.h).
 #pragma once
 
 #include "framework/shape.h"
 
 #include <cstdint>
+#include <array>
 #include <span>
-#include <unordered_map>
 #include <vector>
 
 namespace dsnake::remesh_detail {
@@ -37,6 +38,11 @@ class EditMesh {
   int num_triangle_slots() const { return static_cast<int>(tri_.size()); }
   const std::vector<int>& triangles_of(int v) const { return vtri_[v]; }
   double mean_edge_length() const { return mean_edge_; }
+  // Recomputes mean_edge_length() over the live triangles (a stage starting on a mesh that
+  // earlier stages edited sees the same value as on a freshly built EditMesh).
+  void refresh_mean_edge();
+  // Vertices in at least one live triangle (what commit() would keep).
+  int num_live_vertices() const { return live_vertices_; }
 
   // Neighbours of v in counter-clockwise order (seen from outside), into `out`.
   void ring(int v, std::vector<int>& out) const;
@@ -60,6 +66,8 @@ class EditMesh {
   bool intersects(const Triangle& t, std::span<const int> ignore) const;
   // The same for several triangles at once (a fan): one grid walk over their common box.
   bool intersects_any(std::span<const Triangle> ts, std::span<const int> ignore) const;
+  // The reference for tests: the same pair tests against every live triangle, no grid.
+  bool intersects_any_brute_force(std::span<const Triangle> ts, std::span<const int> ignore) const;
 
   // Writes back into the snake (dropping dead vertices and triangles) if anything changed.
   // Returns the snake's vertex count.
@@ -67,21 +75,30 @@ class EditMesh {
   bool changed() const { return changed_; }
 
  private:
-  void grid_insert(int f) const;
+  // Cell index range {x0, y0, z0, x1, y1, z1} covered by box [lo, hi], clamped to the grid.
+  std::array<int, 6> cell_range(const Point<3>& lo, const Point<3>& hi) const;
+  void grid_insert(int f) const;   // computes f's box and lists f in its cells
+  void grid_erase(int f) const;    // unlists f from the cells of its stored range
+  void grid_update(int f) const;   // after a move of one of f's corners
   void build_grid() const;  // on the first intersects() call: stages that never ask pay nothing
-  int64_t cell_key(int x, int y, int z) const;
 
   std::vector<Point<3>> pos_;
   std::vector<int> ids_;
   std::vector<Triangle> tri_;
   std::vector<uint8_t> alive_;
   std::vector<std::vector<int>> vtri_;  // live triangles per vertex
+  int live_vertices_ = 0;
   double mean_edge_ = 1;
-  double cell_ = 1;
-  Point<3> origin_ = Point<3>::Zero();
-  mutable std::unordered_map<int64_t, std::vector<int>> grid_;  // cell -> triangles (dead ones skipped)
+  // The grid: dims_ cells of size cell_ from origin_ (the mesh's box when it was built; boxes
+  // outside are clamped to the border cells, which keeps every overlap), cell (x, y, z) at
+  // cells_[x + dims_x (y + dims_y z)], listing the live triangles whose box meets it.
+  mutable double cell_ = 1;
+  mutable Point<3> origin_ = Point<3>::Zero();
+  mutable std::array<int, 3> dims_ = {0, 0, 0};
+  mutable std::vector<std::vector<int>> cells_;
   mutable bool grid_built_ = false;
   mutable std::vector<Point<3>> box_lo_, box_hi_;  // per triangle in the grid: its bounding box
+  mutable std::vector<std::array<int, 6>> range_;  // per triangle in the grid: its cell range
   mutable std::vector<uint32_t> stamp_;  // per triangle: the query that last tested it
   mutable uint32_t query_ = 0;
   bool changed_ = false;            // anything to write back

@@ -23,13 +23,12 @@ double refine_threshold(const RefineOptions& o, int phase_iteration, int phase_i
 // Delaunay stage may not flip), the longest edge is split at its midpoint instead (2 -> 4),
 // which also tiles the two old triangles exactly. Without it, repeated passes split the same
 // thin triangles again and again, towards degenerate ones.
-RemeshReport RefineRemesher::apply(Snake<3>& snake, const RemeshContext<3>& context) {
+RemeshReport RefineRemesher::run(remesh_detail::EditMesh& m, const RemeshContext<3>& context) {
   constexpr double kSliverDeg = 15;
-  RemeshReport report{"refine", snake.num_vertices(), snake.num_vertices(), 0};
+  RemeshReport report{"refine", 0, 0, 0};
   const double threshold = refine_threshold(options_, context.phase_iteration, context.phase_iterations);
   const double t2 = threshold * threshold;
   const double sliver = kSliverDeg * std::numbers::pi / 180;
-  remesh_detail::EditMesh m(snake);
   const int slots = m.num_triangle_slots();
   for (int f = 0; f < slots; ++f) {
     if (!m.tri_alive(f)) continue;  // split with a neighbour's edge earlier in this pass
@@ -66,7 +65,6 @@ RemeshReport RefineRemesher::apply(Snake<3>& snake, const RemeshContext<3>& cont
     m.add_triangle({b, v, d});
     m.add_triangle({v, a, d});
   }
-  report.vertices_after = m.commit(snake);
   return report;
 }
 

@@ -7,6 +7,7 @@
 
 #include "framework/json_reader.h"
 #include "framework/remesher.h"
+#include "remesh/pass.h"
 
 #include <memory>
 
@@ -21,11 +22,11 @@ struct RefineOptions {
 // The threshold at iteration t of a phase of T iterations (§6): start * (end/start)^(t / (ramp T)).
 double refine_threshold(const RefineOptions& options, int phase_iteration, int phase_iterations);
 
-class RefineRemesher : public Remesher<3> {
+class RefineRemesher : public EditStage {
  public:
   explicit RefineRemesher(RefineOptions options) : options_(options) {}
   std::string type() const override { return "refine"; }
-  RemeshReport apply(Snake<3>& snake, const RemeshContext<3>& context) override;
+  RemeshReport run(remesh_detail::EditMesh& m, const RemeshContext<3>& context) override;
 
  private:
   RefineOptions options_;

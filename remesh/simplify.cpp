@@ -44,7 +44,8 @@ enum class Collapse { kDone, kTopology, kRejected, kCriterion };
 // error limit); otherwise the collapse must keep every new edge <= max_edge and the surface
 // within curvature_ratio * |ab| / 8 of a's old position.
 Collapse try_collapse(EditMesh& m, int a, int b, bool short_edge, const SimplifyOptions& o, double max_edge,
-                      double cos_max, std::vector<int>& ring_a, std::vector<int>& ring_b) {
+                      double cos_max, std::vector<int>& ring_a, std::vector<int>& ring_b, std::vector<int>& fan,
+                      std::vector<Triangle>& fresh) {
   const int f1 = m.face_with_edge(a, b), f2 = m.face_with_edge(b, a);
   if (f1 < 0 || f2 < 0) return Collapse::kTopology;
   const int c = m.opposite(f1, a, b), d = m.opposite(f2, b, a);
@@ -55,8 +56,8 @@ Collapse try_collapse(EditMesh& m, int a, int b, bool short_edge, const Simplify
   for (int x : ring_a)
     if (std::find(ring_b.begin(), ring_b.end(), x) != ring_b.end()) ++common;
   if (common != 2 || c == d) return Collapse::kTopology;
-  const std::vector<int> fan = m.triangles_of(a);
-  std::vector<Triangle> fresh;
+  fan = m.triangles_of(a);  // a copy: the removals below edit a's list
+  fresh.clear();
   double error = 0;
   for (int f : fan) {
     if (f == f1 || f == f2) continue;
@@ -97,14 +98,14 @@ Collapse try_collapse(EditMesh& m, int a, int b, bool short_edge, const Simplify
 
 }  // namespace
 
-RemeshReport SimplifyRemesher::apply(Snake<3>& snake, const RemeshContext<3>& context) {
-  RemeshReport report{"simplify", snake.num_vertices(), snake.num_vertices(), 0};
+RemeshReport SimplifyRemesher::run(EditMesh& m, const RemeshContext<3>& context) {
+  RemeshReport report{"simplify", 0, 0, 0};
   const double voxel = context.image ? context.image->spacing().minCoeff() : 1.0;
   const double min_edge = options_.min_edge > 0 ? options_.min_edge : voxel;
   const double max_edge = options_.max_edge > 0 ? options_.max_edge : 2 * min_edge;
   const double cos_max = std::cos(options_.max_normal_change_deg * std::numbers::pi / 180);
-  EditMesh m(snake);
-  std::vector<int> ring_a, ring_b;
+  std::vector<int> ring_a, ring_b, fan;
+  std::vector<Triangle> fresh;
   // Candidates: each free vertex with its shortest edge, shortest first (ties by index).
   for (int pass = 0; pass < 3; ++pass) {
     std::vector<std::tuple<double, int, int>> cand;
@@ -125,13 +126,12 @@ RemeshReport SimplifyRemesher::apply(Snake<3>& snake, const RemeshContext<3>& co
     for (const auto& [len, a, b] : cand) {
       if (!m.vertex_alive(a) || !m.vertex_alive(b) || !m.has_edge(a, b)) continue;
       const double now = (m.pos(a) - m.pos(b)).norm();
-      const Collapse r = try_collapse(m, a, b, now < min_edge, options_, max_edge, cos_max, ring_a, ring_b);
+      const Collapse r = try_collapse(m, a, b, now < min_edge, options_, max_edge, cos_max, ring_a, ring_b, fan, fresh);
       if (r == Collapse::kDone) ++done;
       if (r == Collapse::kRejected) ++report.rejected_edits;
     }
     if (done == 0) break;
   }
-  report.vertices_after = m.commit(snake);
   return report;
 }
 

@@ -14,6 +14,7 @@
 
 #include "framework/json_reader.h"
 #include "framework/remesher.h"
+#include "remesh/pass.h"
 
 #include <memory>
 
@@ -26,11 +27,11 @@ struct SimplifyOptions {
   double max_normal_change_deg = 45;  // largest turn of a fan triangle's normal per collapse
 };
 
-class SimplifyRemesher : public Remesher<3> {
+class SimplifyRemesher : public EditStage {
  public:
   explicit SimplifyRemesher(SimplifyOptions options) : options_(options) {}
   std::string type() const override { return "simplify"; }
-  RemeshReport apply(Snake<3>& snake, const RemeshContext<3>& context) override;
+  RemeshReport run(remesh_detail::EditMesh& m, const RemeshContext<3>& context) override;
 
  private:
   SimplifyOptions options_;

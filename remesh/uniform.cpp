@@ -22,20 +22,31 @@ constexpr double kMinAngleFloor = 15 * std::numbers::pi / 180;
 // proportional to arc length, v to the mean-value combination of the ring's images
 // [Floater 2003], and the circle's centre is located in the image fan (v', r_i', r_i+1') and
 // mapped back to (v, r_i, r_i+1) with the same barycentric coordinates.
-std::optional<Point<3>> relaxed_position(const EditMesh& m, int v, const std::vector<int>& r) {
+// Per-thread scratch of relaxed_position (no allocation per vertex once grown).
+struct RelaxScratch {
+  std::vector<double> s, alpha, len;
+  std::vector<Eigen::Vector2d> u;
+};
+
+std::optional<Point<3>> relaxed_position(const EditMesh& m, int v, const std::vector<int>& r, RelaxScratch& scratch) {
   const int k = static_cast<int>(r.size());
   if (k < 3) return std::nullopt;
   const Point<3>& x = m.pos(v);
-  std::vector<double> s(k + 1, 0.0);
+  auto& s = scratch.s;
+  s.assign(k + 1, 0.0);
   for (int i = 0; i < k; ++i) s[i + 1] = s[i] + (m.pos(r[(i + 1) % k]) - m.pos(r[i])).norm();
   if (!(s[k] > 0)) return std::nullopt;
-  std::vector<Eigen::Vector2d> u(k);
+  auto& u = scratch.u;
+  u.resize(k);
   for (int i = 0; i < k; ++i) {
     const double th = 2 * std::numbers::pi * s[i] / s[k];
     u[i] = {std::cos(th), std::sin(th)};
   }
   // Mean-value weights: w_i = (tan(a_{i-1}/2) + tan(a_i/2)) / |r_i - v|, a_i = angle(r_i, v, r_i+1).
-  std::vector<double> alpha(k), len(k);
+  auto& alpha = scratch.alpha;
+  auto& len = scratch.len;
+  alpha.resize(k);
+  len.resize(k);
   for (int i = 0; i < k; ++i) {
     len[i] = (m.pos(r[i]) - x).norm();
     if (!(len[i] > 0)) return std::nullopt;
@@ -69,24 +80,26 @@ std::optional<Point<3>> relaxed_position(const EditMesh& m, int v, const std::ve
 
 }  // namespace
 
-RemeshReport UniformRemesher::apply(Snake<3>& snake, const RemeshContext<3>&) {
-  RemeshReport report{"uniform", snake.num_vertices(), snake.num_vertices(), 0};
-  EditMesh m(snake);
+RemeshReport UniformRemesher::run(EditMesh& m, const RemeshContext<3>&) {
+  RemeshReport report{"uniform", 0, 0, 0};
   const int n = m.num_vertices();
   const double cos_max = std::cos(options_.max_normal_change_deg * std::numbers::pi / 180);
   std::vector<std::optional<Point<3>>> proposal(n);
   std::vector<Triangle> fan_tris;
+  std::vector<int> fan;
+  std::vector<Point<3>> old_normals;
   for (int sweep = 0; sweep < options_.iterations; ++sweep) {
     // Proposals from the positions at the start of the sweep (thread-count independent).
 #pragma omp parallel if (n >= 256)
     {
       std::vector<int> ring;
+      RelaxScratch scratch;
 #pragma omp for schedule(static)
       for (int v = 0; v < n; ++v) {
         proposal[v].reset();
         if (!m.is_free(v) || !m.vertex_alive(v)) continue;
         m.ring(v, ring);
-        proposal[v] = relaxed_position(m, v, ring);
+        proposal[v] = relaxed_position(m, v, ring, scratch);
       }
     }
     // Serial commit in vertex order, each move checked against the current mesh.
@@ -95,9 +108,9 @@ RemeshReport UniformRemesher::apply(Snake<3>& snake, const RemeshContext<3>&) {
       const Point<3> old = m.pos(v);
       // Moves below 1% of the mean edge are not worth their checks (the relaxation has converged).
       if ((*proposal[v] - old).squaredNorm() < 1e-4 * m.mean_edge_length() * m.mean_edge_length()) continue;
-      const std::vector<int> fan = m.triangles_of(v);
+      fan = m.triangles_of(v);
       if (fan.size() > 32) continue;  // valence > 32: beyond the batched check, left alone
-      std::vector<Point<3>> old_normals;
+      old_normals.clear();
       double old_min = kMinAngleFloor;
       for (int f : fan) {
         const auto& t = m.tri(f);
@@ -125,7 +138,6 @@ RemeshReport UniformRemesher::apply(Snake<3>& snake, const RemeshContext<3>&) {
       m.move_vertex(v, *proposal[v]);  // the intersection grid sees the new boxes
     }
   }
-  report.vertices_after = m.commit(snake);
   return report;
 }
 

@@ -10,6 +10,7 @@
 
 #include "framework/json_reader.h"
 #include "framework/remesher.h"
+#include "remesh/pass.h"
 
 #include <memory>
 
@@ -20,11 +21,11 @@ struct UniformOptions {
   double max_normal_change_deg = 45;  // largest turn of a fan triangle's normal per move
 };
 
-class UniformRemesher : public Remesher<3> {
+class UniformRemesher : public EditStage {
  public:
   explicit UniformRemesher(UniformOptions options) : options_(options) {}
   std::string type() const override { return "uniform"; }
-  RemeshReport apply(Snake<3>& snake, const RemeshContext<3>& context) override;
+  RemeshReport run(remesh_detail::EditMesh& m, const RemeshContext<3>& context) override;
 
  private:
   UniformOptions options_;

@@ -1,10 +1,13 @@
 // The remeshing stages of §5 and one pipeline pass, at about 1k, 7k and 30k vertices (the
-// paper's lung ends near 7000), with 1 and 2 threads. The mesh is a torus (genus 1, so the
+// paper's lung ends near 7000), with 1 and 2 threads. BM_Pipeline* apply the stages one by one
+// (as the evolver does today); BM_Pass* run the same stages through apply_pass (remesh/pass.h):
+// one EditMesh for the whole pass, written back once, with the same result. The mesh is a torus (genus 1, so the
 // planar method must cut it into discs) whose vertices are jittered along the surface
 // (seeded), with every 4th vertex a deformation vertex: the state of a snake mid-evolution.
 // Run: build/release/experiments/bench/bench_remesh --benchmark_repetitions=5
 //        --benchmark_report_aggregates_only=true
 #include "remesh/delaunay.h"
+#include "remesh/pass.h"
 #include "remesh/quality.h"
 #include "remesh/refine.h"
 #include "remesh/simplify.h"
@@ -77,7 +80,7 @@ std::vector<std::unique_ptr<Remesher<3>>> stages(const std::string& which, doubl
     if (name == "uniform") out.push_back(std::make_unique<UniformRemesher>(UniformOptions{1, 45}));
     if (name == "simplify") out.push_back(std::make_unique<SimplifyRemesher>(SimplifyOptions{0.5 * edge, edge, 0.1, 45}));
   };
-  if (which == "pipeline" || which == "pipeline_settled")
+  if (which.starts_with("pipeline") || which.starts_with("pass"))
     for (const char* s : {"refine", "flips", "uniform", "simplify"}) add(s);
   else
     add(which);
@@ -90,7 +93,8 @@ const Snake<3>& cached_settled_torus(int vertices);
 
 void run(benchmark::State& state, const std::string& which) {
   omp_set_num_threads(static_cast<int>(state.range(1)));
-  const bool settled = which == "pipeline_settled";
+  const bool settled = which.ends_with("_settled");
+  const bool pass = which.starts_with("pass");
   const Snake<3>& base = settled ? cached_settled_torus(static_cast<int>(state.range(0)))
                                  : cached_torus(static_cast<int>(state.range(0)));
   const double edge = mean_edge(cached_torus(static_cast<int>(state.range(0))));
@@ -100,7 +104,10 @@ void run(benchmark::State& state, const std::string& which) {
     state.PauseTiming();
     s = base;
     state.ResumeTiming();
-    for (auto& r : pipeline) r->apply(s, {});
+    if (pass)
+      apply_pass(pipeline, s, {});
+    else
+      for (auto& r : pipeline) r->apply(s, {});
   }
   const MeshQuality q = compute_mesh_quality(s);
   state.counters["vertices_in"] = base.num_vertices();
@@ -135,6 +142,8 @@ DSNAKE_REMESH_BENCH(BM_Uniform, "uniform");
 DSNAKE_REMESH_BENCH(BM_Simplify, "simplify");
 DSNAKE_REMESH_BENCH(BM_Pipeline, "pipeline");
 DSNAKE_REMESH_BENCH(BM_PipelineSettled, "pipeline_settled");
+DSNAKE_REMESH_BENCH(BM_Pass, "pass");
+DSNAKE_REMESH_BENCH(BM_PassSettled, "pass_settled");
 
 }  // namespace
 }  // namespace dsnake
