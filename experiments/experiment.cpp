@@ -10,6 +10,7 @@
 #include "framework/image_io.h"
 #include "framework/json_reader.h"
 #include "framework/mesh_io.h"
+#include "remesh/pass.h"
 #include "remesh/registry.h"
 
 #include <cmath>
@@ -390,6 +391,8 @@ Experiment<D> build_experiment(const ExperimentFile& file) {
           JsonReader s(stages[k], fname, r.path_of("remesh[" + std::to_string(k) + "]"));
           ph.remeshers.push_back(remesher_registry<D>().create(s));
         }
+        // 3D stages share one editable mesh per pass (same result, no rebuild between stages)
+        if constexpr (D == 3) ph.remesh_pass = apply_pass;
       }
       r.finish();
       ex.phases.push_back(std::move(ph));

@@ -80,6 +80,17 @@ double Evolver<D>::step(Snake<D>& snake) {
 }
 
 template <int D>
+std::vector<RemeshReport> run_remeshers(const Phase<D>& phase, Snake<D>& snake, const RemeshContext<D>& context) {
+  if (phase.remesh_pass) return phase.remesh_pass(phase.remeshers, snake, context);
+  std::vector<RemeshReport> reports;
+  for (const auto& r : phase.remeshers) reports.push_back(r->apply(snake, context));
+  return reports;
+}
+
+template std::vector<RemeshReport> run_remeshers<2>(const Phase<2>&, Snake<2>&, const RemeshContext<2>&);
+template std::vector<RemeshReport> run_remeshers<3>(const Phase<3>&, Snake<3>&, const RemeshContext<3>&);
+
+template <int D>
 std::vector<double> weighted_energy_terms(const std::vector<WeightedEnergy<D>>& energies, const Snake<D>& snake) {
   std::vector<double> terms;
   for (const auto& e : energies) terms.push_back(e.weight > 0 ? e.weight * e.energy->value(snake) : 0.0);
@@ -132,10 +143,9 @@ EvolveSummary Evolver<D>::run(Snake<D>& snake, std::vector<Phase<D>>& phases) {
       if (!phase.remeshers.empty() && !converged && it % std::max(1, phase.every) == 0) {
         remesh_context.phase_iteration = it;
         remesh_context.phase_iterations = phase.iterations;
-        for (size_t r = 0; r < phase.remeshers.size(); ++r) {
-          last_reports[r] = phase.remeshers[r]->apply(snake, remesh_context);
-          for (auto* o : observers_) o->on_remesh(last_reports[r], snake);
-        }
+        last_reports = run_remeshers(phase, snake, remesh_context);
+        for (const auto& report : last_reports)
+          for (auto* o : observers_) o->on_remesh(report, snake);
       }
       info.vertices = snake.num_vertices();
       for (auto* o : observers_) o->on_iteration(info, snake);

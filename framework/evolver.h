@@ -10,7 +10,9 @@
 #include "framework/energy.h"
 #include "framework/remesher.h"
 
+#include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -41,7 +43,17 @@ struct Phase {
   // switches a term off, e.g. §3's first phase with the deformation and external forces only.
   std::vector<double> weights;
   std::vector<std::unique_ptr<Remesher<D>>> remeshers;  // applied in order
+  // How the pipeline runs: empty, each remesher's apply() in turn; set (3D experiments use
+  // remesh's apply_pass), one pass over a shared editable mesh with the same result and one
+  // report per remesher, without a connectivity rebuild between stages.
+  std::function<std::vector<RemeshReport>(std::span<const std::unique_ptr<Remesher<D>>>, Snake<D>&,
+                                          const RemeshContext<D>&)>
+      remesh_pass;
 };
+
+// Runs the phase's remeshers on the snake (through remesh_pass when set); one report each.
+template <int D>
+std::vector<RemeshReport> run_remeshers(const Phase<D>& phase, Snake<D>& snake, const RemeshContext<D>& context);
 
 struct IterationInfo {
   int phase = 0;

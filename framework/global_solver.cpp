@@ -69,10 +69,9 @@ EvolveSummary GlobalSolver<D>::run(Snake<D>& snake, std::vector<Phase<D>>& phase
       if (round > 0) {  // remesh at the point of the phase's schedule this round stands for
         remesh_context.phase_iterations = phase.iterations;
         remesh_context.phase_iteration = std::max(1, phase.iterations * round / (rounds + 1));
-        for (size_t r = 0; r < phase.remeshers.size(); ++r) {
-          last_reports[r] = phase.remeshers[r]->apply(snake, remesh_context);
-          for (auto* o : observers_) o->on_remesh(last_reports[r], snake);
-        }
+        last_reports = run_remeshers(phase, snake, remesh_context);
+        for (const auto& report : last_reports)
+          for (auto* o : observers_) o->on_remesh(report, snake);
         previous = snake.positions();
       }
       const auto on_iteration = [&](int ceres_iteration) {
