@@ -26,10 +26,10 @@ namespace dsnake::gvf_detail {
 namespace {
 
 // Wavefront shape, measured on 230 x 300 x 80 and 512^2 (see README): a block runs this many
-// iterations; a 3D tile is this many rows (y) of the slices.
-constexpr int kDepth3d = 8;
+// iterations; a 3D tile is about this many rows (y) of the slices.
+constexpr int kDepth3d = 10;
 constexpr int kDepth2d = 8;
-constexpr int kTileRows3d = 32;
+constexpr int kTileRows3d = 72;
 
 // The five input rows of a voxel row at one time level and their weights (a missing
 // neighbour points at the row itself with weight 0: zero flux).
@@ -89,32 +89,31 @@ struct Tile {
 };
 
 // The per-thread rings of a block of up to max_depth iterations over tiles of up to tile_rows
-// rows; runs one tile's wavefront. Row (p, q) of the grid is row p Q + q of the arrays.
+// rows; runs one field's wavefront over a tile. Row (p, q) of the grid is row p Q + q.
 class Wavefront {
  public:
-  // Sizes the rings (the only allocation): levels 1..max_depth-1, three planes each, per field.
-  Wavefront(const Level& L, int K, int max_depth, int tile_rows, int threads)
-      : nx_(L.nx), K_(K), three_d_(L.nz > 1), P_(three_d_ ? L.nz : L.ny), Q_(three_d_ ? L.ny : 1),
+  // Sizes the rings (the only allocation): levels 1..max_depth-1, three planes each.
+  Wavefront(const Level& L, int max_depth, int tile_rows, int threads)
+      : nx_(L.nx), three_d_(L.nz > 1), P_(three_d_ ? L.nz : L.ny), Q_(three_d_ ? L.ny : 1),
         rows_(std::min(Q_, tile_rows + 2 * (max_depth - 1))),
-        ring_size_(size_t(std::max(0, max_depth - 1)) * K * 3 * rows_ * nx_), rings_(threads) {
+        ring_size_(size_t(std::max(0, max_depth - 1)) * 3 * rows_ * nx_), rings_(threads) {
     for (auto& r : rings_) r.resize(ring_size_);
   }
-  int planes() const { return P_; }
-  int rows_per_plane() const { return Q_; }
 
-  // Runs T iterations (1 <= T <= max_depth) on the tile from v into next; with `measure`, also
-  // row_sum[p Q + q] = sum over fields of the last iteration's squared residual on that row.
-  void run_tile(const Tile& tile, int T, const std::vector<std::vector<float>*>& v,
+  // Runs T iterations (1 <= T <= max_depth) of field k on the tile from v into next; with
+  // `measure`, also row_acc[k rows + p Q + q] = the last iteration's squared residual of field k
+  // on that row (summed in index order in float, as the plain loop does).
+  void run_tile(const Tile& tile, int T, int k, const std::vector<std::vector<float>*>& v,
                 std::vector<std::vector<float>>& next, const std::vector<const std::vector<float>*>& c,
                 const std::vector<float>& b, const Coupling& cp, float dt, bool measure,
-                std::vector<double>& row_sum, int thread) {
+                std::vector<float>& row_acc, int thread) {
     float* ring = rings_[thread].data();
     const int base_p = tile.p0 - (T - 1), base_q = std::max(0, tile.q0 - (T - 1));
-    // The rows of field k, plane p, row q at level t as an input (0: v) or output (T: next).
-    auto row_at = [&](int t, int k, int p, int q) -> float* {
+    // The row of field k, plane p, row q at level t as an input (0: v) or output (T: next).
+    auto row_at = [&](int t, int p, int q) -> float* {
       if (t == 0) return v[k]->data() + (int64_t(p) * Q_ + q) * nx_;
       if (t == T) return next[k].data() + (int64_t(p) * Q_ + q) * nx_;
-      return ring + ((int64_t((t - 1) * K_ + k) * 3 + (p - base_p) % 3) * rows_ + (q - base_q)) * nx_;
+      return ring + ((int64_t(t - 1) * 3 + (p - base_p) % 3) * rows_ + (q - base_q)) * nx_;
     };
     // Step s: level t computes plane base_p + s - (t - 1), after level t-1 computed the next one.
     for (int s = 0; s < tile.p1 - tile.p0 + 2 * (T - 1); ++s)
@@ -124,31 +123,27 @@ class Wavefront {
         const int q_lo = std::max(0, tile.q0 - grow), q_hi = std::min(Q_, tile.q1 + grow);
         for (int q = q_lo; q < q_hi; ++q) {
           const int64_t yz = int64_t(p) * Q_ + q;
-          double s2 = 0;
-          for (int k = 0; k < K_; ++k) {
-            RowInputs r{row_at(t - 1, k, p, q), nullptr, nullptr, nullptr, nullptr, 0, 0, 0, 0};
-            r.uym = r.uyp = r.uzm = r.uzp = r.u0;
-            if (three_d_) {  // y neighbours in the plane, z neighbours across planes
-              if (q > 0) r.uym = row_at(t - 1, k, p, q - 1), r.wym = cp.cy;
-              if (q < Q_ - 1) r.uyp = row_at(t - 1, k, p, q + 1), r.wyp = cp.cy;
-              if (p > 0) r.uzm = row_at(t - 1, k, p - 1, q), r.wzm = cp.cz;
-              if (p < P_ - 1) r.uzp = row_at(t - 1, k, p + 1, q), r.wzp = cp.cz;
-            } else {  // 2D: y neighbours across planes (rows), no z
-              if (p > 0) r.uym = row_at(t - 1, k, p - 1, q), r.wym = cp.cy;
-              if (p < P_ - 1) r.uyp = row_at(t - 1, k, p + 1, q), r.wyp = cp.cy;
-            }
-            float acc = 0.f;
-            explicit_row(r, c[k]->data() + yz * nx_, b.data() + yz * nx_, row_at(t, k, p, q), cp.cx, dt, nx_,
-                         measure && t == T, acc);
-            s2 += acc;
+          RowInputs r{row_at(t - 1, p, q), nullptr, nullptr, nullptr, nullptr, 0, 0, 0, 0};
+          r.uym = r.uyp = r.uzm = r.uzp = r.u0;
+          if (three_d_) {  // y neighbours in the plane, z neighbours across planes
+            if (q > 0) r.uym = row_at(t - 1, p, q - 1), r.wym = cp.cy;
+            if (q < Q_ - 1) r.uyp = row_at(t - 1, p, q + 1), r.wyp = cp.cy;
+            if (p > 0) r.uzm = row_at(t - 1, p - 1, q), r.wzm = cp.cz;
+            if (p < P_ - 1) r.uzp = row_at(t - 1, p + 1, q), r.wzp = cp.cz;
+          } else {  // 2D: y neighbours across planes (rows), no z
+            if (p > 0) r.uym = row_at(t - 1, p - 1, q), r.wym = cp.cy;
+            if (p < P_ - 1) r.uyp = row_at(t - 1, p + 1, q), r.wyp = cp.cy;
           }
-          if (measure && t == T) row_sum[yz] = s2;
+          float acc = 0.f;
+          explicit_row(r, c[k]->data() + yz * nx_, b.data() + yz * nx_, row_at(t, p, q), cp.cx, dt, nx_,
+                       measure && t == T, acc);
+          if (measure && t == T) row_acc[k * int64_t(P_) * Q_ + yz] = acc;
         }
       }
   }
 
  private:
-  int nx_, K_;
+  int nx_;
   bool three_d_;
   int P_, Q_, rows_;
   size_t ring_size_;
@@ -185,8 +180,9 @@ GvfSolveStats solve_explicit(Level& L, const std::vector<const std::vector<float
   // Tiles: 3D: ranges of `rows` rows (y) over all slices; 2D: ranges of `rows` rows, one per
   // thread by default.
   const bool three_d = L.nz > 1;
-  const int rows_per_tile = tile_rows > 0 ? tile_rows : three_d ? kTileRows3d : (L.ny + threads - 1) / threads;
-  Wavefront wave(L, K, depth, three_d ? rows_per_tile : 1, threads);
+  const int n_split = three_d ? std::max(1, (L.ny + kTileRows3d / 2) / kTileRows3d) : threads;
+  const int rows_per_tile = tile_rows > 0 ? tile_rows : (L.ny + n_split - 1) / n_split;
+  Wavefront wave(L, depth, three_d ? rows_per_tile : 1, threads);
   std::vector<Tile> tiles;
   for (int q = 0; q < L.ny; q += rows_per_tile) {
     const int end = std::min(L.ny, q + rows_per_tile);
@@ -194,22 +190,29 @@ GvfSolveStats solve_explicit(Level& L, const std::vector<const std::vector<float
   }
   const int n_tiles = int(tiles.size());
   std::vector<std::vector<float>> next(K, std::vector<float>(L.size()));
-  std::vector<double> row_sum(rows);
+  std::vector<float> row_acc(size_t(K) * rows);
+  const int n_items = n_tiles * K;
   // The residual (= update / dt) is measured every kCheckEvery iterations and at the last one.
   constexpr int kCheckEvery = 10;
   for (int it = 0; it < max_it;) {
     const int next_check = o.tolerance > 0 ? std::min(max_it, (it / kCheckEvery + 1) * kCheckEvery) : max_it;
     const int T = std::min(depth, next_check - it);
     const bool measure = it + T == next_check;
-#pragma omp parallel for schedule(static) if(parallel)
-    for (int i = 0; i < n_tiles; ++i)
-      wave.run_tile(tiles[i], T, v, next, c, L.b, cp, dt, measure, row_sum, omp_get_thread_num());
+    // The fields are independent (they share b only): one at a time keeps the rings small.
+    // Dynamic: a thread that shares its core with another process takes fewer tiles.
+#pragma omp parallel for schedule(dynamic, 1) if(parallel)
+    for (int i = 0; i < n_items; ++i)
+      wave.run_tile(tiles[i / K], T, i % K, v, next, c, L.b, cp, dt, measure, row_acc, omp_get_thread_num());
     for (int k = 0; k < K; ++k) v[k]->swap(next[k]);
     it += T;
     st.iterations = it;
     if (!measure) continue;
     double s = 0;
-    for (int64_t yz = 0; yz < rows; ++yz) s += row_sum[yz];
+    for (int64_t yz = 0; yz < rows; ++yz) {  // per row, the fields in order (as the plain loop)
+      double s2 = 0;
+      for (int k = 0; k < K; ++k) s2 += row_acc[k * rows + yz];
+      s += s2;
+    }
     st.relative_residual = rhs_norm2 > 0 ? std::sqrt(s / rhs_norm2) : (s > 0 ? 1.0 : 0.0);
     if (o.tolerance > 0 && st.relative_residual <= o.tolerance) break;
   }
