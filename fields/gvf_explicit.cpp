@@ -122,35 +122,46 @@ class Wavefront {
                 std::vector<float>& row_acc, int thread) {
     float* ring = rings_[thread].data();
     const int base_p = tile.p0 - (T - 1), base_q = std::max(0, tile.q0 - (T - 1));
-    // The row of field k, plane p, row q at level t as an input (0: v) or output (T: next).
-    auto row_at = [&](int t, int p, int q) -> float* {
-      if (t == 0) return v[k]->data() + (int64_t(p) * Q_ + q) * nx_;
-      if (t == T) return next[k].data() + (int64_t(p) * Q_ + q) * nx_;
-      return ring + ((int64_t(t - 1) * 3 + (p - base_p) % 3) * rows_ + (q - base_q)) * nx_;
+    // Plane p of field k at level t as an input (0: v) or output (T: next): its first stored row
+    // and that row's index q (a ring plane starts at base_q, a grid plane at 0).
+    struct PlaneRef {
+      float* first;
+      int q_first;
     };
+    auto plane_at = [&](int t, int p) -> PlaneRef {
+      if (t == 0) return {v[k]->data() + int64_t(p) * Q_ * nx_, 0};
+      if (t == T) return {next[k].data() + int64_t(p) * Q_ * nx_, 0};
+      return {ring + (int64_t(t - 1) * 3 + (p - base_p) % 3) * rows_ * nx_, base_q};
+    };
+    auto row_of = [&](const PlaneRef& plane, int q) { return plane.first + int64_t(q - plane.q_first) * nx_; };
     // Step s: level t computes plane base_p + s - (t - 1), after level t-1 computed the next one.
     for (int s = 0; s < tile.p1 - tile.p0 + 2 * (T - 1); ++s)
       for (int t = 1; t <= T; ++t) {
         const int p = base_p + s - (t - 1), grow = T - t;
         if (p < std::max(0, tile.p0 - grow) || p >= std::min(P_, tile.p1 + grow)) continue;
         const int q_lo = std::max(0, tile.q0 - grow), q_hi = std::min(Q_, tile.q1 + grow);
+        // Neighbour planes (the plane itself, weight 0, at the border): z in 3D, y in 2D.
+        const PlaneRef in = plane_at(t - 1, p), out = plane_at(t, p);
+        const PlaneRef in_m = p > 0 ? plane_at(t - 1, p - 1) : in, in_p = p < P_ - 1 ? plane_at(t - 1, p + 1) : in;
+        const float w_across = three_d_ ? cp.cz : cp.cy;
+        const float wm = p > 0 ? w_across : 0.f, wp = p < P_ - 1 ? w_across : 0.f;
+        const bool last = measure && t == T;
         for (int q = q_lo; q < q_hi; ++q) {
           const int64_t yz = int64_t(p) * Q_ + q;
-          RowInputs r{row_at(t - 1, p, q), nullptr, nullptr, nullptr, nullptr, 0, 0, 0, 0};
-          r.uym = r.uyp = r.uzm = r.uzp = r.u0;
-          if (three_d_) {  // y neighbours in the plane, z neighbours across planes
-            if (q > 0) r.uym = row_at(t - 1, p, q - 1), r.wym = cp.cy;
-            if (q < Q_ - 1) r.uyp = row_at(t - 1, p, q + 1), r.wyp = cp.cy;
-            if (p > 0) r.uzm = row_at(t - 1, p - 1, q), r.wzm = cp.cz;
-            if (p < P_ - 1) r.uzp = row_at(t - 1, p + 1, q), r.wzp = cp.cz;
+          const float* u0 = row_of(in, q);
+          RowInputs r{u0, u0, u0, u0, u0, 0, 0, 0, 0};
+          if (three_d_) {  // y neighbours in the plane (rows are contiguous), z across planes
+            if (q > 0) r.uym = u0 - nx_, r.wym = cp.cy;
+            if (q < Q_ - 1) r.uyp = u0 + nx_, r.wyp = cp.cy;
+            r.uzm = row_of(in_m, q), r.wzm = wm;
+            r.uzp = row_of(in_p, q), r.wzp = wp;
           } else {  // 2D: y neighbours across planes (rows), no z
-            if (p > 0) r.uym = row_at(t - 1, p - 1, q), r.wym = cp.cy;
-            if (p < P_ - 1) r.uyp = row_at(t - 1, p + 1, q), r.wyp = cp.cy;
+            r.uym = row_of(in_m, q), r.wym = wm;
+            r.uyp = row_of(in_p, q), r.wyp = wp;
           }
           float acc = 0.f;
-          explicit_row(r, c[k]->data() + yz * nx_, b.data() + yz * nx_, row_at(t, p, q), cp.cx, dt, nx_,
-                       measure && t == T, acc);
-          if (measure && t == T) row_acc[k * int64_t(P_) * Q_ + yz] = acc;
+          explicit_row(r, c[k]->data() + yz * nx_, b.data() + yz * nx_, row_of(out, q), cp.cx, dt, nx_, last, acc);
+          if (last) row_acc[k * int64_t(P_) * Q_ + yz] = acc;
         }
       }
   }
