@@ -7,7 +7,8 @@
 // from memory once per T iterations. The grid is cut into tiles (y-ranges of the slices in 3D,
 // ranges of rows in 2D) that a thread sweeps on its own: level t of a tile also computes the
 // T - t rows or planes around it that level t+1 reads (overlapped tiling: a little redundant
-// work, no synchronisation). The intermediate levels live in per-thread rings of three planes.
+// work, no synchronisation). The intermediate levels live in per-thread rings of three planes;
+// a tile is swept one field at a time (the fields share only b), which keeps the rings small.
 // Every voxel of every level is computed by the same row kernel from the same operands in the
 // same order as the plain iteration (T = 1), so the results are bit-identical for every block
 // depth, tile size and thread count.
