@@ -2,7 +2,9 @@
 // gives bit-for-bit the plain double-buffered iteration (depth 1), with and without tolerance
 // stopping, for 1 and 2 threads, on odd and degenerate grids with anisotropic spacing; and the
 // plain iteration matches an independent double-precision loop written here.
+#include "fields/ddgvf.h"
 #include "fields/gvf_grid.h"
+#include "framework/errors.h"
 
 #include <cmath>
 #include <cstring>
@@ -275,6 +277,28 @@ TEST(GvfExplicitWavefront, MatchesAnIndependentDoublePrecisionLoop) {
     EXPECT_LT(diff, 2e-6) << sh.nx << "x" << sh.ny << "x" << sh.nz;  // |v| <= 1, float rounding
     EXPECT_NEAR(run.stats.relative_residual, ref_residual, 1e-5 * ref_residual);
   }
+}
+
+// DDGVF runs its explicit solves side by side on the threads: an unstable step still comes out
+// as the configuration error naming the key (not a crash in the parallel region).
+TEST(GvfExplicitWavefront, DdgvfUnstableStepIsAnInputErrorOnTwoThreads) {
+  Grid<3> grid;
+  grid.size = GridIndex<3>(16, 16, 16);
+  Image<3> image(grid);
+  for (int64_t l = 0; l < image.num_voxels(); ++l)
+    image[l] = (grid.to_physical(grid.index(l)) - Point<3>(7.5, 7.5, 7.5)).norm() < 5 ? 1.f : 0.f;
+  DdgvfFieldOptions o;
+  o.solve.solver = "explicit", o.solve.time_step = 100.0, o.solve.iterations = 3, o.solve.tolerance = 0;
+  const int saved = omp_get_max_threads();
+  omp_set_num_threads(2);
+  DdgvfField<3> field(o);
+  try {
+    field.compute(image);
+    ADD_FAILURE() << "no error for an unstable step";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("time_step"), std::string::npos) << e.what();
+  }
+  omp_set_num_threads(saved);
 }
 
 }  // namespace
