@@ -27,9 +27,10 @@ namespace dsnake::gvf_detail {
 namespace {
 
 // Wavefront shape, measured on 230 x 300 x 80 and 512^2 (see README): a block runs this many
-// iterations; a 3D tile is about this many rows (y) of the slices.
+// iterations (10 divides the residual-check interval, so tolerance runs keep full blocks); a 3D
+// tile is about this many rows (y) of the slices.
 constexpr int kDepth3d = 10;
-constexpr int kDepth2d = 8;
+constexpr int kDepth2d = 10;
 constexpr int kTileRows3d = 72;
 
 // The five input rows of a voxel row at one time level and their weights (a missing
