@@ -21,6 +21,10 @@
 #include "fields/field_state.h"
 #include "framework/errors.h"
 
+#include <algorithm>
+#include <exception>
+#include <omp.h>
+
 namespace dsnake {
 
 template <int D>
@@ -39,17 +43,26 @@ void DdgvfField<D>::compute(const Image<D>& image) {
     for (auto& c : axis) c = Image<D>(grid);
   if (edges.f_max == 0) return;  // no edges: zero components (warned by compute_edge_map)
   const float p = options_.polarity == "dark_inside" ? 1.f : -1.f;
-  std::vector<float> b(n), b_masked(n), source(n);
+  std::vector<float> b(n);
 #pragma omp parallel for schedule(static)
   for (int64_t l = 0; l < n; ++l) {
     float s = 0;
     for (int a = 0; a < D; ++a) s += edges.grad_f[a][l] * edges.grad_f[a][l];
     b[l] = s;
   }
-  for (int a = 0; a < D; ++a)
-    for (int sign = 0; sign < 2; ++sign) {
+  // The 2 D scalar solves are independent: with several threads they run side by side, each on
+  // one thread (a solve's result does not depend on its thread count), which avoids the
+  // per-sweep synchronisation of splitting each solve. An exception (a bad explicit time step)
+  // cannot leave a parallel region: it is kept and rethrown after it.
+  const int threads = std::min(omp_get_max_threads(), 2 * D);
+  std::vector<std::exception_ptr> errors(2 * D);
+#pragma omp parallel num_threads(threads) if(threads > 1)
+  {
+    std::vector<float> b_masked(n), source(n);
+#pragma omp for schedule(dynamic, 1)
+    for (int job = 0; job < 2 * D; ++job) {
+      const int a = job / 2, sign = job % 2;
       const float s = sign == 0 ? p : -p;
-#pragma omp parallel for schedule(static)
       for (int64_t l = 0; l < n; ++l) {
         const bool on = s * edges.grad_image[a][l] > 0.f;
         b_masked[l] = on ? b[l] : 0.f;
@@ -57,8 +70,15 @@ void DdgvfField<D>::compute(const Image<D>& image) {
       }
       std::vector<float>& u = components_[a][sign].data();
       u = source;  // initial guess, as for GVF
-      solve_gvf(grid, b_masked, {&source}, {&u}, options_.solve);
+      try {
+        solve_gvf(grid, b_masked, {&source}, {&u}, options_.solve);
+      } catch (...) {
+        errors[job] = std::current_exception();
+      }
     }
+  }
+  for (const std::exception_ptr& e : errors)
+    if (e) std::rethrow_exception(e);
 #pragma omp parallel for schedule(static)
   for (int64_t l = 0; l < n; ++l)
     for (int a = 0; a < D; ++a) vectors_[l][a] = double(components_[a][0][l]) + components_[a][1][l];

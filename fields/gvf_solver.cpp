@@ -384,6 +384,24 @@ double dot(const std::vector<float>& a, const std::vector<float>& b) {
   return s;
 }
 
+// x += a p, r -= a ap, and returns |r|^2 of the updated r: one pass instead of two, with the
+// chunks and chunk sums of dot() (so the same value as dot(r, r) after the update).
+double update_and_norm(float* __restrict x, float* __restrict r, const float* __restrict p,
+                       const float* __restrict ap, float a, int64_t n) {
+  constexpr int64_t kChunk = 4096;
+  const int64_t chunks = (n + kChunk - 1) / kChunk;
+  std::vector<double> part(chunks);
+#pragma omp parallel for schedule(static) if(n >= kParallelMin)
+  for (int64_t c = 0; c < chunks; ++c) {
+    const int64_t begin = c * kChunk, end = std::min(n, begin + kChunk);
+    for (int64_t l = begin; l < end; ++l) x[l] += a * p[l], r[l] -= a * ap[l];
+    part[c] = dot_chunk(r + begin, r + begin, end - begin);
+  }
+  double s = 0;
+  for (double v : part) s += v;
+  return s;
+}
+
 // out = A u on one row (as residual_row with rhs = 0, sign flipped).
 DSNAKE_VECTOR_CLONES
 void apply_row(const float* u, float* res, const float* __restrict b, const RowNeighbours& r, float cx, int nx) {
@@ -458,9 +476,7 @@ GvfSolveStats solve_multigrid_pcg(Level shape, const std::vector<float>& b,
       float* __restrict xk = x[k]->data();
       float* __restrict rk = r[k].data();
       const float *__restrict pk = p[k].data(), *__restrict apk = L.res[k].data();
-#pragma omp parallel for schedule(static) if(n >= kParallelMin)
-      for (int64_t l = 0; l < n; ++l) xk[l] += a * pk[l], rk[l] -= a * apk[l];
-      r2 += dot(r[k], r[k]);
+      r2 += update_and_norm(xk, rk, pk, apk, a, n);
     }
     ++st.iterations;
     st.relative_residual = relative(r2);
