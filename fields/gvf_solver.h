@@ -9,8 +9,10 @@
 //  - "multigrid": V-cycles with red-black Gauss-Seidel, coarsening the axes whose spacing is
 //    finest (semi-coarsening for anisotropic voxels), exact dense solve on the coarsest grid.
 // Both stop at a relative residual |b c - A v|_2 / |b c|_2 <= tolerance or after a number of
-// iterations (V-cycles). Float arrays (x fastest); OpenMP over z-slabs (2D: rows); the results
-// do not depend on the thread count (red-black updates are independent within a colour and
+// iterations (V-cycles). Float arrays (x fastest); OpenMP over z-slabs (2D: rows), and the
+// explicit solver runs blocks of up to 10 iterations as a wavefront over tiles (each tile
+// recomputes its halo, so the arrays stream from memory once per block); the results do not
+// depend on the thread count (red-black updates are independent within a colour and
 // every sum is accumulated per row, then in row order).
 #pragma once
 

@@ -114,7 +114,7 @@ TEST(DdgvfField, BallAttractsOutwardNormalsWithMatchingPolarity) {
 TEST(DdgvfField, IndependentOfThreadCount) {
   const int threads = omp_get_max_threads();
   DdgvfFieldOptions o;
-  o.solve.iterations = 2;  // 33^3 voxels: above the solver's serial threshold, so 2 threads split it
+  o.solve.iterations = 2;  // 33^3 voxels: with 2 threads the six solves run two at a time (split solves: gvf tests)
   o.solve.tolerance = 0;
   DdgvfField<3> one(o), two(o);
   omp_set_num_threads(1);
