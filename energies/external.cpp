@@ -26,6 +26,7 @@ void ExternalEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& sn
 // §3.1: q_i^ext(t+1) = q_i(t) + tau F_ext(q_i(t)).
 // How many vertices ahead the sampling loop prefetches a field's voxels (a latency-hiding hint).
 constexpr int kPrefetchAhead = 8;
+constexpr int64_t kPrefetchMinBytes = int64_t(32) << 20;
 
 template <int D>
 void ExternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
@@ -38,9 +39,11 @@ void ExternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   const ExternalField<D>& field = *field_;
   const double tau = options_.tau;
   const PointList<D>& normals = normals_;
+  // only a field larger than the caches gains from prefetching; a small one pays for the hint
+  const bool prefetch = field.vectors().num_voxels() * int64_t(sizeof(Point<D>)) > kPrefetchMinBytes;
 #pragma omp parallel for schedule(static) if (n >= 256)
   for (int v = 0; v < n; ++v) {
-    if (v + kPrefetchAhead < n) field.prefetch(q[v + kPrefetchAhead]);
+    if (prefetch && v + kPrefetchAhead < n) field.prefetch(q[v + kPrefetchAhead]);
     const Point<D> normal = with_normals ? normals[v] : Point<D>::Zero();
     out[v] = q[v] + tau * field.force(q[v], normal);
   }

@@ -112,9 +112,23 @@ Point<D> VectorField<D>::sample(const Point<D>& x) const {
 template <int D>
 void VectorField<D>::prefetch(const Point<D>& x) const {
   if (vectors_.empty()) return;
-  const auto s = grid_.stencil(x);
-  for (size_t k = 0; k < s.voxel.size(); ++k) __builtin_prefetch(&vectors_[s.voxel[k]]);
-  __builtin_prefetch(reinterpret_cast<const char*>(&vectors_[s.voxel.back()]) + sizeof(Point<D>) - 1);
+  // the stencil's base voxel only (no weights): its x neighbour shares the line or the next one
+  int64_t base = 0, stride = 1;
+  std::array<int64_t, D> step;
+  for (int a = 0; a < D; ++a) {
+    const double c = (x[a] - grid_.origin[a]) / grid_.spacing[a];
+    const double ca = std::clamp(std::isfinite(c) ? c : 0.0, 0.0, double(grid_.size[a] - 1));
+    base += std::min(static_cast<int>(ca), std::max(grid_.size[a] - 2, 0)) * stride;
+    step[a] = grid_.size[a] > 1 ? stride : 0;
+    stride *= grid_.size[a];
+  }
+  const char* p = reinterpret_cast<const char*>(vectors_.data() + base);
+  for (int k = 0; k < (1 << (D - 1)); ++k) {
+    int64_t offset = 0;
+    for (int a = 1; a < D; ++a) offset += ((k >> (a - 1)) & 1) * step[a];
+    __builtin_prefetch(p + offset * int64_t(sizeof(Point<D>)));
+    __builtin_prefetch(p + offset * int64_t(sizeof(Point<D>)) + 2 * sizeof(Point<D>) - 1);
+  }
 }
 
 template <int D>
