@@ -156,32 +156,25 @@ Eigen::Matrix3d rotation_3d(const Eigen::Matrix3d& cross, double& t) {
   // adj(N - l I) = prod_{k != top} (l_k - l) q q^T: its largest diagonal entry picks the column.
   Eigen::Matrix4d a = n;
   a.diagonal().array() -= l;
-  double best = -1.0;
+  // det of a without row `skip_row` and column `skip_col`: the cofactors up to sign
+  auto minor = [&a](int skip_row, int skip_col) {
+    int r[3], c[3], kr = 0, kc = 0;
+    for (int x = 0; x < 4; ++x) {
+      if (x != skip_row) r[kr++] = x;
+      if (x != skip_col) c[kc++] = x;
+    }
+    return a(r[0], c[0]) * (a(r[1], c[1]) * a(r[2], c[2]) - a(r[1], c[2]) * a(r[2], c[1])) -
+           a(r[0], c[1]) * (a(r[1], c[0]) * a(r[2], c[2]) - a(r[1], c[2]) * a(r[2], c[0])) +
+           a(r[0], c[2]) * (a(r[1], c[0]) * a(r[2], c[1]) - a(r[1], c[1]) * a(r[2], c[0]));
+  };
+  Eigen::Vector4d diagonal;
+  for (int j = 0; j < 4; ++j) diagonal[j] = minor(j, j);
   int col = 0;
-  Eigen::Vector4d adj_col;
-  for (int j = 0; j < 4; ++j) {
-    int r[3], k = 0;
-    for (int i = 0; i < 4; ++i)
-      if (i != j) r[k++] = i;
-    const double m = (a(r[0], r[0]) * (a(r[1], r[1]) * a(r[2], r[2]) - a(r[1], r[2]) * a(r[2], r[1])) -
-                      a(r[0], r[1]) * (a(r[1], r[0]) * a(r[2], r[2]) - a(r[1], r[2]) * a(r[2], r[0])) +
-                      a(r[0], r[2]) * (a(r[1], r[0]) * a(r[2], r[1]) - a(r[1], r[1]) * a(r[2], r[0])));
-    if (std::abs(m) > best) best = std::abs(m), col = j;
-  }
+  const double best = diagonal.cwiseAbs().maxCoeff(&col);
   const double scale = std::sqrt(frob2);
   if (!(best > 1e-3 * scale * scale * scale)) return rotation_3d_eigen(cross, t);
-  // Column `col` of the adjugate: cofactors C_{i,col} = (-1)^{i+col} det(minor without row col, column i).
-  for (int i = 0; i < 4; ++i) {
-    int rr[3], cc[3], kr = 0, kc = 0;
-    for (int x = 0; x < 4; ++x) {
-      if (x != col) rr[kr++] = x;
-      if (x != i) cc[kc++] = x;
-    }
-    const double m = a(rr[0], cc[0]) * (a(rr[1], cc[1]) * a(rr[2], cc[2]) - a(rr[1], cc[2]) * a(rr[2], cc[1])) -
-                     a(rr[0], cc[1]) * (a(rr[1], cc[0]) * a(rr[2], cc[2]) - a(rr[1], cc[2]) * a(rr[2], cc[0])) +
-                     a(rr[0], cc[2]) * (a(rr[1], cc[0]) * a(rr[2], cc[1]) - a(rr[1], cc[1]) * a(rr[2], cc[0]));
-    adj_col[i] = ((i + col) % 2 == 0) ? m : -m;
-  }
+  Eigen::Vector4d adj_col;  // column `col` of the adjugate: C_{i,col} = (-1)^{i+col} M_{col,i}
+  for (int i = 0; i < 4; ++i) adj_col[i] = i == col ? diagonal[col] : ((i + col) % 2 == 0 ? 1 : -1) * minor(col, i);
   const Eigen::Vector4d q = adj_col.normalized();
   const double w = q[0], x = q[1], y = q[2], z = q[3];
   Eigen::Matrix3d r;

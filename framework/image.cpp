@@ -53,24 +53,37 @@ bool Grid<D>::same_geometry(const Grid& o, double tol) const {
          (origin - o.origin).cwiseAbs().maxCoeff() <= tol;
 }
 
+namespace {
+
+// The linear stencil's base voxel around x (clamped to the grid), the offsets from it to the
+// upper neighbour along each axis (0 on an axis of one voxel) and the fractions t_a; shared by
+// Grid::stencil and VectorField::prefetch.
+template <int D>
+int64_t stencil_base(const Grid<D>& g, const Point<D>& x, std::array<int64_t, D>& step, std::array<double, D>& t) {
+  int64_t base = 0, stride = 1;
+  for (int a = 0; a < D; ++a) {
+    const double c = (x[a] - g.origin[a]) / g.spacing[a];
+    const double ca = std::clamp(std::isfinite(c) ? c : 0.0, 0.0, double(g.size[a] - 1));
+    const int lo = std::min(static_cast<int>(std::floor(ca)), std::max(g.size[a] - 2, 0));
+    t[a] = ca - lo;
+    base += lo * stride;
+    step[a] = g.size[a] > 1 ? stride : 0;
+    stride *= g.size[a];
+  }
+  return base;
+}
+
+}  // namespace
+
 // Clamped corner indices lo..lo+1 per axis (lo + 1 = lo on an axis of one voxel) and the weights
 // w_k = prod_a (bit_a(k) ? t_a : 1 - t_a), multiplied in axis order. The corners are offsets from
 // the base voxel, so the per-corner work is one add (the sampling loops of every field force).
 template <int D>
 typename Grid<D>::Stencil Grid<D>::stencil(const Point<D>& x) const {
   Stencil s;
-  int64_t base = 0, stride = 1;
   std::array<int64_t, D> step;
   std::array<double, D> t;
-  for (int a = 0; a < D; ++a) {
-    const double c = (x[a] - origin[a]) / spacing[a];
-    const double ca = std::clamp(std::isfinite(c) ? c : 0.0, 0.0, double(size[a] - 1));
-    const int lo = std::min(static_cast<int>(std::floor(ca)), std::max(size[a] - 2, 0));
-    t[a] = ca - lo;
-    base += lo * stride;
-    step[a] = size[a] > 1 ? stride : 0;
-    stride *= size[a];
-  }
+  const int64_t base = stencil_base<D>(*this, x, step, t);
   constexpr int kCorners = D == 2 ? 4 : 8;
   for (int k = 0; k < kCorners; ++k) {
     int64_t voxel = base;
@@ -113,15 +126,9 @@ template <int D>
 void VectorField<D>::prefetch(const Point<D>& x) const {
   if (vectors_.empty()) return;
   // the stencil's base voxel only (no weights): its x neighbour shares the line or the next one
-  int64_t base = 0, stride = 1;
   std::array<int64_t, D> step;
-  for (int a = 0; a < D; ++a) {
-    const double c = (x[a] - grid_.origin[a]) / grid_.spacing[a];
-    const double ca = std::clamp(std::isfinite(c) ? c : 0.0, 0.0, double(grid_.size[a] - 1));
-    base += std::min(static_cast<int>(ca), std::max(grid_.size[a] - 2, 0)) * stride;
-    step[a] = grid_.size[a] > 1 ? stride : 0;
-    stride *= grid_.size[a];
-  }
+  std::array<double, D> t;
+  const int64_t base = stencil_base<D>(grid_, x, step, t);
   const char* p = reinterpret_cast<const char*>(vectors_.data() + base);
   for (int k = 0; k < (1 << (D - 1)); ++k) {
     int64_t offset = 0;

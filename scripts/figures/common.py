@@ -1,11 +1,26 @@
 """Shared readers for the figure scripts: CSV tables and our legacy-VTK meshes. Run the scripts
 with /usr/bin/python3 (Debian's python3-matplotlib)."""
 import csv
+import os
+import sys
 
 
 def read_csv(path):
     with open(path, newline="") as f:
         return list(csv.DictReader(f))
+
+
+def read_table(directory, name, allow_empty=False):
+    """The rows of directory/name; exits with one line naming the file if it is missing (or empty,
+    unless allow_empty)."""
+    path = os.path.join(directory, name)
+    try:
+        rows = read_csv(path)
+    except OSError as e:
+        sys.exit(f"{path}: {e.strerror}")
+    if not rows and not allow_empty:
+        sys.exit(f"{path}: no rows")
+    return rows
 
 
 def number(text):

@@ -19,7 +19,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import number, read_csv, read_vtk  # noqa: E402
+from common import number, read_table, read_vtk  # noqa: E402
 
 
 def edges(cells):
@@ -38,9 +38,7 @@ def main():
     ap.add_argument("run_dir")
     ap.add_argument("--out")
     args = ap.parse_args()
-    rows = read_csv(os.path.join(args.run_dir, "correspondence.csv"))
-    if not rows:
-        sys.exit(f"{args.run_dir}/correspondence.csv: no rows")
+    rows = read_table(args.run_dir, "correspondence.csv")
     dim = 3 if "initial_z" in rows[0] else 2
     axes_names = ["x", "y", "z"][:dim]
     initial = [[number(r["initial_" + a]) for a in axes_names] for r in rows]

@@ -18,7 +18,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import number, read_csv  # noqa: E402
+from common import number, read_table  # noqa: E402
 
 FIXED = {"iteration", "phase", "phase_iteration", "vertices", "max_displacement"}
 
@@ -32,7 +32,7 @@ def main():
     labels = args.labels.split(",") if args.labels else [os.path.basename(os.path.normpath(r)) for r in args.runs]
     if len(labels) != len(args.runs):
         sys.exit("--labels: one label per run")
-    traces = [read_csv(os.path.join(r, "energy_trace.csv")) for r in args.runs]
+    traces = [read_table(r, "energy_trace.csv", allow_empty=True) for r in args.runs]
     terms = []
     for t in traces:
         for k in (t[0].keys() if t else []):

@@ -18,7 +18,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import number, read_csv  # noqa: E402
+from common import number, read_table  # noqa: E402
 
 
 def curves(rows):
@@ -39,9 +39,7 @@ def main():
     ap.add_argument("sweep_dir")
     ap.add_argument("--out")
     args = ap.parse_args()
-    rows = read_csv(os.path.join(args.sweep_dir, "breakdown.csv"))
-    if not rows:
-        sys.exit(f"{args.sweep_dir}/breakdown.csv: no rows")
+    rows = read_table(args.sweep_dir, "breakdown.csv")
     data = curves(rows)
     types = sorted(data)
     fig, axes = plt.subplots(1, len(types), figsize=(4.2 * len(types), 3.6), squeeze=False)
