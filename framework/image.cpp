@@ -59,7 +59,7 @@ namespace {
 // upper neighbour along each axis (0 on an axis of one voxel) and the fractions t_a; shared by
 // Grid::stencil and VectorField::prefetch.
 template <int D>
-int64_t stencil_base(const Grid<D>& g, const Point<D>& x, std::array<int64_t, D>& step, std::array<double, D>& t) {
+[[gnu::always_inline]] inline int64_t stencil_base(const Grid<D>& g, const Point<D>& x, std::array<int64_t, D>& step, std::array<double, D>& t) {
   int64_t base = 0, stride = 1;
   for (int a = 0; a < D; ++a) {
     const double c = (x[a] - g.origin[a]) / g.spacing[a];
