@@ -8,16 +8,22 @@
 // ranges of rows in 2D) that a thread sweeps on its own: level t of a tile also computes the
 // T - t rows or planes around it that level t+1 reads (overlapped tiling: a little redundant
 // work, no synchronisation). The intermediate levels live in per-thread rings of three planes;
-// a tile is swept one field at a time (the fields share only b), which keeps the rings small.
+// a tile is swept one field at a time (the fields share only g = dt b), which keeps the rings small.
 // Every voxel of every level is computed by the same row kernel from the same operands in the
 // same order as the plain iteration (T = 1), so the results are bit-identical for every block
-// depth, tile size and thread count.
+// depth, tile size and thread count. The solver works on its own padded copy of the system
+// (PaddedSystem below): whole aligned vectors per row, with the x neighbours taken from
+// shuffles: a vector of voxels costs 5 aligned loads in 2D (7 in 3D), where the unpadded
+// kernel made 9 (11), half of them split across cache lines (README: the 2D figure).
 #include "fields/gvf_grid.h"
 
 #include "framework/errors.h"
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <memory>
+#include <new>
 #include <string>
 
 #include <omp.h>
@@ -33,68 +39,89 @@ constexpr int kDepth3d = 10;
 constexpr int kDepth2d = 10;
 constexpr int kTileRows3d = 72;
 
-// The five input rows of a voxel row at one time level and their weights (a missing
-// neighbour points at the row itself with weight 0: zero flux).
+// The explicit solver's own copy of the system, rows padded to whole vectors: row (y, z)
+// starts at (z ny + y) stride, stride = nx rounded up to kLanes, every array 64-byte aligned and
+// zero in the padding. In it v_new = v + d with d = s - (dd + g) v + dt mu Lap_side v, where
+// g = dt b and s = dt b c are computed once per solve: per voxel the kernel loads the five
+// stencil rows (the x neighbours come from shuffles of aligned vectors) and two coefficients.
+constexpr int kLanes = 8;
+using Vec = float __attribute__((vector_size(kLanes * sizeof(float))));
+using VecIndex = int __attribute__((vector_size(kLanes * sizeof(int))));
+
+// A 64-byte aligned float array (aligned vector loads, no cache-line splits).
+class AlignedFloats {
+ public:
+  AlignedFloats() = default;
+  // zeroed = false leaves the contents undefined (for arrays written in full before any read).
+  explicit AlignedFloats(size_t n, bool zeroed = true) : size_(n) {
+    const size_t bytes = (n * sizeof(float) + 63) / 64 * 64;
+    data_.reset(static_cast<float*>(std::aligned_alloc(64, std::max<size_t>(bytes, 64))));
+    if (!data_) throw std::bad_alloc();
+    if (zeroed) std::fill_n(data_.get(), n, 0.f);
+  }
+  float* data() { return data_.get(); }
+  const float* data() const { return data_.get(); }
+  size_t size() const { return size_; }
+
+ private:
+  struct Free {
+    void operator()(float* p) const { std::free(p); }
+  };
+  std::unique_ptr<float[], Free> data_;
+  size_t size_ = 0;
+};
+
+// The five input rows of a voxel row at one time level and their weights times dt (a missing
+// neighbour points at the row itself with weight 0: zero flux). All rows are padded and aligned.
 struct RowInputs {
   const float *u0, *uym, *uyp, *uzm, *uzp;
   float wym, wyp, wzm, wzp;
 };
 
-// One explicit step on a row of one field: out = u + dt (mu Lap u - b (u - c)); with `measure`,
-// also acc += |mu Lap u - b (u - c)|^2 in index order (a scalar loop, so that the sum does not
-// depend on vector width or threads). End voxels of the row have one x neighbour.
+// One explicit step on a padded row of one field: out = u + d, d = s - (dd + g) u + dcx (u[x-1]
+// + u[x+1]) + sum of the y and z neighbour terms, with u[-1] = u[0] and u[nx] = u[nx-1] (zero
+// flux); dd = dt (2 cx + the row's y and z weights). With `measure`, also acc = sum of d^2 over
+// the row's nx voxels, summed in kLanes partial sums in a fixed order (the same for any thread
+// count). The padding lanes are computed too (finite, never read as data) and left out of acc.
 DSNAKE_VECTOR_CLONES
-void explicit_row(const RowInputs& r, const float* __restrict src, const float* __restrict b, float* __restrict out,
-                  float cx, float dt, int nx, bool measure, float& acc) {
-  const float *__restrict u0 = r.u0, *__restrict uym = r.uym, *__restrict uyp = r.uyp, *__restrict uzm = r.uzm,
-              *__restrict uzp = r.uzp;
+void explicit_row(const RowInputs& r, const float* __restrict s, const float* __restrict g, float* __restrict out,
+                  float dcx, float dd, int nx, bool measure, float& acc) {
+  const Vec* __restrict U = reinterpret_cast<const Vec*>(__builtin_assume_aligned(r.u0, 32));
+  const Vec* __restrict YM = reinterpret_cast<const Vec*>(__builtin_assume_aligned(r.uym, 32));
+  const Vec* __restrict YP = reinterpret_cast<const Vec*>(__builtin_assume_aligned(r.uyp, 32));
+  const Vec* __restrict ZM = reinterpret_cast<const Vec*>(__builtin_assume_aligned(r.uzm, 32));
+  const Vec* __restrict ZP = reinterpret_cast<const Vec*>(__builtin_assume_aligned(r.uzp, 32));
+  const Vec* __restrict S = reinterpret_cast<const Vec*>(__builtin_assume_aligned(s, 32));
+  const Vec* __restrict G = reinterpret_cast<const Vec*>(__builtin_assume_aligned(g, 32));
+  Vec* __restrict O = reinterpret_cast<Vec*>(__builtin_assume_aligned(out, 32));
   const float wym = r.wym, wyp = r.wyp, wzm = r.wzm, wzp = r.wzp;
-  const float side = wym + wyp + wzm + wzp;
-  auto residual_at = [&](int i, float lap_x, float wx) {
-    return lap_x + wym * uym[i] + wyp * uyp[i] + wzm * uzm[i] + wzp * uzp[i] - (side + wx + b[i]) * u0[i] +
-           b[i] * src[i];
-  };
-  if (nx == 1) {
-    const float e = residual_at(0, 0.f, 0.f);
-    out[0] = u0[0] + dt * e;
-    if (measure) acc += e * e;
-    return;
-  }
-  const float e0 = residual_at(0, cx * u0[1], cx), e1 = residual_at(nx - 1, cx * u0[nx - 2], cx);
-  out[0] = u0[0] + dt * e0;
-  out[nx - 1] = u0[nx - 1] + dt * e1;
-  // The interior loops spell the residual out: a lambda is compiled for the default target
-  // and is not inlined into this function's AVX2 clone, which then does not vectorise. Without z
-  // neighbours (2D) the two zero-weight terms are left out: adding 0 * u = +-0 changes no value.
-  const float diag = side + 2.f * cx;
+  // Without z neighbours (2D) their zero-weight terms are left out: adding 0 * u changes no value.
   const bool has_z = wzm != 0.f || wzp != 0.f;
-  if (measure) acc += e0 * e0;
-  if (measure && has_z) {
-    for (int i = 1; i < nx - 1; ++i) {
-      const float e = cx * (u0[i - 1] + u0[i + 1]) + wym * uym[i] + wyp * uyp[i] + wzm * uzm[i] + wzp * uzp[i] -
-                      (diag + b[i]) * u0[i] + b[i] * src[i];
-      out[i] = u0[i] + dt * e;
-      acc += e * e;
+  const int nb = (nx + kLanes - 1) / kLanes, last_lane = (nx - 1) % kLanes;
+  const VecIndex lane = {0, 1, 2, 3, 4, 5, 6, 7};
+  Vec sum = {};
+  Vec c = U[0], prev = c;
+  for (int j = 0; j < nb; ++j) {
+    const Vec next = j + 1 < nb ? U[j + 1] : c;
+    Vec left = __builtin_shuffle(prev, c, VecIndex{7, 8, 9, 10, 11, 12, 13, 14});
+    Vec right = __builtin_shuffle(c, next, VecIndex{1, 2, 3, 4, 5, 6, 7, 8});
+    if (j == 0) left = lane == 0 ? c : left;
+    if (j + 1 == nb) right = lane == last_lane ? c : right;
+    Vec d = S[j] - (dd + G[j]) * c + dcx * (left + right) + wym * YM[j] + wyp * YP[j];
+    if (has_z) d += wzm * ZM[j] + wzp * ZP[j];
+    O[j] = c + d;
+    if (measure) {  // d^2 over the row's voxels (the padding lanes of the last vector left out)
+      const Vec dm = lane <= (j + 1 < nb ? kLanes - 1 : last_lane) ? d : Vec{};
+      sum += dm * dm;
     }
-  } else if (measure) {
-    for (int i = 1; i < nx - 1; ++i) {
-      const float e = cx * (u0[i - 1] + u0[i + 1]) + wym * uym[i] + wyp * uyp[i] - (diag + b[i]) * u0[i] + b[i] * src[i];
-      out[i] = u0[i] + dt * e;
-      acc += e * e;
-    }
-  } else if (has_z) {
-    for (int i = 1; i < nx - 1; ++i) {
-      const float e = cx * (u0[i - 1] + u0[i + 1]) + wym * uym[i] + wyp * uyp[i] + wzm * uzm[i] + wzp * uzp[i] -
-                      (diag + b[i]) * u0[i] + b[i] * src[i];
-      out[i] = u0[i] + dt * e;
-    }
-  } else {
-    for (int i = 1; i < nx - 1; ++i) {
-      const float e = cx * (u0[i - 1] + u0[i + 1]) + wym * uym[i] + wyp * uyp[i] - (diag + b[i]) * u0[i] + b[i] * src[i];
-      out[i] = u0[i] + dt * e;
-    }
+    prev = c;
+    c = next;
   }
-  if (measure) acc += e1 * e1;
+  if (measure) {
+    float a = 0.f;
+    for (int l = 0; l < kLanes; ++l) a += sum[l];
+    acc = a;
+  }
 }
 
 // A tile: planes [p0, p1) x rows [q0, q1) of the output level. Planes are z-slices in 3D
@@ -103,27 +130,42 @@ struct Tile {
   int p0, p1, q0, q1;
 };
 
+// The solver's padded copy of the system (see AlignedFloats): the fields v (iterate) and next,
+// the sources s_k = g c_k and g = dt b.
+struct PaddedSystem {
+  int nx, stride;
+  int64_t rows;
+  AlignedFloats g;
+  std::vector<AlignedFloats> s, v, next;
+  float* row(AlignedFloats& a, int64_t yz) const { return a.data() + yz * stride; }
+  const float* row(const AlignedFloats& a, int64_t yz) const { return a.data() + yz * stride; }
+};
+
+// The weights of one explicit step, times dt: dcx, dcy, dcz = dt mu / h^2 per axis.
+struct StepWeights {
+  float dcx, dcy, dcz;
+};
+
 // The per-thread rings of a block of up to max_depth iterations over tiles of up to tile_rows
 // rows; runs one field's wavefront over a tile. Row (p, q) of the grid is row p Q + q.
 class Wavefront {
  public:
   // Sizes the rings (the only allocation): levels 1..max_depth-1, three planes each.
-  Wavefront(const Level& L, int max_depth, int tile_rows, int threads)
-      : nx_(L.nx), three_d_(L.nz > 1), P_(three_d_ ? L.nz : L.ny), Q_(three_d_ ? L.ny : 1),
-        rows_(std::min(Q_, tile_rows + 2 * (max_depth - 1))),
-        ring_size_(size_t(std::max(0, max_depth - 1)) * 3 * rows_ * nx_), rings_(threads) {
-    for (auto& r : rings_) r.resize(ring_size_);
+  Wavefront(const Level& L, int stride, int max_depth, int tile_rows, int threads)
+      : nx_(L.nx), stride_(stride), three_d_(L.nz > 1), P_(three_d_ ? L.nz : L.ny), Q_(three_d_ ? L.ny : 1),
+        rows_(std::min(Q_, tile_rows + 2 * (max_depth - 1))) {
+    const size_t ring_size = size_t(std::max(0, max_depth - 1)) * 3 * rows_ * stride_;
+    for (int i = 0; i < threads; ++i) rings_.emplace_back(ring_size);
   }
 
-  // Runs T iterations (1 <= T <= max_depth) of field k on the tile from v into next; with
-  // `measure`, also row_acc[k rows + p Q + q] = the last iteration's squared residual of field k
-  // on that row (summed in index order in float, as the plain loop does).
-  void run_tile(const Tile& tile, int T, int k, const std::vector<std::vector<float>*>& v,
-                std::vector<std::vector<float>>& next, const std::vector<const std::vector<float>*>& c,
-                const std::vector<float>& b, const Coupling& cp, float dt, bool measure,
+  // Runs T iterations (1 <= T <= max_depth) of field k on the tile from sys.v into sys.next;
+  // with `measure`, also row_acc[k rows + p Q + q] = the last iteration's sum of d^2 of field k
+  // on that row.
+  void run_tile(const Tile& tile, int T, int k, PaddedSystem& sys, const StepWeights& w, bool measure,
                 std::vector<float>& row_acc, int thread) {
     float* ring = rings_[thread].data();
     const int base_p = tile.p0 - (T - 1), base_q = std::max(0, tile.q0 - (T - 1));
+    const int64_t plane_size = int64_t(Q_) * stride_;
     // Plane p of field k at level t as an input (0: v) or output (T: next): its first stored row
     // and that row's index q (a ring plane starts at base_q, a grid plane at 0).
     struct PlaneRef {
@@ -131,11 +173,12 @@ class Wavefront {
       int q_first;
     };
     auto plane_at = [&](int t, int p) -> PlaneRef {
-      if (t == 0) return {v[k]->data() + int64_t(p) * Q_ * nx_, 0};
-      if (t == T) return {next[k].data() + int64_t(p) * Q_ * nx_, 0};
-      return {ring + (int64_t(t - 1) * 3 + (p - base_p) % 3) * rows_ * nx_, base_q};
+      if (t == 0) return {sys.v[k].data() + p * plane_size, 0};
+      if (t == T) return {sys.next[k].data() + p * plane_size, 0};
+      return {ring + (int64_t(t - 1) * 3 + (p - base_p) % 3) * rows_ * stride_, base_q};
     };
-    auto row_of = [&](const PlaneRef& plane, int q) { return plane.first + int64_t(q - plane.q_first) * nx_; };
+    auto row_of = [&](const PlaneRef& plane, int q) { return plane.first + int64_t(q - plane.q_first) * stride_; };
+    const float w_across = three_d_ ? w.dcz : w.dcy;
     // Step s: level t computes plane base_p + s - (t - 1), after level t-1 computed the next one.
     for (int s = 0; s < tile.p1 - tile.p0 + 2 * (T - 1); ++s)
       for (int t = 1; t <= T; ++t) {
@@ -145,7 +188,6 @@ class Wavefront {
         // Neighbour planes (the plane itself, weight 0, at the border): z in 3D, y in 2D.
         const PlaneRef in = plane_at(t - 1, p), out = plane_at(t, p);
         const PlaneRef in_m = p > 0 ? plane_at(t - 1, p - 1) : in, in_p = p < P_ - 1 ? plane_at(t - 1, p + 1) : in;
-        const float w_across = three_d_ ? cp.cz : cp.cy;
         const float wm = p > 0 ? w_across : 0.f, wp = p < P_ - 1 ? w_across : 0.f;
         const bool last = measure && t == T;
         for (int q = q_lo; q < q_hi; ++q) {
@@ -153,42 +195,47 @@ class Wavefront {
           const float* u0 = row_of(in, q);
           RowInputs r{u0, u0, u0, u0, u0, 0, 0, 0, 0};
           if (three_d_) {  // y neighbours in the plane (rows are contiguous), z across planes
-            if (q > 0) r.uym = u0 - nx_, r.wym = cp.cy;
-            if (q < Q_ - 1) r.uyp = u0 + nx_, r.wyp = cp.cy;
+            if (q > 0) r.uym = u0 - stride_, r.wym = w.dcy;
+            if (q < Q_ - 1) r.uyp = u0 + stride_, r.wyp = w.dcy;
             r.uzm = row_of(in_m, q), r.wzm = wm;
             r.uzp = row_of(in_p, q), r.wzp = wp;
           } else {  // 2D: y neighbours across planes (rows), no z
             r.uym = row_of(in_m, q), r.wym = wm;
             r.uyp = row_of(in_p, q), r.wyp = wp;
           }
+          const float dd = 2.f * w.dcx + (r.wym + r.wyp + r.wzm + r.wzp);
           float acc = 0.f;
-          explicit_row(r, c[k]->data() + yz * nx_, b.data() + yz * nx_, row_of(out, q), cp.cx, dt, nx_, last, acc);
+          explicit_row(r, sys.row(sys.s[k], yz), sys.row(sys.g, yz), row_of(out, q), w.dcx, dd, nx_, last, acc);
           if (last) row_acc[k * int64_t(P_) * Q_ + yz] = acc;
         }
       }
   }
 
  private:
-  int nx_;
+  int nx_, stride_;
   bool three_d_;
   int P_, Q_, rows_;
-  size_t ring_size_;
-  std::vector<std::vector<float>> rings_;
+  std::vector<AlignedFloats> rings_;
 };
 
 }  // namespace
 
 // Xu & Prince's iteration v_new = v + dt (mu Lap v - b (v - c)), in wavefront blocks of up to
 // max_depth iterations (0: chosen here; 1: the plain double-buffered loop) over tiles of
-// tile_rows rows (0: chosen here). A block ends at
-// every iteration whose residual is measured, so tolerance stopping sees the same iterates.
+// tile_rows rows (0: chosen here), on a padded copy of the system. A block ends at every
+// iteration whose residual is measured, so tolerance stopping sees the same iterates.
 GvfSolveStats solve_explicit(Level& L, const std::vector<const std::vector<float>*>& c,
                              const std::vector<std::vector<float>*>& v, const GvfSolveOptions& o, double rhs_norm2,
                              int max_depth, int tile_rows) {
   const Coupling cp = coupling(L, o.mu);
   const double lap_max = 4.0 * (cp.cx + cp.cy + cp.cz);
-  double b_max = 0;
-  for (float x : L.b) b_max = std::max(b_max, double(x));
+  float lane_max[kLanes] = {};  // in kLanes partial maxima, which vectorises
+  const int64_t n = L.size();
+  for (int64_t l = 0; l + kLanes <= n; l += kLanes)
+    for (int j = 0; j < kLanes; ++j) lane_max[j] = L.b[l + j] > lane_max[j] ? L.b[l + j] : lane_max[j];
+  float b_max = 0.f;
+  for (int64_t l = n / kLanes * kLanes; l < n; ++l) b_max = L.b[l] > b_max ? L.b[l] : b_max;
+  for (float m : lane_max) b_max = m > b_max ? m : b_max;
   const double bound = 2.0 / (lap_max + b_max);
   GvfSolveStats st;
   st.time_step = o.time_step > 0 ? o.time_step : 0.9 * bound;
@@ -200,47 +247,77 @@ GvfSolveStats solve_explicit(Level& L, const std::vector<const std::vector<float
   const int64_t rows = int64_t(L.ny) * L.nz;
   const int max_it = o.iterations > 0 ? o.iterations : 100000;
   const float dt = float(st.time_step);
+  const StepWeights w{dt * cp.cx, dt * cp.cy, dt * cp.cz};
   const int depth = max_depth > 0 ? max_depth : (L.nz > 1 ? kDepth3d : kDepth2d);
   const bool parallel = L.size() >= kParallelMin;
   const int threads = parallel ? omp_get_max_threads() : 1;
+
+  // The padded copy: g = dt b, s_k = g c_k, v_k; copied back into v at the end.
+  PaddedSystem sys;
+  sys.nx = L.nx, sys.stride = (L.nx + kLanes - 1) / kLanes * kLanes, sys.rows = rows;
+  const size_t padded = size_t(rows) * sys.stride;
+  // Written in full below (padding included) or, for next, by the first block before any read.
+  sys.g = AlignedFloats(padded, false);
+  for (int k = 0; k < K; ++k)
+    sys.s.emplace_back(padded, false), sys.v.emplace_back(padded, false), sys.next.emplace_back(padded, false);
+  const int pad = sys.stride - L.nx;
+#pragma omp parallel for schedule(static) if(parallel)
+  for (int64_t yz = 0; yz < rows; ++yz) {
+    const int64_t src = yz * L.nx;
+    float* g = sys.row(sys.g, yz);
+    for (int x = 0; x < L.nx; ++x) g[x] = dt * L.b[src + x];
+    std::fill_n(g + L.nx, pad, 0.f);
+    for (int k = 0; k < K; ++k) {
+      float *s = sys.row(sys.s[k], yz), *vk = sys.row(sys.v[k], yz);
+      const float *ck = c[k]->data() + src, *v0 = v[k]->data() + src;
+      for (int x = 0; x < L.nx; ++x) s[x] = g[x] * ck[x];
+      std::copy_n(v0, L.nx, vk);
+      std::fill_n(s + L.nx, pad, 0.f), std::fill_n(vk + L.nx, pad, 0.f);
+    }
+  }
+
   // Tiles: 3D: ranges of ~kTileRows3d rows (y) over all slices; 2D: one range of rows per
   // thread (more tiles measured slower: each adds halo rows).
   const bool three_d = L.nz > 1;
   const int n_split = three_d ? std::max(1, (L.ny + kTileRows3d / 2) / kTileRows3d) : threads;
   const int rows_per_tile = tile_rows > 0 ? tile_rows : (L.ny + n_split - 1) / n_split;
-  Wavefront wave(L, depth, three_d ? rows_per_tile : 1, threads);
+  Wavefront wave(L, sys.stride, depth, three_d ? rows_per_tile : 1, threads);
   std::vector<Tile> tiles;
   for (int q = 0; q < L.ny; q += rows_per_tile) {
     const int end = std::min(L.ny, q + rows_per_tile);
     tiles.push_back(three_d ? Tile{0, L.nz, q, end} : Tile{q, end, 0, 1});
   }
   const int n_tiles = int(tiles.size());
-  std::vector<std::vector<float>> next(K, std::vector<float>(L.size()));
   std::vector<float> row_acc(size_t(K) * rows);
   const int n_items = n_tiles * K;
-  // The residual (= update / dt) is measured every kCheckEvery iterations and at the last one.
+  // The residual e = d / dt is measured every kCheckEvery iterations and at the last one.
   constexpr int kCheckEvery = 10;
   for (int it = 0; it < max_it;) {
     const int next_check = o.tolerance > 0 ? std::min(max_it, (it / kCheckEvery + 1) * kCheckEvery) : max_it;
     const int T = std::min(depth, next_check - it);
     const bool measure = it + T == next_check;
-    // The fields are independent (they share b only): one at a time keeps the rings small.
+    // The fields are independent (they share g only): one at a time keeps the rings small.
     // Dynamic: a thread that shares its core with another process takes fewer tiles.
 #pragma omp parallel for schedule(dynamic, 1) if(parallel)
     for (int i = 0; i < n_items; ++i)
-      wave.run_tile(tiles[i / K], T, i % K, v, next, c, L.b, cp, dt, measure, row_acc, omp_get_thread_num());
-    for (int k = 0; k < K; ++k) v[k]->swap(next[k]);
+      wave.run_tile(tiles[i / K], T, i % K, sys, w, measure, row_acc, omp_get_thread_num());
+    for (int k = 0; k < K; ++k) std::swap(sys.v[k], sys.next[k]);
     it += T;
     st.iterations = it;
     if (!measure) continue;
-    double s = 0;
-    for (int64_t yz = 0; yz < rows; ++yz) {  // per row, the fields in order (as the plain loop)
+    double sum = 0;
+    for (int64_t yz = 0; yz < rows; ++yz) {  // per row, the fields in order
       double s2 = 0;
       for (int k = 0; k < K; ++k) s2 += row_acc[k * rows + yz];
-      s += s2;
+      sum += s2;
     }
-    st.relative_residual = rhs_norm2 > 0 ? std::sqrt(s / rhs_norm2) : (s > 0 ? 1.0 : 0.0);
+    sum /= double(dt) * double(dt);
+    st.relative_residual = rhs_norm2 > 0 ? std::sqrt(sum / rhs_norm2) : (sum > 0 ? 1.0 : 0.0);
     if (o.tolerance > 0 && st.relative_residual <= o.tolerance) break;
+  }
+#pragma omp parallel for schedule(static) if(parallel)
+  for (int64_t yz = 0; yz < rows; ++yz) {
+    for (int k = 0; k < K; ++k) std::copy_n(sys.row(sys.v[k], yz), L.nx, v[k]->data() + yz * L.nx);
   }
   return st;
 }

@@ -509,12 +509,22 @@ GvfSolveStats solve_gvf(const Grid<D>& grid, const std::vector<float>& b,
   Level shape = level_of(grid);
   if (o.solver == "explicit") {
     // |b c|^2, the scale of the relative residual (the multigrid solver computes its own).
-    double rhs_norm2 = 0;
-    for (size_t k = 0; k < c.size(); ++k)
-      for (int64_t l = 0; l < n; ++l) {
-        const double r = double(b[l]) * (*c[k])[l];
+    // In 8 partial sums, fixed order (vectorised, the same on any machine and thread count).
+    double part[8] = {}, rhs_norm2 = 0;
+    for (size_t k = 0; k < c.size(); ++k) {
+      const float* ck = c[k]->data();
+      int64_t l = 0;
+      for (; l + 8 <= n; l += 8)
+        for (int j = 0; j < 8; ++j) {
+          const double r = double(b[l + j]) * ck[l + j];
+          part[j] += r * r;
+        }
+      for (; l < n; ++l) {
+        const double r = double(b[l]) * ck[l];
         rhs_norm2 += r * r;
       }
+    }
+    for (double p : part) rhs_norm2 += p;
     shape.b = b;
     return solve_explicit(shape, c, v, o, rhs_norm2);
   }
