@@ -22,6 +22,7 @@ struct Level {
   double h[3] = {1, 1, 1};  // spacing per axis, physical units
   int factor[3] = {1, 1, 1};  // coarsening factor from this level to the next (1 or 2)
   std::vector<float> b;                  // weight |grad f|^2 (averaged on coarse levels)
+  std::vector<float> inv_diag;           // multigrid smoother: 1 / A_ii (0 for a voxel without weight)
   std::vector<std::vector<float>> v, rhs, res;
   int64_t size() const { return int64_t(nx) * ny * nz; }
 };
@@ -57,6 +58,20 @@ inline Level level_of(const Grid<D>& grid) {
   for (int a = 0; a < D; ++a) L.h[a] = grid.spacing[a];
   return L;
 }
+
+// The multigrid smoother (gvf_solver.cpp): L.inv_diag = 1 / A_ii (0 where A_ii is 0), and
+// `sweeps` red-black Gauss-Seidel sweeps on L.v with right-hand side L.rhs, colour `first`
+// first, in one pass over memory; the same result as the half-sweeps one after the other.
+void inverse_diagonal(Level& L, const Coupling& c);
+void smooth_sweeps(Level& L, const Coupling& c, int first, int sweeps);
+
+// The multigrid's grid transfers along a factor-2 x axis (gvf_solver.cpp), on one row. The
+// coarse row (prolongation) or fine row (restriction) comes extended by one value at each end
+// (ext[i + 1] = row[i]); see the functions for what the ends hold. Prolongation P is linear
+// interpolation (cell-centred when n_fine is even, vertex-centred when odd); restriction is
+// P^T / 2.
+void prolongate_row_x2(float* out, const float* ext, int n_fine, int n_coarse);
+void restrict_row_x2(float* out, const float* ext, int n_fine, int n_coarse);
 
 // Xu & Prince's explicit iteration on L (b set; v: initial guess in, result out); rhs_norm2 =
 // |b c|^2. Iterations run in temporally blocked wavefronts of up to max_depth iterations (0: the

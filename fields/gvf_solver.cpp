@@ -19,68 +19,124 @@ namespace {
 
 using namespace gvf_detail;
 
+// Eight floats, loaded and stored unaligned (the level arrays are not padded).
+using Vec8 = float __attribute__((vector_size(32), aligned(4)));
+using Vec8Index = int __attribute__((vector_size(32)));
+
 // Red-black Gauss-Seidel on one row of one field, the voxels from `first` in steps of 2:
-// v_i = (rhs_i + sum_nb w v_nb) / (b_i + sum_nb w). The row's end voxels (one x neighbour) are
-// done apart so that the inner loop has no branches.
+// v_i = (rhs_i + sum_nb w v_nb) / A_ii, as a product with the level's 1 / A_ii. The interior
+// runs on whole vectors of 8 voxels: every lane computes its update from the old row and only
+// the lanes of the colour are stored (a voxel's update reads only the other colour, which this
+// pass leaves alone, so this equals the voxel-by-voxel sweep); the x neighbours come from
+// shuffles of the vectors already loaded, and each vector is loaded before the previous one is
+// stored. The first voxel and the last 8 to 15 (end voxels have one x neighbour) go one by one.
 DSNAKE_VECTOR_CLONES
-void smooth_row(float* u, const float* rhs, const float* __restrict b, const RowNeighbours& r, float cx, int nx,
-                int first) {
+void smooth_row(float* u, const float* rhs, const float* __restrict inv_diag, const RowNeighbours& r, float cx,
+                int nx, int first) {
   const float* __restrict f = rhs + r.row;
   float* __restrict u0 = u + r.row;
   const float *__restrict uym = u + r.ym, *__restrict uyp = u + r.yp, *__restrict uzm = u + r.zm,
               *__restrict uzp = u + r.zp;
-  const float wym = r.wym, wyp = r.wyp, wzm = r.wzm, wzp = r.wzp, side = wym + wyp + wzm + wzp;
-  auto one = [&](int i, float wl, float wr) {  // an end voxel of the row
-    const float diag = b[i] + side + wl + wr;
-    if (!(diag > 0.f)) return;  // a lone voxel without weight: nothing couples it
+  const float* __restrict inv = inv_diag;
+  const float wym = r.wym, wyp = r.wyp, wzm = r.wzm, wzp = r.wzp;
+  // One voxel with its own x weights; a voxel without weight (inv 0) is left alone.
+  auto one = [&](int i, float wl, float wr) {
+    if (inv[i] == 0.f) return;
     const float s = f[i] + wym * uym[i] + wyp * uyp[i] + wzm * uzm[i] + wzp * uzp[i] +
                     (wl > 0 ? wl * u0[i - 1] : 0.f) + (wr > 0 ? wr * u0[i + 1] : 0.f);
-    u0[i] = s / diag;
+    u0[i] = s * inv[i];
   };
   if (nx == 1) {
     if (first == 0) one(0, 0.f, 0.f);
     return;
   }
   if (first == 0) one(0, 0.f, cx);
-  const float base = side + 2.f * cx;
-  for (int i = first == 0 ? 2 : 1; i < nx - 1; i += 2) {
+  // Vectors at x = i .. i + 7 for i = 1, 9, ... while the next vector (i + 8 .. i + 15) is in
+  // the row: lane l is stored when (i + l) % 2 == first, i.e. when l % 2 != first. (Loads are
+  // spelled out: a lambda would be compiled for the default target, outside the AVX2 clone.)
+  const Vec8Index lane = {0, 1, 2, 3, 4, 5, 6, 7};
+  const Vec8Index store = (lane & 1) != first;
+  int i = 1;
+  if (nx >= 17) {
+    Vec8 left = *reinterpret_cast<const Vec8*>(u0), c = *reinterpret_cast<const Vec8*>(u0 + 1);
+    for (; i + 16 <= nx; i += 8) {
+      const Vec8 next = *reinterpret_cast<const Vec8*>(u0 + i + 8);
+      const Vec8 right = __builtin_shuffle(c, next, Vec8Index{1, 2, 3, 4, 5, 6, 7, 8});
+      const Vec8 s = *reinterpret_cast<const Vec8*>(f + i) + cx * (left + right) +
+                     wym * *reinterpret_cast<const Vec8*>(uym + i) + wyp * *reinterpret_cast<const Vec8*>(uyp + i) +
+                     wzm * *reinterpret_cast<const Vec8*>(uzm + i) + wzp * *reinterpret_cast<const Vec8*>(uzp + i);
+      const Vec8 v = s * *reinterpret_cast<const Vec8*>(inv + i);
+      *reinterpret_cast<Vec8*>(u0 + i) = store ? v : c;
+      left = __builtin_shuffle(c, next, Vec8Index{7, 8, 9, 10, 11, 12, 13, 14});
+      c = next;
+    }
+  }
+  for (i += (i & 1) != first ? 1 : 0; i < nx - 1; i += 2) {
     const float s = f[i] + cx * (u0[i - 1] + u0[i + 1]) + wym * uym[i] + wyp * uyp[i] + wzm * uzm[i] + wzp * uzp[i];
-    u0[i] = s / (b[i] + base);
+    u0[i] = s * inv[i];
   }
   if (((nx - 1) & 1) == first) one(nx - 1, cx, 0.f);
 }
 
-// One Gauss-Seidel sweep in two colours, `first` then `second` (voxels with
-// (x + y + z) % 2 == colour), over all fields, in one pass over memory: the second colour
-// follows the first with a lag of one plane (2D: one row), so a row's second colour is updated
-// once all its neighbours have their first-colour values, while those rows are still in cache.
-// Rows at the boundary of a thread's block wait for a barrier. The result equals a full
-// first-colour half-sweep followed by a full second-colour one, whatever the thread count.
-void smooth_sweep(Level& L, const Coupling& c, int first) {
-  const int K = int(L.v.size());
+}  // namespace
+
+namespace gvf_detail {
+
+// 1 / A_ii per voxel: b plus the weights of the neighbours that exist (0 where that is 0).
+void inverse_diagonal(Level& L, const Coupling& c) {
+  L.inv_diag.resize(L.size());
+  const int64_t rows = int64_t(L.ny) * L.nz;
+#pragma omp parallel for schedule(static) if(L.size() >= kParallelMin)
+  for (int64_t yz = 0; yz < rows; ++yz) {
+    const RowNeighbours r = row_neighbours(L, c, int(yz % L.ny), int(yz / L.ny));
+    const float side = r.wym + r.wyp + r.wzm + r.wzp;
+    for (int x = 0; x < L.nx; ++x) {
+      const float diag = L.b[r.row + x] + side + (x > 0 ? c.cx : 0.f) + (x < L.nx - 1 ? c.cx : 0.f);
+      L.inv_diag[r.row + x] = diag > 0.f ? 1.f / diag : 0.f;
+    }
+  }
+}
+
+// `sweeps` Gauss-Seidel sweeps in two colours, `first` then the other (voxels with
+// (x + y + z) % 2 == colour), over all fields, in one pass over memory. Half-sweep h (colour
+// first + h) follows half-sweep h - 1 with a lag of one plane (2D: one row): at step yz the pass
+// does half-sweep h on row yz - h lag, once all that row's neighbours have half-sweep h - 1 and
+// while they are still in cache. A thread runs half-sweep h in the pass on the rows of its block
+// at least h lags from the block's ends; the rest (the skirts, which read the neighbouring
+// block) follow in rounds h = 1, 2, ... after barriers. A row's update reads only the other
+// colour of its neighbours, and that colour is at the state of half-sweep h - 1 whenever it is
+// read, so the result equals the half-sweeps run one after the other, whatever the thread count.
+void smooth_sweeps(Level& L, const Coupling& c, int first, int sweeps) {
+  const int K = int(L.v.size()), H = 2 * sweeps;
   const int64_t rows = int64_t(L.ny) * L.nz;
   const int64_t lag = L.nz > 1 ? L.ny : 1;  // rows between a row and its farthest neighbour
-  auto update = [&](int64_t yz, int colour) {
+  auto update = [&](int64_t yz, int h) {
     const int y = int(yz % L.ny), z = int(yz / L.ny);
     const RowNeighbours r = row_neighbours(L, c, y, z);
     for (int k = 0; k < K; ++k)
-      smooth_row(L.v[k].data(), L.rhs[k].data(), L.b.data() + r.row, r, c.cx, L.nx, (colour + y + z) & 1);
+      smooth_row(L.v[k].data(), L.rhs[k].data(), L.inv_diag.data() + r.row, r, c.cx, L.nx, (first + h + y + z) & 1);
   };
-  const int second = 1 - first;
 #pragma omp parallel if(L.size() >= kParallelMin)
   {
     const int t = omp_get_thread_num(), T = omp_get_num_threads();
     const int64_t begin = rows * t / T, end = rows * (t + 1) / T;
-    // Interior rows [begin + lag, end - lag): all neighbours belong to this block.
-    for (int64_t yz = begin; yz < end; ++yz) {
-      update(yz, first);
-      if (yz - lag >= begin + lag && yz - lag < end - lag) update(yz - lag, second);
-    }
+    auto in_pass = [&](int64_t yz, int h) { return yz >= begin + h * lag && yz < end - h * lag; };
+    for (int64_t step = begin; step < end + (H - 1) * lag; ++step)
+      for (int h = 0; h < H; ++h) {
+        const int64_t yz = step - h * lag;
+        if (yz >= begin && yz < end && in_pass(yz, h)) update(yz, h);
+      }
+    for (int h = 1; h < H; ++h) {
 #pragma omp barrier
-    for (int64_t yz = begin; yz < end; ++yz)
-      if (!(yz >= begin + lag && yz < end - lag)) update(yz, second);
+      for (int64_t yz = begin; yz < end; ++yz)
+        if (!in_pass(yz, h)) update(yz, h);
+    }
   }
 }
+
+}  // namespace gvf_detail
+
+namespace {
 
 // Dot product in fixed chunks (8 interleaved lanes each), summed in chunk order: vectorised and
 // independent of the thread count.
@@ -201,6 +257,29 @@ Transfer transfer(const Level& F, const Level& C) {
           axis_transfer(F.nz, C.nz, F.factor[2])};
 }
 
+}  // namespace
+
+namespace gvf_detail {
+
+// out = R row along x for a factor-2 axis (R = P^T / 2 of axis_transfer's weights), from the
+// fine row extended by one value at each end (ext[i + 1] = row[i]; the ends repeat the row's
+// end values when cell-centred, 0 when vertex-centred): contiguous loads, no scatter.
+// Cell-centred: out[I] = 3/8 (row[2I] + row[2I + 1]) + 1/8 (row[2I - 1] + row[2I + 2]);
+// vertex-centred: out[I] = 1/2 row[2I] + 1/4 (row[2I - 1] + row[2I + 1]).
+DSNAKE_VECTOR_CLONES
+void restrict_row_x2(float* __restrict out, const float* __restrict ext, int n_fine, int n_coarse) {
+  if (n_fine % 2 == 0) {
+    for (int I = 0; I < n_coarse; ++I)
+      out[I] = 0.375f * (ext[2 * I + 1] + ext[2 * I + 2]) + 0.125f * (ext[2 * I] + ext[2 * I + 3]);
+  } else {
+    for (int I = 0; I < n_coarse; ++I) out[I] = 0.5f * ext[2 * I + 1] + 0.25f * (ext[2 * I] + ext[2 * I + 2]);
+  }
+}
+
+}  // namespace gvf_detail
+
+namespace {
+
 // coarse = R fine (separable; R = P^T / factor or its normalised average): the y/z weights combine fine rows into one
 // (contiguous, vectorised), then the x weights pick from it.
 void restrict_to(const Level& F, const Level& C, const Transfer& t, bool average, const float* fine, float* coarse) {
@@ -209,7 +288,7 @@ void restrict_to(const Level& F, const Level& C, const Transfer& t, bool average
   };
 #pragma omp parallel if(F.size() >= kParallelMin)
   {
-    std::vector<float> row(F.nx);
+    std::vector<float> row(F.nx), ext(F.nx + 2);
 #pragma omp for schedule(static)
     for (int64_t zy = 0; zy < int64_t(C.nz) * C.ny; ++zy) {
       const int z = int(zy / C.ny), y = int(zy % C.ny);
@@ -222,7 +301,12 @@ void restrict_to(const Level& F, const Level& C, const Transfer& t, bool average
           for (int x = 0; x < F.nx; ++x) dst[x] += w * src[x];
         }
       float* out = coarse + (int64_t(z) * C.ny + y) * C.nx;
-      if (!average) {  // R = P^T / factor along x: scatter each fine value (in x order)
+      if (!average && F.factor[0] == 2) {
+        const bool cell = F.nx % 2 == 0;
+        std::copy(row.begin(), row.end(), ext.begin() + 1);
+        ext[0] = cell ? row[0] : 0.f, ext[F.nx + 1] = cell ? row[F.nx - 1] : 0.f;
+        restrict_row_x2(out, ext.data(), F.nx, C.nx);
+      } else if (!average) {  // R = P^T / factor along x: scatter each fine value (in x order)
         const float inv = 1.f / F.factor[0];
         std::fill_n(out, C.nx, 0.f);
         for (int x = 0; x < F.nx; ++x) {
@@ -241,12 +325,40 @@ void restrict_to(const Level& F, const Level& C, const Transfer& t, bool average
   }
 }
 
+}  // namespace
+
+namespace gvf_detail {
+
+// out += P row along x for a factor-2 axis (axis_transfer's weights), from the coarse row
+// extended by one clamped value at each end (ext[I + 1] = row[I]): contiguous loads instead of
+// the index tables. Cell-centred (even fine size): fine 2I = 3/4 row[I] + 1/4 row[I - 1],
+// 2I + 1 = 3/4 row[I] + 1/4 row[I + 1]; vertex-centred (odd): 2I = row[I], 2I + 1 = the mean.
+DSNAKE_VECTOR_CLONES
+void prolongate_row_x2(float* __restrict out, const float* __restrict ext, int n_fine, int n_coarse) {
+  if (n_fine % 2 == 0) {
+    for (int I = 0; I < n_coarse; ++I) {
+      out[2 * I] += 0.75f * ext[I + 1] + 0.25f * ext[I];
+      out[2 * I + 1] += 0.75f * ext[I + 1] + 0.25f * ext[I + 2];
+    }
+  } else {
+    for (int I = 0; I + 1 < n_coarse; ++I) {
+      out[2 * I] += ext[I + 1];
+      out[2 * I + 1] += 0.5f * ext[I + 1] + 0.5f * ext[I + 2];
+    }
+    out[n_fine - 1] += ext[n_coarse];
+  }
+}
+
+}  // namespace gvf_detail
+
+namespace {
+
 // fine += P coarse (separable linear interpolation): y/z first on a coarse row, then x.
 void prolongate_add(const Level& F, const Level& C, const Transfer& t, const float* coarse, float* fine) {
   const AxisTransfer &ax = t.x, &ay = t.y, &az = t.z;
 #pragma omp parallel if(F.size() >= kParallelMin)
   {
-    std::vector<float> row(C.nx);
+    std::vector<float> row(C.nx), ext(C.nx + 2);
 #pragma omp for schedule(static)
     for (int64_t zy = 0; zy < int64_t(F.nz) * F.ny; ++zy) {
       const int z = int(zy / F.ny), y = int(zy % F.ny);
@@ -262,7 +374,13 @@ void prolongate_add(const Level& F, const Level& C, const Transfer& t, const flo
           for (int x = 0; x < C.nx; ++x) dst[x] += w * src[x];
         }
       float* out = fine + (int64_t(z) * F.ny + y) * F.nx;
-      for (int x = 0; x < F.nx; ++x) out[x] += ax.w_near[x] * row[ax.near[x]] + (1.f - ax.w_near[x]) * row[ax.far[x]];
+      if (F.factor[0] == 2) {
+        std::copy(row.begin(), row.end(), ext.begin() + 1);
+        ext[0] = row[0], ext[C.nx + 1] = row[C.nx - 1];
+        prolongate_row_x2(out, ext.data(), F.nx, C.nx);
+      } else {
+        for (int x = 0; x < F.nx; ++x) out[x] += ax.w_near[x] * row[ax.near[x]] + (1.f - ax.w_near[x]) * row[ax.far[x]];
+      }
     }
   }
 }
@@ -312,7 +430,7 @@ class Multigrid {
       solve_coarsest();
       return;
     }
-    for (int s = 0; s < kPreSmooth; ++s) smooth_sweep(L, c, 0);
+    smooth_sweeps(L, c, 0, kPreSmooth);
     residual(L, c);
     Level& C = levels_[l + 1];
     for (size_t k = 0; k < L.v.size(); ++k) {
@@ -321,11 +439,12 @@ class Multigrid {
     }
     cycle(l + 1);
     for (size_t k = 0; k < L.v.size(); ++k) prolongate_add(L, C, transfers_[l], C.v[k].data(), L.v[k].data());
-    for (int s = 0; s < kPostSmooth; ++s) smooth_sweep(L, c, 1);
+    smooth_sweeps(L, c, 1, kPostSmooth);
   }
 
  private:
-  static void alloc(Level& L, int K) {
+  void alloc(Level& L, int K) const {
+    inverse_diagonal(L, coupling(L, mu_));
     L.v.assign(K, std::vector<float>(L.size()));
     L.rhs.assign(K, std::vector<float>(L.size()));
     L.res.assign(K, std::vector<float>(L.size()));

@@ -75,6 +75,26 @@ TEST(GvfField, MultigridReachesTheExplicitFixedPoint) {
                                  << mg.stats().iterations;
 }
 
+// The multigrid-preconditioned solver stays a fast solver on even (cell-centred coarsening)
+// and odd (vertex-centred) grids in 2D and 3D, with anisotropic spacing: 1e-6 in at most 10
+// iterations (7 measured on each). The transfers themselves are tested in gvf_smoother_test.
+TEST(GvfField, MultigridConvergesInAFewCyclesOnEvenAndOddGrids) {
+  GvfFieldOptions o;
+  o.solve.mu = 0.2;
+  o.solve.solver = "multigrid";
+  o.solve.tolerance = 1e-6;
+  for (int n : {48, 49}) {
+    GvfField<3> field3(o);
+    field3.compute(ball(n == 48 ? 2.0 : 2.5, n, Point<3>(n / 2.0 + 0.3, n / 2.0 - 0.2, n / 2.0), n / 4.0));
+    EXPECT_LE(field3.stats().relative_residual, 1e-6);
+    EXPECT_LE(field3.stats().iterations, 10) << "3D, " << n << " voxels a side";
+    GvfField<2> field2(o);
+    field2.compute(disk(2 * n, Point<2>(n + 0.3, n - 0.4), n / 2.0));
+    EXPECT_LE(field2.stats().relative_residual, 1e-6);
+    EXPECT_LE(field2.stats().iterations, 10) << "2D, " << 2 * n << " pixels a side";
+  }
+}
+
 TEST(GvfField, PointsToDiskEdgeFarBeyondTheEdgeMap) {
   const Point<2> centre(32.3, 31.6);
   GvfFieldOptions o;
