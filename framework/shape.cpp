@@ -5,7 +5,6 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
-#include <unordered_map>
 
 namespace dsnake {
 
@@ -24,81 +23,122 @@ Connectivity Connectivity::polygon(int n) {
   return c;
 }
 
+// Flat arrays throughout (it runs after every remeshing pass): incident triangles in CSR form,
+// the directed half-edges sorted once for the duplicate and twin checks, and each one-ring
+// walked through a linear search of its few (a -> b) links.
 Connectivity Connectivity::mesh(int n, std::vector<Triangle> triangles) {
   Connectivity c;
   c.num_vertices_ = n;
   c.triangles_ = std::move(triangles);
   const auto& tris = c.triangles_;
+  const int F = static_cast<int>(tris.size());
   auto fail = [&](std::string why) {
     if (c.problem_.empty()) c.problem_ = std::move(why);
   };
   if (tris.empty()) fail("the mesh has no triangles");
-
-  // Directed half-edges must each appear once and have a twin: closed and consistently oriented.
-  std::unordered_map<uint64_t, int> half_edges;
-  half_edges.reserve(tris.size() * 3);
-  auto key = [](int a, int b) { return (uint64_t(uint32_t(a)) << 32) | uint32_t(b); };
-  std::vector<std::vector<int>> incident(n);
-  for (size_t f = 0; f < tris.size(); ++f) {
-    const auto& t = tris[f];
-    for (int k = 0; k < 3; ++k) {
-      if (t[k] < 0 || t[k] >= n) {
-        fail("triangle " + std::to_string(f) + " refers to vertex " + std::to_string(t[k]) +
-             " of " + std::to_string(n));
+  for (int f = 0; f < F; ++f)
+    for (int k = 0; k < 3; ++k)
+      if (tris[f][k] < 0 || tris[f][k] >= n) {
+        fail("triangle " + std::to_string(f) + " refers to vertex " + std::to_string(tris[f][k]) + " of " +
+             std::to_string(n));
         return c;
       }
-    }
-    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
-      fail("triangle " + std::to_string(f) + " is degenerate (repeated vertex)");
+  auto degenerate = [&](int f) {
+    const auto& t = tris[f];
+    return t[0] == t[1] || t[1] == t[2] || t[0] == t[2];
+  };
+
+  // Directed half-edges (a, b) of the non-degenerate triangles, with their position 3 f + k,
+  // sorted: a repeated one is shared by more than two triangles or oriented inconsistently; one
+  // without its twin (b, a) is on a boundary. The first problem in triangle order is reported.
+  struct HalfEdge {
+    uint64_t key;
+    int position;
+    bool operator<(const HalfEdge& o) const { return key != o.key ? key < o.key : position < o.position; }
+  };
+  auto key = [](int a, int b) { return (uint64_t(uint32_t(a)) << 32) | uint32_t(b); };
+  std::vector<HalfEdge> half_edges;
+  half_edges.reserve(tris.size() * 3);
+  int first_degenerate = F;
+  for (int f = 0; f < F; ++f) {
+    if (degenerate(f)) {
+      first_degenerate = std::min(first_degenerate, f);
       continue;
     }
-    for (int k = 0; k < 3; ++k) {
-      incident[t[k]].push_back(static_cast<int>(f));
-      if (++half_edges[key(t[k], t[(k + 1) % 3])] > 1)
-        fail("edge (" + std::to_string(t[k]) + ", " + std::to_string(t[(k + 1) % 3]) +
-             ") is shared by more than two triangles or oriented inconsistently");
-    }
+    for (int k = 0; k < 3; ++k) half_edges.push_back({key(tris[f][k], tris[f][(k + 1) % 3]), 3 * f + k});
   }
-  for (const auto& [k, count] : half_edges) {
-    const int a = int(k >> 32), b = int(k & 0xffffffffu);
-    if (!half_edges.count(key(b, a))) {
+  std::sort(half_edges.begin(), half_edges.end());
+  int first_repeat = 3 * F;  // position of the earliest second occurrence of a half-edge
+  for (size_t i = 1; i < half_edges.size(); ++i)
+    if (half_edges[i].key == half_edges[i - 1].key) first_repeat = std::min(first_repeat, half_edges[i].position);
+  if (first_degenerate < F && first_degenerate <= first_repeat / 3) {
+    fail("triangle " + std::to_string(first_degenerate) + " is degenerate (repeated vertex)");
+  } else if (first_repeat < 3 * F) {
+    const auto& t = tris[first_repeat / 3];
+    const int k = first_repeat % 3;
+    fail("edge (" + std::to_string(t[k]) + ", " + std::to_string(t[(k + 1) % 3]) +
+         ") is shared by more than two triangles or oriented inconsistently");
+  }
+  for (const HalfEdge& h : half_edges) {
+    const int a = int(h.key >> 32), b = int(h.key & 0xffffffffu);
+    const auto twin = std::lower_bound(half_edges.begin(), half_edges.end(), HalfEdge{key(b, a), -1});
+    if (twin == half_edges.end() || twin->key != key(b, a)) {
       fail("edge (" + std::to_string(std::min(a, b)) + ", " + std::to_string(std::max(a, b)) +
            ") is a boundary edge or oriented inconsistently: the mesh is not closed");
       break;
     }
   }
 
-  // Ordered one-rings: around v, each incident triangle (v, a, b) links a -> b.
+  // Incident non-degenerate triangles of each vertex, in triangle order (CSR).
+  std::vector<int> first_incident(n + 1, 0), incident;
+  for (int f = 0; f < F; ++f)
+    if (!degenerate(f))
+      for (int k = 0; k < 3; ++k) ++first_incident[tris[f][k] + 1];
+  for (int v = 0; v < n; ++v) first_incident[v + 1] += first_incident[v];
+  incident.resize(first_incident[n]);
+  {
+    std::vector<int> fill(first_incident.begin(), first_incident.end() - 1);
+    for (int f = 0; f < F; ++f)
+      if (!degenerate(f))
+        for (int k = 0; k < 3; ++k) incident[fill[tris[f][k]]++] = f;
+  }
+
+  // Ordered one-rings: around v, each incident triangle (v, a, b) links a -> b; the ring starts
+  // at the first incident triangle's a.
   c.offsets_.assign(n + 1, 0);
   c.adjacency_.clear();
-  std::unordered_map<int, int> next;
+  c.adjacency_.reserve(incident.size());
+  std::vector<std::pair<int, int>> links;
   for (int v = 0; v < n; ++v) {
     c.offsets_[v] = static_cast<int>(c.adjacency_.size());
-    if (incident[v].empty()) {
+    if (first_incident[v] == first_incident[v + 1]) {
       fail("vertex " + std::to_string(v) + " is in no triangle");
       continue;
     }
-    next.clear();
-    for (int f : incident[v]) {
-      const auto& t = tris[f];
+    links.clear();
+    for (int i = first_incident[v]; i < first_incident[v + 1]; ++i) {
+      const auto& t = tris[incident[i]];
       const int k = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
-      next[t[(k + 1) % 3]] = t[(k + 2) % 3];
+      links.push_back({t[(k + 1) % 3], t[(k + 2) % 3]});
     }
-    const int start = next.begin()->first;
+    auto next_of = [&](int a) {
+      for (const auto& [from, to] : links)
+        if (from == a) return to;
+      return -1;
+    };
+    const int start = links.front().first;
     int a = start;
     size_t steps = 0;
     do {
       c.adjacency_.push_back(a);
-      auto it = next.find(a);
-      if (it == next.end()) break;
-      a = it->second;
-    } while (a != start && ++steps <= next.size());
-    if (c.adjacency_.size() - c.offsets_[v] != incident[v].size()) {
+      a = next_of(a);
+    } while (a >= 0 && a != start && ++steps <= links.size());
+    if (c.adjacency_.size() - c.offsets_[v] != links.size()) {
       fail("vertex " + std::to_string(v) + " is non-manifold (its triangles do not form one fan)");
       // Fall back to an unordered neighbour set so that the adjacency stays usable.
       c.adjacency_.resize(c.offsets_[v]);
       std::vector<int> nb;
-      for (const auto& [x, y] : next) { nb.push_back(x); nb.push_back(y); }
+      for (const auto& [x, y] : links) nb.push_back(x), nb.push_back(y);
       std::sort(nb.begin(), nb.end());
       nb.erase(std::unique(nb.begin(), nb.end()), nb.end());
       c.adjacency_.insert(c.adjacency_.end(), nb.begin(), nb.end());
