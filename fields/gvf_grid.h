@@ -62,8 +62,12 @@ inline Level level_of(const Grid<D>& grid) {
 // The multigrid smoother (gvf_solver.cpp): L.inv_diag = 1 / A_ii (0 where A_ii is 0), and
 // `sweeps` red-black Gauss-Seidel sweeps on L.v with right-hand side L.rhs, colour `first`
 // first, in one pass over memory; the same result as the half-sweeps one after the other.
+// zero_start: L.v is taken as 0 on entry (not read); then_residual: L.res = rhs - A v after.
 void inverse_diagonal(Level& L, const Coupling& c);
-void smooth_sweeps(Level& L, const Coupling& c, int first, int sweeps);
+void smooth_sweeps(Level& L, const Coupling& c, int first, int sweeps, bool zero_start = false,
+                   bool then_residual = false);
+// L.res = rhs - A v, row by row (the residual the V-cycle restricts).
+void residual_rows(Level& L, const Coupling& c);
 
 // The multigrid's grid transfers along a factor-2 x axis (gvf_solver.cpp), on one row. The
 // coarse row (prolongation) or fine row (restriction) comes extended by one value at each end

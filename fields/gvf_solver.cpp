@@ -23,6 +23,13 @@ using namespace gvf_detail;
 using Vec8 = float __attribute__((vector_size(32), aligned(4)));
 using Vec8Index = int __attribute__((vector_size(32)));
 
+// The first half-sweep from v = 0 on one row: rhs / A_ii on the voxels x % 2 == first (their
+// neighbours are all 0), 0 on the others (written, so that v need not be cleared beforehand).
+DSNAKE_VECTOR_CLONES
+void start_row(float* __restrict u0, const float* __restrict f, const float* __restrict inv, int nx, int first) {
+  for (int i = 0; i < nx; ++i) u0[i] = (i & 1) == first ? f[i] * inv[i] : 0.f;
+}
+
 // Red-black Gauss-Seidel on one row of one field, the voxels from `first` in steps of 2:
 // v_i = (rhs_i + sum_nb w v_nb) / A_ii, as a product with the level's 1 / A_ii. The interior
 // runs on whole vectors of 8 voxels: every lane computes its update from the old row and only
@@ -78,6 +85,30 @@ void smooth_row(float* u, const float* rhs, const float* __restrict inv_diag, co
   if (((nx - 1) & 1) == first) one(nx - 1, cx, 0.f);
 }
 
+// out = rhs - A u on one row: A u = b u + sum over existing neighbours of w (u - u_nb).
+DSNAKE_VECTOR_CLONES
+void residual_row(const float* u, const float* rhs, float* res, const float* __restrict b, const RowNeighbours& r,
+                  float cx, int nx) {
+  const float* __restrict f = rhs + r.row;
+  const float *__restrict u0 = u + r.row, *__restrict uym = u + r.ym, *__restrict uyp = u + r.yp,
+              *__restrict uzm = u + r.zm, *__restrict uzp = u + r.zp;
+  float* __restrict out = res + r.row;
+  const float wym = r.wym, wyp = r.wyp, wzm = r.wzm, wzp = r.wzp, side = wym + wyp + wzm + wzp;
+  auto at = [&](int i, float lap_x, float wx) {
+    return f[i] + lap_x + wym * uym[i] + wyp * uyp[i] + wzm * uzm[i] + wzp * uzp[i] - (side + wx + b[i]) * u0[i];
+  };
+  if (nx == 1) {
+    out[0] = at(0, 0.f, 0.f);
+    return;
+  }
+  out[0] = at(0, cx * u0[1], cx);
+  const float diag = side + 2.f * cx;  // spelled out: a lambda would not inline into the AVX2 clone
+  for (int i = 1; i < nx - 1; ++i)
+    out[i] = f[i] + cx * (u0[i - 1] + u0[i + 1]) + wym * uym[i] + wyp * uyp[i] + wzm * uzm[i] + wzp * uzp[i] -
+             (diag + b[i]) * u0[i];
+  out[nx - 1] = at(nx - 1, cx * u0[nx - 2], cx);
+}
+
 }  // namespace
 
 namespace gvf_detail {
@@ -106,15 +137,26 @@ void inverse_diagonal(Level& L, const Coupling& c) {
 // block) follow in rounds h = 1, 2, ... after barriers. A row's update reads only the other
 // colour of its neighbours, and that colour is at the state of half-sweep h - 1 whenever it is
 // read, so the result equals the half-sweeps run one after the other, whatever the thread count.
-void smooth_sweeps(Level& L, const Coupling& c, int first, int sweeps) {
-  const int K = int(L.v.size()), H = 2 * sweeps;
+// With zero_start, v is taken as 0 on entry (not read): the first half-sweep writes rhs / A_ii on
+// its colour and 0 on the other, as a sweep from a zeroed v would. With then_residual, one more
+// level after the sweeps writes L.res = rhs - A v (as residual() does, row by row).
+void smooth_sweeps(Level& L, const Coupling& c, int first, int sweeps, bool zero_start, bool then_residual) {
+  const int K = int(L.v.size()), H = 2 * sweeps + (then_residual ? 1 : 0);
   const int64_t rows = int64_t(L.ny) * L.nz;
   const int64_t lag = L.nz > 1 ? L.ny : 1;  // rows between a row and its farthest neighbour
   auto update = [&](int64_t yz, int h) {
     const int y = int(yz % L.ny), z = int(yz / L.ny);
     const RowNeighbours r = row_neighbours(L, c, y, z);
-    for (int k = 0; k < K; ++k)
-      smooth_row(L.v[k].data(), L.rhs[k].data(), L.inv_diag.data() + r.row, r, c.cx, L.nx, (first + h + y + z) & 1);
+    const int parity = (first + h + y + z) & 1;
+    for (int k = 0; k < K; ++k) {
+      if (then_residual && h == H - 1) {
+        residual_row(L.v[k].data(), L.rhs[k].data(), L.res[k].data(), L.b.data() + r.row, r, c.cx, L.nx);
+      } else if (zero_start && h == 0) {
+        start_row(L.v[k].data() + r.row, L.rhs[k].data() + r.row, L.inv_diag.data() + r.row, L.nx, parity);
+      } else {
+        smooth_row(L.v[k].data(), L.rhs[k].data(), L.inv_diag.data() + r.row, r, c.cx, L.nx, parity);
+      }
+    }
   };
 #pragma omp parallel if(L.size() >= kParallelMin)
   {
@@ -134,10 +176,6 @@ void smooth_sweeps(Level& L, const Coupling& c, int first, int sweeps) {
   }
 }
 
-}  // namespace gvf_detail
-
-namespace {
-
 // Dot product in fixed chunks (8 interleaved lanes each), summed in chunk order: vectorised and
 // independent of the thread count.
 DSNAKE_VECTOR_CLONES
@@ -152,29 +190,6 @@ double dot_chunk(const float* __restrict a, const float* __restrict b, int64_t n
   return s;
 }
 
-// out = rhs - A u on one row: A u = b u + sum over existing neighbours of w (u - u_nb).
-DSNAKE_VECTOR_CLONES
-void residual_row(const float* u, const float* rhs, float* res, const float* __restrict b, const RowNeighbours& r,
-                  float cx, int nx) {
-  const float* __restrict f = rhs + r.row;
-  const float *__restrict u0 = u + r.row, *__restrict uym = u + r.ym, *__restrict uyp = u + r.yp,
-              *__restrict uzm = u + r.zm, *__restrict uzp = u + r.zp;
-  float* __restrict out = res + r.row;
-  const float wym = r.wym, wyp = r.wyp, wzm = r.wzm, wzp = r.wzp, side = wym + wyp + wzm + wzp;
-  auto at = [&](int i, float lap_x, float wx) {
-    return f[i] + lap_x + wym * uym[i] + wyp * uyp[i] + wzm * uzm[i] + wzp * uzp[i] - (side + wx + b[i]) * u0[i];
-  };
-  if (nx == 1) {
-    out[0] = at(0, 0.f, 0.f);
-    return;
-  }
-  out[0] = at(0, cx * u0[1], cx);
-  const float diag = side + 2.f * cx;  // spelled out: a lambda would not inline into the AVX2 clone
-  for (int i = 1; i < nx - 1; ++i)
-    out[i] = f[i] + cx * (u0[i - 1] + u0[i + 1]) + wym * uym[i] + wyp * uyp[i] + wzm * uzm[i] + wzp * uzp[i] -
-             (diag + b[i]) * u0[i];
-  out[nx - 1] = at(nx - 1, cx * u0[nx - 2], cx);
-}
 
 // res = rhs - A v for all fields. With `norms`, also returns the sums of squares of res and of
 // rhs (per row, then in row order: independent of the thread count).
@@ -201,6 +216,16 @@ std::pair<double, double> residual(Level& L, const Coupling& c, bool norms = fal
   for (size_t yz = 0; yz < rr.size(); ++yz) s += rr[yz], t += bb[yz];
   return {s, t};
 }
+
+}  // namespace
+
+namespace gvf_detail {
+
+void residual_rows(Level& L, const Coupling& c) { residual(L, c); }
+
+}  // namespace gvf_detail
+
+namespace {
 
 // Grid transfer along one axis. An even axis is coarsened cell-centred (coarse cell I = fine
 // cells 2I, 2I + 1, at I - 1/4 and I + 1/4 in coarse units); an odd axis vertex-centred (coarse
@@ -422,7 +447,8 @@ class Multigrid {
 
   std::vector<Level>& levels() { return levels_; }
 
-  // One V(2,2) cycle from level l with the current v as initial guess.
+  // One V(2,2) cycle from level l with initial guess 0: v is overwritten, not read (the
+  // first smoothing half-sweep starts from 0 without clearing v).
   void cycle(size_t l) {
     Level& L = levels_[l];
     const Coupling c = coupling(L, mu_);
@@ -430,16 +456,12 @@ class Multigrid {
       solve_coarsest();
       return;
     }
-    smooth_sweeps(L, c, 0, kPreSmooth);
-    residual(L, c);
+    smooth_sweeps(L, c, 0, kPreSmooth, true, true);  // v = 0 on entry
     Level& C = levels_[l + 1];
-    for (size_t k = 0; k < L.v.size(); ++k) {
-      restrict_to(L, C, transfers_[l], false, L.res[k].data(), C.rhs[k].data());
-      std::fill(C.v[k].begin(), C.v[k].end(), 0.f);
-    }
+    for (size_t k = 0; k < L.v.size(); ++k) restrict_to(L, C, transfers_[l], false, L.res[k].data(), C.rhs[k].data());
     cycle(l + 1);
     for (size_t k = 0; k < L.v.size(); ++k) prolongate_add(L, C, transfers_[l], C.v[k].data(), L.v[k].data());
-    smooth_sweeps(L, c, 1, kPostSmooth);
+    smooth_sweeps(L, c, 1, kPostSmooth, false, false);
   }
 
  private:
@@ -570,26 +592,31 @@ GvfSolveStats solve_multigrid_pcg(Level shape, const std::vector<float>& b,
   st.relative_residual = relative(r2_start);
   // z = M r: a V-cycle from zero with r as right-hand side; z is left in L.v.
   auto precondition = [&] {
-    for (int k = 0; k < K; ++k) L.rhs[k].swap(r[k]), std::fill(L.v[k].begin(), L.v[k].end(), 0.f);
+    for (int k = 0; k < K; ++k) L.rhs[k].swap(r[k]);  // the cycle takes v as 0
     mg.cycle(0);
     for (int k = 0; k < K; ++k) L.rhs[k].swap(r[k]);
   };
   const int max_it = o.iterations > 0 ? o.iterations : 100;
   if (o.tolerance > 0 && st.relative_residual <= o.tolerance) return st;
   precondition();
-  std::vector<double> rz(K);
+  std::vector<double> rz(K), row_pap(size_t(K) * rows);
   for (int k = 0; k < K; ++k) p[k] = L.v[k], rz[k] = dot(r[k], L.v[k]);
   while (st.iterations < max_it) {
     // ap = A p (in L.res), then x += alpha p, r -= alpha ap.
+    // With p.ap per row while the row is in cache (summed in row order: thread-independent).
     std::vector<double> alpha(K, 0.0);
 #pragma omp parallel for schedule(static) if(n >= kParallelMin)
     for (int64_t yz = 0; yz < rows; ++yz) {
       const RowNeighbours rn = row_neighbours(L, cp, int(yz % L.ny), int(yz / L.ny));
-      for (int k = 0; k < K; ++k) apply_row(p[k].data(), L.res[k].data(), b.data() + rn.row, rn, cp.cx, L.nx);
+      for (int k = 0; k < K; ++k) {
+        apply_row(p[k].data(), L.res[k].data(), b.data() + rn.row, rn, cp.cx, L.nx);
+        row_pap[k * rows + yz] = dot_chunk(p[k].data() + rn.row, L.res[k].data() + rn.row, L.nx);
+      }
     }
     double r2 = 0;
     for (int k = 0; k < K; ++k) {
-      const double pap = dot(p[k], L.res[k]);
+      double pap = 0;
+      for (int64_t yz = 0; yz < rows; ++yz) pap += row_pap[k * rows + yz];
       alpha[k] = pap > 0 ? rz[k] / pap : 0.0;
       const float a = float(alpha[k]);
       float* __restrict xk = x[k]->data();
