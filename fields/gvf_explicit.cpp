@@ -39,11 +39,13 @@ constexpr int kDepth3d = 10;
 constexpr int kDepth2d = 10;
 constexpr int kTileRows3d = 72;
 
-// The explicit solver's own copy of the system, rows padded to whole vectors: row (y, z)
-// starts at (z ny + y) stride, stride = nx rounded up to kLanes, every array 64-byte aligned and
-// zero in the padding. In it v_new = v + d with d = s - (dd + g) v + dt mu Lap_side v, where
-// g = dt b and s = dt b c are computed once per solve: per voxel the kernel loads the five
-// stencil rows (the x neighbours come from shuffles of aligned vectors) and two coefficients.
+// The explicit solver's own copy of the system, rows padded to whole vectors with one ghost
+// vector on each side: row (y, z) has its voxel x at (z ny + y) stride + kLanes + x, stride =
+// (blocks + 2) kLanes, every array 64-byte aligned. The ghosts carry the zero-flux reflection
+// (u[-1] = u[0], u[nx] = u[nx-1]), so that the kernel's loop over a row has no special ends. In
+// it v_new = v + d with d = s - (dd + g) v + dt mu Lap_side v, where g = dt b and s = dt b c are
+// computed once per solve: per voxel the kernel loads the five stencil rows (the x neighbours
+// come from shuffles of aligned vectors) and two coefficients.
 constexpr int kLanes = 8;
 using Vec = float __attribute__((vector_size(kLanes * sizeof(float))));
 using VecIndex = int __attribute__((vector_size(kLanes * sizeof(int))));
@@ -79,10 +81,12 @@ struct RowInputs {
 };
 
 // One explicit step on a padded row of one field: out = u + d, d = s - (dd + g) u + dcx (u[x-1]
-// + u[x+1]) + sum of the y and z neighbour terms, with u[-1] = u[0] and u[nx] = u[nx-1] (zero
-// flux); dd = dt (2 cx + the row's y and z weights). With `measure`, also acc = sum of d^2 over
-// the row's nx voxels, summed in kLanes partial sums in a fixed order (the same for any thread
-// count). The padding lanes are computed too (finite, never read as data) and left out of acc.
+// + u[x+1]) + sum of the y and z neighbour terms, the x neighbours past the ends from the ghosts
+// (zero flux); dd = dt (2 cx + the row's y and z weights); then out's ghosts are set. With
+// `measure`, also acc = sum of d^2 over the row's nx voxels, summed in kLanes partial sums in a
+// fixed order (the same for any thread count). The padding lanes are computed too (finite, never
+// read as data) and left out of acc. Three copies of the loop, so that the common ones (no
+// residual; 2D or 3D) carry no branch.
 DSNAKE_VECTOR_CLONES
 void explicit_row(const RowInputs& r, const float* __restrict s, const float* __restrict g, float* __restrict out,
                   float dcx, float dd, int nx, bool measure, float& acc) {
@@ -97,31 +101,49 @@ void explicit_row(const RowInputs& r, const float* __restrict s, const float* __
   const float wym = r.wym, wyp = r.wyp, wzm = r.wzm, wzp = r.wzp;
   // Without z neighbours (2D) their zero-weight terms are left out: adding 0 * u changes no value.
   const bool has_z = wzm != 0.f || wzp != 0.f;
-  const int nb = (nx + kLanes - 1) / kLanes, last_lane = (nx - 1) % kLanes;
-  const VecIndex lane = {0, 1, 2, 3, 4, 5, 6, 7};
-  Vec sum = {};
-  Vec c = U[0], prev = c;
-  for (int j = 0; j < nb; ++j) {
-    const Vec next = j + 1 < nb ? U[j + 1] : c;
-    Vec left = __builtin_shuffle(prev, c, VecIndex{7, 8, 9, 10, 11, 12, 13, 14});
-    Vec right = __builtin_shuffle(c, next, VecIndex{1, 2, 3, 4, 5, 6, 7, 8});
-    if (j == 0) left = lane == 0 ? c : left;
-    if (j + 1 == nb) right = lane == last_lane ? c : right;
-    Vec d = S[j] - (dd + G[j]) * c + dcx * (left + right) + wym * YM[j] + wyp * YP[j];
-    if (has_z) d += wzm * ZM[j] + wzp * ZP[j];
-    O[j] = c + d;
-    if (measure) {  // d^2 over the row's voxels (the padding lanes of the last vector left out)
+  const int nb = (nx + kLanes - 1) / kLanes;
+  const VecIndex to_left = {7, 8, 9, 10, 11, 12, 13, 14}, to_right = {1, 2, 3, 4, 5, 6, 7, 8};
+  Vec prev = U[-1], c = U[0];
+  if (!measure && !has_z) {
+    for (int j = 0; j < nb; ++j) {
+      const Vec next = U[j + 1];
+      const Vec left = __builtin_shuffle(prev, c, to_left), right = __builtin_shuffle(c, next, to_right);
+      const Vec d = S[j] - (dd + G[j]) * c + dcx * (left + right) + wym * YM[j] + wyp * YP[j];
+      O[j] = c + d;
+      prev = c;
+      c = next;
+    }
+  } else if (!measure) {
+    for (int j = 0; j < nb; ++j) {
+      const Vec next = U[j + 1];
+      const Vec left = __builtin_shuffle(prev, c, to_left), right = __builtin_shuffle(c, next, to_right);
+      Vec d = S[j] - (dd + G[j]) * c + dcx * (left + right) + wym * YM[j] + wyp * YP[j];
+      d += wzm * ZM[j] + wzp * ZP[j];
+      O[j] = c + d;
+      prev = c;
+      c = next;
+    }
+  } else {
+    const VecIndex lane = {0, 1, 2, 3, 4, 5, 6, 7};
+    const int last_lane = (nx - 1) % kLanes;
+    Vec sum = {};
+    for (int j = 0; j < nb; ++j) {
+      const Vec next = U[j + 1];
+      const Vec left = __builtin_shuffle(prev, c, to_left), right = __builtin_shuffle(c, next, to_right);
+      Vec d = S[j] - (dd + G[j]) * c + dcx * (left + right) + wym * YM[j] + wyp * YP[j];
+      if (has_z) d += wzm * ZM[j] + wzp * ZP[j];
+      O[j] = c + d;
+      // d^2 over the row's voxels (the padding lanes of the last vector left out).
       const Vec dm = lane <= (j + 1 < nb ? kLanes - 1 : last_lane) ? d : Vec{};
       sum += dm * dm;
+      prev = c;
+      c = next;
     }
-    prev = c;
-    c = next;
-  }
-  if (measure) {
     float a = 0.f;
     for (int l = 0; l < kLanes; ++l) a += sum[l];
     acc = a;
   }
+  out[-1] = out[0], out[nx] = out[nx - 1];
 }
 
 // A tile: planes [p0, p1) x rows [q0, q1) of the output level. Planes are z-slices in 3D
@@ -137,8 +159,9 @@ struct PaddedSystem {
   int64_t rows;
   AlignedFloats g;
   std::vector<AlignedFloats> s, v, next;
-  float* row(AlignedFloats& a, int64_t yz) const { return a.data() + yz * stride; }
-  const float* row(const AlignedFloats& a, int64_t yz) const { return a.data() + yz * stride; }
+  // The first voxel of row yz (after the row's left ghost vector).
+  float* row(AlignedFloats& a, int64_t yz) const { return a.data() + yz * stride + kLanes; }
+  const float* row(const AlignedFloats& a, int64_t yz) const { return a.data() + yz * stride + kLanes; }
 };
 
 // The weights of one explicit step, times dt: dcx, dcy, dcz = dt mu / h^2 per axis.
@@ -173,9 +196,9 @@ class Wavefront {
       int q_first;
     };
     auto plane_at = [&](int t, int p) -> PlaneRef {
-      if (t == 0) return {sys.v[k].data() + p * plane_size, 0};
-      if (t == T) return {sys.next[k].data() + p * plane_size, 0};
-      return {ring + (int64_t(t - 1) * 3 + (p - base_p) % 3) * rows_ * stride_, base_q};
+      if (t == 0) return {sys.v[k].data() + p * plane_size + kLanes, 0};
+      if (t == T) return {sys.next[k].data() + p * plane_size + kLanes, 0};
+      return {ring + (int64_t(t - 1) * 3 + (p - base_p) % 3) * rows_ * stride_ + kLanes, base_q};
     };
     auto row_of = [&](const PlaneRef& plane, int q) { return plane.first + int64_t(q - plane.q_first) * stride_; };
     const float w_across = three_d_ ? w.dcz : w.dcy;
@@ -254,25 +277,28 @@ GvfSolveStats solve_explicit(Level& L, const std::vector<const std::vector<float
 
   // The padded copy: g = dt b, s_k = g c_k, v_k; copied back into v at the end.
   PaddedSystem sys;
-  sys.nx = L.nx, sys.stride = (L.nx + kLanes - 1) / kLanes * kLanes, sys.rows = rows;
+  sys.nx = L.nx, sys.stride = ((L.nx + kLanes - 1) / kLanes + 2) * kLanes, sys.rows = rows;
   const size_t padded = size_t(rows) * sys.stride;
-  // Written in full below (padding included) or, for next, by the first block before any read.
+  // g, s and v are written in full below (ghosts and padding included); next is zeroed, so that
+  // the padding lanes its blocks compute from it stay finite.
   sys.g = AlignedFloats(padded, false);
   for (int k = 0; k < K; ++k)
-    sys.s.emplace_back(padded, false), sys.v.emplace_back(padded, false), sys.next.emplace_back(padded, false);
-  const int pad = sys.stride - L.nx;
+    sys.s.emplace_back(padded, false), sys.v.emplace_back(padded, false), sys.next.emplace_back(padded, true);
+  const int tail = sys.stride - kLanes - L.nx;  // padding after the row's last voxel
 #pragma omp parallel for schedule(static) if(parallel)
   for (int64_t yz = 0; yz < rows; ++yz) {
     const int64_t src = yz * L.nx;
     float* g = sys.row(sys.g, yz);
     for (int x = 0; x < L.nx; ++x) g[x] = dt * L.b[src + x];
-    std::fill_n(g + L.nx, pad, 0.f);
+    std::fill_n(g - kLanes, kLanes, 0.f), std::fill_n(g + L.nx, tail, 0.f);
     for (int k = 0; k < K; ++k) {
       float *s = sys.row(sys.s[k], yz), *vk = sys.row(sys.v[k], yz);
       const float *ck = c[k]->data() + src, *v0 = v[k]->data() + src;
       for (int x = 0; x < L.nx; ++x) s[x] = g[x] * ck[x];
       std::copy_n(v0, L.nx, vk);
-      std::fill_n(s + L.nx, pad, 0.f), std::fill_n(vk + L.nx, pad, 0.f);
+      std::fill_n(s - kLanes, kLanes, 0.f), std::fill_n(s + L.nx, tail, 0.f);
+      std::fill_n(vk - kLanes, kLanes, 0.f), std::fill_n(vk + L.nx, tail, 0.f);
+      vk[-1] = vk[0], vk[L.nx] = vk[L.nx - 1];  // the zero-flux ghosts
     }
   }
 
