@@ -50,7 +50,10 @@ struct Hash128 {
 template <int D>
 std::string field_cache_key(const Image<D>& image, const std::string& type, const std::string& parameters) {
   Hash128 h;
-  const std::string head = "dsnake-field-cache-1 D=" + std::to_string(D) + " type=" + type + " " + parameters;
+  // The generation tag changes whenever a field's numerics change (2: the GVF solvers' padded
+  // kernels and fused multigrid passes, last bits), so that a cache never serves a field that
+  // this build would not compute bit for bit.
+  const std::string head = "dsnake-field-cache-2 D=" + std::to_string(D) + " type=" + type + " " + parameters;
   h.words(head.data(), head.size());
   const Grid<D>& g = image.grid();
   for (int a = 0; a < D; ++a) {
