@@ -47,6 +47,8 @@ constexpr int kTileRows3d = 72;
 // computed once per solve: per voxel the kernel loads the five stencil rows (the x neighbours
 // come from shuffles of aligned vectors) and two coefficients.
 constexpr int kLanes = 8;
+// A Vec must point into an AlignedFloats: outside the AVX2 clone alignof(Vec) is only 16, so
+// containers of Vec are not 32-byte aligned, and the clone's aligned loads would fault on them.
 using Vec = float __attribute__((vector_size(kLanes * sizeof(float))));
 using VecIndex = int __attribute__((vector_size(kLanes * sizeof(int))));
 
