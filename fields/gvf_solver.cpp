@@ -27,7 +27,14 @@ using Vec8Index = int __attribute__((vector_size(32)));
 // neighbours are all 0), 0 on the others (written, so that v need not be cleared beforehand).
 DSNAKE_VECTOR_CLONES
 void start_row(float* __restrict u0, const float* __restrict f, const float* __restrict inv, int nx, int first) {
-  for (int i = 0; i < nx; ++i) u0[i] = (i & 1) == first ? f[i] * inv[i] : 0.f;
+  const Vec8Index lane = {0, 1, 2, 3, 4, 5, 6, 7};
+  const Vec8Index store = (lane & 1) == first;  // lane l of a vector at i % 8 == 0
+  int i = 0;
+  for (; i + 8 <= nx; i += 8) {
+    const Vec8 v = *reinterpret_cast<const Vec8*>(f + i) * *reinterpret_cast<const Vec8*>(inv + i);
+    *reinterpret_cast<Vec8*>(u0 + i) = store ? v : Vec8{};
+  }
+  for (; i < nx; ++i) u0[i] = (i & 1) == first ? f[i] * inv[i] : 0.f;
 }
 
 // Red-black Gauss-Seidel on one row of one field, the voxels from `first` in steps of 2:
