@@ -59,6 +59,7 @@ void DdgvfField<D>::compute(const Image<D>& image) {
 #pragma omp parallel num_threads(threads) if(threads > 1)
   {
     std::vector<float> b_masked(n), source(n);
+    GvfWorkspace workspace;  // this thread's solves share one multigrid hierarchy
 #pragma omp for schedule(dynamic, 1)
     for (int job = 0; job < 2 * D; ++job) {
       const int a = job / 2, sign = job % 2;
@@ -71,7 +72,7 @@ void DdgvfField<D>::compute(const Image<D>& image) {
       std::vector<float>& u = components_[a][sign].data();
       u = source;  // initial guess, as for GVF
       try {
-        solve_gvf(grid, b_masked, {&source}, {&u}, options_.solve);
+        solve_gvf(grid, b_masked, {&source}, {&u}, options_.solve, &workspace);
       } catch (...) {
         errors[job] = std::current_exception();
       }

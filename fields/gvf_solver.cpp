@@ -423,9 +423,9 @@ constexpr int kPreSmooth = 2, kPostSmooth = 2;  // red-black sweeps per V-cycle 
 // The multigrid hierarchy for one solve: levels, and the coarsest grid's factorisation.
 class Multigrid {
  public:
-  Multigrid(const Level& finest_shape, const std::vector<float>& b, int K, double mu) : mu_(mu) {
+  // The hierarchy for grids shaped like finest_shape and K fields, with weights b.
+  Multigrid(const Level& finest_shape, const std::vector<float>& b, int K, double mu) : mu_(mu), K_(K) {
     levels_.push_back(finest_shape);
-    levels_[0].b = b;
     for (;;) {
       Level& F = levels_.back();
       alloc(F, K);
@@ -444,10 +444,31 @@ class Multigrid {
       }
       if (!any) break;
       C.nx = cn[0], C.ny = cn[1], C.nz = cn[2];
-      C.b.resize(C.size());
       transfers_.push_back(transfer(F, C));
-      restrict_to(F, C, transfers_.back(), true, F.b.data(), C.b.data());
       levels_.push_back(std::move(C));
+    }
+    set_weights(b);
+  }
+
+  // True if this hierarchy serves grids shaped like `shape` with K fields and this mu.
+  bool fits(const Level& shape, int K, double mu) const {
+    const Level& F = levels_[0];
+    return F.nx == shape.nx && F.ny == shape.ny && F.nz == shape.nz && F.h[0] == shape.h[0] &&
+           F.h[1] == shape.h[1] && F.h[2] == shape.h[2] && K == K_ && mu == mu_;
+  }
+
+  // New weights b on the same grids (no allocation): b on every level (averaged down), 1 / A_ii,
+  // and the coarsest factorisation, exactly as a new hierarchy would compute them.
+  void set_weights(const std::vector<float>& b) {
+    levels_[0].b = b;
+    for (size_t l = 0; l < levels_.size(); ++l) {
+      Level& F = levels_[l];
+      inverse_diagonal(F, coupling(F, mu_));
+      if (l + 1 < levels_.size()) {
+        Level& C = levels_[l + 1];
+        C.b.resize(C.size());
+        restrict_to(F, C, transfers_[l], true, F.b.data(), C.b.data());
+      }
     }
     factor_coarsest();
   }
@@ -472,8 +493,7 @@ class Multigrid {
   }
 
  private:
-  void alloc(Level& L, int K) const {
-    inverse_diagonal(L, coupling(L, mu_));
+  static void alloc(Level& L, int K) {
     L.v.assign(K, std::vector<float>(L.size()));
     L.rhs.assign(K, std::vector<float>(L.size()));
     L.res.assign(K, std::vector<float>(L.size()));
@@ -515,10 +535,23 @@ class Multigrid {
   }
 
   double mu_;
+  int K_;
   std::vector<Level> levels_;
   std::vector<Transfer> transfers_;  // from level l to l + 1
   Eigen::LDLT<Eigen::MatrixXd> coarsest_;
 };
+
+}  // namespace
+
+// A caller's workspace: the last multigrid hierarchy and the PCG vectors.
+struct GvfWorkspace::Impl {
+  std::unique_ptr<Multigrid> multigrid;
+  std::vector<std::vector<float>> r, p;
+};
+GvfWorkspace::GvfWorkspace() : impl_(std::make_unique<Impl>()) {}
+GvfWorkspace::~GvfWorkspace() = default;
+
+namespace {
 
 double dot(const std::vector<float>& a, const std::vector<float>& b) {
   constexpr int64_t kChunk = 4096;
@@ -579,9 +612,15 @@ void apply_row(const float* u, float* res, const float* __restrict b, const RowN
 // modes. The K fields run K independent CG recurrences that share the V-cycles' passes.
 GvfSolveStats solve_multigrid_pcg(Level shape, const std::vector<float>& b,
                                   const std::vector<const std::vector<float>*>& c,
-                                  const std::vector<std::vector<float>*>& x, const GvfSolveOptions& o) {
+                                  const std::vector<std::vector<float>*>& x, const GvfSolveOptions& o,
+                                  GvfWorkspace::Impl& ws) {
   const int K = int(x.size());
-  Multigrid mg(shape, b, K, o.mu);
+  if (ws.multigrid && ws.multigrid->fits(shape, K, o.mu)) {
+    ws.multigrid->set_weights(b);
+  } else {
+    ws.multigrid = std::make_unique<Multigrid>(shape, b, K, o.mu);
+  }
+  Multigrid& mg = *ws.multigrid;
   Level& L = mg.levels()[0];
   const int64_t n = L.size(), rows = int64_t(L.ny) * L.nz;
   const Coupling cp = coupling(L, o.mu);
@@ -592,8 +631,10 @@ GvfSolveStats solve_multigrid_pcg(Level shape, const std::vector<float>& b,
     for (int64_t l = 0; l < n; ++l) L.rhs[k][l] = b[l] * (*c[k])[l];
   }
   const auto [r2_start, f2] = residual(L, cp, true);
-  std::vector<std::vector<float>> r(K), p(K, std::vector<float>(n));
-  for (int k = 0; k < K; ++k) r[k].swap(L.res[k]), L.res[k].resize(n);
+  std::vector<std::vector<float>>& r = ws.r;
+  std::vector<std::vector<float>>& p = ws.p;
+  r.resize(K), p.resize(K);
+  for (int k = 0; k < K; ++k) r[k].swap(L.res[k]), L.res[k].resize(n), p[k].resize(n);
   GvfSolveStats st;
   auto relative = [&](double r2) { return f2 > 0 ? std::sqrt(r2 / f2) : (r2 > 0 ? 1.0 : 0.0); };
   st.relative_residual = relative(r2_start);
@@ -654,7 +695,7 @@ GvfSolveStats solve_multigrid_pcg(Level shape, const std::vector<float>& b,
 template <int D>
 GvfSolveStats solve_gvf(const Grid<D>& grid, const std::vector<float>& b,
                         const std::vector<const std::vector<float>*>& c, const std::vector<std::vector<float>*>& v,
-                        const GvfSolveOptions& o) {
+                        const GvfSolveOptions& o, GvfWorkspace* workspace) {
   DSNAKE_ASSERT(o.mu > 0, "GVF: mu > 0");
   DSNAKE_ASSERT(c.size() == v.size(), "GVF: one source per field");
   const int64_t n = grid.num_voxels();
@@ -682,7 +723,16 @@ GvfSolveStats solve_gvf(const Grid<D>& grid, const std::vector<float>& b,
     return solve_explicit(shape, c, v, o, rhs_norm2);
   }
   DSNAKE_ASSERT(o.solver == "multigrid", "GVF: solver is explicit or multigrid");
-  return solve_multigrid_pcg(shape, b, c, v, o);
+  if (workspace) return solve_multigrid_pcg(shape, b, c, v, o, workspace->impl());
+  GvfWorkspace::Impl local;
+  return solve_multigrid_pcg(shape, b, c, v, o, local);
+}
+
+template <int D>
+GvfSolveStats solve_gvf(const Grid<D>& grid, const std::vector<float>& b,
+                        const std::vector<const std::vector<float>*>& c, const std::vector<std::vector<float>*>& v,
+                        const GvfSolveOptions& o) {
+  return solve_gvf(grid, b, c, v, o, nullptr);
 }
 
 template <int D>
@@ -706,6 +756,10 @@ template GvfSolveStats solve_gvf(const Grid<2>&, const std::vector<float>&, cons
                                  const std::vector<std::vector<float>*>&, const GvfSolveOptions&);
 template GvfSolveStats solve_gvf(const Grid<3>&, const std::vector<float>&, const std::vector<const std::vector<float>*>&,
                                  const std::vector<std::vector<float>*>&, const GvfSolveOptions&);
+template GvfSolveStats solve_gvf(const Grid<2>&, const std::vector<float>&, const std::vector<const std::vector<float>*>&,
+                                 const std::vector<std::vector<float>*>&, const GvfSolveOptions&, GvfWorkspace*);
+template GvfSolveStats solve_gvf(const Grid<3>&, const std::vector<float>&, const std::vector<const std::vector<float>*>&,
+                                 const std::vector<std::vector<float>*>&, const GvfSolveOptions&, GvfWorkspace*);
 template double gvf_relative_residual(const Grid<2>&, const std::vector<float>&,
                                       const std::vector<const std::vector<float>*>&,
                                       const std::vector<const std::vector<float>*>&, double);

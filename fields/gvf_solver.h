@@ -18,6 +18,7 @@
 
 #include "framework/image.h"
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -37,12 +38,33 @@ struct GvfSolveStats {
   double time_step = 0.0;          // explicit: the step used
 };
 
+// Memory a caller may keep across multigrid solves on one grid (DDGVF's 2D components): the
+// hierarchy and the solver's vectors are then allocated (and paged in) once. Results are the
+// same bits with or without it. One workspace per thread.
+class GvfWorkspace {
+ public:
+  GvfWorkspace();
+  ~GvfWorkspace();
+  GvfWorkspace(const GvfWorkspace&) = delete;
+  GvfWorkspace& operator=(const GvfWorkspace&) = delete;
+  struct Impl;
+  Impl& impl() { return *impl_; }
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
 // Solves for v (in: initial guess; out: solution), given b and the sources c (same sizes as the
-// grid). Throws InputError naming "field.time_step" if an explicit step is unstable.
+// grid). Throws InputError naming "field.time_step" if an explicit step is unstable. The
+// second form reuses `workspace` (may be null) for the multigrid solver.
 template <int D>
 GvfSolveStats solve_gvf(const Grid<D>& grid, const std::vector<float>& b,
                         const std::vector<const std::vector<float>*>& c, const std::vector<std::vector<float>*>& v,
                         const GvfSolveOptions& options);
+template <int D>
+GvfSolveStats solve_gvf(const Grid<D>& grid, const std::vector<float>& b,
+                        const std::vector<const std::vector<float>*>& c, const std::vector<std::vector<float>*>& v,
+                        const GvfSolveOptions& options, GvfWorkspace* workspace);
 
 // The relative residual |b c - A v|_2 / |b c|_2 (1 when b c = 0 and v != 0, 0 when both vanish).
 template <int D>
