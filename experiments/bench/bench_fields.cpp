@@ -8,6 +8,7 @@
 #include "fields/distance.h"
 #include "fields/edge_map.h"
 #include "fields/gvf.h"
+#include "fields/gvf_grid.h"
 #include "fields/gvf_solver.h"
 #include "fields/vfc.h"
 
@@ -70,6 +71,28 @@ void BM_GvfExplicit100_2d(benchmark::State& state) {
   run_solver<2>(state, o);
 }
 BENCHMARK(BM_GvfExplicit100_2d)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The explicit 2D solve at a given wavefront depth (range 1; 1 = the plain double-buffered loop),
+// through the solver's internal entry point: does the depth (the rows' way through the caches)
+// matter?
+void BM_GvfExplicitDepth2d(benchmark::State& state) {
+  omp_set_num_threads(1);
+  const GvfSystem<2>& s = gvf_system<2>();
+  gvf_detail::Level L = gvf_detail::level_of(s.edges.grid);
+  L.b = s.b;
+  double rhs_norm2 = 0;
+  std::array<std::vector<float>, 2> v;
+  std::vector<const std::vector<float>*> c;
+  std::vector<std::vector<float>*> out;
+  for (int a = 0; a < 2; ++a) c.push_back(&s.edges.grad_f[a]), out.push_back(&v[a]);
+  GvfSolveOptions o;
+  o.solver = "explicit", o.mu = 0.2, o.iterations = 100, o.tolerance = 0;
+  for (auto _ : state) {
+    for (int a = 0; a < 2; ++a) v[a] = s.edges.grad_f[a];
+    gvf_detail::solve_explicit(L, c, out, o, rhs_norm2 + 1.0, static_cast<int>(state.range(0)));
+  }
+}
+BENCHMARK(BM_GvfExplicitDepth2d)->Arg(1)->Arg(2)->Arg(4)->Arg(10)->Arg(16)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_GvfMultigridConverged3d(benchmark::State& state) {
   GvfSolveOptions o;
