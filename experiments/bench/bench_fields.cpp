@@ -80,7 +80,6 @@ void BM_GvfExplicitDepth2d(benchmark::State& state) {
   const GvfSystem<2>& s = gvf_system<2>();
   gvf_detail::Level L = gvf_detail::level_of(s.edges.grid);
   L.b = s.b;
-  double rhs_norm2 = 0;
   std::array<std::vector<float>, 2> v;
   std::vector<const std::vector<float>*> c;
   std::vector<std::vector<float>*> out;
@@ -89,7 +88,8 @@ void BM_GvfExplicitDepth2d(benchmark::State& state) {
   o.solver = "explicit", o.mu = 0.2, o.iterations = 100, o.tolerance = 0;
   for (auto _ : state) {
     for (int a = 0; a < 2; ++a) v[a] = s.edges.grad_f[a];
-    gvf_detail::solve_explicit(L, c, out, o, rhs_norm2 + 1.0, static_cast<int>(state.range(0)));
+    // (The rhs norm only scales the reported residual; tolerance 0 runs all 100 iterations.)
+    gvf_detail::solve_explicit(L, c, out, o, 1.0, static_cast<int>(state.range(0)));
   }
 }
 BENCHMARK(BM_GvfExplicitDepth2d)->Arg(1)->Arg(2)->Arg(4)->Arg(10)->Arg(16)->Unit(benchmark::kMillisecond)->UseRealTime();
