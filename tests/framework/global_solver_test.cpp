@@ -158,17 +158,31 @@ TEST(GlobalSolver, EveryResidualPassesTheGradientChecker) {
   check_energies<3>(wobbly_sphere(1, 10.0), specs, 12);
 }
 
-// Procrustes with scale: the RMS distance from q to the best similarity image of p, and its scale.
+// Procrustes with scale (Umeyama 1991): the RMS distance from q to the best similarity image of
+// p, and its scale. Written out on dynamic-size matrices: Eigen::umeyama's fixed-size 2D
+// instantiation draws a spurious -Wstringop-overread from GCC 12.
 template <int D>
 double similarity_rms(const PointList<D>& p, const PointList<D>& q, double& scale) {
-  Eigen::Matrix<double, D, Eigen::Dynamic> a(D, p.size()), b(D, q.size());
-  for (size_t i = 0; i < p.size(); ++i) a.col(i) = p[i], b.col(i) = q[i];
-  const Eigen::Matrix<double, D + 1, D + 1> t = Eigen::umeyama(a, b, true);
-  scale = std::pow(std::abs(t.template topLeftCorner<D, D>().determinant()), 1.0 / D);
+  const double n = double(p.size());
+  Eigen::VectorXd mp = Eigen::VectorXd::Zero(D), mq = Eigen::VectorXd::Zero(D);
+  for (size_t i = 0; i < p.size(); ++i) mp += Eigen::VectorXd(p[i]) / n, mq += Eigen::VectorXd(q[i]) / n;
+  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(D, D);
+  double var_p = 0;
+  for (size_t i = 0; i < p.size(); ++i) {
+    const Eigen::VectorXd dp = Eigen::VectorXd(p[i]) - mp, dq = Eigen::VectorXd(q[i]) - mq;
+    cov += dq * dp.transpose() / n;
+    var_p += dp.squaredNorm() / n;
+  }
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(cov, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::VectorXd sign = Eigen::VectorXd::Ones(D);
+  if (svd.matrixU().determinant() * svd.matrixV().determinant() < 0) sign[D - 1] = -1;
+  const Eigen::MatrixXd rotation = svd.matrixU() * sign.asDiagonal() * svd.matrixV().transpose();
+  scale = svd.singularValues().dot(sign) / var_p;
+  const Eigen::VectorXd shift = mq - scale * rotation * mp;
   double sum = 0;
   for (size_t i = 0; i < p.size(); ++i)
-    sum += (t.template topLeftCorner<D, D>() * p[i] + t.template topRightCorner<D, 1>() - q[i]).squaredNorm();
-  return std::sqrt(sum / p.size());
+    sum += (scale * rotation * Eigen::VectorXd(p[i]) + shift - Eigen::VectorXd(q[i])).squaredNorm();
+  return std::sqrt(sum / n);
 }
 
 template <int D>
