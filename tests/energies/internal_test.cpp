@@ -238,7 +238,7 @@ Snake<3> jittered_icosphere_snake(unsigned seed, double jitter) {
 TEST(InternalEnergy, ChebyshevWithinItsBoundOfTheDirectStep3d) {
   const Snake<3> snake = jittered_icosphere_snake(2, 0.4);
   const int n = snake.num_vertices();
-  for (const InternalOptions base : {InternalOptions{0.1, 0.0, 1.0}, InternalOptions{0.5, 0.01, 1.0},
+  for (const InternalOptions& base : {InternalOptions{0.1, 0.0, 1.0}, InternalOptions{0.5, 0.01, 1.0},
                                      InternalOptions{3.0, 1.0, 1.0}}) {
     InternalOptions direct_options = base;
     direct_options.solver = "direct";
