@@ -92,17 +92,22 @@ void smooth_row(float* u, const float* rhs, const float* __restrict inv_diag, co
   if (((nx - 1) & 1) == first) one(nx - 1, cx, 0.f);
 }
 
-// out = rhs - A u on one row: A u = b u + sum over existing neighbours of w (u - u_nb).
-DSNAKE_VECTOR_CLONES
-void residual_row(const float* u, const float* rhs, float* res, const float* __restrict b, const RowNeighbours& r,
-                  float cx, int nx) {
-  const float* __restrict f = rhs + r.row;
+// out = rhs - A u (kResidual) or out = A u on one row, A u = b u + sum over the existing
+// neighbours of w (u - u_nb); rhs is not read for A u. Each form keeps its own order of
+// operations. Always inlined, so that it compiles inside each caller's vector clones.
+template <bool kResidual>
+[[gnu::always_inline]] inline void stencil_row(const float* u, const float* rhs, float* res, const float* __restrict b,
+                                               const RowNeighbours& r, float cx, int nx) {
+  const float* __restrict f = kResidual ? rhs + r.row : nullptr;
   const float *__restrict u0 = u + r.row, *__restrict uym = u + r.ym, *__restrict uyp = u + r.yp,
               *__restrict uzm = u + r.zm, *__restrict uzp = u + r.zp;
   float* __restrict out = res + r.row;
   const float wym = r.wym, wyp = r.wyp, wzm = r.wzm, wzp = r.wzp, side = wym + wyp + wzm + wzp;
   auto at = [&](int i, float lap_x, float wx) {
-    return f[i] + lap_x + wym * uym[i] + wyp * uyp[i] + wzm * uzm[i] + wzp * uzp[i] - (side + wx + b[i]) * u0[i];
+    if constexpr (kResidual)
+      return f[i] + lap_x + wym * uym[i] + wyp * uyp[i] + wzm * uzm[i] + wzp * uzp[i] - (side + wx + b[i]) * u0[i];
+    else
+      return (side + wx + b[i]) * u0[i] - lap_x - wym * uym[i] - wyp * uyp[i] - wzm * uzm[i] - wzp * uzp[i];
   };
   if (nx == 1) {
     out[0] = at(0, 0.f, 0.f);
@@ -110,10 +115,28 @@ void residual_row(const float* u, const float* rhs, float* res, const float* __r
   }
   out[0] = at(0, cx * u0[1], cx);
   const float diag = side + 2.f * cx;  // spelled out: a lambda would not inline into the AVX2 clone
-  for (int i = 1; i < nx - 1; ++i)
-    out[i] = f[i] + cx * (u0[i - 1] + u0[i + 1]) + wym * uym[i] + wyp * uyp[i] + wzm * uzm[i] + wzp * uzp[i] -
-             (diag + b[i]) * u0[i];
+  for (int i = 1; i < nx - 1; ++i) {
+    if constexpr (kResidual)
+      out[i] = f[i] + cx * (u0[i - 1] + u0[i + 1]) + wym * uym[i] + wyp * uyp[i] + wzm * uzm[i] + wzp * uzp[i] -
+               (diag + b[i]) * u0[i];
+    else
+      out[i] = (diag + b[i]) * u0[i] - cx * (u0[i - 1] + u0[i + 1]) - wym * uym[i] - wyp * uyp[i] - wzm * uzm[i] -
+               wzp * uzp[i];
+  }
   out[nx - 1] = at(nx - 1, cx * u0[nx - 2], cx);
+}
+
+// out = rhs - A u on one row.
+DSNAKE_VECTOR_CLONES
+void residual_row(const float* u, const float* rhs, float* res, const float* __restrict b, const RowNeighbours& r,
+                  float cx, int nx) {
+  stencil_row<true>(u, rhs, res, b, r, cx, nx);
+}
+
+// out = A u on one row (the product PCG needs).
+DSNAKE_VECTOR_CLONES
+void apply_row(const float* u, float* res, const float* __restrict b, const RowNeighbours& r, float cx, int nx) {
+  stencil_row<false>(u, nullptr, res, b, r, cx, nx);
 }
 
 }  // namespace
@@ -581,28 +604,6 @@ double update_and_norm(float* __restrict x, float* __restrict r, const float* __
   double s = 0;
   for (double v : part) s += v;
   return s;
-}
-
-// out = A u on one row (as residual_row with rhs = 0, sign flipped).
-DSNAKE_VECTOR_CLONES
-void apply_row(const float* u, float* res, const float* __restrict b, const RowNeighbours& r, float cx, int nx) {
-  const float *__restrict u0 = u + r.row, *__restrict uym = u + r.ym, *__restrict uyp = u + r.yp,
-              *__restrict uzm = u + r.zm, *__restrict uzp = u + r.zp;
-  float* __restrict out = res + r.row;
-  const float wym = r.wym, wyp = r.wyp, wzm = r.wzm, wzp = r.wzp, side = wym + wyp + wzm + wzp;
-  auto at = [&](int i, float lap_x, float wx) {
-    return (side + wx + b[i]) * u0[i] - lap_x - wym * uym[i] - wyp * uyp[i] - wzm * uzm[i] - wzp * uzp[i];
-  };
-  if (nx == 1) {
-    out[0] = at(0, 0.f, 0.f);
-    return;
-  }
-  out[0] = at(0, cx * u0[1], cx);
-  const float diag = side + 2.f * cx;  // spelled out: a lambda would not inline into the AVX2 clone
-  for (int i = 1; i < nx - 1; ++i)
-    out[i] = (diag + b[i]) * u0[i] - cx * (u0[i - 1] + u0[i + 1]) - wym * uym[i] - wyp * uyp[i] - wzm * uzm[i] -
-             wzp * uzp[i];
-  out[nx - 1] = at(nx - 1, cx * u0[nx - 2], cx);
 }
 
 // Conjugate gradients on A x = b c, preconditioned by one multigrid V-cycle per iteration (a
