@@ -7,8 +7,11 @@
 // from memory once per T iterations. The grid is cut into tiles (y-ranges of the slices in 3D,
 // ranges of rows in 2D) that a thread sweeps on its own: level t of a tile also computes the
 // T - t rows or planes around it that level t+1 reads (overlapped tiling: a little redundant
-// work, no synchronisation). The intermediate levels live in per-thread rings of three planes;
-// a tile is swept one field at a time (the fields share only g = dt b), which keeps the rings small.
+// work, no synchronisation). The intermediate levels live in one per-thread ring, in place: plane
+// p of level t overwrites plane p-1 of level t-1, which that very computation reads last, so the
+// ring holds about 2 T planes instead of 3 (T - 1), and the write lands on lines just read (no
+// fetch for ownership). A tile is swept one field at a time (the fields share only g = dt b),
+// which keeps the ring small.
 // Every voxel of every level is computed by the same row kernel from the same operands in the
 // same order as the plain iteration (T = 1), so the results are bit-identical for every block
 // depth, tile size and thread count. The solver works on its own padded copy of the system
@@ -20,6 +23,7 @@
 #include "framework/errors.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdlib>
 #include <memory>
@@ -88,18 +92,19 @@ struct RowInputs {
 // `measure`, also acc = sum of d^2 over the row's nx voxels, summed in kLanes partial sums in a
 // fixed order (the same for any thread count). The padding lanes are computed too (finite, never
 // read as data) and left out of acc. Three copies of the loop, so that the common ones (no
-// residual; 2D or 3D) carry no branch.
+// residual; 2D or 3D) carry no branch. `out` may be the row r.uym (2D) or r.uzm (3D) itself, the
+// in-place ring: voxel x is stored after it was read, nothing else reads that row.
 DSNAKE_VECTOR_CLONES
-void explicit_row(const RowInputs& r, const float* __restrict s, const float* __restrict g, float* __restrict out,
+void explicit_row(const RowInputs& r, const float* __restrict s, const float* __restrict g, float* out,
                   float dcx, float dd, int nx, bool measure, float& acc) {
   const Vec* __restrict U = reinterpret_cast<const Vec*>(__builtin_assume_aligned(r.u0, 32));
-  const Vec* __restrict YM = reinterpret_cast<const Vec*>(__builtin_assume_aligned(r.uym, 32));
+  const Vec* YM = reinterpret_cast<const Vec*>(__builtin_assume_aligned(r.uym, 32));
   const Vec* __restrict YP = reinterpret_cast<const Vec*>(__builtin_assume_aligned(r.uyp, 32));
-  const Vec* __restrict ZM = reinterpret_cast<const Vec*>(__builtin_assume_aligned(r.uzm, 32));
+  const Vec* ZM = reinterpret_cast<const Vec*>(__builtin_assume_aligned(r.uzm, 32));
   const Vec* __restrict ZP = reinterpret_cast<const Vec*>(__builtin_assume_aligned(r.uzp, 32));
   const Vec* __restrict S = reinterpret_cast<const Vec*>(__builtin_assume_aligned(s, 32));
   const Vec* __restrict G = reinterpret_cast<const Vec*>(__builtin_assume_aligned(g, 32));
-  Vec* __restrict O = reinterpret_cast<Vec*>(__builtin_assume_aligned(out, 32));
+  Vec* O = reinterpret_cast<Vec*>(__builtin_assume_aligned(out, 32));
   const float wym = r.wym, wyp = r.wyp, wzm = r.wzm, wzp = r.wzp;
   // Without z neighbours (2D) their zero-weight terms are left out: adding 0 * u changes no value.
   const bool has_z = wzm != 0.f || wzp != 0.f;
@@ -175,11 +180,12 @@ struct StepWeights {
 // rows; runs one field's wavefront over a tile. Row (p, q) of the grid is row p Q + q.
 class Wavefront {
  public:
-  // Sizes the rings (the only allocation): levels 1..max_depth-1, three planes each.
+  // Sizes the rings (the only allocation): levels 1..max_depth-1 share 2 max_depth planes
+  // (rounded up to a power of two), plane p of level t in slot p - t (see run_tile).
   Wavefront(const Level& L, int stride, int max_depth, int tile_rows, int threads)
       : nx_(L.nx), stride_(stride), three_d_(L.nz > 1), P_(three_d_ ? L.nz : L.ny), Q_(three_d_ ? L.ny : 1),
-        rows_(std::min(Q_, tile_rows + 2 * (max_depth - 1))) {
-    const size_t ring_size = size_t(std::max(0, max_depth - 1)) * 3 * rows_ * stride_;
+        rows_(std::min(Q_, tile_rows + 2 * (max_depth - 1))), slots_(int(std::bit_ceil(2u * unsigned(max_depth)))) {
+    const size_t ring_size = size_t(slots_) * rows_ * stride_;
     for (int i = 0; i < threads; ++i) rings_.emplace_back(ring_size);
   }
 
@@ -197,10 +203,13 @@ class Wavefront {
       float* first;
       int q_first;
     };
+    // Ring slot of plane p at level t: p - t, so that level t writes plane p over plane p-1 of
+    // level t-1. The planes still to be read at any moment (two per level, each level one plane
+    // behind the one before) span fewer than 2 T consecutive slots.
     auto plane_at = [&](int t, int p) -> PlaneRef {
       if (t == 0) return {sys.v[k].data() + p * plane_size + kLanes, 0};
       if (t == T) return {sys.next[k].data() + p * plane_size + kLanes, 0};
-      return {ring + (int64_t(t - 1) * 3 + (p - base_p) % 3) * rows_ * stride_ + kLanes, base_q};
+      return {ring + int64_t((p - t - base_p + 1) & (slots_ - 1)) * rows_ * stride_ + kLanes, base_q};
     };
     auto row_of = [&](const PlaneRef& plane, int q) { return plane.first + int64_t(q - plane.q_first) * stride_; };
     const float w_across = three_d_ ? w.dcz : w.dcy;
@@ -239,7 +248,7 @@ class Wavefront {
  private:
   int nx_, stride_;
   bool three_d_;
-  int P_, Q_, rows_;
+  int P_, Q_, rows_, slots_;
   std::vector<AlignedFloats> rings_;
 };
 
