@@ -126,11 +126,11 @@ double min_angle(const Point<3>& a, const Point<3>& b, const Point<3>& c) {
 }
 
 EditMesh::EditMesh(const Snake<3>& snake)
-    : pos_(snake.positions()), ids_(snake.template_ids()), vtri_(snake.num_vertices()) {
+    : pos_(snake.positions()), ids_(snake.template_ids()), vfan_(snake.num_vertices()) {
   const auto& c = snake.connectivity();
   const std::string problem = c.closed_manifold_problem();
   if (!problem.empty()) throw InputError("", "remeshing input mesh", problem);
-  for (auto& list : vtri_) list.reserve(8);  // valence 6 and a little more without regrowth
+  for (auto& list : vfan_) list.reserve(8);  // valence 6 and a little more without regrowth
   tri_.reserve(c.triangles().size() * 2);
   alive_.reserve(c.triangles().size() * 2);
   for (const auto& t : c.triangles()) add_triangle(t);
@@ -236,46 +236,36 @@ void EditMesh::grid_update(int f) const {
   grid_insert(f);
 }
 
-// Each triangle (v, a, b) of the fan links a -> b; the ring follows the links from the first
-// triangle's a. The links are gathered once into small arrays (no rescan of the triangles).
+void EditMesh::triangles_of(int v, std::vector<int>& out) const {
+  out.clear();
+  for (const Corner& c : vfan_[v]) out.push_back(c.f);
+}
+
+// Each triangle (v, a, b) of the fan links a -> b (a corner's next -> prev); the ring follows
+// the links from the first triangle's a.
 void EditMesh::ring(int v, std::vector<int>& out) const {
   out.clear();
-  const auto& fan = vtri_[v];
+  const auto& fan = vfan_[v];
   if (fan.empty()) return;
-  constexpr int kMax = 64;
-  std::array<int, kMax> from_small, to_small;
-  std::vector<int> from_big, to_big;
-  const int n = static_cast<int>(fan.size());
-  int* from = from_small.data();
-  int* to = to_small.data();
-  if (n > kMax) {
-    from_big.resize(n);
-    to_big.resize(n);
-    from = from_big.data();
-    to = to_big.data();
-  }
-  for (int i = 0; i < n; ++i) {
-    const auto& t = tri_[fan[i]];
-    const int k = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
-    from[i] = t[(k + 1) % 3];
-    to[i] = t[(k + 2) % 3];
-  }
-  const int start = from[0];
+  const int start = fan[0].next;
   int a = start;
   do {
     out.push_back(a);
-    const int* it = std::find(from, from + n, a);
-    a = it == from + n ? -1 : to[it - from];
+    int to = -1;
+    for (const Corner& c : fan)
+      if (c.next == a) {
+        to = c.prev;
+        break;
+      }
+    a = to;
   } while (a >= 0 && a != start && out.size() <= fan.size());
   DSNAKE_ASSERT(a == start && out.size() == fan.size(), "one-ring of a vertex is not a closed fan");
 }
 
+// The triangle (a, b, x): a's corner whose next is b.
 int EditMesh::face_with_edge(int a, int b) const {
-  for (int f : vtri_[a]) {
-    const auto& t = tri_[f];
-    for (int k = 0; k < 3; ++k)
-      if (t[k] == a && t[(k + 1) % 3] == b) return f;
-  }
+  for (const Corner& c : vfan_[a])
+    if (c.next == b) return c.f;
   return -1;
 }
 
@@ -290,13 +280,13 @@ void EditMesh::move_vertex(int v, const Point<3>& p) {
   pos_[v] = p;
   changed_ = true;
   if (grid_built_)
-    for (int f : vtri_[v]) grid_update(f);
+    for (const Corner& c : vfan_[v]) grid_update(c.f);
 }
 
 int EditMesh::add_vertex(const Point<3>& p) {
   pos_.push_back(p);
   ids_.push_back(-1);
-  vtri_.emplace_back();
+  vfan_.emplace_back();
   changed_ = connectivity_changed_ = true;
   return num_vertices() - 1;
 }
@@ -305,9 +295,10 @@ int EditMesh::add_triangle(const Triangle& t) {
   const int f = static_cast<int>(tri_.size());
   tri_.push_back(t);
   alive_.push_back(1);
-  for (int v : t) {
-    if (vtri_[v].empty()) ++live_vertices_;
-    vtri_[v].push_back(f);
+  for (int k = 0; k < 3; ++k) {
+    auto& fan = vfan_[t[k]];
+    if (fan.empty()) ++live_vertices_;
+    fan.push_back({f, t[(k + 1) % 3], t[(k + 2) % 3]});
   }
   if (grid_built_) grid_insert(f);
   changed_ = connectivity_changed_ = true;
@@ -318,9 +309,9 @@ void EditMesh::remove_triangle(int f) {
   if (!alive_[f]) return;
   alive_[f] = 0;
   for (int v : tri_[f]) {
-    auto& list = vtri_[v];
-    list.erase(std::find(list.begin(), list.end(), f));
-    if (list.empty()) --live_vertices_;
+    auto& fan = vfan_[v];
+    fan.erase(std::find_if(fan.begin(), fan.end(), [f](const Corner& c) { return c.f == f; }));
+    if (fan.empty()) --live_vertices_;
   }
   if (grid_built_) grid_erase(f);
   changed_ = connectivity_changed_ = true;
@@ -417,7 +408,7 @@ int EditMesh::commit(Snake<3>& snake) {
   PointList<3> q;
   std::vector<int> ids;
   for (int v = 0; v < num_vertices(); ++v) {
-    if (vtri_[v].empty()) {
+    if (vfan_[v].empty()) {
       DSNAKE_ASSERT(ids_[v] < 0, "a remesher dropped a deformation vertex");
       continue;
     }

@@ -25,6 +25,13 @@ double angle_at(const Point<3>& a, const Point<3>& b, const Point<3>& c);
 
 class EditMesh {
  public:
+  // A live triangle f at vertex v, with the corners that follow v in it: (v, next, prev) in
+  // counter-clockwise order. A vertex's corners answer face_with_edge() and ring() without
+  // touching the triangle array.
+  struct Corner {
+    int f, next, prev;
+  };
+
   // Copies the snake's positions, template ids and triangles; throws InputError (naming the
   // first bad element) if the snake is not a closed manifold mesh.
   explicit EditMesh(const Snake<3>& snake);
@@ -32,11 +39,13 @@ class EditMesh {
   int num_vertices() const { return static_cast<int>(pos_.size()); }
   const Point<3>& pos(int v) const { return pos_[v]; }
   bool is_free(int v) const { return ids_[v] < 0; }
-  bool vertex_alive(int v) const { return !vtri_[v].empty(); }
+  bool vertex_alive(int v) const { return !vfan_[v].empty(); }
   const Triangle& tri(int f) const { return tri_[f]; }
   bool tri_alive(int f) const { return alive_[f] != 0; }
   int num_triangle_slots() const { return static_cast<int>(tri_.size()); }
-  const std::vector<int>& triangles_of(int v) const { return vtri_[v]; }
+  // The live triangles at v (in the order they came), into `out`; or v's corners.
+  void triangles_of(int v, std::vector<int>& out) const;
+  std::span<const Corner> corners(int v) const { return vfan_[v]; }
   double mean_edge_length() const { return mean_edge_; }
   // Recomputes mean_edge_length() over the live triangles (a stage starting on a mesh that
   // earlier stages edited sees the same value as on a freshly built EditMesh).
@@ -46,7 +55,7 @@ class EditMesh {
 
   // Neighbours of v in counter-clockwise order (seen from outside), into `out`.
   void ring(int v, std::vector<int>& out) const;
-  int valence(int v) const { return static_cast<int>(vtri_[v].size()); }
+  int valence(int v) const { return static_cast<int>(vfan_[v].size()); }
   // The triangle holding the directed edge a->b, or -1.
   int face_with_edge(int a, int b) const;
   bool has_edge(int a, int b) const { return face_with_edge(a, b) >= 0 || face_with_edge(b, a) >= 0; }
@@ -86,7 +95,7 @@ class EditMesh {
   std::vector<int> ids_;
   std::vector<Triangle> tri_;
   std::vector<uint8_t> alive_;
-  std::vector<std::vector<int>> vtri_;  // live triangles per vertex
+  std::vector<std::vector<Corner>> vfan_;  // live triangles per vertex, as corners
   int live_vertices_ = 0;
   double mean_edge_ = 1;
   // The grid: dims_ cells of size cell_ from origin_ (the mesh's box when it was built; boxes

@@ -56,7 +56,7 @@ Collapse try_collapse(EditMesh& m, int a, int b, bool short_edge, const Simplify
   for (int x : ring_a)
     if (std::find(ring_b.begin(), ring_b.end(), x) != ring_b.end()) ++common;
   if (common != 2 || c == d) return Collapse::kTopology;
-  fan = m.triangles_of(a);  // a copy: the removals below edit a's list
+  m.triangles_of(a, fan);  // a copy: the removals below edit a's list
   fresh.clear();
   double error = 0;
   for (int f : fan) {
@@ -83,8 +83,8 @@ Collapse try_collapse(EditMesh& m, int a, int b, bool short_edge, const Simplify
   // The collapse may lower the fans' smallest angle only while it stays above 15 degrees.
   double old_min = 15 * std::numbers::pi / 180;
   for (int g : {a, b})
-    for (int f : m.triangles_of(g)) {
-      const auto& t = m.tri(f);
+    for (const EditMesh::Corner& corner : m.corners(g)) {
+      const auto& t = m.tri(corner.f);
       old_min = std::min(old_min, remesh_detail::min_angle(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
     }
   for (const auto& t : fresh)

@@ -108,7 +108,7 @@ RemeshReport UniformRemesher::run(EditMesh& m, const RemeshContext<3>&) {
       const Point<3> old = m.pos(v);
       // Moves below 1% of the mean edge are not worth their checks (the relaxation has converged).
       if ((*proposal[v] - old).squaredNorm() < 1e-4 * m.mean_edge_length() * m.mean_edge_length()) continue;
-      fan = m.triangles_of(v);
+      m.triangles_of(v, fan);
       if (fan.size() > 32) continue;  // valence > 32: beyond the batched check, left alone
       old_normals.clear();
       double old_min = kMinAngleFloor;

@@ -60,7 +60,7 @@ Triangle random_query(EditMesh& m, std::mt19937& rng, double size) {
   const int s = share(rng);
   if (s >= 1) t[0] = pick(rng);
   if (s == 2) {
-    const int f = m.triangles_of(t[0]).front();
+    const int f = m.corners(t[0]).front().f;
     const auto& g = m.tri(f);
     const int k = g[0] == t[0] ? 0 : (g[1] == t[0] ? 1 : 2);
     t[1] = g[(k + 2) % 3];  // the edge t[0] -> t[1] runs opposite to g's, as a neighbour would
