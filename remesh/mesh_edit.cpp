@@ -12,6 +12,12 @@ namespace dsnake::remesh_detail {
 
 namespace {
 
+// x as a float at most / at least x (box filters that never reject a real overlap): moved
+// outwards by 2^-20 relative (plus a tiny absolute term) before the conversion, whose
+// rounding is at most 2^-24 relative. Cheaper than nextafter, and only a filter.
+float float_down(double x) { return static_cast<float>(x - (std::abs(x) * 0x1p-20 + 1e-30)); }
+float float_up(double x) { return static_cast<float>(x + (std::abs(x) * 0x1p-20 + 1e-30)); }
+
 constexpr double kFoldCos = 0.990268;  // cos(8 degrees): closer than that across an edge is a fold
 
 // Closed segment [p, q] against the closed triangle (a, b, c), Moller-Trumbore; a segment
@@ -195,18 +201,21 @@ void EditMesh::grid_insert(int f) const {
   const auto& t = tri_[f];
   const Point<3> lo = pos_[t[0]].cwiseMin(pos_[t[1]]).cwiseMin(pos_[t[2]]);
   const Point<3> hi = pos_[t[0]].cwiseMax(pos_[t[1]]).cwiseMax(pos_[t[2]]);
-  if (box_lo_.size() <= static_cast<size_t>(f)) {
+  if (gbox_.size() <= static_cast<size_t>(f)) {
     const size_t n = std::max(tri_.capacity(), static_cast<size_t>(f) + 1);
-    box_lo_.resize(n);
-    box_hi_.resize(n);
+    gbox_.resize(n);
     range_.resize(n);
   }
-  box_lo_[f] = lo;
-  box_hi_[f] = hi;
+  set_box(f, lo, hi);
   const auto r = range_[f] = cell_range(lo, hi);
   for (int z = r[2]; z <= r[5]; ++z)
     for (int y = r[1]; y <= r[4]; ++y)
       for (int x = r[0]; x <= r[3]; ++x) cells_[x + static_cast<size_t>(dims_[0]) * (y + static_cast<size_t>(dims_[1]) * z)].push_back(f);
+}
+
+void EditMesh::set_box(int f, const Point<3>& lo, const Point<3>& hi) const {
+  GridBox& b = gbox_[f];
+  for (int k = 0; k < 3; ++k) b.lo[k] = float_down(lo[k]), b.hi[k] = float_up(hi[k]);
 }
 
 void EditMesh::grid_erase(int f) const {
@@ -228,8 +237,7 @@ void EditMesh::grid_update(int f) const {
   const Point<3> lo = pos_[t[0]].cwiseMin(pos_[t[1]]).cwiseMin(pos_[t[2]]);
   const Point<3> hi = pos_[t[0]].cwiseMax(pos_[t[1]]).cwiseMax(pos_[t[2]]);
   if (cell_range(lo, hi) == range_[f]) {
-    box_lo_[f] = lo;
-    box_hi_[f] = hi;
+    set_box(f, lo, hi);
     return;
   }
   grid_erase(f);
@@ -322,21 +330,23 @@ bool EditMesh::intersects(const Triangle& t, std::span<const int> ignore) const 
 }
 
 // Candidates come from the cells under the query's common box, each tested once (stamped,
-// the ignored ones stamped beforehand), box against box before the exact pair tests.
+// the ignored ones stamped beforehand), float box against float box (both rounded outwards,
+// so a real overlap always passes; without branches, which mispredict on such data) before the
+// exact pair tests, which take the double boxes.
 bool EditMesh::intersects_any(std::span<const Triangle> ts, std::span<const int> ignore) const {
   if (ts.empty()) return false;
   if (!grid_built_) build_grid();
-  if (stamp_.size() < tri_.size()) stamp_.resize(tri_.size() + tri_.size() / 2 + 16, 0);
   if (++query_ == 0) {  // wrap-around: clear the stamps
-    std::fill(stamp_.begin(), stamp_.end(), 0);
+    for (GridBox& b : gbox_) b.stamp = 0;
     query_ = 1;
   }
   for (int f : ignore)
-    if (f >= 0 && static_cast<size_t>(f) < stamp_.size()) stamp_[f] = query_;
+    if (f >= 0 && static_cast<size_t>(f) < gbox_.size()) gbox_[f].stamp = query_;
   // Corners and boxes of the query triangles, and their common box; the boxes padded once.
   constexpr int kMax = 32;
   std::array<std::array<Point<3>, 3>, kMax> p;
-  std::array<Point<3>, kMax> lo, hi, lo_pad, hi_pad;
+  std::array<Point<3>, kMax> lo, hi;
+  std::array<std::array<float, 6>, kMax> box;  // padded, in floats: lo[3], hi[3]
   const int n = static_cast<int>(ts.size());
   DSNAKE_ASSERT(n <= kMax, "too many query triangles");
   Point<3> all_lo = Point<3>::Constant(std::numeric_limits<double>::infinity()), all_hi = -all_lo;
@@ -345,37 +355,41 @@ bool EditMesh::intersects_any(std::span<const Triangle> ts, std::span<const int>
     p[i] = {pos_[ts[i][0]], pos_[ts[i][1]], pos_[ts[i][2]]};
     lo[i] = p[i][0].cwiseMin(p[i][1]).cwiseMin(p[i][2]);
     hi[i] = p[i][0].cwiseMax(p[i][1]).cwiseMax(p[i][2]);
-    lo_pad[i] = lo[i].array() - pad;
-    hi_pad[i] = hi[i].array() + pad;
+    for (int k = 0; k < 3; ++k) box[i][k] = float_down(lo[i][k] - pad), box[i][k + 3] = float_up(hi[i][k] + pad);
     all_lo = all_lo.cwiseMin(lo[i]);
     all_hi = all_hi.cwiseMax(hi[i]);
   }
   const Point<3> all_lo_pad = all_lo.array() - pad, all_hi_pad = all_hi.array() + pad;
-  // Box [flo, fhi] entirely beyond the padded box [qlo, qhi] along some axis.
-  auto apart = [](const Point<3>& flo, const Point<3>& fhi, const Point<3>& qlo, const Point<3>& qhi) {
-    return flo[0] > qhi[0] || flo[1] > qhi[1] || flo[2] > qhi[2] || fhi[0] < qlo[0] || fhi[1] < qlo[1] ||
-           fhi[2] < qlo[2];
+  std::array<float, 6> all;
+  for (int k = 0; k < 3; ++k) all[k] = float_down(all_lo_pad[k]), all[k + 3] = float_up(all_hi_pad[k]);
+  // Box b entirely beyond the query box q along some axis.
+  auto apart = [](const GridBox& b, const std::array<float, 6>& q) {
+    return (b.lo[0] > q[3]) | (b.lo[1] > q[4]) | (b.lo[2] > q[5]) | (b.hi[0] < q[0]) | (b.hi[1] < q[1]) |
+           (b.hi[2] < q[2]);
   };
   const auto r = cell_range(all_lo_pad, all_hi_pad);
   std::array<Point<3>, 3> q;
+  const uint32_t query = query_;
   for (int z = r[2]; z <= r[5]; ++z)
     for (int y = r[1]; y <= r[4]; ++y)
       for (int x = r[0]; x <= r[3]; ++x)
         for (int f : cells_[x + static_cast<size_t>(dims_[0]) * (y + static_cast<size_t>(dims_[1]) * z)]) {
-          if (stamp_[f] == query_) continue;
-          stamp_[f] = query_;
-          const Point<3>& flo = box_lo_[f];
-          const Point<3>& fhi = box_hi_[f];
-          if (apart(flo, fhi, all_lo_pad, all_hi_pad)) continue;
+          GridBox& b = gbox_[f];
+          const bool skip = (b.stamp == query) | apart(b, all);
+          b.stamp = query;
+          if (skip) continue;
           const auto& s = tri_[f];
-          bool loaded = false;  // f's corners, fetched for the first query triangle near it
+          bool loaded = false;  // f's corners and box, fetched for the first query triangle near it
+          Point<3> qlo, qhi;
           for (int i = 0; i < n; ++i) {
-            if (apart(flo, fhi, lo_pad[i], hi_pad[i])) continue;
+            if (apart(b, box[i])) continue;
             if (!loaded) {
               q = {pos_[s[0]], pos_[s[1]], pos_[s[2]]};
+              qlo = q[0].cwiseMin(q[1]).cwiseMin(q[2]);
+              qhi = q[0].cwiseMax(q[1]).cwiseMax(q[2]);
               loaded = true;
             }
-            if (pair_conflicts(ts[i], p[i], lo[i], hi[i], s, q, flo, fhi)) return true;
+            if (pair_conflicts(ts[i], p[i], lo[i], hi[i], s, q, qlo, qhi)) return true;
           }
         }
   return false;

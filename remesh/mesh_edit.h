@@ -89,6 +89,7 @@ class EditMesh {
   void grid_insert(int f) const;   // computes f's box and lists f in its cells
   void grid_erase(int f) const;    // unlists f from the cells of its stored range
   void grid_update(int f) const;   // after a move of one of f's corners
+  void set_box(int f, const Point<3>& lo, const Point<3>& hi) const;  // f's float box
   void build_grid() const;  // on the first intersects() call: stages that never ask pay nothing
 
   std::vector<Point<3>> pos_;
@@ -106,9 +107,15 @@ class EditMesh {
   mutable std::array<int, 3> dims_ = {0, 0, 0};
   mutable std::vector<std::vector<int>> cells_;
   mutable bool grid_built_ = false;
-  mutable std::vector<Point<3>> box_lo_, box_hi_;  // per triangle in the grid: its bounding box
+  // Per triangle in the grid: its bounding box in floats rounded outwards (a filter only: boxes
+  // apart in floats are apart), and the query that last tested it; one half cache line, so
+  // that a candidate costs one memory access.
+  struct GridBox {
+    float lo[3], hi[3];
+    uint32_t stamp = 0, unused = 0;
+  };
+  mutable std::vector<GridBox> gbox_;
   mutable std::vector<std::array<int, 6>> range_;  // per triangle in the grid: its cell range
-  mutable std::vector<uint32_t> stamp_;  // per triangle: the query that last tested it
   mutable uint32_t query_ = 0;
   bool changed_ = false;            // anything to write back
   bool connectivity_changed_ = false;  // triangles added or removed (else positions only)
