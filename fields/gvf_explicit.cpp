@@ -4,12 +4,15 @@
 // array once, so a plain double-buffered loop is bound by memory bandwidth. Here T consecutive
 // iterations run as a wavefront over planes (z-slices in 3D, rows in 2D): time level t computes
 // plane p from planes p-1..p+1 of level t-1 while they are still in cache, so the arrays stream
-// from memory once per T iterations. The grid is cut into tiles (y-ranges of the slices in 3D,
+// from memory once per T iterations. A level computes R planes per step (R = 2 in 3D, 4 in 2D):
+// all but the first of their sources and neighbour planes were just touched by the level before,
+// so fewer loads come from the outer caches (2D: 512^2 rows of 2 KB, L2-bound at R = 1). The
+// grid is cut into tiles (y-ranges of the slices in 3D,
 // ranges of rows in 2D) that a thread sweeps on its own: level t of a tile also computes the
 // T - t rows or planes around it that level t+1 reads (overlapped tiling: a little redundant
 // work, no synchronisation). The intermediate levels live in one per-thread ring, in place: plane
 // p of level t overwrites plane p-1 of level t-1, which that very computation reads last, so the
-// ring holds about 2 T planes instead of 3 (T - 1), and the write lands on lines just read (no
+// ring holds about 2 T + R planes instead of (R + 2) (T - 1), and the write lands on lines just read (no
 // fetch for ownership). A tile is swept one field at a time (the fields share only g = dt b),
 // which keeps the ring small.
 // Every voxel of every level is computed by the same row kernel from the same operands in the
@@ -38,10 +41,12 @@ namespace {
 
 // Wavefront shape, measured on 230 x 300 x 80 and 512^2 (see README): a block runs this many
 // iterations (10 divides the residual-check interval, so tolerance runs keep full blocks); a 3D
-// tile is about this many rows (y) of the slices.
+// tile is about this many rows (y) of the slices; a level computes this many planes per step.
 constexpr int kDepth3d = 10;
 constexpr int kDepth2d = 10;
 constexpr int kTileRows3d = 72;
+constexpr int kPlanesPerStep3d = 2;
+constexpr int kPlanesPerStep2d = 4;
 
 // The explicit solver's own copy of the system, rows padded to whole vectors with one ghost
 // vector on each side: row (y, z) has its voxel x at (z ny + y) stride + kLanes + x, stride =
@@ -180,11 +185,12 @@ struct StepWeights {
 // rows; runs one field's wavefront over a tile. Row (p, q) of the grid is row p Q + q.
 class Wavefront {
  public:
-  // Sizes the rings (the only allocation): levels 1..max_depth-1 share 2 max_depth planes
-  // (rounded up to a power of two), plane p of level t in slot p - t (see run_tile).
-  Wavefront(const Level& L, int stride, int max_depth, int tile_rows, int threads)
+  // Sizes the rings (the only allocation): levels 1..max_depth-1 share 2 max_depth + per_step
+  // planes (rounded up to a power of two), plane p of level t in slot p - t (see run_tile).
+  Wavefront(const Level& L, int stride, int max_depth, int tile_rows, int per_step, int threads)
       : nx_(L.nx), stride_(stride), three_d_(L.nz > 1), P_(three_d_ ? L.nz : L.ny), Q_(three_d_ ? L.ny : 1),
-        rows_(std::min(Q_, tile_rows + 2 * (max_depth - 1))), slots_(int(std::bit_ceil(2u * unsigned(max_depth)))) {
+        rows_(std::min(Q_, tile_rows + 2 * (max_depth - 1))), per_step_(per_step),
+        slots_(int(std::bit_ceil(unsigned(2 * max_depth + per_step)))) {
     const size_t ring_size = size_t(slots_) * rows_ * stride_;
     for (int i = 0; i < threads; ++i) rings_.emplace_back(ring_size);
   }
@@ -204,8 +210,9 @@ class Wavefront {
       int q_first;
     };
     // Ring slot of plane p at level t: p - t, so that level t writes plane p over plane p-1 of
-    // level t-1. The planes still to be read at any moment (two per level, each level one plane
-    // behind the one before) span fewer than 2 T consecutive slots.
+    // level t-1, its last reader. The planes still to be read at any moment (the last two of
+    // each level, R + 2 of the level about to read them; each level one plane behind the one
+    // before) span fewer than 2 T + R consecutive slots.
     auto plane_at = [&](int t, int p) -> PlaneRef {
       if (t == 0) return {sys.v[k].data() + p * plane_size + kLanes, 0};
       if (t == T) return {sys.next[k].data() + p * plane_size + kLanes, 0};
@@ -213,42 +220,44 @@ class Wavefront {
     };
     auto row_of = [&](const PlaneRef& plane, int q) { return plane.first + int64_t(q - plane.q_first) * stride_; };
     const float w_across = three_d_ ? w.dcz : w.dcy;
-    // Step s: level t computes plane base_p + s - (t - 1), after level t-1 computed the next one.
-    for (int s = 0; s < tile.p1 - tile.p0 + 2 * (T - 1); ++s)
-      for (int t = 1; t <= T; ++t) {
-        const int p = base_p + s - (t - 1), grow = T - t;
-        if (p < std::max(0, tile.p0 - grow) || p >= std::min(P_, tile.p1 + grow)) continue;
-        const int q_lo = std::max(0, tile.q0 - grow), q_hi = std::min(Q_, tile.q1 + grow);
-        // Neighbour planes (the plane itself, weight 0, at the border): z in 3D, y in 2D.
-        const PlaneRef in = plane_at(t - 1, p), out = plane_at(t, p);
-        const PlaneRef in_m = p > 0 ? plane_at(t - 1, p - 1) : in, in_p = p < P_ - 1 ? plane_at(t - 1, p + 1) : in;
-        const float wm = p > 0 ? w_across : 0.f, wp = p < P_ - 1 ? w_across : 0.f;
-        const bool last = measure && t == T;
-        for (int q = q_lo; q < q_hi; ++q) {
-          const int64_t yz = int64_t(p) * Q_ + q;
-          const float* u0 = row_of(in, q);
-          RowInputs r{u0, u0, u0, u0, u0, 0, 0, 0, 0};
-          if (three_d_) {  // y neighbours in the plane (rows are contiguous), z across planes
-            if (q > 0) r.uym = u0 - stride_, r.wym = w.dcy;
-            if (q < Q_ - 1) r.uyp = u0 + stride_, r.wyp = w.dcy;
-            r.uzm = row_of(in_m, q), r.wzm = wm;
-            r.uzp = row_of(in_p, q), r.wzp = wp;
-          } else {  // 2D: y neighbours across planes (rows), no z
-            r.uym = row_of(in_m, q), r.wym = wm;
-            r.uyp = row_of(in_p, q), r.wyp = wp;
+    // Step s: level t computes planes base_p + R s - (t - 1) + [0, R), R = per_step_, after
+    // level t-1 computed the planes one further.
+    const int R = per_step_;
+    for (int s = 0; R * s < tile.p1 - tile.p0 + 2 * (T - 1); ++s)
+      for (int t = 1; t <= T; ++t)
+        for (int p = base_p + R * s - (t - 1), p_end = p + R, grow = T - t; p < p_end; ++p) {
+          if (p < std::max(0, tile.p0 - grow) || p >= std::min(P_, tile.p1 + grow)) continue;
+          const int q_lo = std::max(0, tile.q0 - grow), q_hi = std::min(Q_, tile.q1 + grow);
+          // Neighbour planes (the plane itself, weight 0, at the border): z in 3D, y in 2D.
+          const PlaneRef in = plane_at(t - 1, p), out = plane_at(t, p);
+          const PlaneRef in_m = p > 0 ? plane_at(t - 1, p - 1) : in, in_p = p < P_ - 1 ? plane_at(t - 1, p + 1) : in;
+          const float wm = p > 0 ? w_across : 0.f, wp = p < P_ - 1 ? w_across : 0.f;
+          const bool last = measure && t == T;
+          for (int q = q_lo; q < q_hi; ++q) {
+            const int64_t yz = int64_t(p) * Q_ + q;
+            const float* u0 = row_of(in, q);
+            RowInputs r{u0, u0, u0, u0, u0, 0, 0, 0, 0};
+            if (three_d_) {  // y neighbours in the plane (rows are contiguous), z across planes
+              if (q > 0) r.uym = u0 - stride_, r.wym = w.dcy;
+              if (q < Q_ - 1) r.uyp = u0 + stride_, r.wyp = w.dcy;
+              r.uzm = row_of(in_m, q), r.wzm = wm;
+              r.uzp = row_of(in_p, q), r.wzp = wp;
+            } else {  // 2D: y neighbours across planes (rows), no z
+              r.uym = row_of(in_m, q), r.wym = wm;
+              r.uyp = row_of(in_p, q), r.wyp = wp;
+            }
+            const float dd = 2.f * w.dcx + (r.wym + r.wyp + r.wzm + r.wzp);
+            float acc = 0.f;
+            explicit_row(r, sys.row(sys.s[k], yz), sys.row(sys.g, yz), row_of(out, q), w.dcx, dd, nx_, last, acc);
+            if (last) row_acc[k * int64_t(P_) * Q_ + yz] = acc;
           }
-          const float dd = 2.f * w.dcx + (r.wym + r.wyp + r.wzm + r.wzp);
-          float acc = 0.f;
-          explicit_row(r, sys.row(sys.s[k], yz), sys.row(sys.g, yz), row_of(out, q), w.dcx, dd, nx_, last, acc);
-          if (last) row_acc[k * int64_t(P_) * Q_ + yz] = acc;
         }
-      }
   }
 
  private:
   int nx_, stride_;
   bool three_d_;
-  int P_, Q_, rows_, slots_;
+  int P_, Q_, rows_, per_step_, slots_;
   std::vector<AlignedFloats> rings_;
 };
 
@@ -260,7 +269,7 @@ class Wavefront {
 // iteration whose residual is measured, so tolerance stopping sees the same iterates.
 GvfSolveStats solve_explicit(Level& L, const std::vector<const std::vector<float>*>& c,
                              const std::vector<std::vector<float>*>& v, const GvfSolveOptions& o, double rhs_norm2,
-                             int max_depth, int tile_rows) {
+                             int max_depth, int tile_rows, int per_step) {
   const Coupling cp = coupling(L, o.mu);
   const double lap_max = 4.0 * (cp.cx + cp.cy + cp.cz);
   float lane_max[kLanes] = {};  // in kLanes partial maxima, which vectorises
@@ -318,7 +327,8 @@ GvfSolveStats solve_explicit(Level& L, const std::vector<const std::vector<float
   const bool three_d = L.nz > 1;
   const int n_split = three_d ? std::max(1, (L.ny + kTileRows3d / 2) / kTileRows3d) : threads;
   const int rows_per_tile = tile_rows > 0 ? tile_rows : (L.ny + n_split - 1) / n_split;
-  Wavefront wave(L, sys.stride, depth, three_d ? rows_per_tile : 1, threads);
+  const int planes_per_step = per_step > 0 ? per_step : (three_d ? kPlanesPerStep3d : kPlanesPerStep2d);
+  Wavefront wave(L, sys.stride, depth, three_d ? rows_per_tile : 1, planes_per_step, threads);
   std::vector<Tile> tiles;
   for (int q = 0; q < L.ny; q += rows_per_tile) {
     const int end = std::min(L.ny, q + rows_per_tile);

@@ -48,8 +48,9 @@ struct Solution {
 };
 
 // Runs the explicit solver on a copy of s's initial guess with wavefront depth `depth` over
-// tiles of tile_rows rows (0: the default tiles).
-Solution solve(const System& s, const GvfSolveOptions& o, int depth, int threads = 1, int tile_rows = 0) {
+// tiles of tile_rows rows (0: the default tiles), per_step planes per level and step (0: default).
+Solution solve(const System& s, const GvfSolveOptions& o, int depth, int threads = 1, int tile_rows = 0,
+               int per_step = 0) {
   Level L = s.L;
   Solution run;
   run.v = s.v;
@@ -58,7 +59,7 @@ Solution solve(const System& s, const GvfSolveOptions& o, int depth, int threads
   for (int k = 0; k < s.K; ++k) c.push_back(&s.c[k]), v.push_back(&run.v[k]);
   const int saved = omp_get_max_threads();
   omp_set_num_threads(threads);
-  run.stats = gvf_detail::solve_explicit(L, c, v, o, s.rhs_norm2, depth, tile_rows);
+  run.stats = gvf_detail::solve_explicit(L, c, v, o, s.rhs_norm2, depth, tile_rows, per_step);
   omp_set_num_threads(saved);
   return run;
 }
@@ -97,8 +98,10 @@ TEST(GvfExplicitWavefront, EveryDepthGivesThePlainIterationBitForBit) {
     EXPECT_GT(plain.stats.relative_residual, 0);
     for (int depth : {1, 2, 3, 4, 5, 8, 30})
       for (int tile_rows : {0, 1, 2, 5})  // tiles of y-rows in 3D, of rows in 2D
-        EXPECT_TRUE(identical(plain, solve(s, o, depth, 1, tile_rows)))
-            << sh.nx << "x" << sh.ny << "x" << sh.nz << " depth " << depth << " tile rows " << tile_rows;
+        for (int per_step : {1, 2, 3, 7})  // planes per level and wavefront step
+          EXPECT_TRUE(identical(plain, solve(s, o, depth, 1, tile_rows, per_step)))
+              << sh.nx << "x" << sh.ny << "x" << sh.nz << " depth " << depth << " tile rows " << tile_rows
+              << " planes per step " << per_step;
     EXPECT_TRUE(identical(plain, solve(s, o, 0))) << sh.nx << "x" << sh.ny << "x" << sh.nz << " default depth";
   }
 }
@@ -116,7 +119,8 @@ TEST(GvfExplicitWavefront, ToleranceStopsAtTheSameIteration) {
     EXPECT_EQ(plain.stats.iterations, 40) << sh.nx << "x" << sh.ny << "x" << sh.nz;
     EXPECT_LE(plain.stats.relative_residual, tol);
     for (int depth : {3, 4, 7, 8, 16})
-      EXPECT_TRUE(identical(plain, solve(s, o, depth, 1, 3))) << "depth " << depth;
+      for (int per_step : {1, 4})
+        EXPECT_TRUE(identical(plain, solve(s, o, depth, 1, 3, per_step))) << "depth " << depth << " per step " << per_step;
     // An iteration cap that is not a multiple of the check interval: measured at the cap.
     o.iterations = 26, o.tolerance = 1e-12;
     const Solution capped = solve(s, o, 1);
@@ -135,8 +139,10 @@ TEST(GvfExplicitWavefront, OneAndTwoThreadsAgreeBitForBit) {
     for (int threads : {1, 2})
       for (int depth : {1, 0, 5})
         for (int tile_rows : {0, 7})
-          EXPECT_TRUE(identical(plain, solve(s, o, depth, threads, tile_rows)))
-              << sh.nz << " slices, threads " << threads << " depth " << depth << " tile rows " << tile_rows;
+          for (int per_step : {0, 1, 3})
+            EXPECT_TRUE(identical(plain, solve(s, o, depth, threads, tile_rows, per_step)))
+                << sh.nz << " slices, threads " << threads << " depth " << depth << " tile rows " << tile_rows
+                << " planes per step " << per_step;
   }
 }
 
