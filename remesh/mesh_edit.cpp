@@ -369,29 +369,41 @@ bool EditMesh::intersects_any(std::span<const Triangle> ts, std::span<const int>
   };
   const auto r = cell_range(all_lo_pad, all_hi_pad);
   std::array<Point<3>, 3> q;
+  // First the candidates near the common box, in one pass without branches on the data (the
+  // boxes' loads, mostly cache misses, overlap), then the tests per query triangle.
   const uint32_t query = query_;
+  candidates_.clear();
   for (int z = r[2]; z <= r[5]; ++z)
     for (int y = r[1]; y <= r[4]; ++y)
-      for (int x = r[0]; x <= r[3]; ++x)
-        for (int f : cells_[x + static_cast<size_t>(dims_[0]) * (y + static_cast<size_t>(dims_[1]) * z)]) {
+      for (int x = r[0]; x <= r[3]; ++x) {
+        const auto& cell = cells_[x + static_cast<size_t>(dims_[0]) * (y + static_cast<size_t>(dims_[1]) * z)];
+        size_t m = candidates_.size();
+        candidates_.resize(m + cell.size());
+        for (int f : cell) {
           GridBox& b = gbox_[f];
           const bool skip = (b.stamp == query) | apart(b, all);
           b.stamp = query;
-          if (skip) continue;
-          const auto& s = tri_[f];
-          bool loaded = false;  // f's corners and box, fetched for the first query triangle near it
-          Point<3> qlo, qhi;
-          for (int i = 0; i < n; ++i) {
-            if (apart(b, box[i])) continue;
-            if (!loaded) {
-              q = {pos_[s[0]], pos_[s[1]], pos_[s[2]]};
-              qlo = q[0].cwiseMin(q[1]).cwiseMin(q[2]);
-              qhi = q[0].cwiseMax(q[1]).cwiseMax(q[2]);
-              loaded = true;
-            }
-            if (pair_conflicts(ts[i], p[i], lo[i], hi[i], s, q, qlo, qhi)) return true;
-          }
+          candidates_[m] = f;
+          m += !skip;
         }
+        candidates_.resize(m);
+      }
+  for (int f : candidates_) {
+    const GridBox& b = gbox_[f];
+    const auto& s = tri_[f];
+    bool loaded = false;  // f's corners and box, fetched for the first query triangle near it
+    Point<3> qlo, qhi;
+    for (int i = 0; i < n; ++i) {
+      if (apart(b, box[i])) continue;
+      if (!loaded) {
+        q = {pos_[s[0]], pos_[s[1]], pos_[s[2]]};
+        qlo = q[0].cwiseMin(q[1]).cwiseMin(q[2]);
+        qhi = q[0].cwiseMax(q[1]).cwiseMax(q[2]);
+        loaded = true;
+      }
+      if (pair_conflicts(ts[i], p[i], lo[i], hi[i], s, q, qlo, qhi)) return true;
+    }
+  }
   return false;
 }
 

@@ -116,6 +116,7 @@ class EditMesh {
   };
   mutable std::vector<GridBox> gbox_;
   mutable std::vector<std::array<int, 6>> range_;  // per triangle in the grid: its cell range
+  mutable std::vector<int> candidates_;  // intersects_any's scratch
   mutable uint32_t query_ = 0;
   bool changed_ = false;            // anything to write back
   bool connectivity_changed_ = false;  // triangles added or removed (else positions only)
