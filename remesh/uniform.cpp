@@ -3,6 +3,7 @@
 #include "remesh/mesh_edit.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <optional>
@@ -24,7 +25,7 @@ constexpr double kMinAngleFloor = 15 * std::numbers::pi / 180;
 // mapped back to (v, r_i, r_i+1) with the same barycentric coordinates.
 // Per-thread scratch of relaxed_position (no allocation per vertex once grown).
 struct RelaxScratch {
-  std::vector<double> s, alpha, len;
+  std::vector<double> s, tan_half, len;
   std::vector<Eigen::Vector2d> u;
 };
 
@@ -42,20 +43,26 @@ std::optional<Point<3>> relaxed_position(const EditMesh& m, int v, const std::ve
     const double th = 2 * std::numbers::pi * s[i] / s[k];
     u[i] = {std::cos(th), std::sin(th)};
   }
-  // Mean-value weights: w_i = (tan(a_{i-1}/2) + tan(a_i/2)) / |r_i - v|, a_i = angle(r_i, v, r_i+1).
-  auto& alpha = scratch.alpha;
+  // Mean-value weights: w_i = (tan(a_{i-1}/2) + tan(a_i/2)) / |r_i - v|, a_i = angle(r_i, v, r_i+1),
+  // with tan(a/2) = |e x f| / (|e| |f| + e . f) for the edges e, f from v (no trigonometry; the
+  // denominator kept off 0 for a flat angle, where the weight becomes very large instead).
+  auto& tan_half = scratch.tan_half;
   auto& len = scratch.len;
-  alpha.resize(k);
+  tan_half.resize(k);
   len.resize(k);
   for (int i = 0; i < k; ++i) {
     len[i] = (m.pos(r[i]) - x).norm();
     if (!(len[i] > 0)) return std::nullopt;
-    alpha[i] = remesh_detail::angle_at(x, m.pos(r[i]), m.pos(r[(i + 1) % k]));
+  }
+  for (int i = 0; i < k; ++i) {
+    const Point<3> e = m.pos(r[i]) - x, f = m.pos(r[(i + 1) % k]) - x;
+    const double lengths = len[i] * len[(i + 1) % k];
+    tan_half[i] = e.cross(f).norm() / std::max(lengths + e.dot(f), 1e-16 * lengths);
   }
   Eigen::Vector2d uv = Eigen::Vector2d::Zero();
   double wsum = 0;
   for (int i = 0; i < k; ++i) {
-    const double w = (std::tan(alpha[(i + k - 1) % k] / 2) + std::tan(alpha[i] / 2)) / len[i];
+    const double w = (tan_half[(i + k - 1) % k] + tan_half[i]) / len[i];
     uv += w * u[i];
     wsum += w;
   }
