@@ -5,16 +5,16 @@
 // iterations run as a wavefront over planes (z-slices in 3D, rows in 2D): time level t computes
 // plane p from planes p-1..p+1 of level t-1 while they are still in cache, so the arrays stream
 // from memory once per T iterations. A level computes R planes per step (R = 2 in 3D, 4 in 2D):
-// all but the first of their sources and neighbour planes were just touched by the level before,
-// so fewer loads come from the outer caches (2D: 512^2 rows of 2 KB, L2-bound at R = 1). The
-// grid is cut into tiles (y-ranges of the slices in 3D,
-// ranges of rows in 2D) that a thread sweeps on its own: level t of a tile also computes the
-// T - t rows or planes around it that level t+1 reads (overlapped tiling: a little redundant
-// work, no synchronisation). The intermediate levels live in one per-thread ring, in place: plane
-// p of level t overwrites plane p-1 of level t-1, which that very computation reads last, so the
-// ring holds about 2 T + R planes instead of (R + 2) (T - 1), and the write lands on lines just read (no
-// fetch for ownership). A tile is swept one field at a time (the fields share only g = dt b),
-// which keeps the ring small.
+// all but the first of them find their sources and neighbour planes just touched by the level
+// before, so fewer loads come from the outer caches (2D: 512^2 rows of 2 KB, L2-bound at R = 1).
+// The grid is cut into tiles (y-ranges of the slices in 3D, ranges of rows in 2D) that a thread
+// sweeps on its own: level t of a tile also computes the T - t rows or planes around it that
+// level t+1 reads (overlapped tiling: a little redundant work, no synchronisation). The
+// intermediate levels live in one per-thread ring, in place: plane p of level t overwrites plane
+// p-1 of level t-1, which that very computation reads last, so the ring holds about 2 T + R
+// planes instead of (R + 2) (T - 1), and the write lands on lines just read (no fetch for
+// ownership). A tile is swept one field at a time (the fields share only g = dt b), which keeps
+// the ring small.
 // Every voxel of every level is computed by the same row kernel from the same operands in the
 // same order as the plain iteration (T = 1), so the results are bit-identical for every block
 // depth, tile size and thread count. The solver works on its own padded copy of the system
@@ -182,7 +182,8 @@ struct StepWeights {
 };
 
 // The per-thread rings of a block of up to max_depth iterations over tiles of up to tile_rows
-// rows; runs one field's wavefront over a tile. Row (p, q) of the grid is row p Q + q.
+// rows, per_step planes per level and step; runs one field's wavefront over a tile. Row (p, q)
+// of the grid is row p Q + q.
 class Wavefront {
  public:
   // Sizes the rings (the only allocation): levels 1..max_depth-1 share 2 max_depth + per_step
