@@ -268,17 +268,17 @@ class Wavefront {
 // max_depth iterations (0: chosen here; 1: the plain double-buffered loop) over tiles of
 // tile_rows rows (0: chosen here), on a padded copy of the system. A block ends at every
 // iteration whose residual is measured, so tolerance stopping sees the same iterates.
-GvfSolveStats solve_explicit(Level& L, const std::vector<const std::vector<float>*>& c,
-                             const std::vector<std::vector<float>*>& v, const GvfSolveOptions& o, double rhs_norm2,
+GvfSolveStats solve_explicit(const Level& L, const std::vector<float>& b,
+                             const std::vector<const std::vector<float>*>& c, const std::vector<std::vector<float>*>& v, const GvfSolveOptions& o, double rhs_norm2,
                              int max_depth, int tile_rows, int per_step) {
   const Coupling cp = coupling(L, o.mu);
   const double lap_max = 4.0 * (cp.cx + cp.cy + cp.cz);
   float lane_max[kLanes] = {};  // in kLanes partial maxima, which vectorises
   const int64_t n = L.size();
   for (int64_t l = 0; l + kLanes <= n; l += kLanes)
-    for (int j = 0; j < kLanes; ++j) lane_max[j] = L.b[l + j] > lane_max[j] ? L.b[l + j] : lane_max[j];
+    for (int j = 0; j < kLanes; ++j) lane_max[j] = b[l + j] > lane_max[j] ? b[l + j] : lane_max[j];
   float b_max = 0.f;
-  for (int64_t l = n / kLanes * kLanes; l < n; ++l) b_max = L.b[l] > b_max ? L.b[l] : b_max;
+  for (int64_t l = n / kLanes * kLanes; l < n; ++l) b_max = b[l] > b_max ? b[l] : b_max;
   for (float m : lane_max) b_max = m > b_max ? m : b_max;
   const double bound = 2.0 / (lap_max + b_max);
   GvfSolveStats st;
@@ -310,7 +310,7 @@ GvfSolveStats solve_explicit(Level& L, const std::vector<const std::vector<float
   for (int64_t yz = 0; yz < rows; ++yz) {
     const int64_t src = yz * L.nx;
     float* g = sys.row(sys.g, yz);
-    for (int x = 0; x < L.nx; ++x) g[x] = dt * L.b[src + x];
+    for (int x = 0; x < L.nx; ++x) g[x] = dt * b[src + x];
     std::fill_n(g - kLanes, kLanes, 0.f), std::fill_n(g + L.nx, tail, 0.f);
     for (int k = 0; k < K; ++k) {
       float *s = sys.row(sys.s[k], yz), *vk = sys.row(sys.v[k], yz);

@@ -206,6 +206,10 @@ void smooth_sweeps(Level& L, const Coupling& c, int first, int sweeps, bool zero
   }
 }
 
+}  // namespace gvf_detail
+
+namespace {
+
 // Dot product in fixed chunks (8 interleaved lanes each), summed in chunk order: vectorised and
 // independent of the thread count.
 DSNAKE_VECTOR_CLONES
@@ -219,7 +223,6 @@ double dot_chunk(const float* __restrict a, const float* __restrict b, int64_t n
   for (; i < n; ++i) s += double(a[i]) * b[i];
   return s;
 }
-
 
 // res = rhs - A v for all fields. With `norms`, also returns the sums of squares of res and of
 // rhs (per row, then in row order: independent of the thread count).
@@ -720,8 +723,7 @@ GvfSolveStats solve_gvf(const Grid<D>& grid, const std::vector<float>& b,
       }
     }
     for (double p : part) rhs_norm2 += p;
-    shape.b = b;
-    return solve_explicit(shape, c, v, o, rhs_norm2);
+    return solve_explicit(shape, b, c, v, o, rhs_norm2);
   }
   DSNAKE_ASSERT(o.solver == "multigrid", "GVF: solver is explicit or multigrid");
   if (workspace) return solve_multigrid_pcg(shape, b, c, v, o, workspace->impl());

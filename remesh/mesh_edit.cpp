@@ -371,24 +371,25 @@ bool EditMesh::intersects_any(std::span<const Triangle> ts, std::span<const int>
   std::array<Point<3>, 3> q;
   // First the candidates near the common box, in one pass without branches on the data (the
   // boxes' loads, mostly cache misses, overlap), then the tests per query triangle.
+  // (candidates_ only grows: every entry is written before it is read, nothing is cleared.)
   const uint32_t query = query_;
-  candidates_.clear();
+  size_t m = 0;
   for (int z = r[2]; z <= r[5]; ++z)
     for (int y = r[1]; y <= r[4]; ++y)
       for (int x = r[0]; x <= r[3]; ++x) {
         const auto& cell = cells_[x + static_cast<size_t>(dims_[0]) * (y + static_cast<size_t>(dims_[1]) * z)];
-        size_t m = candidates_.size();
-        candidates_.resize(m + cell.size());
+        if (candidates_.size() < m + cell.size()) candidates_.resize(2 * (m + cell.size()));
+        int* out = candidates_.data();
         for (int f : cell) {
           GridBox& b = gbox_[f];
           const bool skip = (b.stamp == query) | apart(b, all);
           b.stamp = query;
-          candidates_[m] = f;
+          out[m] = f;
           m += !skip;
         }
-        candidates_.resize(m);
       }
-  for (int f : candidates_) {
+  for (size_t j = 0; j < m; ++j) {
+    const int f = candidates_[j];
     const GridBox& b = gbox_[f];
     const auto& s = tri_[f];
     bool loaded = false;  // f's corners and box, fetched for the first query triangle near it

@@ -59,7 +59,7 @@ Solution solve(const System& s, const GvfSolveOptions& o, int depth, int threads
   for (int k = 0; k < s.K; ++k) c.push_back(&s.c[k]), v.push_back(&run.v[k]);
   const int saved = omp_get_max_threads();
   omp_set_num_threads(threads);
-  run.stats = gvf_detail::solve_explicit(L, c, v, o, s.rhs_norm2, depth, tile_rows, per_step);
+  run.stats = gvf_detail::solve_explicit(L, L.b, c, v, o, s.rhs_norm2, depth, tile_rows, per_step);
   omp_set_num_threads(saved);
   return run;
 }
