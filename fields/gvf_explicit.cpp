@@ -7,6 +7,8 @@
 // from memory once per T iterations. A level computes R planes per step (R = 2 in 3D, 4 in 2D):
 // all but the first of them find their sources and neighbour planes just touched by the level
 // before, so fewer loads come from the outer caches (2D: 512^2 rows of 2 KB, L2-bound at R = 1).
+// In 2D the R rows go through one pass over x (explicit_rows_body), which takes the y neighbours
+// inside the group from registers: 3.5 loads per vector of a row instead of 5 at R = 4.
 // The grid is cut into tiles (y-ranges of the slices in 3D, ranges of rows in 2D) that a thread
 // sweeps on its own: level t of a tile also computes the T - t rows or planes around it that
 // level t+1 reads (overlapped tiling: a little redundant work, no synchronisation). The
@@ -19,8 +21,9 @@
 // same order as the plain iteration (T = 1), so the results are bit-identical for every block
 // depth, tile size and thread count. The solver works on its own padded copy of the system
 // (PaddedSystem below): whole aligned vectors per row, with the x neighbours taken from
-// shuffles: a vector of voxels costs 5 aligned loads in 2D (7 in 3D), where the unpadded
-// kernel made 9 (11), half of them split across cache lines (README: the 2D figure).
+// shuffles (one lane-crossing shuffle per vector): a vector of voxels costs 5 aligned loads in
+// 2D (7 in 3D), where the unpadded kernel made 9 (11), half of them split across cache lines
+// (README: the 2D figure).
 #include "fields/gvf_grid.h"
 
 #include "framework/errors.h"
@@ -114,25 +117,27 @@ void explicit_row(const RowInputs& r, const float* __restrict s, const float* __
   // Without z neighbours (2D) their zero-weight terms are left out: adding 0 * u changes no value.
   const bool has_z = wzm != 0.f || wzp != 0.f;
   const int nb = (nx + kLanes - 1) / kLanes;
-  const VecIndex to_left = {7, 8, 9, 10, 11, 12, 13, 14}, to_right = {1, 2, 3, 4, 5, 6, 7, 8};
-  Vec prev = U[-1], c = U[0];
+  // The x neighbours as in explicit_rows_body: one lane-crossing shuffle per vector.
+  const VecIndex halves = {4, 5, 6, 7, 8, 9, 10, 11}, to_right = {1, 2, 3, 8, 5, 6, 7, 12},
+                 to_left = {3, 8, 9, 10, 7, 12, 13, 14};
+  Vec c = U[0], xprev = __builtin_shuffle(U[-1], c, halves);
   if (!measure && !has_z) {
     for (int j = 0; j < nb; ++j) {
-      const Vec next = U[j + 1];
-      const Vec left = __builtin_shuffle(prev, c, to_left), right = __builtin_shuffle(c, next, to_right);
+      const Vec next = U[j + 1], x = __builtin_shuffle(c, next, halves);
+      const Vec left = __builtin_shuffle(xprev, c, to_left), right = __builtin_shuffle(c, x, to_right);
       const Vec d = S[j] - (dd + G[j]) * c + dcx * (left + right) + wym * YM[j] + wyp * YP[j];
       O[j] = c + d;
-      prev = c;
+      xprev = x;
       c = next;
     }
   } else if (!measure) {
     for (int j = 0; j < nb; ++j) {
-      const Vec next = U[j + 1];
-      const Vec left = __builtin_shuffle(prev, c, to_left), right = __builtin_shuffle(c, next, to_right);
+      const Vec next = U[j + 1], x = __builtin_shuffle(c, next, halves);
+      const Vec left = __builtin_shuffle(xprev, c, to_left), right = __builtin_shuffle(c, x, to_right);
       Vec d = S[j] - (dd + G[j]) * c + dcx * (left + right) + wym * YM[j] + wyp * YP[j];
       d += wzm * ZM[j] + wzp * ZP[j];
       O[j] = c + d;
-      prev = c;
+      xprev = x;
       c = next;
     }
   } else {
@@ -140,15 +145,15 @@ void explicit_row(const RowInputs& r, const float* __restrict s, const float* __
     const int last_lane = (nx - 1) % kLanes;
     Vec sum = {};
     for (int j = 0; j < nb; ++j) {
-      const Vec next = U[j + 1];
-      const Vec left = __builtin_shuffle(prev, c, to_left), right = __builtin_shuffle(c, next, to_right);
+      const Vec next = U[j + 1], x = __builtin_shuffle(c, next, halves);
+      const Vec left = __builtin_shuffle(xprev, c, to_left), right = __builtin_shuffle(c, x, to_right);
       Vec d = S[j] - (dd + G[j]) * c + dcx * (left + right) + wym * YM[j] + wyp * YP[j];
       if (has_z) d += wzm * ZM[j] + wzp * ZP[j];
       O[j] = c + d;
       // d^2 over the row's voxels (the padding lanes of the last vector left out).
       const Vec dm = lane <= (j + 1 < nb ? kLanes - 1 : last_lane) ? d : Vec{};
       sum += dm * dm;
-      prev = c;
+      xprev = x;
       c = next;
     }
     float a = 0.f;
@@ -156,6 +161,71 @@ void explicit_row(const RowInputs& r, const float* __restrict s, const float* __
     acc = a;
   }
   out[-1] = out[0], out[nx] = out[nx - 1];
+}
+
+// 2D: N consecutive interior rows of one level (each has both y neighbours) in one pass over x,
+// the y neighbours inside the group taken from registers: a vector of each row costs 3 + 2 / N
+// loads instead of 5, from the same operands in the same order as explicit_row (bit-identical).
+// Row i of the inputs u, the sources s, g and the output out is at i * stride floats from row 0
+// (the caller cuts groups where the ring wraps); top / bottom are the rows above and below the
+// group; dd = 2 (dcx + wy). In place: out's row i may be u's row i - 1 (or top for i = 0):
+// column j of it is in a register before column j of out's row i is stored, and nothing reads
+// it later. The addresses are a pointer per array plus a row offset shared by all arrays, so
+// that N = 4 fits the general registers.
+template <int N>
+[[gnu::always_inline]] inline void explicit_rows_body(const float* u, const float* top, const float* bottom,
+                                                      const float* s, const float* g, float* out,
+                                                      ptrdiff_t stride, float dcx, float wy, float dd, int nx) {
+  const char* U = static_cast<const char*>(__builtin_assume_aligned(u, 32));
+  const char* S = static_cast<const char*>(__builtin_assume_aligned(s, 32));
+  const char* G = static_cast<const char*>(__builtin_assume_aligned(g, 32));
+  char* O = static_cast<char*>(__builtin_assume_aligned(out, 32));
+  const Vec* TOP = reinterpret_cast<const Vec*>(__builtin_assume_aligned(top, 32));
+  const Vec* BOT = reinterpret_cast<const Vec*>(__builtin_assume_aligned(bottom, 32));
+  ptrdiff_t off[N];
+  for (int i = 0; i < N; ++i) off[i] = i * stride * ptrdiff_t(sizeof(float));
+  const int nb = (nx + kLanes - 1) / kLanes;
+  // The x neighbours from per-lane byte shifts of c and X = (upper half of c, lower half of next):
+  // right = (c1..c7, n0) from (c, X), and the next vector's left = (c7, n0..n6) from (X, next),
+  // so that a vector costs one lane-crossing shuffle instead of two.
+  const VecIndex halves = {4, 5, 6, 7, 8, 9, 10, 11}, to_right = {1, 2, 3, 8, 5, 6, 7, 12},
+                 to_left = {3, 8, 9, 10, 7, 12, 13, 14};
+  Vec xprev[N], c[N];
+  for (int i = 0; i < N; ++i) {
+    c[i] = *reinterpret_cast<const Vec*>(U + off[i]);
+    xprev[i] = __builtin_shuffle(*reinterpret_cast<const Vec*>(U + off[i] - sizeof(Vec)), c[i], halves);
+  }
+  for (int j = 0; j < nb; ++j) {
+    Vec next[N], o[N], x[N];
+    for (int i = 0; i < N; ++i) next[i] = *reinterpret_cast<const Vec*>(U + off[i] + sizeof(Vec));
+    const Vec above = TOP[j], below = BOT[j];
+    for (int i = 0; i < N; ++i) {
+      x[i] = __builtin_shuffle(c[i], next[i], halves);
+      const Vec left = __builtin_shuffle(xprev[i], c[i], to_left), right = __builtin_shuffle(c[i], x[i], to_right);
+      const Vec ym = i == 0 ? above : c[i - 1], yp = i == N - 1 ? below : c[i + 1];
+      const Vec d = *reinterpret_cast<const Vec*>(S + off[i]) - (dd + *reinterpret_cast<const Vec*>(G + off[i])) * c[i] + dcx * (left + right) + wy * ym + wy * yp;
+      o[i] = c[i] + d;
+    }
+    for (int i = 0; i < N; ++i) *reinterpret_cast<Vec*>(O + off[i]) = o[i], xprev[i] = x[i], c[i] = next[i];
+    U += sizeof(Vec), S += sizeof(Vec), G += sizeof(Vec), O += sizeof(Vec);
+  }
+  for (int i = 0; i < N; ++i) {
+    float* row = out + i * stride;
+    row[-1] = row[0], row[nx] = row[nx - 1];
+  }
+}
+
+constexpr int kMaxRowsPerPass = 4;
+
+// explicit_rows_body for 2 <= n <= kMaxRowsPerPass rows.
+DSNAKE_VECTOR_CLONES
+void explicit_rows_2d(int n, const float* u, const float* top, const float* bottom, const float* s, const float* g,
+                      float* out, ptrdiff_t stride, float dcx, float wy, float dd, int nx) {
+  switch (n) {
+    case 2: return explicit_rows_body<2>(u, top, bottom, s, g, out, stride, dcx, wy, dd, nx);
+    case 3: return explicit_rows_body<3>(u, top, bottom, s, g, out, stride, dcx, wy, dd, nx);
+    default: return explicit_rows_body<4>(u, top, bottom, s, g, out, stride, dcx, wy, dd, nx);
+  }
 }
 
 // A tile: planes [p0, p1) x rows [q0, q1) of the output level. Planes are z-slices in 3D
@@ -228,6 +298,24 @@ class Wavefront {
       for (int t = 1; t <= T; ++t)
         for (int p = base_p + R * s - (t - 1), p_end = p + R, grow = T - t; p < p_end; ++p) {
           if (p < std::max(0, tile.p0 - grow) || p >= std::min(P_, tile.p1 + grow)) continue;
+          if (!three_d_ && !(measure && t == T) && p > 0) {
+            // 2D, interior rows: the step's rows in passes of up to kMaxRowsPerPass, cut where
+            // the ring wraps (rows at a constant stride); a single row goes to explicit_row.
+            // (A ring level's plane p is in slot (p - t - base_p + 1) mod slots_, see plane_at.)
+            auto to_wrap = [&](int level) {
+              return level == 0 || level == T ? kMaxRowsPerPass : slots_ - ((p - level - base_p + 1) & (slots_ - 1));
+            };
+            const int n = std::min({p_end, tile.p1 + grow, P_ - 1, p + kMaxRowsPerPass, p + to_wrap(t - 1), p + to_wrap(t)}) - p;
+            if (n > 1) {
+              const float* u = plane_at(t - 1, p).first;
+              float* o = plane_at(t, p).first;
+              explicit_rows_2d(n, u, plane_at(t - 1, p - 1).first, plane_at(t - 1, p + n).first,
+                               sys.row(sys.s[k], p), sys.row(sys.g, p), o, stride_, w.dcx, w.dcy,
+                               2.f * w.dcx + (w.dcy + w.dcy + 0.f + 0.f), nx_);  // dd as below
+              p += n - 1;
+              continue;
+            }
+          }
           const int q_lo = std::max(0, tile.q0 - grow), q_hi = std::min(Q_, tile.q1 + grow);
           // Neighbour planes (the plane itself, weight 0, at the border): z in 3D, y in 2D.
           const PlaneRef in = plane_at(t - 1, p), out = plane_at(t, p);
