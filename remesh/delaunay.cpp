@@ -78,6 +78,7 @@ int delaunay_by_flips(EditMesh& m, double cos_max_dihedral) {
 // triangles stays above the floor (or does not drop). Sweeps until nothing changes (max 5).
 int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_rad) {
   int rejected = 0;
+  const double min_floor = remesh_detail::angle_key(min_angle_rad);
   for (int sweep = 0; sweep < 5; ++sweep) {
     int flips = 0;
     for (const auto& [a, b] : all_edges(m)) {
@@ -89,10 +90,10 @@ int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_r
       const int before = dev(va) + dev(vb) + dev(vc) + dev(vd);
       const int after = dev(va - 1) + dev(vb - 1) + dev(vc + 1) + dev(vd + 1);
       if (after >= before) continue;
-      using remesh_detail::min_angle;
-      const double old_min = std::min(min_angle(m.pos(a), m.pos(b), m.pos(c)), min_angle(m.pos(b), m.pos(a), m.pos(d)));
-      const double new_min = std::min(min_angle(m.pos(a), m.pos(d), m.pos(c)), min_angle(m.pos(d), m.pos(b), m.pos(c)));
-      if (new_min < std::min(old_min, min_angle_rad)) continue;
+      using remesh_detail::min_angle_key;
+      const double old_min = std::min(min_angle_key(m.pos(a), m.pos(b), m.pos(c)), min_angle_key(m.pos(b), m.pos(a), m.pos(d)));
+      const double new_min = std::min(min_angle_key(m.pos(a), m.pos(d), m.pos(c)), min_angle_key(m.pos(d), m.pos(b), m.pos(c)));
+      if (new_min < std::min(old_min, min_floor)) continue;
       const FlipResult r = remesh_detail::try_flip(m, a, b, cos_max_dihedral);
       if (r == FlipResult::kRejected) ++rejected;
       if (r == FlipResult::kFlipped) ++flips;

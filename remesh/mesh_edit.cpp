@@ -131,6 +131,17 @@ double min_angle(const Point<3>& a, const Point<3>& b, const Point<3>& c) {
   return angle_at(c, a, b);
 }
 
+// -cos of the angle opposite the shortest edge, u . v / |u| |v| with one square root.
+double min_angle_key(const Point<3>& a, const Point<3>& b, const Point<3>& c) {
+  const Point<3> ab = b - a, bc = c - b, ca = a - c;
+  const double lab = ab.squaredNorm(), lbc = bc.squaredNorm(), lca = ca.squaredNorm();
+  double dot, lengths2;  // at the vertex opposite the shortest edge
+  if (lbc <= lab && lbc <= lca) dot = -ab.dot(ca), lengths2 = lab * lca;       // at a
+  else if (lca <= lab) dot = -bc.dot(ab), lengths2 = lbc * lab;                // at b
+  else dot = -ca.dot(bc), lengths2 = lca * lbc;                                // at c
+  return lengths2 > 0 ? -dot / std::sqrt(lengths2) : -1.0;
+}
+
 EditMesh::EditMesh(const Snake<3>& snake)
     : pos_(snake.positions()), ids_(snake.template_ids()), vfan_(snake.num_vertices()) {
   const auto& c = snake.connectivity();

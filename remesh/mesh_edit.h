@@ -8,8 +8,9 @@
 
 #include "framework/shape.h"
 
-#include <cstdint>
 #include <array>
+#include <cmath>
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -20,6 +21,10 @@ Point<3> triangle_normal(const Point<3>& a, const Point<3>& b, const Point<3>& c
 double triangle_area(const Point<3>& a, const Point<3>& b, const Point<3>& c);
 // Smallest interior angle of a triangle, radians (0 if degenerate).
 double min_angle(const Point<3>& a, const Point<3>& b, const Point<3>& c);
+// A key that increases with the smallest interior angle, for comparisons only: -cos of it
+// (-1 if degenerate), with no trigonometry; compare it with angle_key(threshold in radians).
+double min_angle_key(const Point<3>& a, const Point<3>& b, const Point<3>& c);
+inline double angle_key(double radians) { return -std::cos(radians); }
 // Interior angle at vertex a of triangle (a, b, c), radians.
 double angle_at(const Point<3>& a, const Point<3>& b, const Point<3>& c);
 

@@ -28,7 +28,7 @@ RemeshReport RefineRemesher::run(remesh_detail::EditMesh& m, const RemeshContext
   RemeshReport report{"refine", 0, 0, 0};
   const double threshold = refine_threshold(options_, context.phase_iteration, context.phase_iterations);
   const double t2 = threshold * threshold;
-  const double sliver = kSliverDeg * std::numbers::pi / 180;
+  const double sliver = remesh_detail::angle_key(kSliverDeg * std::numbers::pi / 180);
   const int slots = m.num_triangle_slots();
   for (int f = 0; f < slots; ++f) {
     if (!m.tri_alive(f)) continue;  // split with a neighbour's edge earlier in this pass
@@ -41,9 +41,9 @@ RemeshReport RefineRemesher::run(remesh_detail::EditMesh& m, const RemeshContext
     }
     if (longest <= t2) continue;
     const Point<3> c = (m.pos(t[0]) + m.pos(t[1]) + m.pos(t[2])) / 3.0;
-    double sub_min = std::numbers::pi;
+    double sub_min = 1;  // the key of the largest angle
     for (int k = 0; k < 3; ++k)
-      sub_min = std::min(sub_min, remesh_detail::min_angle(m.pos(t[k]), m.pos(t[(k + 1) % 3]), c));
+      sub_min = std::min(sub_min, remesh_detail::min_angle_key(m.pos(t[k]), m.pos(t[(k + 1) % 3]), c));
     if (sub_min >= sliver) {
       const int v = m.add_vertex(c);
       m.remove_triangle(f);

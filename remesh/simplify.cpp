@@ -81,14 +81,14 @@ Collapse try_collapse(EditMesh& m, int a, int b, bool short_edge, const Simplify
     if (error > o.curvature_ratio * (m.pos(a) - m.pos(b)).norm() / 8) return Collapse::kCriterion;
   }
   // The collapse may lower the fans' smallest angle only while it stays above 15 degrees.
-  double old_min = 15 * std::numbers::pi / 180;
+  double old_min = remesh_detail::angle_key(15 * std::numbers::pi / 180);
   for (int g : {a, b})
     for (const EditMesh::Corner& corner : m.corners(g)) {
       const auto& t = m.tri(corner.f);
-      old_min = std::min(old_min, remesh_detail::min_angle(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
+      old_min = std::min(old_min, remesh_detail::min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
     }
   for (const auto& t : fresh)
-    if (remesh_detail::min_angle(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])) < old_min) return Collapse::kRejected;
+    if (remesh_detail::min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])) < old_min) return Collapse::kRejected;
   if (fresh.size() > 32) return Collapse::kRejected;  // a vertex of valence > 34: leave it
   if (m.intersects_any(fresh, fan)) return Collapse::kRejected;
   for (int f : fan) m.remove_triangle(f);

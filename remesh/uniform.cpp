@@ -118,11 +118,11 @@ RemeshReport UniformRemesher::run(EditMesh& m, const RemeshContext<3>&) {
       m.triangles_of(v, fan);
       if (fan.size() > 32) continue;  // valence > 32: beyond the batched check, left alone
       old_normals.clear();
-      double old_min = kMinAngleFloor;
+      double old_min = remesh_detail::angle_key(kMinAngleFloor);
       for (int f : fan) {
         const auto& t = m.tri(f);
         old_normals.push_back(remesh_detail::triangle_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
-        old_min = std::min(old_min, remesh_detail::min_angle(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
+        old_min = std::min(old_min, remesh_detail::min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
       }
       m.set_pos(v, *proposal[v]);
       bool ok = true;
@@ -130,7 +130,7 @@ RemeshReport UniformRemesher::run(EditMesh& m, const RemeshContext<3>&) {
         const auto& t = m.tri(fan[i]);
         const Point<3> nn = remesh_detail::triangle_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]));
         ok = nn.squaredNorm() > 0 && nn.dot(old_normals[i]) >= cos_max &&
-             remesh_detail::min_angle(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])) >= old_min;
+             remesh_detail::min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])) >= old_min;
       }
       if (ok) {
         fan_tris.clear();

@@ -204,6 +204,21 @@ TEST(MinAngle, IsTheSmallestOfTheThreeAngles) {
   EXPECT_NEAR(remesh_detail::min_angle({0, 0, 0}, {std::sqrt(3.0), 0, 0}, {0, 1, 0}), std::numbers::pi / 6, 1e-15);
 }
 
+TEST(MinAngle, KeyIsMinusTheCosineOfTheSmallestAngle) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int i = 0; i < 1000; ++i) {
+    const Point<3> a(u(rng), u(rng), u(rng)), b(u(rng), u(rng), u(rng)), c(u(rng), u(rng), u(rng));
+    EXPECT_NEAR(remesh_detail::min_angle_key(a, b, c), -std::cos(remesh_detail::min_angle(a, b, c)), 1e-12);
+    EXPECT_NEAR(remesh_detail::min_angle_key(c, a, b), remesh_detail::min_angle_key(a, b, c), 1e-15);
+  }
+  // Hand-computed: a 30-60-90 triangle; the threshold keys order as the angles do.
+  EXPECT_NEAR(remesh_detail::min_angle_key({0, 0, 0}, {std::sqrt(3.0), 0, 0}, {0, 1, 0}), -std::sqrt(3.0) / 2, 1e-15);
+  EXPECT_LT(remesh_detail::angle_key(0.2), remesh_detail::angle_key(0.3));
+  // Degenerate: a repeated corner is the key of a zero angle.
+  EXPECT_EQ(remesh_detail::min_angle_key({1, 2, 3}, {1, 2, 3}, {0, 1, 0}), -1.0);
+}
+
 // The bench's jittered torus in small: a mid-evolution snake with every 4th vertex a template one.
 Snake<3> jittered_torus(int nu, int nv, unsigned seed) {
   Snake<3> t = test::torus(nu, nv, 3.0, 1.0);
