@@ -48,52 +48,16 @@ Connectivity Connectivity::mesh(int n, std::vector<Triangle> triangles) {
     return t[0] == t[1] || t[1] == t[2] || t[0] == t[2];
   };
 
-  // Directed half-edges (a, b) of the non-degenerate triangles, with their position 3 f + k,
-  // sorted: a repeated one is shared by more than two triangles or oriented inconsistently; one
-  // without its twin (b, a) is on a boundary. The first problem in triangle order is reported.
-  struct HalfEdge {
-    uint64_t key;
-    int position;
-    bool operator<(const HalfEdge& o) const { return key != o.key ? key < o.key : position < o.position; }
-  };
-  auto key = [](int a, int b) { return (uint64_t(uint32_t(a)) << 32) | uint32_t(b); };
-  std::vector<HalfEdge> half_edges;
-  half_edges.reserve(tris.size() * 3);
+  // Incident non-degenerate triangles of each vertex, in triangle order (CSR).
   int first_degenerate = F;
+  std::vector<int> first_incident(n + 1, 0), incident;
   for (int f = 0; f < F; ++f) {
     if (degenerate(f)) {
       first_degenerate = std::min(first_degenerate, f);
       continue;
     }
-    for (int k = 0; k < 3; ++k) half_edges.push_back({key(tris[f][k], tris[f][(k + 1) % 3]), 3 * f + k});
+    for (int k = 0; k < 3; ++k) ++first_incident[tris[f][k] + 1];
   }
-  std::sort(half_edges.begin(), half_edges.end());
-  int first_repeat = 3 * F;  // position of the earliest second occurrence of a half-edge
-  for (size_t i = 1; i < half_edges.size(); ++i)
-    if (half_edges[i].key == half_edges[i - 1].key) first_repeat = std::min(first_repeat, half_edges[i].position);
-  if (first_degenerate < F && first_degenerate <= first_repeat / 3) {
-    fail("triangle " + std::to_string(first_degenerate) + " is degenerate (repeated vertex)");
-  } else if (first_repeat < 3 * F) {
-    const auto& t = tris[first_repeat / 3];
-    const int k = first_repeat % 3;
-    fail("edge (" + std::to_string(t[k]) + ", " + std::to_string(t[(k + 1) % 3]) +
-         ") is shared by more than two triangles or oriented inconsistently");
-  }
-  for (const HalfEdge& h : half_edges) {
-    const int a = int(h.key >> 32), b = int(h.key & 0xffffffffu);
-    const auto twin = std::lower_bound(half_edges.begin(), half_edges.end(), HalfEdge{key(b, a), -1});
-    if (twin == half_edges.end() || twin->key != key(b, a)) {
-      fail("edge (" + std::to_string(std::min(a, b)) + ", " + std::to_string(std::max(a, b)) +
-           ") is a boundary edge or oriented inconsistently: the mesh is not closed");
-      break;
-    }
-  }
-
-  // Incident non-degenerate triangles of each vertex, in triangle order (CSR).
-  std::vector<int> first_incident(n + 1, 0), incident;
-  for (int f = 0; f < F; ++f)
-    if (!degenerate(f))
-      for (int k = 0; k < 3; ++k) ++first_incident[tris[f][k] + 1];
   for (int v = 0; v < n; ++v) first_incident[v + 1] += first_incident[v];
   incident.resize(first_incident[n]);
   {
@@ -102,6 +66,48 @@ Connectivity Connectivity::mesh(int n, std::vector<Triangle> triangles) {
       if (!degenerate(f))
         for (int k = 0; k < 3; ++k) incident[fill[tris[f][k]]++] = f;
   }
+
+  // The directed half-edges a -> b of the non-degenerate triangles, with their position 3 f + k,
+  // per vertex a sorted by (b, position) (the same CSR layout): a repeated one is shared by more
+  // than two triangles or oriented inconsistently; one without its twin b -> a is on a boundary.
+  // The first problem in triangle order is reported (the earliest second occurrence of a
+  // half-edge; the missing twin of the smallest (a, b)). Linear in the mesh size.
+  struct Outgoing {
+    int to, position;
+    bool operator<(const Outgoing& o) const { return to != o.to ? to < o.to : position < o.position; }
+  };
+  std::vector<Outgoing> outgoing(incident.size());
+  int first_repeat = 3 * F;  // position of the earliest second occurrence of a half-edge
+  for (int a = 0; a < n; ++a) {
+    const auto begin = outgoing.begin() + first_incident[a], end = outgoing.begin() + first_incident[a + 1];
+    for (int i = first_incident[a]; i < first_incident[a + 1]; ++i) {
+      const int f = incident[i];
+      const int k = tris[f][0] == a ? 0 : (tris[f][1] == a ? 1 : 2);
+      outgoing[i] = {tris[f][(k + 1) % 3], 3 * f + k};
+    }
+    std::sort(begin, end);
+    for (auto it = begin; it != end && it + 1 != end; ++it)
+      if (it[1].to == it->to) first_repeat = std::min(first_repeat, it[1].position);
+  }
+  if (first_degenerate < F && first_degenerate <= first_repeat / 3) {
+    fail("triangle " + std::to_string(first_degenerate) + " is degenerate (repeated vertex)");
+  } else if (first_repeat < 3 * F) {
+    const auto& t = tris[first_repeat / 3];
+    const int k = first_repeat % 3;
+    fail("edge (" + std::to_string(t[k]) + ", " + std::to_string(t[(k + 1) % 3]) +
+         ") is shared by more than two triangles or oriented inconsistently");
+  }
+  for (int a = 0; a < n && c.problem_.empty(); ++a)
+    for (int i = first_incident[a]; i < first_incident[a + 1]; ++i) {
+      const int b = outgoing[i].to;
+      const auto b_begin = outgoing.begin() + first_incident[b], b_end = outgoing.begin() + first_incident[b + 1];
+      const auto twin = std::lower_bound(b_begin, b_end, Outgoing{a, -1});
+      if (twin == b_end || twin->to != a) {
+        fail("edge (" + std::to_string(std::min(a, b)) + ", " + std::to_string(std::max(a, b)) +
+             ") is a boundary edge or oriented inconsistently: the mesh is not closed");
+        break;
+      }
+    }
 
   // Ordered one-rings: around v, each incident triangle (v, a, b) links a -> b; the ring starts
   // at the first incident triangle's a.

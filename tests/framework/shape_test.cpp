@@ -45,6 +45,45 @@ TEST(Connectivity, OpenAndNonManifoldMeshesAreReported) {
             std::string::npos);
 }
 
+// The first problem in triangle order, with the message naming it: the earliest second
+// occurrence of a half-edge, a degenerate triangle if it comes no later, else the missing twin
+// of the smallest (a, b).
+TEST(Connectivity, ReportsTheFirstProblemByName) {
+  const auto ico = make_icosphere(1).connectivity.triangles();
+  const int n = 42;
+  auto problem = [&](const std::vector<Triangle>& t) { return Connectivity::mesh(n, t).closed_manifold_problem(); };
+  EXPECT_EQ(problem(ico), "");
+  // A duplicated last triangle: its first half-edge is the earliest second occurrence.
+  auto dup = ico;
+  dup.push_back(ico.back());
+  EXPECT_EQ(problem(dup), "edge (" + std::to_string(ico.back()[0]) + ", " + std::to_string(ico.back()[1]) +
+                              ") is shared by more than two triangles or oriented inconsistently");
+  // A degenerate triangle before that: reported instead; after a repeat: the repeat is.
+  auto degenerate_first = dup;
+  degenerate_first.insert(degenerate_first.begin(), Triangle{0, 0, 1});
+  EXPECT_EQ(problem(degenerate_first), "triangle 0 is degenerate (repeated vertex)");
+  auto repeat_first = ico;
+  repeat_first.insert(repeat_first.begin() + 1, ico[0]);
+  repeat_first.push_back({3, 4, 3});
+  EXPECT_EQ(problem(repeat_first), "edge (" + std::to_string(ico[0][0]) + ", " + std::to_string(ico[0][1]) +
+                                       ") is shared by more than two triangles or oriented inconsistently");
+  // One triangle flipped: its half-edges now repeat its neighbours' (the earliest at its own
+  // position, as the neighbours' come first or later).
+  auto flipped = ico;
+  std::swap(flipped[5][1], flipped[5][2]);
+  EXPECT_NE(problem(flipped).find("is shared by more than two triangles or oriented inconsistently"), std::string::npos);
+  // A hole: the twins of the removed triangle's edges are missing; the smallest (a, b) of the
+  // half-edges left without a twin is named.
+  auto open = ico;
+  const Triangle gone = open.back();
+  open.pop_back();
+  std::array<int, 2> first = {n, n};
+  for (int k = 0; k < 3; ++k) first = std::min(first, std::array<int, 2>{gone[(k + 1) % 3], gone[k]});
+  EXPECT_EQ(problem(open), "edge (" + std::to_string(std::min(first[0], first[1])) + ", " +
+                               std::to_string(std::max(first[0], first[1])) +
+                               ") is a boundary edge or oriented inconsistently: the mesh is not closed");
+}
+
 TEST(Connectivity, PolygonNeighboursAndEdges) {
   const Connectivity c = Connectivity::polygon(5);
   EXPECT_EQ(c.neighbors(0)[0], 4);
