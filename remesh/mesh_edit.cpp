@@ -298,6 +298,8 @@ int EditMesh::opposite(int f, int a, int b) const {
 void EditMesh::move_vertex(int v, const Point<3>& p) {
   pos_[v] = p;
   changed_ = true;
+  if (optimistic_)
+    for (const Corner& c : vfan_[v]) dirty_[c.f] = 1;
   if (grid_built_)
     for (const Corner& c : vfan_[v]) grid_update(c.f);
 }
@@ -314,6 +316,7 @@ int EditMesh::add_triangle(const Triangle& t) {
   const int f = static_cast<int>(tri_.size());
   tri_.push_back(t);
   alive_.push_back(1);
+  if (optimistic_) dirty_.push_back(1);
   for (int k = 0; k < 3; ++k) {
     auto& fan = vfan_[t[k]];
     if (fan.empty()) ++live_vertices_;
@@ -345,7 +348,7 @@ bool EditMesh::intersects(const Triangle& t, std::span<const int> ignore) const 
 // so a real overlap always passes; without branches, which mispredict on such data) before the
 // exact pair tests, which take the double boxes.
 bool EditMesh::intersects_any(std::span<const Triangle> ts, std::span<const int> ignore) const {
-  if (ts.empty()) return false;
+  if (ts.empty() || optimistic_) return false;
   if (!grid_built_) build_grid();
   if (++query_ == 0) {  // wrap-around: clear the stamps
     for (GridBox& b : gbox_) b.stamp = 0;
@@ -417,6 +420,64 @@ bool EditMesh::intersects_any(std::span<const Triangle> ts, std::span<const int>
     }
   }
   return false;
+}
+
+void EditMesh::drop_grid() {
+  grid_built_ = false;
+  cells_ = {};
+  gbox_ = {};
+  range_ = {};
+}
+
+void EditMesh::begin_optimistic() {
+  drop_grid();
+  optimistic_ = true;
+  dirty_.assign(tri_.size(), 0);
+}
+
+// Each marked triangle f against the live triangles near its box (a fresh grid over the final
+// mesh), as intersects_any({f}, {f}) would test them; a pair of marked triangles only from the
+// smaller one.
+bool EditMesh::end_optimistic(bool verify) {
+  optimistic_ = false;
+  std::vector<uint8_t> dirty = std::move(dirty_);
+  dirty_ = {};
+  if (!verify) return true;
+  build_grid();
+  const double pad = 1e-9 * cell_;
+  auto apart = [](const GridBox& b, const std::array<float, 6>& q) {
+    return (b.lo[0] > q[3]) | (b.lo[1] > q[4]) | (b.lo[2] > q[5]) | (b.hi[0] < q[0]) | (b.hi[1] < q[1]) |
+           (b.hi[2] < q[2]);
+  };
+  for (int f = 0; f < static_cast<int>(tri_.size()); ++f) {
+    if (!dirty[f] || !alive_[f]) continue;
+    if (++query_ == 0) {  // wrap-around: clear the stamps
+      for (GridBox& b : gbox_) b.stamp = 0;
+      query_ = 1;
+    }
+    gbox_[f].stamp = query_;
+    const Triangle& t = tri_[f];
+    const std::array<Point<3>, 3> p = {pos_[t[0]], pos_[t[1]], pos_[t[2]]};
+    const Point<3> lo = p[0].cwiseMin(p[1]).cwiseMin(p[2]), hi = p[0].cwiseMax(p[1]).cwiseMax(p[2]);
+    const Point<3> lo_pad = lo.array() - pad, hi_pad = hi.array() + pad;
+    std::array<float, 6> box;
+    for (int k = 0; k < 3; ++k) box[k] = float_down(lo_pad[k]), box[k + 3] = float_up(hi_pad[k]);
+    const auto r = cell_range(lo_pad, hi_pad);
+    for (int z = r[2]; z <= r[5]; ++z)
+      for (int y = r[1]; y <= r[4]; ++y)
+        for (int x = r[0]; x <= r[3]; ++x)
+          for (int g : cells_[x + static_cast<size_t>(dims_[0]) * (y + static_cast<size_t>(dims_[1]) * z)]) {
+            GridBox& b = gbox_[g];
+            if (b.stamp == query_) continue;
+            b.stamp = query_;
+            if ((dirty[g] && g < f) || apart(b, box)) continue;
+            const Triangle& s = tri_[g];
+            const std::array<Point<3>, 3> q = {pos_[s[0]], pos_[s[1]], pos_[s[2]]};
+            const Point<3> qlo = q[0].cwiseMin(q[1]).cwiseMin(q[2]), qhi = q[0].cwiseMax(q[1]).cwiseMax(q[2]);
+            if (pair_conflicts(t, p, lo, hi, s, q, qlo, qhi)) return false;
+          }
+  }
+  return true;
 }
 
 bool EditMesh::intersects_any_brute_force(std::span<const Triangle> ts, std::span<const int> ignore) const {

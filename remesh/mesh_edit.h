@@ -83,6 +83,17 @@ class EditMesh {
   // The reference for tests: the same pair tests against every live triangle, no grid.
   bool intersects_any_brute_force(std::span<const Triangle> ts, std::span<const int> ignore) const;
 
+  // Optimistic edits (remesh/pass.h): from begin_optimistic() on, intersects_any() answers
+  // false without looking, and every triangle that is created or whose corner moves is marked.
+  // end_optimistic(true) then tests each marked live triangle against every live triangle with
+  // the pair tests of intersects_any (once per pair) and returns false if one conflicts;
+  // end_optimistic(false) only ends the mode. Begins by dropping the grid.
+  void begin_optimistic();
+  bool end_optimistic(bool verify);
+  // Drops the intersection grid (rebuilt by the next check), so that a copy of the mesh is
+  // cheap and edits no longer keep the grid up to date.
+  void drop_grid();
+
   // Writes back into the snake (dropping dead vertices and triangles) if anything changed.
   // Returns the snake's vertex count.
   int commit(Snake<3>& snake);
@@ -123,6 +134,8 @@ class EditMesh {
   mutable std::vector<std::array<int, 6>> range_;  // per triangle in the grid: its cell range
   mutable std::vector<int> candidates_;  // intersects_any's scratch
   mutable uint32_t query_ = 0;
+  bool optimistic_ = false;
+  std::vector<uint8_t> dirty_;      // while optimistic: per triangle slot, created or moved
   bool changed_ = false;            // anything to write back
   bool connectivity_changed_ = false;  // triangles added or removed (else positions only)
 };

@@ -20,14 +20,36 @@ namespace remesh_detail {
 class EditMesh;
 }  // namespace remesh_detail
 
+// How a stage keeps its edits from crossing the surface.
+// kOptimistic (the default): the edits run with their local checks only; then every triangle
+// they created or moved is tested once against the final mesh. If one conflicts, the mesh is
+// restored and the stage runs again with kEveryEdit, so the stage's output never has a new
+// conflict. Without a conflict the result is kEveryEdit's, unless an edit's crossing was undone
+// by a later edit of the same stage (then the optimistic result is kept: a different, equally
+// conflict-free mesh). A settled pass then tests each new triangle once, instead of each edit's
+// triangles against all their neighbours.
+// kEveryEdit: each edit is tested before it is made (an edit that would cross is rejected).
+// kUnchecked: no test at all; for benchmarks and tests only (the cost of the checks).
+enum class EditChecking { kOptimistic, kEveryEdit, kUnchecked };
+
 // A 3D stage made of checked local edits (refine, delaunay, uniform, simplify).
 class EditStage : public Remesher<3> {
  public:
-  // EditMesh from the snake, run(), then commit (the snake changes only if the mesh did).
+  // EditMesh from the snake, run_checked(), then commit (the snake changes only if the mesh
+  // did).
   RemeshReport apply(Snake<3>& snake, const RemeshContext<3>& context) final;
+  // run() under the stage's EditChecking.
+  RemeshReport run_checked(remesh_detail::EditMesh& m, const RemeshContext<3>& context);
   // The stage's edits on m. Fills the report's stage name and rejected edits; the caller fills
   // the vertex counts.
   virtual RemeshReport run(remesh_detail::EditMesh& m, const RemeshContext<3>& context) = 0;
+  // false for a stage whose edits cannot cross the surface (refine: its new triangles tile the
+  // old ones), which then runs without any test.
+  virtual bool edits_can_cross() const { return true; }
+  void set_checking(EditChecking checking) { checking_ = checking; }
+
+ private:
+  EditChecking checking_ = EditChecking::kOptimistic;
 };
 
 // Applies `stages` in order to the snake, one report per stage. Consecutive EditStages share one

@@ -26,6 +26,7 @@ class RefineRemesher : public EditStage {
  public:
   explicit RefineRemesher(RefineOptions options) : options_(options) {}
   std::string type() const override { return "refine"; }
+  bool edits_can_cross() const override { return false; }  // the new triangles tile the old ones
   RemeshReport run(remesh_detail::EditMesh& m, const RemeshContext<3>& context) override;
 
  private:
