@@ -47,6 +47,7 @@ class EditStage : public Remesher<3> {
   // old ones), which then runs without any test.
   virtual bool edits_can_cross() const { return true; }
   void set_checking(EditChecking checking) { checking_ = checking; }
+  EditChecking checking() const { return checking_; }
 
  private:
   EditChecking checking_ = EditChecking::kOptimistic;
@@ -54,7 +55,10 @@ class EditStage : public Remesher<3> {
 
 // Applies `stages` in order to the snake, one report per stage. Consecutive EditStages share one
 // EditMesh, written back once at the end of the run of them (other remeshers apply as usual).
-// Vertex counts in the reports are those of the shared mesh before and after each stage.
+// Vertex counts in the reports are those of the shared mesh before and after each stage. When
+// every stage of such a run checks optimistically, the run is checked as one: one test of the
+// triangles its stages created or moved, and on a conflict the whole run again, checking every
+// edit.
 std::vector<RemeshReport> apply_pass(std::span<const std::unique_ptr<Remesher<3>>> stages, Snake<3>& snake,
                                      const RemeshContext<3>& context);
 

@@ -117,6 +117,32 @@ TEST(OptimisticChecking, ACrossingAfterTheStageSendsItBackToCheckingEveryEdit) {
   EXPECT_EQ(r2.rejected_edits, r1.rejected_edits);
 }
 
+// The same through apply_pass, where the run of stages is checked as one: the crossing sends
+// the whole run back to checking every edit.
+TEST(OptimisticChecking, ACrossingAfterAPassSendsTheWholePassBackToCheckingEveryEdit) {
+  const Snake<3> base = nested_spheres(2e-4);
+  auto run = [&](EditChecking checking) {
+    std::vector<std::unique_ptr<Remesher<3>>> stages;
+    stages.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{"flips", 30, false, 25}));
+    stages.push_back(std::make_unique<UniformRemesher>(UniformOptions{1, 45}));
+    stages.push_back(std::make_unique<UniformRemesher>(UniformOptions{1, 45}));
+    for (auto& r : stages) static_cast<EditStage&>(*r).set_checking(checking);
+    Snake<3> s = base;
+    const auto reports = apply_pass(stages, s, {});
+    int rejected = 0;
+    for (const auto& r : reports) rejected += r.rejected_edits;
+    return std::make_pair(s, rejected);
+  };
+  const auto [unchecked, r0] = run(EditChecking::kUnchecked);
+  EXPECT_GT(count_self_intersections<3>({unchecked.positions(), unchecked.connectivity()}), 0);
+  const auto [every, r1] = run(EditChecking::kEveryEdit);
+  const auto [optimistic, r2] = run(EditChecking::kOptimistic);
+  EXPECT_GT(r1, r0);
+  EXPECT_EQ(count_self_intersections<3>({every.positions(), every.connectivity()}), 0);
+  expect_same(optimistic, every);
+  EXPECT_EQ(r2, r1);
+}
+
 // The check after an optimistic run against the brute-force pair tests, on random moves of a
 // torus's vertices, small and large (some cross, some do not).
 TEST(OptimisticChecking, TheCheckAfterTheStageAgreesWithBruteForce) {
