@@ -18,7 +18,8 @@ namespace {
 float float_down(double x) { return static_cast<float>(x - (std::abs(x) * 0x1p-20 + 1e-30)); }
 float float_up(double x) { return static_cast<float>(x + (std::abs(x) * 0x1p-20 + 1e-30)); }
 
-constexpr double kFoldCos = 0.990268;  // cos(8 degrees): closer than that across an edge is a fold
+constexpr double kFoldCos = 0.990268;
+constexpr double kVerifyCell = 2.0;  // end_optimistic's grid cell, in mean edges  // cos(8 degrees): closer than that across an edge is a fold
 
 // Closed segment [p, q] against the closed triangle (a, b, c), Moller-Trumbore; a segment
 // parallel to the triangle's plane counts as missing it (the coplanar case is left to the
@@ -435,48 +436,138 @@ void EditMesh::begin_optimistic() {
   dirty_.assign(tri_.size(), 0);
 }
 
-// Each marked triangle f against the live triangles near its box (a fresh grid over the final
-// mesh), as intersects_any({f}, {f}) would test them; a pair of marked triangles only from the
-// smaller one.
+// True if v's fan cannot hold a conflicting pair (the tests of intersects_any on two of its
+// triangles would all say no): with n the fan's area-weighted normal, every triangle's normal is
+// within 80 degrees of n, so that two triangles sharing an edge open by more than 20 degrees
+// (no fold), and the fan projects one-to-one onto the plane normal to n (each triangle turns
+// counter-clockwise about v by an angle whose sine is above 1e-6, and the ring winds once), so
+// that two triangles sharing only v are apart but for v.
+bool EditMesh::fan_is_embedded(int v) const {
+  constexpr double kCos80 = 0.17364817766693041, kMinSine = 1e-6;
+  const auto& fan = vfan_[v];
+  const int k = static_cast<int>(fan.size());
+  if (k < 3 || k > 64) return false;
+  const Point<3>& x = pos_[v];
+  std::array<Point<3>, 64> normal;
+  Point<3> n = Point<3>::Zero();
+  for (int i = 0; i < k; ++i) n += normal[i] = (pos_[fan[i].next] - x).cross(pos_[fan[i].prev] - x);
+  const double length = n.norm();
+  if (!(length > 0)) return false;
+  n /= length;
+  // In-plane axes e1, e2 (e1 from the axis least aligned with n).
+  int least = 0;
+  for (int a = 1; a < 3; ++a)
+    if (std::abs(n[a]) < std::abs(n[least])) least = a;
+  const Point<3> e1 = n.cross(Point<3>::Unit(least)).normalized(), e2 = n.cross(e1);
+  int winding = 0;
+  for (int i = 0; i < k; ++i) {
+    const Point<3> a = pos_[fan[i].next] - x, b = pos_[fan[i].prev] - x;
+    const double turn = normal[i].dot(n);  // = the projected cross product of a and b
+    if (!(turn > kCos80 * normal[i].norm())) return false;
+    const double ax = a.dot(e1), ay = a.dot(e2), bx = b.dot(e1), by = b.dot(e2);
+    if (!(turn > kMinSine * std::sqrt((ax * ax + ay * ay) * (bx * bx + by * by)))) return false;
+    winding += ay < 0 && by >= 0;  // a counter-clockwise step across the positive e1 axis
+  }
+  return winding == 1;
+}
+
+// Two parts, together every pair intersects_any would test with at least one marked triangle:
+// pairs that share a vertex v lie in v's fan, cleared by fan_is_embedded or else tested pair by
+// pair; pairs that share no vertex come from a grid of about a mean edge over the final mesh,
+// each triangle listed in the cells its box covers and a pair taken in the one cell holding the
+// low corner of the boxes' overlap (boxes grown slightly beyond intersects_any's padding).
 bool EditMesh::end_optimistic(bool verify) {
   optimistic_ = false;
   std::vector<uint8_t> dirty = std::move(dirty_);
   dirty_ = {};
   if (!verify) return true;
-  build_grid();
-  const double pad = 1e-9 * cell_;
-  auto apart = [](const GridBox& b, const std::array<float, 6>& q) {
-    return (b.lo[0] > q[3]) | (b.lo[1] > q[4]) | (b.lo[2] > q[5]) | (b.hi[0] < q[0]) | (b.hi[1] < q[1]) |
-           (b.hi[2] < q[2]);
+  const int F = static_cast<int>(tri_.size());
+  auto corners_of = [&](int f) { return std::array<Point<3>, 3>{pos_[tri_[f][0]], pos_[tri_[f][1]], pos_[tri_[f][2]]}; };
+  auto conflict = [&](int f, int g) {
+    const auto p = corners_of(f), q = corners_of(g);
+    const Point<3> plo = p[0].cwiseMin(p[1]).cwiseMin(p[2]), phi = p[0].cwiseMax(p[1]).cwiseMax(p[2]);
+    const Point<3> qlo = q[0].cwiseMin(q[1]).cwiseMin(q[2]), qhi = q[0].cwiseMax(q[1]).cwiseMax(q[2]);
+    return pair_conflicts(tri_[f], p, plo, phi, tri_[g], q, qlo, qhi);
   };
-  for (int f = 0; f < static_cast<int>(tri_.size()); ++f) {
-    if (!dirty[f] || !alive_[f]) continue;
-    if (++query_ == 0) {  // wrap-around: clear the stamps
-      for (GridBox& b : gbox_) b.stamp = 0;
-      query_ = 1;
-    }
-    gbox_[f].stamp = query_;
-    const Triangle& t = tri_[f];
-    const std::array<Point<3>, 3> p = {pos_[t[0]], pos_[t[1]], pos_[t[2]]};
-    const Point<3> lo = p[0].cwiseMin(p[1]).cwiseMin(p[2]), hi = p[0].cwiseMax(p[1]).cwiseMax(p[2]);
-    const Point<3> lo_pad = lo.array() - pad, hi_pad = hi.array() + pad;
-    std::array<float, 6> box;
-    for (int k = 0; k < 3; ++k) box[k] = float_down(lo_pad[k]), box[k + 3] = float_up(hi_pad[k]);
-    const auto r = cell_range(lo_pad, hi_pad);
+  // Pairs sharing a vertex.
+  for (int v = 0; v < num_vertices(); ++v) {
+    const auto& fan = vfan_[v];
+    bool marked = false;
+    for (const Corner& c : fan) marked |= dirty[c.f] != 0;
+    if (!marked || fan_is_embedded(v)) continue;
+    for (size_t i = 0; i < fan.size(); ++i)
+      for (size_t j = i + 1; j < fan.size(); ++j)
+        if ((dirty[fan[i].f] || dirty[fan[j].f]) && conflict(fan[i].f, fan[j].f)) return false;
+  }
+  // Pairs sharing no vertex: boxes of the live triangles (in a compact list), grown by 1e-8 of
+  // the cell and of their own size, and the grid over them (cells grown while there would be
+  // more than 8 per triangle).
+  std::vector<int> live;
+  Point<3> all_lo = Point<3>::Constant(std::numeric_limits<double>::infinity()), all_hi = -all_lo;
+  for (int f = 0; f < F; ++f) {
+    if (!alive_[f]) continue;
+    live.push_back(f);
+    for (int v : tri_[f]) all_lo = all_lo.cwiseMin(pos_[v]), all_hi = all_hi.cwiseMax(pos_[v]);
+  }
+  const int L = static_cast<int>(live.size());
+  if (L == 0 || !all_lo.allFinite() || !all_hi.allFinite()) return true;
+  double cell = std::max(kVerifyCell * mean_edge_, 1e-9);
+  auto count = [&](int k) { return std::floor((all_hi[k] - all_lo[k]) / cell) + 3; };
+  while (count(0) * count(1) * count(2) > 8.0 * L + 64) cell *= 1.25;
+  const Point<3> origin = all_lo.array() - cell;
+  const std::array<int, 3> dims = {static_cast<int>(count(0)), static_cast<int>(count(1)), static_cast<int>(count(2))};
+  auto cell_of = [&](double x, int k) { return std::clamp(static_cast<int>(std::floor((x - origin[k]) / cell)), 0, dims[k] - 1); };
+  struct Box {
+    Point<3> lo, hi;
+    std::array<int, 6> range;  // cells (x0, y0, z0, x1, y1, z1)
+  };
+  std::vector<Box> box(L);
+  std::vector<int> start(static_cast<size_t>(dims[0]) * dims[1] * dims[2] + 1, 0);
+  auto index = [&](int x, int y, int z) { return x + static_cast<size_t>(dims[0]) * (y + static_cast<size_t>(dims[1]) * z); };
+  for (int i = 0; i < L; ++i) {
+    const auto p = corners_of(live[i]);
+    Box& b = box[i];
+    b.lo = p[0].cwiseMin(p[1]).cwiseMin(p[2]), b.hi = p[0].cwiseMax(p[1]).cwiseMax(p[2]);
+    const double grow = 1e-8 * (cell + (b.hi - b.lo).maxCoeff());
+    b.lo.array() -= grow, b.hi.array() += grow;
+    for (int k = 0; k < 3; ++k) b.range[k] = cell_of(b.lo[k], k), b.range[k + 3] = cell_of(b.hi[k], k);
+    const auto& r = b.range;
     for (int z = r[2]; z <= r[5]; ++z)
       for (int y = r[1]; y <= r[4]; ++y)
-        for (int x = r[0]; x <= r[3]; ++x)
-          for (int g : cells_[x + static_cast<size_t>(dims_[0]) * (y + static_cast<size_t>(dims_[1]) * z)]) {
-            GridBox& b = gbox_[g];
-            if (b.stamp == query_) continue;
-            b.stamp = query_;
-            if ((dirty[g] && g < f) || apart(b, box)) continue;
-            const Triangle& s = tri_[g];
-            const std::array<Point<3>, 3> q = {pos_[s[0]], pos_[s[1]], pos_[s[2]]};
-            const Point<3> qlo = q[0].cwiseMin(q[1]).cwiseMin(q[2]), qhi = q[0].cwiseMax(q[1]).cwiseMax(q[2]);
-            if (pair_conflicts(t, p, lo, hi, s, q, qlo, qhi)) return false;
-          }
+        for (int x = r[0]; x <= r[3]; ++x) ++start[index(x, y, z) + 1];
   }
+  for (size_t c = 1; c < start.size(); ++c) start[c] += start[c - 1];
+  std::vector<int> entries(start.back()), fill(start.begin(), start.end() - 1);
+  for (int i = 0; i < L; ++i) {
+    const auto& r = box[i].range;
+    for (int z = r[2]; z <= r[5]; ++z)
+      for (int y = r[1]; y <= r[4]; ++y)
+        for (int x = r[0]; x <= r[3]; ++x) entries[fill[index(x, y, z)]++] = i;
+  }
+  // A pair is taken in the cell of its overlap's low corner: there the larger of the two
+  // ranges' first cells, on each axis (the cell map is monotone).
+  for (int z = 0; z < dims[2]; ++z)
+    for (int y = 0; y < dims[1]; ++y)
+      for (int x = 0; x < dims[0]; ++x) {
+        const size_t c = index(x, y, z);
+        for (int i = start[c]; i < start[c + 1]; ++i) {
+          const Box& a = box[entries[i]];
+          const int f = live[entries[i]];
+          const bool a_here = a.range[0] == x, b_here_y = a.range[1] == y, c_here_z = a.range[2] == z;
+          for (int j = i + 1; j < start[c + 1]; ++j) {
+            const Box& b = box[entries[j]];
+            // (the low corner's cell is this one iff on each axis one of the two ranges starts here)
+            if (!((a_here || b.range[0] == x) && (b_here_y || b.range[1] == y) && (c_here_z || b.range[2] == z))) continue;
+            const int g = live[entries[j]];
+            if ((!dirty[f] && !dirty[g]) || (a.lo.array() > b.hi.array()).any() || (b.lo.array() > a.hi.array()).any())
+              continue;
+            const Triangle &t = tri_[f], &u = tri_[g];
+            bool shared = false;
+            for (int k = 0; k < 3; ++k) shared |= t[k] == u[0] || t[k] == u[1] || t[k] == u[2];
+            if (!shared && conflict(f, g)) return false;
+          }
+        }
+      }
   return true;
 }
 

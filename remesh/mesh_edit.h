@@ -90,6 +90,10 @@ class EditMesh {
   // end_optimistic(false) only ends the mode. Begins by dropping the grid.
   void begin_optimistic();
   bool end_optimistic(bool verify);
+  // True if no two triangles of v's fan can conflict (end_optimistic's test of the pairs that
+  // share a vertex): their normals within 80 degrees of the fan's normal n, and the fan one to
+  // one onto the plane normal to n.
+  bool fan_is_embedded(int v) const;
   // Drops the intersection grid (rebuilt by the next check), so that a copy of the mesh is
   // cheap and edits no longer keep the grid up to date.
   void drop_grid();

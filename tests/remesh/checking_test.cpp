@@ -13,7 +13,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <memory>
+#include <numbers>
 #include <random>
 #include <string>
 
@@ -183,6 +185,164 @@ TEST(OptimisticChecking, TheCheckAfterTheStageAgreesWithBruteForce) {
   }
   EXPECT_GT(conflicts, 5);
   EXPECT_GT(clean, 5);
+}
+
+// One vertex of a small sphere thrown about, its ring jittered: folds and crossings inside the
+// fan (pairs sharing a vertex, which the check clears fan by fan) and clean moves; the check
+// agrees with brute force on every one.
+TEST(OptimisticChecking, FanByFanAgreesWithBruteForce) {
+  const Snake<3> sphere = test::icosphere(1, 1.0);
+  int conflicts = 0, clean = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    EditMesh m(sphere);
+    std::mt19937 rng(7 + trial);
+    std::uniform_real_distribution<double> unit(-1, 1);
+    const int v = trial % m.num_vertices();
+    std::vector<int> ring;
+    m.ring(v, ring);
+    const double size = 0.1 + 1.9 * (trial % 5) / 4.0;  // the ring's radius is about 0.6
+    m.begin_optimistic();
+    // Along the sphere (its normal is the position), past the ring for the large ones.
+    const Point<3> n = m.pos(v).normalized();
+    Point<3> along(unit(rng), unit(rng), unit(rng));
+    along = (along - along.dot(n) * n).normalized();
+    m.move_vertex(v, m.pos(v) + size * along + 0.1 * unit(rng) * n);
+    for (int w : ring) m.move_vertex(w, m.pos(w) + 0.05 * Point<3>(unit(rng), unit(rng), unit(rng)));
+    const bool verified = m.end_optimistic(true);
+    bool brute = false;
+    for (int f = 0; f < m.num_triangle_slots() && !brute; ++f) {
+      const int self[1] = {f};
+      brute = m.intersects_any_brute_force(std::span<const Triangle>(&m.tri(f), 1), self);
+    }
+    EXPECT_EQ(verified, !brute) << "trial " << trial;
+    (brute ? conflicts : clean)++;
+  }
+  EXPECT_GT(conflicts, 40);
+  EXPECT_GT(clean, 40);
+}
+
+// A hexagonal bipyramid: apex v over the ring r0..r5, apex w under it.
+EditMesh bipyramid(const PointList<3>& p) {
+  std::vector<Triangle> t;
+  for (int i = 0; i < 6; ++i) t.push_back({0, 1 + i, 1 + (i + 1) % 6}), t.push_back({7, 1 + (i + 1) % 6, 1 + i});
+  std::vector<int> ids(8, -1);
+  return EditMesh(Snake<3>(p, Connectivity::mesh(8, std::move(t)), std::move(ids)));
+}
+
+// Whether two triangles of v's fan conflict, by the pair tests themselves.
+bool fan_conflicts(const EditMesh& m, int v) {
+  for (const auto& c : m.corners(v)) {
+    const int self[1] = {c.f};
+    std::vector<int> others;
+    for (const auto& d : m.corners(v))
+      if (d.f != c.f) others.push_back(d.f);
+    // Brute force against the fan only: everything outside it is ignored.
+    std::vector<int> ignore = {c.f};
+    for (int f = 0; f < m.num_triangle_slots(); ++f)
+      if (std::find(others.begin(), others.end(), f) == others.end() && f != c.f) ignore.push_back(f);
+    if (m.intersects_any_brute_force(std::span<const Triangle>(&m.tri(c.f), 1), ignore)) return true;
+    (void)self;
+  }
+  return false;
+}
+
+// Fans that must not be cleared, each by one of the three conditions. A fold the projection
+// cannot see: the two triangles at edge v-r1 stand almost upright and
+// close to 2 degrees, and both turn counter-clockwise seen from above. Only the 80-degree
+// cone on the normals keeps the fan from being cleared.
+TEST(FanIsEmbedded, FoldsDoubleWindingsAndSliversAreNotCleared) {
+  PointList<3> p = {{0, 0, 0}};
+  const double angle[6] = {-0.02, 0, 0.02, 2.1, 3.1, 4.2};  // ring directions, radians
+  for (int i = 0; i < 6; ++i) p.push_back({std::cos(angle[i]), std::sin(angle[i]), 0});
+  p[1] = {0.5, -0.02, 1}, p[3] = {0.5, 0.02, 1};  // r0 and r2 above the edge v-r1
+  p.push_back({0, 0, -3});
+  const EditMesh m = bipyramid(p);
+  EXPECT_TRUE(fan_conflicts(m, 0));
+  EXPECT_FALSE(m.fan_is_embedded(0));
+  // The same ring flat: cleared, and indeed nothing conflicts.
+  PointList<3> flat = {{0, 0, 0}};
+  for (int i = 0; i < 6; ++i) flat.push_back({std::cos(i * std::numbers::pi / 3), std::sin(i * std::numbers::pi / 3), 0.1});
+  flat.push_back({0, 0, -3});
+  const EditMesh ok = bipyramid(flat);
+  EXPECT_TRUE(ok.fan_is_embedded(0));
+  EXPECT_FALSE(fan_conflicts(ok, 0));
+  // A ring that winds twice around v (each step a counter-clockwise turn of 120 degrees).
+  PointList<3> twice = {{0, 0, 0}};
+  for (int i = 0; i < 6; ++i)
+    twice.push_back({std::cos(i * 2 * std::numbers::pi / 3) * (1 + 0.1 * i), std::sin(i * 2 * std::numbers::pi / 3) * (1 + 0.1 * i), 0.1});
+  twice.push_back({0, 0, -3});
+  const EditMesh wound = bipyramid(twice);
+  EXPECT_TRUE(fan_conflicts(wound, 0));
+  EXPECT_FALSE(wound.fan_is_embedded(0));
+  // A sliver at v: r2 1e-13 radians past r1, so that the triangles on either side of it touch
+  // within the pair tests' tolerance. Only the margin on each turn keeps it from being cleared.
+  PointList<3> sliver = {{0, 0, 0}};
+  for (double a : {-1.0, 0.0, 1e-13, 2.0, 3.1, 4.2}) sliver.push_back({std::cos(a), std::sin(a), 0.1});
+  sliver.push_back({0, 0, -3});
+  const EditMesh thin = bipyramid(sliver);
+  EXPECT_TRUE(fan_conflicts(thin, 0));
+  EXPECT_FALSE(thin.fan_is_embedded(0));
+}
+
+// Random fans of the bipyramid, some steep, some folded, some fine: a cleared fan never holds
+// a conflicting pair.
+TEST(FanIsEmbedded, AClearedFanNeverHoldsAConflict) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  int cleared = 0, conflicting = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    const double lift = 0.2 + 2.5 * (trial % 5) / 4.0, spread = 0.6 * (trial % 4);
+    PointList<3> p = {{0, 0, 0}};
+    for (int i = 0; i < 6; ++i) {
+      const double a = i * std::numbers::pi / 3 + spread * unit(rng);
+      p.push_back({std::cos(a) * (1 + 0.5 * unit(rng)), std::sin(a) * (1 + 0.5 * unit(rng)), lift * unit(rng)});
+    }
+    p.push_back({0, 0, -3});
+    const EditMesh m = bipyramid(p);
+    const bool embedded = m.fan_is_embedded(0), conflicts = fan_conflicts(m, 0);
+    EXPECT_FALSE(embedded && conflicts) << "trial " << trial;
+    cleared += embedded;
+    conflicting += conflicts;
+  }
+  EXPECT_GT(cleared, 200);
+  EXPECT_GT(conflicting, 50);
+}
+
+// A small fine sphere moved rigidly through a coarse icosahedron (every fan stays as it was):
+// the crossings are all between triangles that share no vertex, a small one against a face
+// many grid cells wide, and the grid part of the check finds them as brute force does.
+TEST(OptimisticChecking, CrossingsBetweenFarTrianglesAgreeWithBruteForce) {
+  const Snake<3> big = test::icosphere(0, 1.0), small = test::icosphere(2, 0.3);
+  const int nb = big.num_vertices(), ns = small.num_vertices();
+  std::vector<Triangle> tris = big.connectivity().triangles();
+  const int big_faces = static_cast<int>(tris.size());
+  for (const auto& t : small.connectivity().triangles()) tris.push_back({t[0] + nb, t[1] + nb, t[2] + nb});
+  PointList<3> p = big.positions();
+  for (int v = 0; v < ns; ++v) p.push_back(small.positions()[v] + Point<3>(5, 0, 0));
+  const Snake<3> both(p, Connectivity::mesh(nb + ns, std::move(tris)), std::vector<int>(nb + ns, -1));
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  int conflicts = 0, clean = 0;
+  for (int trial = 0; trial < 80; ++trial) {
+    EditMesh m(both);
+    // The small sphere's centre 0.3 to 1.3 from the icosahedron's, in a random direction (the
+    // icosahedron's faces are 0.79 to 1 from its centre).
+    Point<3> dir(unit(rng), unit(rng), unit(rng));
+    dir.normalize();
+    const Point<3> shift = (0.3 + 1.0 * (trial % 11) / 10.0) * dir - Point<3>(5, 0, 0);
+    m.begin_optimistic();
+    for (int v = nb; v < nb + ns; ++v) m.move_vertex(v, m.pos(v) + shift);
+    const bool verified = m.end_optimistic(true);
+    bool brute = false;
+    for (int f = big_faces; f < m.num_triangle_slots() && !brute; ++f) {
+      const int self[1] = {f};
+      brute = m.intersects_any_brute_force(std::span<const Triangle>(&m.tri(f), 1), self);
+    }
+    EXPECT_EQ(verified, !brute) << "trial " << trial;
+    (brute ? conflicts : clean)++;
+  }
+  EXPECT_GT(conflicts, 10);
+  EXPECT_GT(clean, 10);
 }
 
 }  // namespace
