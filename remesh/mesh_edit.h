@@ -8,6 +8,8 @@
 
 #include "framework/shape.h"
 
+#include <Eigen/Geometry>
+
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -16,6 +18,14 @@
 
 namespace dsnake::remesh_detail {
 
+// Cosine of the angle between two vectors given unnormalised (0 if one is zero): one square
+// root, for comparisons of triangle normals taken as raw cross products.
+inline double cos_between(const Point<3>& u, const Point<3>& v) {
+  const double lengths2 = u.squaredNorm() * v.squaredNorm();
+  return lengths2 > 0 ? u.dot(v) / std::sqrt(lengths2) : 0.0;
+}
+// (b - a) x (c - a): the triangle's normal times its doubled area.
+inline Point<3> area_normal(const Point<3>& a, const Point<3>& b, const Point<3>& c) { return (b - a).cross(c - a); }
 // Unit normal of triangle (a, b, c) (zero if degenerate) and its doubled area.
 Point<3> triangle_normal(const Point<3>& a, const Point<3>& b, const Point<3>& c);
 double triangle_area(const Point<3>& a, const Point<3>& b, const Point<3>& c);

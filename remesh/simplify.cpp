@@ -44,17 +44,15 @@ enum class Collapse { kDone, kTopology, kRejected, kCriterion };
 // error limit); otherwise the collapse must keep every new edge <= max_edge and the surface
 // within curvature_ratio * |ab| / 8 of a's old position.
 Collapse try_collapse(EditMesh& m, int a, int b, bool short_edge, const SimplifyOptions& o, double max_edge,
-                      double cos_max, std::vector<int>& ring_a, std::vector<int>& ring_b, std::vector<int>& fan,
-                      std::vector<Triangle>& fresh) {
+                      double cos_max, std::vector<int>& fan, std::vector<Triangle>& fresh) {
   const int f1 = m.face_with_edge(a, b), f2 = m.face_with_edge(b, a);
   if (f1 < 0 || f2 < 0) return Collapse::kTopology;
   const int c = m.opposite(f1, a, b), d = m.opposite(f2, b, a);
-  // Link condition: a and b share exactly the neighbours c and d.
-  m.ring(a, ring_a);
-  m.ring(b, ring_b);
+  // Link condition: a and b share exactly the neighbours c and d (each neighbour once, as a
+  // corner's next vertex).
   int common = 0;
-  for (int x : ring_a)
-    if (std::find(ring_b.begin(), ring_b.end(), x) != ring_b.end()) ++common;
+  for (const EditMesh::Corner& x : m.corners(a))
+    for (const EditMesh::Corner& y : m.corners(b)) common += x.next == y.next;
   if (common != 2 || c == d) return Collapse::kTopology;
   m.triangles_of(a, fan);  // a copy: the removals below edit a's list
   fresh.clear();
@@ -62,11 +60,11 @@ Collapse try_collapse(EditMesh& m, int a, int b, bool short_edge, const Simplify
   for (int f : fan) {
     if (f == f1 || f == f2) continue;
     Triangle t = m.tri(f);
-    const Point<3> old_n = remesh_detail::triangle_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]));
+    const Point<3> old_n = remesh_detail::area_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]));
     for (int& v : t)
       if (v == a) v = b;
-    const Point<3> n = remesh_detail::triangle_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]));
-    if (n.squaredNorm() == 0 || n.dot(old_n) < cos_max) return Collapse::kRejected;
+    const Point<3> n = remesh_detail::area_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]));
+    if (n.squaredNorm() == 0 || remesh_detail::cos_between(n, old_n) < cos_max) return Collapse::kRejected;
     fresh.push_back(t);
   }
 
@@ -104,20 +102,21 @@ RemeshReport SimplifyRemesher::run(EditMesh& m, const RemeshContext<3>& context)
   const double min_edge = options_.min_edge > 0 ? options_.min_edge : voxel;
   const double max_edge = options_.max_edge > 0 ? options_.max_edge : 2 * min_edge;
   const double cos_max = std::cos(options_.max_normal_change_deg * std::numbers::pi / 180);
-  std::vector<int> ring_a, ring_b, fan;
+  std::vector<int> fan;
   std::vector<Triangle> fresh;
   // Candidates: each free vertex with its shortest edge, shortest first (ties by index).
   for (int pass = 0; pass < 3; ++pass) {
     std::vector<std::tuple<double, int, int>> cand;
     for (int a = 0; a < m.num_vertices(); ++a) {
       if (!m.is_free(a) || !m.vertex_alive(a)) continue;
-      m.ring(a, ring_a);
+      // Each neighbour once, as a corner's next vertex; squared lengths (one root at the end).
       int best = -1;
-      double best_len = std::numeric_limits<double>::infinity();
-      for (int b : ring_a) {
-        const double len = (m.pos(a) - m.pos(b)).norm();
-        if (len < best_len) { best_len = len; best = b; }
+      double best_len2 = std::numeric_limits<double>::infinity();
+      for (const EditMesh::Corner& c : m.corners(a)) {
+        const double len2 = (m.pos(a) - m.pos(c.next)).squaredNorm();
+        if (len2 < best_len2) { best_len2 = len2; best = c.next; }
       }
+      const double best_len = std::sqrt(best_len2);
       if (best >= 0 && (best_len < min_edge || (options_.curvature_ratio > 0 && best_len < max_edge)))
         cand.emplace_back(best_len, a, best);
     }
@@ -126,7 +125,7 @@ RemeshReport SimplifyRemesher::run(EditMesh& m, const RemeshContext<3>& context)
     for (const auto& [len, a, b] : cand) {
       if (!m.vertex_alive(a) || !m.vertex_alive(b) || !m.has_edge(a, b)) continue;
       const double now = (m.pos(a) - m.pos(b)).norm();
-      const Collapse r = try_collapse(m, a, b, now < min_edge, options_, max_edge, cos_max, ring_a, ring_b, fan, fresh);
+      const Collapse r = try_collapse(m, a, b, now < min_edge, options_, max_edge, cos_max, fan, fresh);
       if (r == Collapse::kDone) ++done;
       if (r == Collapse::kRejected) ++report.rejected_edits;
     }

@@ -121,15 +121,15 @@ RemeshReport UniformRemesher::run(EditMesh& m, const RemeshContext<3>&) {
       double old_min = remesh_detail::angle_key(kMinAngleFloor);
       for (int f : fan) {
         const auto& t = m.tri(f);
-        old_normals.push_back(remesh_detail::triangle_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
+        old_normals.push_back(remesh_detail::area_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
         old_min = std::min(old_min, remesh_detail::min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
       }
       m.set_pos(v, *proposal[v]);
       bool ok = true;
       for (size_t i = 0; i < fan.size() && ok; ++i) {
         const auto& t = m.tri(fan[i]);
-        const Point<3> nn = remesh_detail::triangle_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]));
-        ok = nn.squaredNorm() > 0 && nn.dot(old_normals[i]) >= cos_max &&
+        const Point<3> nn = remesh_detail::area_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]));
+        ok = nn.squaredNorm() > 0 && remesh_detail::cos_between(nn, old_normals[i]) >= cos_max &&
              remesh_detail::min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])) >= old_min;
       }
       if (ok) {
