@@ -42,7 +42,8 @@ enum class Collapse { kDone, kTopology, kRejected, kCriterion };
 
 // Collapses free vertex a onto its neighbour b. `short_edge`: forced by min_edge (no size or
 // error limit); otherwise the collapse must keep every new edge <= max_edge and the surface
-// within curvature_ratio * |ab| / 8 of a's old position.
+// within curvature_ratio * |ab| / 8 of a's old position (kCriterion, tested before the safety
+// checks, whose failures count as rejected edits).
 Collapse try_collapse(EditMesh& m, int a, int b, bool short_edge, const SimplifyOptions& o, double max_edge,
                       double cos_max, std::vector<int>& fan, std::vector<Triangle>& fresh) {
   const int f1 = m.face_with_edge(a, b), f2 = m.face_with_edge(b, a);
@@ -56,27 +57,32 @@ Collapse try_collapse(EditMesh& m, int a, int b, bool short_edge, const Simplify
   if (common != 2 || c == d) return Collapse::kTopology;
   m.triangles_of(a, fan);  // a copy: the removals below edit a's list
   fresh.clear();
-  double error = 0;
   for (int f : fan) {
     if (f == f1 || f == f2) continue;
     Triangle t = m.tri(f);
-    const Point<3> old_n = remesh_detail::area_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]));
     for (int& v : t)
       if (v == a) v = b;
-    const Point<3> n = remesh_detail::area_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]));
-    if (n.squaredNorm() == 0 || remesh_detail::cos_between(n, old_n) < cos_max) return Collapse::kRejected;
     fresh.push_back(t);
   }
-
+  // The size and error criteria first (the cheapest tests that turn most candidates down).
   if (!short_edge) {
     double dist = std::numeric_limits<double>::infinity();
     for (const auto& t : fresh) {
-      dist = std::min(dist, point_triangle_distance(m.pos(a), m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
       for (int v : t)
-        if (v != b && (m.pos(v) - m.pos(b)).norm() > max_edge) return Collapse::kCriterion;
+        if (v != b && (m.pos(v) - m.pos(b)).squaredNorm() > max_edge * max_edge) return Collapse::kCriterion;
     }
-    error = dist;
-    if (error > o.curvature_ratio * (m.pos(a) - m.pos(b)).norm() / 8) return Collapse::kCriterion;
+    for (const auto& t : fresh)
+      dist = std::min(dist, point_triangle_distance(m.pos(a), m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
+    if (dist > o.curvature_ratio * (m.pos(a) - m.pos(b)).norm() / 8) return Collapse::kCriterion;
+  }
+  // No triangle may turn by more than the limit (fan and fresh in the same order).
+  for (size_t i = 0, k = 0; i < fan.size(); ++i) {
+    if (fan[i] == f1 || fan[i] == f2) continue;
+    const Triangle& t = m.tri(fan[i]);
+    const Triangle& u = fresh[k++];
+    const Point<3> old_n = remesh_detail::area_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]));
+    const Point<3> n = remesh_detail::area_normal(m.pos(u[0]), m.pos(u[1]), m.pos(u[2]));
+    if (n.squaredNorm() == 0 || remesh_detail::cos_between(n, old_n) < cos_max) return Collapse::kRejected;
   }
   // The collapse may lower the fans' smallest angle only while it stays above 15 degrees.
   double old_min = remesh_detail::angle_key(15 * std::numbers::pi / 180);
