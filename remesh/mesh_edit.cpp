@@ -517,56 +517,65 @@ bool EditMesh::end_optimistic(bool verify) {
   const Point<3> origin = all_lo.array() - cell;
   const std::array<int, 3> dims = {static_cast<int>(count(0)), static_cast<int>(count(1)), static_cast<int>(count(2))};
   auto cell_of = [&](double x, int k) { return std::clamp(static_cast<int>(std::floor((x - origin[k]) / cell)), 0, dims[k] - 1); };
-  struct Box {
-    Point<3> lo, hi;
-    std::array<int, 6> range;  // cells (x0, y0, z0, x1, y1, z1)
+  // Per live triangle its box (doubles, for the cells) and, per grid entry, a copy of what the
+  // pair loop reads: the float box rounded outwards, the first cell of the range, the mark.
+  struct Entry {
+    float lo[3], hi[3];
+    Triangle t;
+    int id;
+    uint8_t marked;
+    uint8_t starts;  // in a cell's list: bit k set if the range's first cell on axis k is this one
   };
-  std::vector<Box> box(L);
+  std::vector<std::array<int, 6>> range(L);
+  std::vector<Entry> proto(L);
   std::vector<int> start(static_cast<size_t>(dims[0]) * dims[1] * dims[2] + 1, 0);
   auto index = [&](int x, int y, int z) { return x + static_cast<size_t>(dims[0]) * (y + static_cast<size_t>(dims[1]) * z); };
   for (int i = 0; i < L; ++i) {
     const auto p = corners_of(live[i]);
-    Box& b = box[i];
-    b.lo = p[0].cwiseMin(p[1]).cwiseMin(p[2]), b.hi = p[0].cwiseMax(p[1]).cwiseMax(p[2]);
-    const double grow = 1e-8 * (cell + (b.hi - b.lo).maxCoeff());
-    b.lo.array() -= grow, b.hi.array() += grow;
-    for (int k = 0; k < 3; ++k) b.range[k] = cell_of(b.lo[k], k), b.range[k + 3] = cell_of(b.hi[k], k);
-    const auto& r = b.range;
+    Point<3> lo = p[0].cwiseMin(p[1]).cwiseMin(p[2]), hi = p[0].cwiseMax(p[1]).cwiseMax(p[2]);
+    const double grow = 1e-8 * (cell + (hi - lo).maxCoeff());
+    lo.array() -= grow, hi.array() += grow;
+    auto& r = range[i];
+    Entry& e = proto[i];
+    for (int k = 0; k < 3; ++k) {
+      r[k] = cell_of(lo[k], k), r[k + 3] = cell_of(hi[k], k);
+      e.lo[k] = float_down(lo[k]), e.hi[k] = float_up(hi[k]);
+    }
+    e.t = tri_[live[i]], e.id = live[i], e.marked = dirty[live[i]];
     for (int z = r[2]; z <= r[5]; ++z)
       for (int y = r[1]; y <= r[4]; ++y)
         for (int x = r[0]; x <= r[3]; ++x) ++start[index(x, y, z) + 1];
   }
   for (size_t c = 1; c < start.size(); ++c) start[c] += start[c - 1];
-  std::vector<int> entries(start.back()), fill(start.begin(), start.end() - 1);
+  std::vector<Entry> entries(start.back());
+  std::vector<int> fill(start.begin(), start.end() - 1);
   for (int i = 0; i < L; ++i) {
-    const auto& r = box[i].range;
+    const auto& r = range[i];
     for (int z = r[2]; z <= r[5]; ++z)
       for (int y = r[1]; y <= r[4]; ++y)
-        for (int x = r[0]; x <= r[3]; ++x) entries[fill[index(x, y, z)]++] = i;
+        for (int x = r[0]; x <= r[3]; ++x) {
+          Entry& e = entries[fill[index(x, y, z)]++] = proto[i];
+          e.starts = (x == r[0]) | (y == r[1]) << 1 | (z == r[2]) << 2;
+        }
   }
-  // A pair is taken in the cell of its overlap's low corner: there the larger of the two
-  // ranges' first cells, on each axis (the cell map is monotone).
+  // A pair is taken in the cell of its overlap's low corner: there, on each axis, one of the
+  // two ranges starts (the larger first cell; the cell map is monotone).
   for (int z = 0; z < dims[2]; ++z)
     for (int y = 0; y < dims[1]; ++y)
       for (int x = 0; x < dims[0]; ++x) {
         const size_t c = index(x, y, z);
-        for (int i = start[c]; i < start[c + 1]; ++i) {
-          const Box& a = box[entries[i]];
-          const int f = live[entries[i]];
-          const bool a_here = a.range[0] == x, b_here_y = a.range[1] == y, c_here_z = a.range[2] == z;
-          for (int j = i + 1; j < start[c + 1]; ++j) {
-            const Box& b = box[entries[j]];
-            // (the low corner's cell is this one iff on each axis one of the two ranges starts here)
-            if (!((a_here || b.range[0] == x) && (b_here_y || b.range[1] == y) && (c_here_z || b.range[2] == z))) continue;
-            const int g = live[entries[j]];
-            if ((!dirty[f] && !dirty[g]) || (a.lo.array() > b.hi.array()).any() || (b.lo.array() > a.hi.array()).any())
-              continue;
-            const Triangle &t = tri_[f], &u = tri_[g];
-            bool shared = false;
-            for (int k = 0; k < 3; ++k) shared |= t[k] == u[0] || t[k] == u[1] || t[k] == u[2];
-            if (!shared && conflict(f, g)) return false;
+        const Entry* begin = entries.data() + start[c];
+        const Entry* end = entries.data() + start[c + 1];
+        for (const Entry* a = begin; a != end; ++a)
+          for (const Entry* b = a + 1; b != end; ++b) {
+            if ((a->starts | b->starts) != 7 || !(a->marked | b->marked)) continue;
+            const Triangle &t = a->t, &u = b->t;
+            const bool apart = (a->lo[0] > b->hi[0]) | (a->lo[1] > b->hi[1]) | (a->lo[2] > b->hi[2]) |
+                               (b->lo[0] > a->hi[0]) | (b->lo[1] > a->hi[1]) | (b->lo[2] > a->hi[2]);
+            const bool shared = (t[0] == u[0]) | (t[0] == u[1]) | (t[0] == u[2]) | (t[1] == u[0]) | (t[1] == u[1]) |
+                                (t[1] == u[2]) | (t[2] == u[0]) | (t[2] == u[1]) | (t[2] == u[2]);
+            if (!apart && !shared && conflict(a->id, b->id)) return false;
           }
-        }
       }
   return true;
 }
