@@ -16,24 +16,32 @@ namespace {
 using remesh_detail::EditMesh;
 using remesh_detail::FlipResult;
 
+// An edge a -> b as listed: with the triangle that held it then (triangles never change, so
+// while that one lives it still holds a -> b).
+struct ListedEdge {
+  int a, b, f;
+};
+
 // Every undirected edge once, in a fixed order (determinism).
-std::vector<std::pair<int, int>> all_edges(const EditMesh& m) {
-  std::vector<std::pair<int, int>> edges;
+std::vector<ListedEdge> all_edges(const EditMesh& m) {
+  std::vector<ListedEdge> edges;
+  edges.reserve(m.num_triangle_slots() * 3 / 2);
   for (int f = 0; f < m.num_triangle_slots(); ++f) {
     if (!m.tri_alive(f)) continue;
     const auto& t = m.tri(f);
     for (int k = 0; k < 3; ++k)
-      if (t[k] < t[(k + 1) % 3]) edges.emplace_back(t[k], t[(k + 1) % 3]);
+      if (t[k] < t[(k + 1) % 3]) edges.push_back({t[k], t[(k + 1) % 3], f});
   }
   return edges;
 }
 
+// The triangle holding a -> b now: the listed one if it lives, else a search.
+int holder(const EditMesh& m, const ListedEdge& e) { return m.tri_alive(e.f) ? e.f : m.face_with_edge(e.a, e.b); }
+
 // Intrinsic Delaunay criterion: the angles opposite edge a-b, measured in its two triangles,
 // sum to more than pi (the empty-circumcircle test on the unfolded pair).
-bool is_delaunay_violation(const EditMesh& m, int a, int b) {
-  const int f1 = m.face_with_edge(a, b), f2 = m.face_with_edge(b, a);
-  if (f1 < 0 || f2 < 0) return false;
-  const int c = m.opposite(f1, a, b), d = m.opposite(f2, b, a);
+// c and d: the vertices opposite a -> b and b -> a.
+bool is_delaunay_violation(const EditMesh& m, int a, int b, int c, int d) {
   // Cheap filter first: with u, v the edges from c and from d to a and b, and gamma, delta the
   // two angles, s = |u_c x v_c| (u_d . v_d) + (u_c . v_c) |u_d x v_d| is sin(gamma + delta)
   // times the four lengths; gamma + delta is in [0, 2 pi], so sin > 1e-6 means a sum below
@@ -58,17 +66,22 @@ int delaunay_by_flips(EditMesh& m, double cos_max_dihedral) {
   int rejected = 0;
   int64_t budget = 20 * static_cast<int64_t>(stack.size()) + 100;
   while (!stack.empty() && budget-- > 0) {
-    const auto [a, b] = stack.back();
+    const ListedEdge e = stack.back();
     stack.pop_back();
-    if (!is_delaunay_violation(m, a, b)) continue;
-    const int c = m.opposite(m.face_with_edge(a, b), a, b), d = m.opposite(m.face_with_edge(b, a), b, a);
-    const FlipResult r = remesh_detail::try_flip(m, a, b, cos_max_dihedral);
+    const int a = e.a, b = e.b;
+    const int f1 = holder(m, e), f2 = f1 >= 0 ? m.face_with_edge(b, a) : -1;
+    if (f1 < 0 || f2 < 0) continue;
+    const int c = m.opposite(f1, a, b), d = m.opposite(f2, b, a);
+    if (!is_delaunay_violation(m, a, b, c, d)) continue;
+    const FlipResult r = remesh_detail::try_flip(m, a, b, f1, f2, c, d, cos_max_dihedral);
     if (r == FlipResult::kRejected) ++rejected;
     if (r != FlipResult::kFlipped) continue;
-    stack.emplace_back(a, d);
-    stack.emplace_back(d, b);
-    stack.emplace_back(b, c);
-    stack.emplace_back(c, a);
+    // The new triangles (a, d, c) and (d, b, c) are the last two.
+    const int t3 = m.num_triangle_slots() - 2, t4 = t3 + 1;
+    stack.push_back({a, d, t3});
+    stack.push_back({d, b, t4});
+    stack.push_back({b, c, t4});
+    stack.push_back({c, a, t3});
   }
   return rejected;
 }
@@ -81,8 +94,9 @@ int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_r
   const double min_floor = remesh_detail::angle_key(min_angle_rad);
   for (int sweep = 0; sweep < 5; ++sweep) {
     int flips = 0;
-    for (const auto& [a, b] : all_edges(m)) {
-      const int f1 = m.face_with_edge(a, b), f2 = m.face_with_edge(b, a);
+    for (const ListedEdge& e : all_edges(m)) {
+      const int a = e.a, b = e.b;
+      const int f1 = holder(m, e), f2 = f1 >= 0 ? m.face_with_edge(b, a) : -1;
       if (f1 < 0 || f2 < 0) continue;
       const int c = m.opposite(f1, a, b), d = m.opposite(f2, b, a);
       auto dev = [](int v) { return (v - 6) * (v - 6); };
@@ -94,7 +108,7 @@ int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_r
       const double old_min = std::min(min_angle_key(m.pos(a), m.pos(b), m.pos(c)), min_angle_key(m.pos(b), m.pos(a), m.pos(d)));
       const double new_min = std::min(min_angle_key(m.pos(a), m.pos(d), m.pos(c)), min_angle_key(m.pos(d), m.pos(b), m.pos(c)));
       if (new_min < std::min(old_min, min_floor)) continue;
-      const FlipResult r = remesh_detail::try_flip(m, a, b, cos_max_dihedral);
+      const FlipResult r = remesh_detail::try_flip(m, a, b, f1, f2, c, d, cos_max_dihedral);
       if (r == FlipResult::kRejected) ++rejected;
       if (r == FlipResult::kFlipped) ++flips;
     }

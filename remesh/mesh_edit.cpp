@@ -627,7 +627,10 @@ int EditMesh::commit(Snake<3>& snake) {
 FlipResult try_flip(EditMesh& m, int a, int b, double cos_max_dihedral) {
   const int f1 = m.face_with_edge(a, b), f2 = m.face_with_edge(b, a);
   if (f1 < 0 || f2 < 0) return FlipResult::kTopology;
-  const int c = m.opposite(f1, a, b), d = m.opposite(f2, b, a);
+  return try_flip(m, a, b, f1, f2, m.opposite(f1, a, b), m.opposite(f2, b, a), cos_max_dihedral);
+}
+
+FlipResult try_flip(EditMesh& m, int a, int b, int f1, int f2, int c, int d, double cos_max_dihedral) {
   if (c == d || m.valence(a) <= 3 || m.valence(b) <= 3 || m.has_edge(c, d)) return FlipResult::kTopology;
   const Point<3> n1 = triangle_normal(m.pos(a), m.pos(b), m.pos(c));
   const Point<3> n2 = triangle_normal(m.pos(b), m.pos(a), m.pos(d));

@@ -160,6 +160,8 @@ class EditMesh {
 // the surface. Used by the "delaunay" stage (both of its methods).
 enum class FlipResult { kFlipped, kTopology, kRejected };
 FlipResult try_flip(EditMesh& m, int a, int b, double cos_max_dihedral);
+// The same with the triangles f1 = (a, b, c) and f2 = (b, a, d) already known.
+FlipResult try_flip(EditMesh& m, int a, int b, int f1, int f2, int c, int d, double cos_max_dihedral);
 
 // The "planar" method of §5.2 (delaunay_planar.cpp): disc patches, mean-value parameterisation,
 // planar Delaunay, adopted patch by patch. Returns the number of patches left as they were.
