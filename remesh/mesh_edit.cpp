@@ -489,16 +489,21 @@ bool EditMesh::end_optimistic(bool verify) {
     const Point<3> qlo = q[0].cwiseMin(q[1]).cwiseMin(q[2]), qhi = q[0].cwiseMax(q[1]).cwiseMax(q[2]);
     return pair_conflicts(tri_[f], p, plo, phi, tri_[g], q, qlo, qhi);
   };
-  // Pairs sharing a vertex.
-  for (int v = 0; v < num_vertices(); ++v) {
+  // Pairs sharing a vertex (in parallel: the answer is whether any pair conflicts, the same
+  // for any thread count).
+  const int n = num_vertices();
+  bool found = false;
+#pragma omp parallel for schedule(static) reduction(|| : found) if (n >= 4096)
+  for (int v = 0; v < n; ++v) {
     const auto& fan = vfan_[v];
     bool marked = false;
     for (const Corner& c : fan) marked |= dirty[c.f] != 0;
-    if (!marked || fan_is_embedded(v)) continue;
+    if (found || !marked || fan_is_embedded(v)) continue;
     for (size_t i = 0; i < fan.size(); ++i)
       for (size_t j = i + 1; j < fan.size(); ++j)
-        if ((dirty[fan[i].f] || dirty[fan[j].f]) && conflict(fan[i].f, fan[j].f)) return false;
+        found = found || ((dirty[fan[i].f] || dirty[fan[j].f]) && conflict(fan[i].f, fan[j].f));
   }
+  if (found) return false;
   // Pairs sharing no vertex: boxes of the live triangles (in a compact list), grown by 1e-8 of
   // the cell and of their own size, and the grid over them (cells grown while there would be
   // more than 8 per triangle).
@@ -560,9 +565,10 @@ bool EditMesh::end_optimistic(bool verify) {
   }
   // A pair is taken in the cell of its overlap's low corner: there, on each axis, one of the
   // two ranges starts (the larger first cell; the cell map is monotone).
+#pragma omp parallel for schedule(dynamic, 1) reduction(|| : found) if (L >= 8192)
   for (int z = 0; z < dims[2]; ++z)
     for (int y = 0; y < dims[1]; ++y)
-      for (int x = 0; x < dims[0]; ++x) {
+      for (int x = 0; x < dims[0] && !found; ++x) {
         const size_t c = index(x, y, z);
         const Entry* begin = entries.data() + start[c];
         const Entry* end = entries.data() + start[c + 1];
@@ -574,9 +580,10 @@ bool EditMesh::end_optimistic(bool verify) {
                                (b->lo[0] > a->hi[0]) | (b->lo[1] > a->hi[1]) | (b->lo[2] > a->hi[2]);
             const bool shared = (t[0] == u[0]) | (t[0] == u[1]) | (t[0] == u[2]) | (t[1] == u[0]) | (t[1] == u[1]) |
                                 (t[1] == u[2]) | (t[2] == u[0]) | (t[2] == u[1]) | (t[2] == u[2]);
-            if (!apart && !shared && conflict(a->id, b->id)) return false;
+            found = found || (!apart && !shared && conflict(a->id, b->id));
           }
       }
+  if (found) return false;
   return true;
 }
 

@@ -12,6 +12,7 @@
 #include "tests/remesh/test_meshes.h"
 
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <memory>
@@ -343,6 +344,30 @@ TEST(OptimisticChecking, CrossingsBetweenFarTrianglesAgreeWithBruteForce) {
   }
   EXPECT_GT(conflicts, 10);
   EXPECT_GT(clean, 10);
+}
+
+// On a mesh large enough for the check to run on two threads: the same answers as on one, for
+// a clean move, a fold (a pair sharing a vertex) and a crossing of far triangles.
+TEST(OptimisticChecking, SameAnswerOnOneAndTwoThreads) {
+  const Snake<3> sphere = test::icosphere(5, 1.0);  // 10242 vertices, 20480 triangles
+  const int saved = omp_get_max_threads();
+  for (int threads : {1, 2}) {
+    SCOPED_TRACE(threads);
+    omp_set_num_threads(threads);
+    auto check = [&](const std::vector<std::pair<int, Point<3>>>& moves) {
+      EditMesh m(sphere);
+      m.begin_optimistic();
+      for (const auto& [v, p] : moves) m.move_vertex(v, p);
+      return m.end_optimistic(true);
+    };
+    const Point<3> x = sphere.positions()[5000];
+    const Point<3> along = x.cross(Point<3>(0, 0, 1)).normalized();  // the edges are about 0.03
+    EXPECT_TRUE(check({{5000, 1.001 * x}}));                 // a small bump: clean
+    EXPECT_FALSE(check({{5000, x + 0.1 * along}}));          // past its ring: folds onto its neighbours
+    EXPECT_FALSE(check({{5000, -1.01 * x}}));                // through the sphere: pokes out of the far side
+    EXPECT_TRUE(check({{5000, -0.99 * x}}));                 // a needle to just short of the far side
+  }
+  omp_set_num_threads(saved);
 }
 
 }  // namespace
