@@ -19,7 +19,7 @@ using remesh_detail::FlipResult;
 // An edge a -> b as listed: with the triangle that held it then (triangles never change, so
 // while that one lives it still holds a -> b).
 struct ListedEdge {
-  int a, b, f;
+  int a, b, f, k;  // a = tri(f)[k], b = tri(f)[k + 1]
 };
 
 // Every undirected edge once, in a fixed order (determinism).
@@ -30,7 +30,7 @@ std::vector<ListedEdge> all_edges(const EditMesh& m) {
     if (!m.tri_alive(f)) continue;
     const auto& t = m.tri(f);
     for (int k = 0; k < 3; ++k)
-      if (t[k] < t[(k + 1) % 3]) edges.push_back({t[k], t[(k + 1) % 3], f});
+      if (t[k] < t[(k + 1) % 3]) edges.push_back({t[k], t[(k + 1) % 3], f, k});
   }
   return edges;
 }
@@ -78,10 +78,10 @@ int delaunay_by_flips(EditMesh& m, double cos_max_dihedral) {
     if (r != FlipResult::kFlipped) continue;
     // The new triangles (a, d, c) and (d, b, c) are the last two.
     const int t3 = m.num_triangle_slots() - 2, t4 = t3 + 1;
-    stack.push_back({a, d, t3});
-    stack.push_back({d, b, t4});
-    stack.push_back({b, c, t4});
-    stack.push_back({c, a, t3});
+    stack.push_back({a, d, t3, 0});
+    stack.push_back({d, b, t4, 0});
+    stack.push_back({b, c, t4, 1});
+    stack.push_back({c, a, t3, 2});
   }
   return rejected;
 }
@@ -92,25 +92,55 @@ int delaunay_by_flips(EditMesh& m, double cos_max_dihedral) {
 int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_rad) {
   int rejected = 0;
   const double min_floor = remesh_detail::angle_key(min_angle_rad);
+  // An edge turned down on local grounds (valences, angles, topology: not by try_flip's
+  // geometric checks, which may see the rest of the mesh) is turned down again while the
+  // triangle it was listed with lives and none of its four vertices changed valence since:
+  // then its other triangle, and so its fourth vertex, are the same. Flips stamp the vertices
+  // whose valence they change; a refusal records its time and the fourth vertex d.
+  int64_t time = 1;
+  std::vector<int64_t> stamp(m.num_vertices(), 0);
+  std::vector<int64_t> refused;  // per listed edge 3 f + k: when, or 0
+  std::vector<int> refused_d;
   for (int sweep = 0; sweep < 5; ++sweep) {
     int flips = 0;
+    refused.resize(3 * static_cast<size_t>(m.num_triangle_slots()), 0);
+    refused_d.resize(refused.size(), -1);
     for (const ListedEdge& e : all_edges(m)) {
       const int a = e.a, b = e.b;
+      const size_t key = 3 * static_cast<size_t>(e.f) + e.k;
+      if (refused[key] > 0 && m.tri_alive(e.f)) {
+        const int c0 = m.tri(e.f)[(e.k + 2) % 3], d0 = refused_d[key];
+        if (std::max({stamp[a], stamp[b], stamp[c0], stamp[d0]}) < refused[key]) continue;
+      }
       const int f1 = holder(m, e), f2 = f1 >= 0 ? m.face_with_edge(b, a) : -1;
       if (f1 < 0 || f2 < 0) continue;
       const int c = m.opposite(f1, a, b), d = m.opposite(f2, b, a);
+      const bool listed = f1 == e.f;
+      auto refuse = [&] {
+        if (listed) refused[key] = time, refused_d[key] = d;
+      };
       auto dev = [](int v) { return (v - 6) * (v - 6); };
       const int va = m.valence(a), vb = m.valence(b), vc = m.valence(c), vd = m.valence(d);
       const int before = dev(va) + dev(vb) + dev(vc) + dev(vd);
       const int after = dev(va - 1) + dev(vb - 1) + dev(vc + 1) + dev(vd + 1);
-      if (after >= before) continue;
+      if (after >= before) {
+        refuse();
+        continue;
+      }
       using remesh_detail::min_angle_key;
       const double old_min = std::min(min_angle_key(m.pos(a), m.pos(b), m.pos(c)), min_angle_key(m.pos(b), m.pos(a), m.pos(d)));
       const double new_min = std::min(min_angle_key(m.pos(a), m.pos(d), m.pos(c)), min_angle_key(m.pos(d), m.pos(b), m.pos(c)));
-      if (new_min < std::min(old_min, min_floor)) continue;
+      if (new_min < std::min(old_min, min_floor)) {
+        refuse();
+        continue;
+      }
       const FlipResult r = remesh_detail::try_flip(m, a, b, f1, f2, c, d, cos_max_dihedral);
       if (r == FlipResult::kRejected) ++rejected;
-      if (r == FlipResult::kFlipped) ++flips;
+      if (r == FlipResult::kTopology) refuse();
+      if (r == FlipResult::kFlipped) {
+        ++flips, ++time;
+        for (int v : {a, b, c, d}) stamp[v] = time;
+      }
     }
     if (flips == 0) break;
   }
