@@ -89,7 +89,7 @@ int delaunay_by_flips(EditMesh& m, double cos_max_dihedral) {
 // Valence-driven flips (a regularity step in the spirit of §5.2): flip a-b to c-d when that
 // lowers sum (valence - 6)^2 over a, b, c, d and the smaller minimum angle of the two
 // triangles stays above the floor (or does not drop). Sweeps until nothing changes (max 5).
-int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_rad) {
+int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_rad, bool reuse_refusals) {
   int rejected = 0;
   const double min_floor = remesh_detail::angle_key(min_angle_rad);
   // An edge turned down on local grounds (valences, angles, topology: not by try_flip's
@@ -108,7 +108,7 @@ int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_r
     for (const ListedEdge& e : all_edges(m)) {
       const int a = e.a, b = e.b;
       const size_t key = 3 * static_cast<size_t>(e.f) + e.k;
-      if (refused[key] > 0 && m.tri_alive(e.f)) {
+      if (reuse_refusals && refused[key] > 0 && m.tri_alive(e.f)) {
         const int c0 = m.tri(e.f)[(e.k + 2) % 3], d0 = refused_d[key];
         if (std::max({stamp[a], stamp[b], stamp[c0], stamp[d0]}) < refused[key]) continue;
       }
@@ -157,7 +157,8 @@ RemeshReport DelaunayRemesher::run(EditMesh& m, const RemeshContext<3>&) {
   // for the "flips" method).
   report.rejected_edits += delaunay_by_flips(m, cos_dihedral);
   if (options_.regularize)
-    report.rejected_edits += regularize_valences(m, cos_dihedral, options_.min_angle_deg * std::numbers::pi / 180);
+    report.rejected_edits +=
+        regularize_valences(m, cos_dihedral, options_.min_angle_deg * std::numbers::pi / 180, reuse_refusals_);
   return report;
 }
 

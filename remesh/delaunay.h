@@ -33,9 +33,13 @@ class DelaunayRemesher : public EditStage {
   explicit DelaunayRemesher(DelaunayOptions options) : options_(options) {}
   std::string type() const override { return "delaunay"; }
   RemeshReport run(remesh_detail::EditMesh& m, const RemeshContext<3>& context) override;
+  // false: every edge evaluated in every regularisation sweep (the reference for tests; the
+  // default reuses a refusal while nothing around the edge changed, with the same result).
+  void set_reuse_refusals(bool reuse) { reuse_refusals_ = reuse; }
 
  private:
   DelaunayOptions options_;
+  bool reuse_refusals_ = true;
 };
 
 std::unique_ptr<Remesher<3>> make_delaunay_remesher(JsonReader& reader);

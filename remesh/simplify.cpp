@@ -38,7 +38,9 @@ double point_triangle_distance(const Point<3>& p, const Point<3>& a, const Point
   return (p - (a + ab * (vb * den) + ac * (vc * den))).norm();
 }
 
-enum class Collapse { kDone, kTopology, kRejected, kCriterion };
+// kRejected: a local safety check (normals, angles, valence); kCrossing: the new triangles
+// would cross the surface.
+enum class Collapse { kDone, kTopology, kRejected, kCriterion, kCrossing };
 
 // Collapses free vertex a onto its neighbour b. `short_edge`: forced by min_edge (no size or
 // error limit); otherwise the collapse must keep every new edge <= max_edge and the surface
@@ -94,7 +96,7 @@ Collapse try_collapse(EditMesh& m, int a, int b, bool short_edge, const Simplify
   for (const auto& t : fresh)
     if (remesh_detail::min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])) < old_min) return Collapse::kRejected;
   if (fresh.size() > 32) return Collapse::kRejected;  // a vertex of valence > 34: leave it
-  if (m.intersects_any(fresh, fan)) return Collapse::kRejected;
+  if (m.intersects_any(fresh, fan)) return Collapse::kCrossing;
   for (int f : fan) m.remove_triangle(f);
   for (const auto& t : fresh) m.add_triangle(t);
   return Collapse::kDone;
@@ -110,6 +112,14 @@ RemeshReport SimplifyRemesher::run(EditMesh& m, const RemeshContext<3>& context)
   const double cos_max = std::cos(options_.max_normal_change_deg * std::numbers::pi / 180);
   std::vector<int> fan;
   std::vector<Triangle> fresh;
+  // A candidate refused on local grounds (all but a crossing) is refused again, with the same
+  // outcome, while the fans of a and b are as they were then: positions never change here, and
+  // a collapse stamps the vertices whose fans it changes (those of its new triangles).
+  const int n = m.num_vertices();
+  int64_t time = 0;
+  std::vector<int64_t> stamp(n, 0), refused_at(n, 0);
+  std::vector<int> refused_b(n, -1);
+  std::vector<Collapse> refused_as(n, Collapse::kDone);
   // Candidates: each free vertex with its shortest edge, shortest first (ties by index).
   for (int pass = 0; pass < 3; ++pass) {
     std::vector<std::tuple<double, int, int>> cand;
@@ -130,10 +140,20 @@ RemeshReport SimplifyRemesher::run(EditMesh& m, const RemeshContext<3>& context)
     int done = 0;
     for (const auto& [len, a, b] : cand) {
       if (!m.vertex_alive(a) || !m.vertex_alive(b) || !m.has_edge(a, b)) continue;
+      if (reuse_refusals_ && refused_b[a] == b && std::max(stamp[a], stamp[b]) < refused_at[a]) {
+        if (refused_as[a] == Collapse::kRejected) ++report.rejected_edits;
+        continue;
+      }
       const double now = (m.pos(a) - m.pos(b)).norm();
       const Collapse r = try_collapse(m, a, b, now < min_edge, options_, max_edge, cos_max, fan, fresh);
-      if (r == Collapse::kDone) ++done;
-      if (r == Collapse::kRejected) ++report.rejected_edits;
+      if (r == Collapse::kDone) {
+        ++done, ++time;
+        for (const Triangle& t : fresh)
+          for (int v : t) stamp[v] = time;
+      } else if (r != Collapse::kCrossing) {
+        refused_at[a] = time + 1, refused_b[a] = b, refused_as[a] = r;
+      }
+      if (r == Collapse::kRejected || r == Collapse::kCrossing) ++report.rejected_edits;
     }
     if (done == 0) break;
   }

@@ -32,9 +32,13 @@ class SimplifyRemesher : public EditStage {
   explicit SimplifyRemesher(SimplifyOptions options) : options_(options) {}
   std::string type() const override { return "simplify"; }
   RemeshReport run(remesh_detail::EditMesh& m, const RemeshContext<3>& context) override;
+  // false: every candidate evaluated in every sweep (the reference for tests; the default
+  // reuses a refusal while nothing around the candidate changed, with the same result).
+  void set_reuse_refusals(bool reuse) { reuse_refusals_ = reuse; }
 
  private:
   SimplifyOptions options_;
+  bool reuse_refusals_ = true;
 };
 
 std::unique_ptr<Remesher<3>> make_simplify_remesher(JsonReader& reader);

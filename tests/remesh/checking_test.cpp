@@ -346,6 +346,46 @@ TEST(OptimisticChecking, CrossingsBetweenFarTrianglesAgreeWithBruteForce) {
   EXPECT_GT(clean, 10);
 }
 
+// The sweeps that reuse refusals (valence flips, simplify) give the mesh, and the reports,
+// that evaluating every candidate in every sweep gives.
+TEST(ReusedRefusals, SameMeshAndReportsAsEvaluatingEveryCandidate) {
+  struct Case {
+    std::string name;
+    Snake<3> snake;
+    double edge;
+  };
+  const std::vector<Case> cases = {{"sphere", test::with_free_vertices(test::icosphere(3, 5.0), 3), 0.9},
+                                   {"torus", test::with_free_vertices(test::torus(40, 16), 2), 0.5},
+                                   {"genus2", test::with_free_vertices(test::two_hole_slab(3), 2), 0.5},
+                                   {"star", test::with_free_vertices(test::star_sphere(3), 3), 0.12}};
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.name);
+    auto stages = [&](bool reuse) {
+      std::vector<std::unique_ptr<Remesher<3>>> p;
+      p.push_back(std::make_unique<RefineRemesher>(RefineOptions{0.9 * c.edge, 0, 0.5}));
+      auto flips = std::make_unique<DelaunayRemesher>(DelaunayOptions{"flips", 30, true, 25});
+      flips->set_reuse_refusals(reuse);
+      p.push_back(std::move(flips));
+      p.push_back(std::make_unique<UniformRemesher>(UniformOptions{1, 45}));
+      auto simplify = std::make_unique<SimplifyRemesher>(SimplifyOptions{0.5 * c.edge, 1.2 * c.edge, 0.2, 45});
+      simplify->set_reuse_refusals(reuse);
+      p.push_back(std::move(simplify));
+      return p;
+    };
+    Snake<3> reused = c.snake, evaluated = c.snake;
+    auto with = stages(true), without = stages(false);
+    for (int pass = 0; pass < 3; ++pass) {
+      const auto r1 = apply_pass(with, reused, {}), r2 = apply_pass(without, evaluated, {});
+      for (size_t i = 0; i < r1.size(); ++i) {
+        EXPECT_EQ(r1[i].rejected_edits, r2[i].rejected_edits) << "pass " << pass << " stage " << i;
+        EXPECT_EQ(r1[i].vertices_after, r2[i].vertices_after) << "pass " << pass << " stage " << i;
+      }
+    }
+    EXPECT_NE(reused.num_vertices(), c.snake.num_vertices());
+    expect_same(reused, evaluated);
+  }
+}
+
 // On a mesh large enough for the check to run on two threads: the same answers as on one, for
 // a clean move, a fold (a pair sharing a vertex) and a crossing of far triangles.
 TEST(OptimisticChecking, SameAnswerOnOneAndTwoThreads) {
