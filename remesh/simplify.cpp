@@ -87,14 +87,19 @@ Collapse try_collapse(EditMesh& m, int a, int b, bool short_edge, const Simplify
     if (n.squaredNorm() == 0 || remesh_detail::cos_between(n, old_n) < cos_max) return Collapse::kRejected;
   }
   // The collapse may lower the fans' smallest angle only while it stays above 15 degrees.
-  double old_min = remesh_detail::angle_key(15 * std::numbers::pi / 180);
-  for (int g : {a, b})
-    for (const EditMesh::Corner& corner : m.corners(g)) {
-      const auto& t = m.tri(corner.f);
-      old_min = std::min(old_min, remesh_detail::min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
-    }
-  for (const auto& t : fresh)
-    if (remesh_detail::min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])) < old_min) return Collapse::kRejected;
+  // (The fans' old angles are needed only when a new one is below 15 degrees.)
+  const double floor_key = remesh_detail::angle_key(15 * std::numbers::pi / 180);
+  double fresh_min = 1;
+  for (const auto& t : fresh) fresh_min = std::min(fresh_min, remesh_detail::min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
+  if (fresh_min < floor_key) {
+    double old_min = floor_key;
+    for (int g : {a, b})
+      for (const EditMesh::Corner& corner : m.corners(g)) {
+        const auto& t = m.tri(corner.f);
+        old_min = std::min(old_min, remesh_detail::min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
+      }
+    if (fresh_min < old_min) return Collapse::kRejected;
+  }
   if (fresh.size() > 32) return Collapse::kRejected;  // a vertex of valence > 34: leave it
   if (m.intersects_any(fresh, fan)) return Collapse::kCrossing;
   for (int f : fan) m.remove_triangle(f);

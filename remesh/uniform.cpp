@@ -94,7 +94,6 @@ RemeshReport UniformRemesher::run(EditMesh& m, const RemeshContext<3>&) {
   std::vector<std::optional<Point<3>>> proposal(n);
   std::vector<Triangle> fan_tris;
   std::vector<int> fan;
-  std::vector<Point<3>> old_normals;
   for (int sweep = 0; sweep < options_.iterations; ++sweep) {
     // Proposals from the positions at the start of the sweep (thread-count independent).
 #pragma omp parallel if (n >= 256)
@@ -117,21 +116,30 @@ RemeshReport UniformRemesher::run(EditMesh& m, const RemeshContext<3>&) {
       if ((*proposal[v] - old).squaredNorm() < 1e-4 * m.mean_edge_length() * m.mean_edge_length()) continue;
       m.triangles_of(v, fan);
       if (fan.size() > 32) continue;  // valence > 32: beyond the batched check, left alone
-      old_normals.clear();
-      double old_min = remesh_detail::angle_key(kMinAngleFloor);
-      for (int f : fan) {
-        const auto& t = m.tri(f);
-        old_normals.push_back(remesh_detail::area_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
-        old_min = std::min(old_min, remesh_detail::min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
-      }
-      m.set_pos(v, *proposal[v]);
+      // The move may turn no triangle by more than the limit, and may lower the fan's smallest
+      // angle only while it stays above the floor (the old angles are needed only below it).
+      const Point<3> to = *proposal[v];
+      auto at = [&](int x) -> const Point<3>& { return x == v ? to : m.pos(x); };
+      using remesh_detail::area_normal, remesh_detail::min_angle_key;
+      const double floor_key = remesh_detail::angle_key(kMinAngleFloor);
       bool ok = true;
+      double new_min = 1;  // the key of the largest angle
       for (size_t i = 0; i < fan.size() && ok; ++i) {
         const auto& t = m.tri(fan[i]);
-        const Point<3> nn = remesh_detail::area_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]));
-        ok = nn.squaredNorm() > 0 && remesh_detail::cos_between(nn, old_normals[i]) >= cos_max &&
-             remesh_detail::min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])) >= old_min;
+        const Point<3> nn = area_normal(at(t[0]), at(t[1]), at(t[2]));
+        ok = nn.squaredNorm() > 0 &&
+             remesh_detail::cos_between(nn, area_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]))) >= cos_max;
+        new_min = std::min(new_min, min_angle_key(at(t[0]), at(t[1]), at(t[2])));
       }
+      if (ok && new_min < floor_key) {
+        double old_min = floor_key;
+        for (int f : fan) {
+          const auto& t = m.tri(f);
+          old_min = std::min(old_min, min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
+        }
+        ok = new_min >= old_min;
+      }
+      m.set_pos(v, to);
       if (ok) {
         fan_tris.clear();
         for (int f : fan) fan_tris.push_back(m.tri(f));
