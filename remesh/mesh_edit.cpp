@@ -463,9 +463,10 @@ bool EditMesh::fan_is_embedded(int v) const {
   for (int i = 0; i < k; ++i) {
     const Point<3> a = pos_[fan[i].next] - x, b = pos_[fan[i].prev] - x;
     const double turn = normal[i].dot(n);  // = the projected cross product of a and b
-    if (!(turn > kCos80 * normal[i].norm())) return false;
+    // (Both tests squared, as turn > 0: no roots.)
+    if (!(turn > 0) || !(turn * turn > kCos80 * kCos80 * normal[i].squaredNorm())) return false;
     const double ax = a.dot(e1), ay = a.dot(e2), bx = b.dot(e1), by = b.dot(e2);
-    if (!(turn > kMinSine * std::sqrt((ax * ax + ay * ay) * (bx * bx + by * by)))) return false;
+    if (!(turn * turn > kMinSine * kMinSine * ((ax * ax + ay * ay) * (bx * bx + by * by)))) return false;
     winding += ay < 0 && by >= 0;  // a counter-clockwise step across the positive e1 axis
   }
   return winding == 1;
