@@ -56,17 +56,33 @@ void expect_same(const Snake<3>& a, const Snake<3>& b) {
   EXPECT_EQ(a.connectivity().triangles(), b.connectivity().triangles());
 }
 
+// The test surfaces (sphere, torus, genus 2, star) with free vertices and their typical edge
+// lengths; `fine`: denser versions.
+struct Surface {
+  std::string name;
+  Snake<3> snake;
+  double edge;
+};
+std::vector<Surface> surfaces(bool fine) {
+  using test::with_free_vertices;
+  return {{"sphere", with_free_vertices(test::icosphere(fine ? 3 : 2, 5.0), 3), fine ? 0.9 : 1.7},
+          {"torus", with_free_vertices(fine ? test::torus(40, 16) : test::torus(24, 10), 2), fine ? 0.5 : 0.8},
+          {"genus2", with_free_vertices(test::two_hole_slab(fine ? 3 : 2), 2), fine ? 0.5 : 1.0},
+          {"star", with_free_vertices(test::star_sphere(3), 3), 0.12}};
+}
+
+// Whether a live triangle in slot `first` or later conflicts with the rest, by the brute-force
+// pair tests.
+bool conflicts_by_brute_force(const EditMesh& m, int first) {
+  for (int f = first; f < m.num_triangle_slots(); ++f) {
+    const int self[1] = {f};
+    if (m.tri_alive(f) && m.intersects_any_brute_force(std::span<const Triangle>(&m.tri(f), 1), self)) return true;
+  }
+  return false;
+}
+
 TEST(OptimisticChecking, SameMeshAsCheckingEveryEdit) {
-  struct Case {
-    std::string name;
-    Snake<3> snake;
-    double edge;
-  };
-  const std::vector<Case> cases = {{"sphere", test::with_free_vertices(test::icosphere(2, 5.0), 3), 1.7},
-                                   {"torus", test::with_free_vertices(test::torus(24, 10), 2), 0.8},
-                                   {"genus2", test::with_free_vertices(test::two_hole_slab(2), 2), 1.0},
-                                   {"star", test::with_free_vertices(test::star_sphere(3), 3), 0.12}};
-  for (const auto& c : cases) {
+  for (const auto& c : surfaces(false)) {
     SCOPED_TRACE(c.name);
     const Snake<3> every = remeshed(c.snake, c.edge, EditChecking::kEveryEdit, false);
     EXPECT_GT(every.num_vertices(), c.snake.num_vertices());
@@ -210,11 +226,7 @@ TEST(OptimisticChecking, FanByFanAgreesWithBruteForce) {
     m.move_vertex(v, m.pos(v) + size * along + 0.1 * unit(rng) * n);
     for (int w : ring) m.move_vertex(w, m.pos(w) + 0.05 * Point<3>(unit(rng), unit(rng), unit(rng)));
     const bool verified = m.end_optimistic(true);
-    bool brute = false;
-    for (int f = 0; f < m.num_triangle_slots() && !brute; ++f) {
-      const int self[1] = {f};
-      brute = m.intersects_any_brute_force(std::span<const Triangle>(&m.tri(f), 1), self);
-    }
+    const bool brute = conflicts_by_brute_force(m, 0);
     EXPECT_EQ(verified, !brute) << "trial " << trial;
     (brute ? conflicts : clean)++;
   }
@@ -334,11 +346,7 @@ TEST(OptimisticChecking, CrossingsBetweenFarTrianglesAgreeWithBruteForce) {
     m.begin_optimistic();
     for (int v = nb; v < nb + ns; ++v) m.move_vertex(v, m.pos(v) + shift);
     const bool verified = m.end_optimistic(true);
-    bool brute = false;
-    for (int f = big_faces; f < m.num_triangle_slots() && !brute; ++f) {
-      const int self[1] = {f};
-      brute = m.intersects_any_brute_force(std::span<const Triangle>(&m.tri(f), 1), self);
-    }
+    const bool brute = conflicts_by_brute_force(m, big_faces);
     EXPECT_EQ(verified, !brute) << "trial " << trial;
     (brute ? conflicts : clean)++;
   }
@@ -349,16 +357,7 @@ TEST(OptimisticChecking, CrossingsBetweenFarTrianglesAgreeWithBruteForce) {
 // The sweeps that reuse refusals (valence flips, simplify) give the mesh, and the reports,
 // that evaluating every candidate in every sweep gives.
 TEST(ReusedRefusals, SameMeshAndReportsAsEvaluatingEveryCandidate) {
-  struct Case {
-    std::string name;
-    Snake<3> snake;
-    double edge;
-  };
-  const std::vector<Case> cases = {{"sphere", test::with_free_vertices(test::icosphere(3, 5.0), 3), 0.9},
-                                   {"torus", test::with_free_vertices(test::torus(40, 16), 2), 0.5},
-                                   {"genus2", test::with_free_vertices(test::two_hole_slab(3), 2), 0.5},
-                                   {"star", test::with_free_vertices(test::star_sphere(3), 3), 0.12}};
-  for (const auto& c : cases) {
+  for (const auto& c : surfaces(true)) {
     SCOPED_TRACE(c.name);
     auto stages = [&](bool reuse) {
       std::vector<std::unique_ptr<Remesher<3>>> p;
