@@ -87,6 +87,26 @@ class AlignedFloats {
   size_t size_ = 0;
 };
 
+// The x neighbours of vector c of a padded row, from per-lane byte shifts of c and
+// x = (upper half of c, lower half of next): right = (c1..c7, n0) from (c, x), and the next
+// vector's left = (c7, n0..n6) from (x, next); xprev is the previous vector's x (for the left
+// neighbours), so that a vector costs one lane-crossing shuffle instead of two. Inlined into
+// each vector clone (out-parameters: a Vec return would change the ABI outside AVX).
+[[gnu::always_inline]] inline void x_neighbours(const Vec& xprev, const Vec& c, const Vec& next, Vec& left,
+                                                Vec& right, Vec& x) {
+  const VecIndex halves = {4, 5, 6, 7, 8, 9, 10, 11}, to_right = {1, 2, 3, 8, 5, 6, 7, 12},
+                 to_left = {3, 8, 9, 10, 7, 12, 13, 14};
+  x = __builtin_shuffle(c, next, halves);
+  left = __builtin_shuffle(xprev, c, to_left);
+  right = __builtin_shuffle(c, x, to_right);
+}
+
+// x for the vector before the row's first one (its ghost vector).
+[[gnu::always_inline]] inline void x_before(const Vec& ghost, const Vec& first, Vec& x) {
+  const VecIndex halves = {4, 5, 6, 7, 8, 9, 10, 11};
+  x = __builtin_shuffle(ghost, first, halves);
+}
+
 // The five input rows of a voxel row at one time level and their weights times dt (a missing
 // neighbour points at the row itself with weight 0: zero flux). All rows are padded and aligned.
 struct RowInputs {
@@ -117,14 +137,12 @@ void explicit_row(const RowInputs& r, const float* __restrict s, const float* __
   // Without z neighbours (2D) their zero-weight terms are left out: adding 0 * u changes no value.
   const bool has_z = wzm != 0.f || wzp != 0.f;
   const int nb = (nx + kLanes - 1) / kLanes;
-  // The x neighbours as in explicit_rows_body: one lane-crossing shuffle per vector.
-  const VecIndex halves = {4, 5, 6, 7, 8, 9, 10, 11}, to_right = {1, 2, 3, 8, 5, 6, 7, 12},
-                 to_left = {3, 8, 9, 10, 7, 12, 13, 14};
-  Vec c = U[0], xprev = __builtin_shuffle(U[-1], c, halves);
+  Vec c = U[0], xprev, left, right, x;
+  x_before(U[-1], c, xprev);
   if (!measure && !has_z) {
     for (int j = 0; j < nb; ++j) {
-      const Vec next = U[j + 1], x = __builtin_shuffle(c, next, halves);
-      const Vec left = __builtin_shuffle(xprev, c, to_left), right = __builtin_shuffle(c, x, to_right);
+      const Vec next = U[j + 1];
+      x_neighbours(xprev, c, next, left, right, x);
       const Vec d = S[j] - (dd + G[j]) * c + dcx * (left + right) + wym * YM[j] + wyp * YP[j];
       O[j] = c + d;
       xprev = x;
@@ -132,8 +150,8 @@ void explicit_row(const RowInputs& r, const float* __restrict s, const float* __
     }
   } else if (!measure) {
     for (int j = 0; j < nb; ++j) {
-      const Vec next = U[j + 1], x = __builtin_shuffle(c, next, halves);
-      const Vec left = __builtin_shuffle(xprev, c, to_left), right = __builtin_shuffle(c, x, to_right);
+      const Vec next = U[j + 1];
+      x_neighbours(xprev, c, next, left, right, x);
       Vec d = S[j] - (dd + G[j]) * c + dcx * (left + right) + wym * YM[j] + wyp * YP[j];
       d += wzm * ZM[j] + wzp * ZP[j];
       O[j] = c + d;
@@ -145,8 +163,8 @@ void explicit_row(const RowInputs& r, const float* __restrict s, const float* __
     const int last_lane = (nx - 1) % kLanes;
     Vec sum = {};
     for (int j = 0; j < nb; ++j) {
-      const Vec next = U[j + 1], x = __builtin_shuffle(c, next, halves);
-      const Vec left = __builtin_shuffle(xprev, c, to_left), right = __builtin_shuffle(c, x, to_right);
+      const Vec next = U[j + 1];
+      x_neighbours(xprev, c, next, left, right, x);
       Vec d = S[j] - (dd + G[j]) * c + dcx * (left + right) + wym * YM[j] + wyp * YP[j];
       if (has_z) d += wzm * ZM[j] + wzp * ZP[j];
       O[j] = c + d;
@@ -185,25 +203,21 @@ template <int N>
   ptrdiff_t off[N];
   for (int i = 0; i < N; ++i) off[i] = i * stride * ptrdiff_t(sizeof(float));
   const int nb = (nx + kLanes - 1) / kLanes;
-  // The x neighbours from per-lane byte shifts of c and X = (upper half of c, lower half of next):
-  // right = (c1..c7, n0) from (c, X), and the next vector's left = (c7, n0..n6) from (X, next),
-  // so that a vector costs one lane-crossing shuffle instead of two.
-  const VecIndex halves = {4, 5, 6, 7, 8, 9, 10, 11}, to_right = {1, 2, 3, 8, 5, 6, 7, 12},
-                 to_left = {3, 8, 9, 10, 7, 12, 13, 14};
   Vec xprev[N], c[N];
   for (int i = 0; i < N; ++i) {
     c[i] = *reinterpret_cast<const Vec*>(U + off[i]);
-    xprev[i] = __builtin_shuffle(*reinterpret_cast<const Vec*>(U + off[i] - sizeof(Vec)), c[i], halves);
+    x_before(*reinterpret_cast<const Vec*>(U + off[i] - sizeof(Vec)), c[i], xprev[i]);
   }
   for (int j = 0; j < nb; ++j) {
     Vec next[N], o[N], x[N];
     for (int i = 0; i < N; ++i) next[i] = *reinterpret_cast<const Vec*>(U + off[i] + sizeof(Vec));
     const Vec above = TOP[j], below = BOT[j];
     for (int i = 0; i < N; ++i) {
-      x[i] = __builtin_shuffle(c[i], next[i], halves);
-      const Vec left = __builtin_shuffle(xprev[i], c[i], to_left), right = __builtin_shuffle(c[i], x[i], to_right);
+      Vec left, right;
+      x_neighbours(xprev[i], c[i], next[i], left, right, x[i]);
       const Vec ym = i == 0 ? above : c[i - 1], yp = i == N - 1 ? below : c[i + 1];
-      const Vec d = *reinterpret_cast<const Vec*>(S + off[i]) - (dd + *reinterpret_cast<const Vec*>(G + off[i])) * c[i] + dcx * (left + right) + wy * ym + wy * yp;
+      const Vec s_i = *reinterpret_cast<const Vec*>(S + off[i]), g_i = *reinterpret_cast<const Vec*>(G + off[i]);
+      const Vec d = s_i - (dd + g_i) * c[i] + dcx * (left + right) + wy * ym + wy * yp;
       o[i] = c[i] + d;
     }
     for (int i = 0; i < N; ++i) *reinterpret_cast<Vec*>(O + off[i]) = o[i], xprev[i] = x[i], c[i] = next[i];
@@ -303,9 +317,11 @@ class Wavefront {
             // the ring wraps (rows at a constant stride); a single row goes to explicit_row.
             // (A ring level's plane p is in slot (p - t - base_p + 1) mod slots_, see plane_at.)
             auto to_wrap = [&](int level) {
-              return level == 0 || level == T ? kMaxRowsPerPass : slots_ - ((p - level - base_p + 1) & (slots_ - 1));
+              if (level == 0 || level == T) return kMaxRowsPerPass;
+              return slots_ - ((p - level - base_p + 1) & (slots_ - 1));
             };
-            const int n = std::min({p_end, tile.p1 + grow, P_ - 1, p + kMaxRowsPerPass, p + to_wrap(t - 1), p + to_wrap(t)}) - p;
+            const int n =
+                std::min({p_end, tile.p1 + grow, P_ - 1, p + kMaxRowsPerPass, p + to_wrap(t - 1), p + to_wrap(t)}) - p;
             if (n > 1) {
               const float* u = plane_at(t - 1, p).first;
               float* o = plane_at(t, p).first;
@@ -357,7 +373,8 @@ class Wavefront {
 // tile_rows rows (0: chosen here), on a padded copy of the system. A block ends at every
 // iteration whose residual is measured, so tolerance stopping sees the same iterates.
 GvfSolveStats solve_explicit(const Level& L, const std::vector<float>& b,
-                             const std::vector<const std::vector<float>*>& c, const std::vector<std::vector<float>*>& v, const GvfSolveOptions& o, double rhs_norm2,
+                             const std::vector<const std::vector<float>*>& c,
+                             const std::vector<std::vector<float>*>& v, const GvfSolveOptions& o, double rhs_norm2,
                              int max_depth, int tile_rows, int per_step) {
   const Coupling cp = coupling(L, o.mu);
   const double lap_max = 4.0 * (cp.cx + cp.cy + cp.cz);

@@ -78,10 +78,11 @@ void prolongate_row_x2(float* out, const float* ext, int n_fine, int n_coarse);
 void restrict_row_x2(float* out, const float* ext, int n_fine, int n_coarse);
 
 // Xu & Prince's explicit iteration on a grid shaped like `shape` (its b is not read) with weights
-// b (v: initial guess in, result out); rhs_norm2 = |b c|^2. Iterations run in temporally blocked wavefronts of up to max_depth iterations (0: the
-// tuned depth; 1: the plain double-buffered loop) over tiles of tile_rows rows (3D: y-ranges of
-// the slices; 2D: ranges of rows; 0: the tuned size), each level computing per_step planes (2D:
-// rows) per wavefront step (0: the tuned count); the result depends on none of them.
+// b (v: initial guess in, result out); rhs_norm2 = |b c|^2. Iterations run in temporally
+// blocked wavefronts of up to max_depth iterations (0: the tuned depth; 1: the plain
+// double-buffered loop) over tiles of tile_rows rows (3D: y-ranges of the slices; 2D: ranges of
+// rows; 0: the tuned size), each level computing per_step planes (2D: rows) per wavefront step
+// (0: the tuned count); the result depends on none of them.
 // Throws InputError naming "field.time_step" for an unstable step (gvf_explicit.cpp).
 GvfSolveStats solve_explicit(const Level& shape, const std::vector<float>& b,
                              const std::vector<const std::vector<float>*>& c,

@@ -732,13 +732,6 @@ GvfSolveStats solve_gvf(const Grid<D>& grid, const std::vector<float>& b,
 }
 
 template <int D>
-GvfSolveStats solve_gvf(const Grid<D>& grid, const std::vector<float>& b,
-                        const std::vector<const std::vector<float>*>& c, const std::vector<std::vector<float>*>& v,
-                        const GvfSolveOptions& o) {
-  return solve_gvf(grid, b, c, v, o, nullptr);
-}
-
-template <int D>
 double gvf_relative_residual(const Grid<D>& grid, const std::vector<float>& b,
                              const std::vector<const std::vector<float>*>& c,
                              const std::vector<const std::vector<float>*>& v, double mu) {
@@ -755,10 +748,6 @@ double gvf_relative_residual(const Grid<D>& grid, const std::vector<float>& b,
   return f2 > 0 ? std::sqrt(r2 / f2) : (r2 > 0 ? 1.0 : 0.0);
 }
 
-template GvfSolveStats solve_gvf(const Grid<2>&, const std::vector<float>&, const std::vector<const std::vector<float>*>&,
-                                 const std::vector<std::vector<float>*>&, const GvfSolveOptions&);
-template GvfSolveStats solve_gvf(const Grid<3>&, const std::vector<float>&, const std::vector<const std::vector<float>*>&,
-                                 const std::vector<std::vector<float>*>&, const GvfSolveOptions&);
 template GvfSolveStats solve_gvf(const Grid<2>&, const std::vector<float>&, const std::vector<const std::vector<float>*>&,
                                  const std::vector<std::vector<float>*>&, const GvfSolveOptions&, GvfWorkspace*);
 template GvfSolveStats solve_gvf(const Grid<3>&, const std::vector<float>&, const std::vector<const std::vector<float>*>&,

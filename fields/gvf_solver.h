@@ -56,15 +56,11 @@ class GvfWorkspace {
 
 // Solves for v (in: initial guess; out: solution), given b and the sources c (same sizes as the
 // grid). Throws InputError naming "field.time_step" if an explicit step is unstable. The
-// second form reuses `workspace` (may be null) for the multigrid solver.
+// multigrid solver reuses `workspace` if given.
 template <int D>
 GvfSolveStats solve_gvf(const Grid<D>& grid, const std::vector<float>& b,
                         const std::vector<const std::vector<float>*>& c, const std::vector<std::vector<float>*>& v,
-                        const GvfSolveOptions& options);
-template <int D>
-GvfSolveStats solve_gvf(const Grid<D>& grid, const std::vector<float>& b,
-                        const std::vector<const std::vector<float>*>& c, const std::vector<std::vector<float>*>& v,
-                        const GvfSolveOptions& options, GvfWorkspace* workspace);
+                        const GvfSolveOptions& options, GvfWorkspace* workspace = nullptr);
 
 // The relative residual |b c - A v|_2 / |b c|_2 (1 when b c = 0 and v != 0, 0 when both vanish).
 template <int D>

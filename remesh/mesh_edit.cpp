@@ -18,8 +18,21 @@ namespace {
 float float_down(double x) { return static_cast<float>(x - (std::abs(x) * 0x1p-20 + 1e-30)); }
 float float_up(double x) { return static_cast<float>(x + (std::abs(x) * 0x1p-20 + 1e-30)); }
 
-constexpr double kFoldCos = 0.990268;
-constexpr double kVerifyCell = 2.0;  // end_optimistic's grid cell, in mean edges  // cos(8 degrees): closer than that across an edge is a fold
+// [lo, hi] as a FloatBox that contains it.
+FloatBox outward(const Point<3>& lo, const Point<3>& hi) {
+  FloatBox b;
+  for (int k = 0; k < 3; ++k) b.lo[k] = float_down(lo[k]), b.hi[k] = float_up(hi[k]);
+  return b;
+}
+
+// Boxes entirely apart along some axis (without branches, which mispredict on such data).
+bool apart(const FloatBox& a, const FloatBox& b) {
+  return (a.lo[0] > b.hi[0]) | (a.lo[1] > b.hi[1]) | (a.lo[2] > b.hi[2]) | (b.lo[0] > a.hi[0]) |
+         (b.lo[1] > a.hi[1]) | (b.lo[2] > a.hi[2]);
+}
+
+constexpr double kFoldCos = 0.990268;  // cos(8 degrees): closer than that across an edge is a fold
+constexpr double kVerifyCell = 2.0;    // end_optimistic's grid cell, in mean edges
 
 // Closed segment [p, q] against the closed triangle (a, b, c), Moller-Trumbore; a segment
 // parallel to the triangle's plane counts as missing it (the coplanar case is left to the
@@ -226,8 +239,7 @@ void EditMesh::grid_insert(int f) const {
 }
 
 void EditMesh::set_box(int f, const Point<3>& lo, const Point<3>& hi) const {
-  GridBox& b = gbox_[f];
-  for (int k = 0; k < 3; ++k) b.lo[k] = float_down(lo[k]), b.hi[k] = float_up(hi[k]);
+  gbox_[f].box = outward(lo, hi);
 }
 
 void EditMesh::grid_erase(int f) const {
@@ -361,7 +373,7 @@ bool EditMesh::intersects_any(std::span<const Triangle> ts, std::span<const int>
   constexpr int kMax = 32;
   std::array<std::array<Point<3>, 3>, kMax> p;
   std::array<Point<3>, kMax> lo, hi;
-  std::array<std::array<float, 6>, kMax> box;  // padded, in floats: lo[3], hi[3]
+  std::array<FloatBox, kMax> box;  // padded
   const int n = static_cast<int>(ts.size());
   DSNAKE_ASSERT(n <= kMax, "too many query triangles");
   Point<3> all_lo = Point<3>::Constant(std::numeric_limits<double>::infinity()), all_hi = -all_lo;
@@ -370,18 +382,12 @@ bool EditMesh::intersects_any(std::span<const Triangle> ts, std::span<const int>
     p[i] = {pos_[ts[i][0]], pos_[ts[i][1]], pos_[ts[i][2]]};
     lo[i] = p[i][0].cwiseMin(p[i][1]).cwiseMin(p[i][2]);
     hi[i] = p[i][0].cwiseMax(p[i][1]).cwiseMax(p[i][2]);
-    for (int k = 0; k < 3; ++k) box[i][k] = float_down(lo[i][k] - pad), box[i][k + 3] = float_up(hi[i][k] + pad);
+    box[i] = outward(lo[i].array() - pad, hi[i].array() + pad);
     all_lo = all_lo.cwiseMin(lo[i]);
     all_hi = all_hi.cwiseMax(hi[i]);
   }
   const Point<3> all_lo_pad = all_lo.array() - pad, all_hi_pad = all_hi.array() + pad;
-  std::array<float, 6> all;
-  for (int k = 0; k < 3; ++k) all[k] = float_down(all_lo_pad[k]), all[k + 3] = float_up(all_hi_pad[k]);
-  // Box b entirely beyond the query box q along some axis.
-  auto apart = [](const GridBox& b, const std::array<float, 6>& q) {
-    return (b.lo[0] > q[3]) | (b.lo[1] > q[4]) | (b.lo[2] > q[5]) | (b.hi[0] < q[0]) | (b.hi[1] < q[1]) |
-           (b.hi[2] < q[2]);
-  };
+  const FloatBox all = outward(all_lo_pad, all_hi_pad);
   const auto r = cell_range(all_lo_pad, all_hi_pad);
   std::array<Point<3>, 3> q;
   // First the candidates near the common box, in one pass without branches on the data (the
@@ -397,7 +403,7 @@ bool EditMesh::intersects_any(std::span<const Triangle> ts, std::span<const int>
         int* out = candidates_.data();
         for (int f : cell) {
           GridBox& b = gbox_[f];
-          const bool skip = (b.stamp == query) | apart(b, all);
+          const bool skip = (b.stamp == query) | apart(b.box, all);
           b.stamp = query;
           out[m] = f;
           m += !skip;
@@ -410,7 +416,7 @@ bool EditMesh::intersects_any(std::span<const Triangle> ts, std::span<const int>
     bool loaded = false;  // f's corners and box, fetched for the first query triangle near it
     Point<3> qlo, qhi;
     for (int i = 0; i < n; ++i) {
-      if (apart(b, box[i])) continue;
+      if (apart(b.box, box[i])) continue;
       if (!loaded) {
         q = {pos_[s[0]], pos_[s[1]], pos_[s[2]]};
         qlo = q[0].cwiseMin(q[1]).cwiseMin(q[2]);
@@ -474,7 +480,7 @@ bool EditMesh::fan_is_embedded(int v) const {
 
 // Two parts, together every pair intersects_any would test with at least one marked triangle:
 // pairs that share a vertex v lie in v's fan, cleared by fan_is_embedded or else tested pair by
-// pair; pairs that share no vertex come from a grid of about a mean edge over the final mesh,
+// pair; pairs that share no vertex come from a grid of two mean edges over the final mesh,
 // each triangle listed in the cells its box covers and a pair taken in the one cell holding the
 // low corner of the boxes' overlap (boxes grown slightly beyond intersects_any's padding).
 bool EditMesh::end_optimistic(bool verify) {
@@ -483,7 +489,9 @@ bool EditMesh::end_optimistic(bool verify) {
   dirty_ = {};
   if (!verify) return true;
   const int F = static_cast<int>(tri_.size());
-  auto corners_of = [&](int f) { return std::array<Point<3>, 3>{pos_[tri_[f][0]], pos_[tri_[f][1]], pos_[tri_[f][2]]}; };
+  auto corners_of = [&](int f) {
+    return std::array<Point<3>, 3>{pos_[tri_[f][0]], pos_[tri_[f][1]], pos_[tri_[f][2]]};
+  };
   auto conflict = [&](int f, int g) {
     const auto p = corners_of(f), q = corners_of(g);
     const Point<3> plo = p[0].cwiseMin(p[1]).cwiseMin(p[2]), phi = p[0].cwiseMax(p[1]).cwiseMax(p[2]);
@@ -521,12 +529,15 @@ bool EditMesh::end_optimistic(bool verify) {
   auto count = [&](int k) { return std::floor((all_hi[k] - all_lo[k]) / cell) + 3; };
   while (count(0) * count(1) * count(2) > 8.0 * L + 64) cell *= 1.25;
   const Point<3> origin = all_lo.array() - cell;
-  const std::array<int, 3> dims = {static_cast<int>(count(0)), static_cast<int>(count(1)), static_cast<int>(count(2))};
-  auto cell_of = [&](double x, int k) { return std::clamp(static_cast<int>(std::floor((x - origin[k]) / cell)), 0, dims[k] - 1); };
-  // Per live triangle its box (doubles, for the cells) and, per grid entry, a copy of what the
-  // pair loop reads: the float box rounded outwards, the first cell of the range, the mark.
+  const std::array<int, 3> dims = {static_cast<int>(count(0)), static_cast<int>(count(1)),
+                                   static_cast<int>(count(2))};
+  auto cell_of = [&](double x, int k) {
+    return std::clamp(static_cast<int>(std::floor((x - origin[k]) / cell)), 0, dims[k] - 1);
+  };
+  // Per live triangle its cell range and, per grid entry, a copy of what the pair loop reads:
+  // the float box, the corners, the id, the mark, and on which axes its range starts there.
   struct Entry {
-    float lo[3], hi[3];
+    FloatBox box;
     Triangle t;
     int id;
     uint8_t marked;
@@ -535,7 +546,9 @@ bool EditMesh::end_optimistic(bool verify) {
   std::vector<std::array<int, 6>> range(L);
   std::vector<Entry> proto(L);
   std::vector<int> start(static_cast<size_t>(dims[0]) * dims[1] * dims[2] + 1, 0);
-  auto index = [&](int x, int y, int z) { return x + static_cast<size_t>(dims[0]) * (y + static_cast<size_t>(dims[1]) * z); };
+  auto index = [&](int x, int y, int z) {
+    return x + static_cast<size_t>(dims[0]) * (y + static_cast<size_t>(dims[1]) * z);
+  };
   for (int i = 0; i < L; ++i) {
     const auto p = corners_of(live[i]);
     Point<3> lo = p[0].cwiseMin(p[1]).cwiseMin(p[2]), hi = p[0].cwiseMax(p[1]).cwiseMax(p[2]);
@@ -543,10 +556,8 @@ bool EditMesh::end_optimistic(bool verify) {
     lo.array() -= grow, hi.array() += grow;
     auto& r = range[i];
     Entry& e = proto[i];
-    for (int k = 0; k < 3; ++k) {
-      r[k] = cell_of(lo[k], k), r[k + 3] = cell_of(hi[k], k);
-      e.lo[k] = float_down(lo[k]), e.hi[k] = float_up(hi[k]);
-    }
+    for (int k = 0; k < 3; ++k) r[k] = cell_of(lo[k], k), r[k + 3] = cell_of(hi[k], k);
+    e.box = outward(lo, hi);
     e.t = tri_[live[i]], e.id = live[i], e.marked = dirty[live[i]];
     for (int z = r[2]; z <= r[5]; ++z)
       for (int y = r[1]; y <= r[4]; ++y)
@@ -577,15 +588,12 @@ bool EditMesh::end_optimistic(bool verify) {
           for (const Entry* b = a + 1; b != end; ++b) {
             if ((a->starts | b->starts) != 7 || !(a->marked | b->marked)) continue;
             const Triangle &t = a->t, &u = b->t;
-            const bool apart = (a->lo[0] > b->hi[0]) | (a->lo[1] > b->hi[1]) | (a->lo[2] > b->hi[2]) |
-                               (b->lo[0] > a->hi[0]) | (b->lo[1] > a->hi[1]) | (b->lo[2] > a->hi[2]);
             const bool shared = (t[0] == u[0]) | (t[0] == u[1]) | (t[0] == u[2]) | (t[1] == u[0]) | (t[1] == u[1]) |
                                 (t[1] == u[2]) | (t[2] == u[0]) | (t[2] == u[1]) | (t[2] == u[2]);
-            found = found || (!apart && !shared && conflict(a->id, b->id));
+            found = found || (!apart(a->box, b->box) && !shared && conflict(a->id, b->id));
           }
       }
-  if (found) return false;
-  return true;
+  return !found;
 }
 
 bool EditMesh::intersects_any_brute_force(std::span<const Triangle> ts, std::span<const int> ignore) const {

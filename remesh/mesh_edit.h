@@ -38,6 +38,12 @@ inline double angle_key(double radians) { return -std::cos(radians); }
 // Interior angle at vertex a of triangle (a, b, c), radians.
 double angle_at(const Point<3>& a, const Point<3>& b, const Point<3>& c);
 
+// A box in floats rounded outwards from a box in doubles: a filter only (boxes apart in floats
+// are apart), half the memory of the doubles.
+struct FloatBox {
+  float lo[3], hi[3];
+};
+
 class EditMesh {
  public:
   // A live triangle f at vertex v, with the corners that follow v in it: (v, next, prev) in
@@ -137,11 +143,10 @@ class EditMesh {
   mutable std::array<int, 3> dims_ = {0, 0, 0};
   mutable std::vector<std::vector<int>> cells_;
   mutable bool grid_built_ = false;
-  // Per triangle in the grid: its bounding box in floats rounded outwards (a filter only: boxes
-  // apart in floats are apart), and the query that last tested it; one half cache line, so
-  // that a candidate costs one memory access.
+  // Per triangle in the grid: its bounding box in floats rounded outwards, and the query that
+  // last tested it; one half cache line, so that a candidate costs one memory access.
   struct GridBox {
-    float lo[3], hi[3];
+    FloatBox box;
     uint32_t stamp = 0, unused = 0;
   };
   mutable std::vector<GridBox> gbox_;

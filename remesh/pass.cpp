@@ -2,7 +2,7 @@
 
 #include "remesh/mesh_edit.h"
 
-#include <optional>
+#include <vector>
 
 namespace dsnake {
 
@@ -15,6 +15,23 @@ RemeshReport EditStage::apply(Snake<3>& snake, const RemeshContext<3>& context) 
   return report;
 }
 
+namespace {
+
+// edits() on m optimistically, then the check; on a conflict m is restored and edits() runs
+// again with every edit checked. (The copy is taken without the grid, which the check rebuilds.)
+template <class Edits>
+auto run_optimistically(remesh_detail::EditMesh& m, Edits edits) {
+  m.drop_grid();
+  remesh_detail::EditMesh before = m;
+  m.begin_optimistic();
+  auto result = edits();
+  if (m.end_optimistic(true)) return result;
+  m = std::move(before);
+  return edits();
+}
+
+}  // namespace
+
 RemeshReport EditStage::run_checked(remesh_detail::EditMesh& m, const RemeshContext<3>& context) {
   if (checking_ == EditChecking::kEveryEdit) return run(m, context);
   if (!edits_can_cross() || checking_ == EditChecking::kUnchecked) {
@@ -23,13 +40,7 @@ RemeshReport EditStage::run_checked(remesh_detail::EditMesh& m, const RemeshCont
     m.end_optimistic(false);
     return report;
   }
-  m.drop_grid();
-  remesh_detail::EditMesh before = m;
-  m.begin_optimistic();
-  RemeshReport report = run(m, context);
-  if (m.end_optimistic(true)) return report;
-  m = std::move(before);
-  return run(m, context);
+  return run_optimistically(m, [&] { return run(m, context); });
 }
 
 namespace {
@@ -54,19 +65,10 @@ void apply_edit_stages(std::span<EditStage* const> stages, Snake<3>& snake, cons
   };
   bool optimistic = stages.size() > 1;
   for (const EditStage* stage : stages) optimistic &= stage->checking() == EditChecking::kOptimistic;
-  std::vector<RemeshReport> out;
-  if (optimistic) {
-    m.drop_grid();
-    remesh_detail::EditMesh before = m;
-    m.begin_optimistic();
-    out = run_all(false);
-    if (!m.end_optimistic(true)) {
-      m = std::move(before);
-      out = run_all(false);  // not optimistic now: every edit is checked
-    }
-  } else {
-    out = run_all(true);
-  }
+  // Optimistic as one run: the stages' bare edits (on the fallback, m is no longer optimistic,
+  // so every edit is checked); else each stage under its own checking.
+  const std::vector<RemeshReport> out = optimistic ? run_optimistically(m, [&] { return run_all(false); })
+                                                   : run_all(true);
   reports.insert(reports.end(), out.begin(), out.end());
   m.commit(snake);
 }

@@ -88,9 +88,10 @@ Collapse try_collapse(EditMesh& m, int a, int b, bool short_edge, const Simplify
   }
   // The collapse may lower the fans' smallest angle only while it stays above 15 degrees.
   // (The fans' old angles are needed only when a new one is below 15 degrees.)
-  const double floor_key = remesh_detail::angle_key(15 * std::numbers::pi / 180);
+  static const double floor_key = remesh_detail::angle_key(15 * std::numbers::pi / 180);
   double fresh_min = 1;
-  for (const auto& t : fresh) fresh_min = std::min(fresh_min, remesh_detail::min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
+  for (const auto& t : fresh)
+    fresh_min = std::min(fresh_min, remesh_detail::min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
   if (fresh_min < floor_key) {
     double old_min = floor_key;
     for (int g : {a, b})

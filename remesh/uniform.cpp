@@ -94,6 +94,7 @@ RemeshReport UniformRemesher::run(EditMesh& m, const RemeshContext<3>&) {
   std::vector<std::optional<Point<3>>> proposal(n);
   std::vector<Triangle> fan_tris;
   std::vector<int> fan;
+  const double floor_key = remesh_detail::angle_key(kMinAngleFloor);
   for (int sweep = 0; sweep < options_.iterations; ++sweep) {
     // Proposals from the positions at the start of the sweep (thread-count independent).
 #pragma omp parallel if (n >= 256)
@@ -121,7 +122,6 @@ RemeshReport UniformRemesher::run(EditMesh& m, const RemeshContext<3>&) {
       const Point<3> to = *proposal[v];
       auto at = [&](int x) -> const Point<3>& { return x == v ? to : m.pos(x); };
       using remesh_detail::area_normal, remesh_detail::min_angle_key;
-      const double floor_key = remesh_detail::angle_key(kMinAngleFloor);
       bool ok = true;
       double new_min = 1;  // the key of the largest angle
       for (size_t i = 0; i < fan.size() && ok; ++i) {
@@ -139,8 +139,8 @@ RemeshReport UniformRemesher::run(EditMesh& m, const RemeshContext<3>&) {
         }
         ok = new_min >= old_min;
       }
-      m.set_pos(v, to);
       if (ok) {
+        m.set_pos(v, to);  // tentative: the crossing test reads the positions
         fan_tris.clear();
         for (int f : fan) fan_tris.push_back(m.tri(f));
         ok = !m.intersects_any(fan_tris, fan);
