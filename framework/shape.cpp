@@ -8,6 +8,19 @@
 
 namespace dsnake {
 
+Connectivity Connectivity::manifold_mesh(int n, std::vector<Triangle> triangles, std::vector<int> offsets,
+                                         std::vector<int> adjacency) {
+  DSNAKE_ASSERT(!triangles.empty() && offsets.size() == static_cast<size_t>(n) + 1 && offsets.front() == 0 &&
+                    offsets.back() == static_cast<int>(adjacency.size()) && adjacency.size() == 3 * triangles.size(),
+                "a closed manifold mesh's rings: one CSR entry per corner");
+  Connectivity c;
+  c.num_vertices_ = n;
+  c.triangles_ = std::move(triangles);
+  c.offsets_ = std::move(offsets);
+  c.adjacency_ = std::move(adjacency);
+  return c;
+}
+
 Connectivity Connectivity::polygon(int n) {
   Connectivity c;
   c.num_vertices_ = n;

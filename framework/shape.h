@@ -24,6 +24,12 @@ class Connectivity {
   // Builds the adjacency; the one-ring of each vertex is ordered counter-clockwise when the
   // mesh is a closed oriented manifold (checked by closed_manifold()).
   static Connectivity mesh(int num_vertices, std::vector<Triangle> triangles);
+  // A mesh that its builder keeps closed, manifold and oriented (the remeshers' EditMesh), with
+  // its ordered one-rings given as mesh() would order them (v's ring at adjacency[offsets[v]]
+  // up to adjacency[offsets[v + 1]]): taken as they are, without mesh()'s checks, so that a
+  // remeshing pass writes back in linear time with no sorting.
+  static Connectivity manifold_mesh(int num_vertices, std::vector<Triangle> triangles, std::vector<int> offsets,
+                                    std::vector<int> adjacency);
 
   int num_vertices() const { return num_vertices_; }
   bool is_polygon() const { return triangles_.empty(); }

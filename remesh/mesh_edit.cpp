@@ -622,6 +622,9 @@ int EditMesh::commit(Snake<3>& snake) {
   std::vector<int> remap(pos_.size(), -1);
   PointList<3> q;
   std::vector<int> ids;
+  q.reserve(live_vertices_);
+  ids.reserve(live_vertices_);
+  size_t corners = 0;
   for (int v = 0; v < num_vertices(); ++v) {
     if (vfan_[v].empty()) {
       DSNAKE_ASSERT(ids_[v] < 0, "a remesher dropped a deformation vertex");
@@ -630,12 +633,40 @@ int EditMesh::commit(Snake<3>& snake) {
     remap[v] = static_cast<int>(q.size());
     q.push_back(pos_[v]);
     ids.push_back(ids_[v]);
+    corners += vfan_[v].size();
   }
   std::vector<Triangle> tris;
+  tris.reserve(corners / 3);
   for (size_t f = 0; f < tri_.size(); ++f)
     if (alive_[f]) tris.push_back({remap[tri_[f][0]], remap[tri_[f][1]], remap[tri_[f][2]]});
+  // The ordered rings as Connectivity::mesh orders them: a vertex's corners are in triangle
+  // order (added in order, removed in place), so its first corner is its first triangle, whose
+  // next vertex starts the ring (ring() walks the same links).
   const int n = static_cast<int>(q.size());
-  snake.set_topology(std::move(q), Connectivity::mesh(n, std::move(tris)), std::move(ids));
+  std::vector<int> offsets(n + 1, 0), adjacency;
+  adjacency.reserve(corners);
+  for (int v = 0; v < num_vertices(); ++v) {
+    if (remap[v] < 0) continue;
+    offsets[remap[v]] = static_cast<int>(adjacency.size());
+    const auto& fan = vfan_[v];
+    const int start = fan[0].next;
+    int a = start;
+    for (size_t i = 0; i < fan.size(); ++i) {
+      adjacency.push_back(remap[a]);
+      int to = -1;
+      for (const Corner& c : fan)
+        if (c.next == a) {
+          to = c.prev;
+          break;
+        }
+      a = to;
+      // (back at the start after exactly one turn: one closed fan)
+      DSNAKE_ASSERT(a >= 0 && (a == start) == (i + 1 == fan.size()), "one-ring of a vertex is not a closed fan");
+    }
+  }
+  offsets[n] = static_cast<int>(adjacency.size());
+  snake.set_topology(std::move(q), Connectivity::manifold_mesh(n, std::move(tris), std::move(offsets), std::move(adjacency)),
+                     std::move(ids));
   changed_ = connectivity_changed_ = false;
   return n;
 }

@@ -4,13 +4,37 @@
 #include "remesh/mesh_edit.h"
 
 #include <algorithm>
+#include <bit>
+#include <cstdint>
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <tuple>
+#include <utility>
 #include <vector>
 
 namespace dsnake {
+
+namespace remesh_detail {
+
+// A stable LSD radix sort on the bits of len (a non-negative double's bits order as the double
+// does), 11 bits a pass, a pass skipped when all keys agree on its digit: linear, where the
+// comparison sort it replaced spent most of its time in mispredicted branches.
+void sort_by_length(std::vector<CollapseCandidate>& cand, std::vector<CollapseCandidate>& scratch) {
+  constexpr int kBits = 11, kBuckets = 1 << kBits;
+  scratch.resize(cand.size());
+  std::vector<int> count(kBuckets);
+  auto key = [](const CollapseCandidate& c) { return std::bit_cast<uint64_t>(c.len); };
+  for (int shift = 0; shift < 64; shift += kBits) {
+    std::fill(count.begin(), count.end(), 0);
+    for (const CollapseCandidate& c : cand) ++count[(key(c) >> shift) & (kBuckets - 1)];
+    if (std::find(count.begin(), count.end(), static_cast<int>(cand.size())) != count.end()) continue;
+    for (int i = 0, sum = 0; i < kBuckets; ++i) sum += std::exchange(count[i], sum);
+    for (const CollapseCandidate& c : cand) scratch[count[(key(c) >> shift) & (kBuckets - 1)]++] = c;
+    cand.swap(scratch);
+  }
+}
+
+}  // namespace remesh_detail
 
 namespace {
 
@@ -127,8 +151,9 @@ RemeshReport SimplifyRemesher::run(EditMesh& m, const RemeshContext<3>& context)
   std::vector<int> refused_b(n, -1);
   std::vector<Collapse> refused_as(n, Collapse::kDone);
   // Candidates: each free vertex with its shortest edge, shortest first (ties by index).
+  std::vector<remesh_detail::CollapseCandidate> cand, scratch;
   for (int pass = 0; pass < 3; ++pass) {
-    std::vector<std::tuple<double, int, int>> cand;
+    cand.clear();
     for (int a = 0; a < m.num_vertices(); ++a) {
       if (!m.is_free(a) || !m.vertex_alive(a)) continue;
       // Each neighbour once, as a corner's next vertex; squared lengths (one root at the end).
@@ -140,9 +165,9 @@ RemeshReport SimplifyRemesher::run(EditMesh& m, const RemeshContext<3>& context)
       }
       const double best_len = std::sqrt(best_len2);
       if (best >= 0 && (best_len < min_edge || (options_.curvature_ratio > 0 && best_len < max_edge)))
-        cand.emplace_back(best_len, a, best);
+        cand.push_back({best_len, a, best});
     }
-    std::sort(cand.begin(), cand.end());
+    remesh_detail::sort_by_length(cand, scratch);
     int done = 0;
     for (const auto& [len, a, b] : cand) {
       if (!m.vertex_alive(a) || !m.vertex_alive(b) || !m.has_edge(a, b)) continue;

@@ -17,6 +17,7 @@
 #include "remesh/pass.h"
 
 #include <memory>
+#include <vector>
 
 namespace dsnake {
 
@@ -42,5 +43,18 @@ class SimplifyRemesher : public EditStage {
 };
 
 std::unique_ptr<Remesher<3>> make_simplify_remesher(JsonReader& reader);
+
+namespace remesh_detail {
+
+// A collapse candidate: free vertex a and its nearest neighbour b, at distance len >= 0.
+struct CollapseCandidate {
+  double len;
+  int a, b;
+};
+// Sorts candidates listed in increasing a by (len, a): the order in which simplify tries them.
+// `scratch`: a buffer, resized as needed.
+void sort_by_length(std::vector<CollapseCandidate>& candidates, std::vector<CollapseCandidate>& scratch);
+
+}  // namespace remesh_detail
 
 }  // namespace dsnake

@@ -18,6 +18,8 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <random>
+#include <tuple>
 
 namespace dsnake {
 namespace {
@@ -203,6 +205,36 @@ TEST(SimplifyRemesher, CurvatureCollapsesRemoveFlatVerticesAndKeepTheShape) {
   const int before = ball.num_vertices();
   SimplifyRemesher({0.01, 10, 1e-4, 45}).apply(ball, {});
   EXPECT_EQ(ball.num_vertices(), before);
+}
+
+// Simplify tries its candidates shortest first, ties by vertex: the radix sort gives the order
+// of a comparison sort on (len, a), on lengths spread over several binades, with exact ties,
+// zeros and lengths that differ in their last bit only.
+TEST(SimplifyRemesher, CandidatesSortByLengthThenVertex) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> length(0.0, 4.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    std::vector<remesh_detail::CollapseCandidate> cand, scratch;
+    const int n = 1 + trial * 150;
+    for (int a = 0; a < n; ++a) {
+      double len = length(rng);
+      if (a % 7 == 3) len = 1.25;                                      // exact ties
+      if (a % 11 == 5) len = 0.0;                                      // coincident vertices
+      if (a % 13 == 6) len = std::nextafter(1.25, trial % 2 ? 2.0 : 0.0);  // one bit from a tie
+      if (trial == 5) len = 0.5;                                       // every key alike
+      cand.push_back({len, a, a + 1000});
+    }
+    auto expected = cand;
+    std::sort(expected.begin(), expected.end(),
+              [](const auto& x, const auto& y) { return std::tie(x.len, x.a) < std::tie(y.len, y.a); });
+    remesh_detail::sort_by_length(cand, scratch);
+    ASSERT_EQ(cand.size(), expected.size());
+    for (size_t i = 0; i < cand.size(); ++i) {
+      ASSERT_EQ(cand[i].a, expected[i].a) << "trial " << trial << ", position " << i;
+      ASSERT_EQ(cand[i].len, expected[i].len);
+      ASSERT_EQ(cand[i].b, expected[i].b);
+    }
+  }
 }
 
 TEST(RemeshQuality, FullRefinementPipelineOnASphereIsAlmostRegular) {
