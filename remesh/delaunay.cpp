@@ -22,17 +22,16 @@ struct ListedEdge {
   int a, b, f, k;  // a = tri(f)[k], b = tri(f)[k + 1]
 };
 
-// Every undirected edge once, in a fixed order (determinism).
-std::vector<ListedEdge> all_edges(const EditMesh& m) {
-  std::vector<ListedEdge> edges;
-  edges.reserve(m.num_triangle_slots() * 3 / 2);
+// Every undirected edge once, in a fixed order (determinism), into `edges` (a buffer reused
+// across sweeps: growing it anew each time costs more in page faults than the listing).
+void all_edges(const EditMesh& m, std::vector<ListedEdge>& edges) {
+  edges.clear();
   for (int f = 0; f < m.num_triangle_slots(); ++f) {
     if (!m.tri_alive(f)) continue;
     const auto& t = m.tri(f);
     for (int k = 0; k < 3; ++k)
       if (t[k] < t[(k + 1) % 3]) edges.push_back({t[k], t[(k + 1) % 3], f, k});
   }
-  return edges;
 }
 
 // The triangle holding a -> b now: the listed one if it lives, else a search.
@@ -61,7 +60,9 @@ bool is_delaunay_violation(const EditMesh& m, int a, int b, int c, int d) {
 // Edge flips until every edge is locally Delaunay (or every remaining violation is rejected).
 // A flipped edge's four outer edges are queued again. Returns the number of rejected flips.
 int delaunay_by_flips(EditMesh& m, double cos_max_dihedral) {
-  auto stack = all_edges(m);
+  std::vector<ListedEdge> stack;
+  stack.reserve(m.num_triangle_slots() * 3 / 2);
+  all_edges(m, stack);
   std::reverse(stack.begin(), stack.end());
   int rejected = 0;
   int64_t budget = 20 * static_cast<int64_t>(stack.size()) + 100;
@@ -101,11 +102,19 @@ int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_r
   std::vector<int64_t> stamp(m.num_vertices(), 0);
   std::vector<int64_t> refused;  // per listed edge 3 f + k: when, or 0
   std::vector<int> refused_d;
+  std::vector<ListedEdge> edges;
+  // Room for the slots that the sweeps' flips add (two per flip), so that these buffers are
+  // rarely regrown (each regrowth of a buffer this size faults in fresh pages).
+  const size_t room = m.num_triangle_slots() + m.num_triangle_slots() / 4;
+  refused.reserve(3 * room);
+  refused_d.reserve(3 * room);
+  edges.reserve(3 * room / 2);
   for (int sweep = 0; sweep < 5; ++sweep) {
     int flips = 0;
     refused.resize(3 * static_cast<size_t>(m.num_triangle_slots()), 0);
     refused_d.resize(refused.size(), -1);
-    for (const ListedEdge& e : all_edges(m)) {
+    all_edges(m, edges);
+    for (const ListedEdge& e : edges) {
       const int a = e.a, b = e.b;
       const size_t key = 3 * static_cast<size_t>(e.f) + e.k;
       if (reuse_refusals && refused[key] > 0 && m.tri_alive(e.f)) {

@@ -145,17 +145,6 @@ double min_angle(const Point<3>& a, const Point<3>& b, const Point<3>& c) {
   return angle_at(c, a, b);
 }
 
-// -cos of the angle opposite the shortest edge, u . v / |u| |v| with one square root.
-double min_angle_key(const Point<3>& a, const Point<3>& b, const Point<3>& c) {
-  const Point<3> ab = b - a, bc = c - b, ca = a - c;
-  const double lab = ab.squaredNorm(), lbc = bc.squaredNorm(), lca = ca.squaredNorm();
-  double dot, lengths2;  // at the vertex opposite the shortest edge
-  if (lbc <= lab && lbc <= lca) dot = -ab.dot(ca), lengths2 = lab * lca;       // at a
-  else if (lca <= lab) dot = -bc.dot(ab), lengths2 = lbc * lab;                // at b
-  else dot = -ca.dot(bc), lengths2 = lca * lbc;                                // at c
-  return lengths2 > 0 ? -dot / std::sqrt(lengths2) : -1.0;
-}
-
 EditMesh::EditMesh(const Snake<3>& snake)
     : pos_(snake.positions()), ids_(snake.template_ids()), vfan_(snake.num_vertices()) {
   const auto& c = snake.connectivity();
@@ -165,11 +154,12 @@ EditMesh::EditMesh(const Snake<3>& snake)
   tri_.reserve(c.triangles().size() * 2);
   alive_.reserve(c.triangles().size() * 2);
   for (const auto& t : c.triangles()) add_triangle(t);
-  refresh_mean_edge();
   changed_ = connectivity_changed_ = false;
 }
 
-void EditMesh::refresh_mean_edge() {
+double EditMesh::mean_edge_length() const {
+  if (mean_edge_known_) return mean_edge_;
+  mean_edge_known_ = true;
   double total = 0;
   int count = 0;
   for (size_t f = 0; f < tri_.size(); ++f) {
@@ -180,7 +170,7 @@ void EditMesh::refresh_mean_edge() {
       ++count;
     }
   }
-  mean_edge_ = count > 0 ? total / count : 1.0;
+  return mean_edge_ = count > 0 ? total / count : 1.0;
 }
 
 // Cells of two mean edges, grown if the mesh's box would need more than ~4 cells per triangle
@@ -199,7 +189,7 @@ void EditMesh::build_grid() const {
   }
   if (live == 0 || !lo.allFinite() || !hi.allFinite()) lo = hi = Point<3>::Zero();
   origin_ = lo;
-  cell_ = std::max(2 * mean_edge_, 1e-9);
+  cell_ = std::max(2 * mean_edge_length(), 1e-9);
   const double max_cells = 4.0 * live + 64;
   auto count = [&](int k) { return std::floor((hi[k] - lo[k]) / cell_) + 1; };
   while (count(0) * count(1) * count(2) > max_cells) cell_ *= 1.25;
@@ -294,19 +284,6 @@ void EditMesh::ring(int v, std::vector<int>& out) const {
   DSNAKE_ASSERT(a == start && out.size() == fan.size(), "one-ring of a vertex is not a closed fan");
 }
 
-// The triangle (a, b, x): a's corner whose next is b.
-int EditMesh::face_with_edge(int a, int b) const {
-  for (const Corner& c : vfan_[a])
-    if (c.next == b) return c.f;
-  return -1;
-}
-
-int EditMesh::opposite(int f, int a, int b) const {
-  const auto& t = tri_[f];
-  for (int k = 0; k < 3; ++k)
-    if (t[k] != a && t[k] != b) return t[k];
-  return -1;
-}
 
 void EditMesh::move_vertex(int v, const Point<3>& p) {
   pos_[v] = p;
@@ -483,6 +460,33 @@ bool EditMesh::fan_is_embedded(int v) const {
 // pair; pairs that share no vertex come from a grid of two mean edges over the final mesh,
 // each triangle listed in the cells its box covers and a pair taken in the one cell holding the
 // low corner of the boxes' overlap (boxes grown slightly beyond intersects_any's padding).
+namespace {
+
+// end_optimistic's grid: per grid entry, a copy of what the pair loop reads (the float box, the
+// corners, the id, the mark, and on which axes its triangle's cell range starts there).
+struct VerifyEntry {
+  FloatBox box;
+  Triangle t;
+  int id;
+  uint8_t marked;
+  uint8_t starts;  // bit k set if the range's first cell on axis k is this one
+};
+
+// The grid's buffers, kept from one check to the next by the thread that builds the grid (in
+// fresh buffers of this size, every check would fault in a few megabytes of pages).
+struct VerifyScratch {
+  std::vector<int> live, start, fill;
+  std::vector<std::array<int, 6>> range;
+  std::vector<VerifyEntry> proto, entries;
+};
+
+VerifyScratch& verify_scratch() {
+  static thread_local VerifyScratch scratch;
+  return scratch;
+}
+
+}  // namespace
+
 bool EditMesh::end_optimistic(bool verify) {
   optimistic_ = false;
   std::vector<uint8_t> dirty = std::move(dirty_);
@@ -516,7 +520,10 @@ bool EditMesh::end_optimistic(bool verify) {
   // Pairs sharing no vertex: boxes of the live triangles (in a compact list), grown by 1e-8 of
   // the cell and of their own size, and the grid over them (cells grown while there would be
   // more than 8 per triangle).
-  std::vector<int> live;
+  // (References to this thread's buffers: the parallel loop below shares them.)
+  VerifyScratch& scratch = verify_scratch();
+  std::vector<int>& live = scratch.live;
+  live.clear();
   Point<3> all_lo = Point<3>::Constant(std::numeric_limits<double>::infinity()), all_hi = -all_lo;
   for (int f = 0; f < F; ++f) {
     if (!alive_[f]) continue;
@@ -525,7 +532,7 @@ bool EditMesh::end_optimistic(bool verify) {
   }
   const int L = static_cast<int>(live.size());
   if (L == 0 || !all_lo.allFinite() || !all_hi.allFinite()) return true;
-  double cell = std::max(kVerifyCell * mean_edge_, 1e-9);
+  double cell = std::max(kVerifyCell * mean_edge_length(), 1e-9);
   auto count = [&](int k) { return std::floor((all_hi[k] - all_lo[k]) / cell) + 3; };
   while (count(0) * count(1) * count(2) > 8.0 * L + 64) cell *= 1.25;
   const Point<3> origin = all_lo.array() - cell;
@@ -534,18 +541,13 @@ bool EditMesh::end_optimistic(bool verify) {
   auto cell_of = [&](double x, int k) {
     return std::clamp(static_cast<int>(std::floor((x - origin[k]) / cell)), 0, dims[k] - 1);
   };
-  // Per live triangle its cell range and, per grid entry, a copy of what the pair loop reads:
-  // the float box, the corners, the id, the mark, and on which axes its range starts there.
-  struct Entry {
-    FloatBox box;
-    Triangle t;
-    int id;
-    uint8_t marked;
-    uint8_t starts;  // in a cell's list: bit k set if the range's first cell on axis k is this one
-  };
-  std::vector<std::array<int, 6>> range(L);
-  std::vector<Entry> proto(L);
-  std::vector<int> start(static_cast<size_t>(dims[0]) * dims[1] * dims[2] + 1, 0);
+  // Per live triangle its cell range and its entry (VerifyEntry), then the entries per cell.
+  std::vector<std::array<int, 6>>& range = scratch.range;
+  std::vector<VerifyEntry>& proto = scratch.proto;
+  std::vector<int>& start = scratch.start;
+  range.resize(L);
+  proto.resize(L);
+  start.assign(static_cast<size_t>(dims[0]) * dims[1] * dims[2] + 1, 0);
   auto index = [&](int x, int y, int z) {
     return x + static_cast<size_t>(dims[0]) * (y + static_cast<size_t>(dims[1]) * z);
   };
@@ -555,7 +557,7 @@ bool EditMesh::end_optimistic(bool verify) {
     const double grow = 1e-8 * (cell + (hi - lo).maxCoeff());
     lo.array() -= grow, hi.array() += grow;
     auto& r = range[i];
-    Entry& e = proto[i];
+    VerifyEntry& e = proto[i];
     for (int k = 0; k < 3; ++k) r[k] = cell_of(lo[k], k), r[k + 3] = cell_of(hi[k], k);
     e.box = outward(lo, hi);
     e.t = tri_[live[i]], e.id = live[i], e.marked = dirty[live[i]];
@@ -564,14 +566,16 @@ bool EditMesh::end_optimistic(bool verify) {
         for (int x = r[0]; x <= r[3]; ++x) ++start[index(x, y, z) + 1];
   }
   for (size_t c = 1; c < start.size(); ++c) start[c] += start[c - 1];
-  std::vector<Entry> entries(start.back());
-  std::vector<int> fill(start.begin(), start.end() - 1);
+  std::vector<VerifyEntry>& entries = scratch.entries;
+  std::vector<int>& fill = scratch.fill;
+  entries.resize(start.back());
+  fill.assign(start.begin(), start.end() - 1);
   for (int i = 0; i < L; ++i) {
     const auto& r = range[i];
     for (int z = r[2]; z <= r[5]; ++z)
       for (int y = r[1]; y <= r[4]; ++y)
         for (int x = r[0]; x <= r[3]; ++x) {
-          Entry& e = entries[fill[index(x, y, z)]++] = proto[i];
+          VerifyEntry& e = entries[fill[index(x, y, z)]++] = proto[i];
           e.starts = (x == r[0]) | (y == r[1]) << 1 | (z == r[2]) << 2;
         }
   }
@@ -582,10 +586,10 @@ bool EditMesh::end_optimistic(bool verify) {
     for (int y = 0; y < dims[1]; ++y)
       for (int x = 0; x < dims[0] && !found; ++x) {
         const size_t c = index(x, y, z);
-        const Entry* begin = entries.data() + start[c];
-        const Entry* end = entries.data() + start[c + 1];
-        for (const Entry* a = begin; a != end; ++a)
-          for (const Entry* b = a + 1; b != end; ++b) {
+        const VerifyEntry* begin = entries.data() + start[c];
+        const VerifyEntry* end = entries.data() + start[c + 1];
+        for (const VerifyEntry* a = begin; a != end; ++a)
+          for (const VerifyEntry* b = a + 1; b != end; ++b) {
             if ((a->starts | b->starts) != 7 || !(a->marked | b->marked)) continue;
             const Triangle &t = a->t, &u = b->t;
             const bool shared = (t[0] == u[0]) | (t[0] == u[1]) | (t[0] == u[2]) | (t[1] == u[0]) | (t[1] == u[1]) |

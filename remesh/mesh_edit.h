@@ -33,7 +33,18 @@ double triangle_area(const Point<3>& a, const Point<3>& b, const Point<3>& c);
 double min_angle(const Point<3>& a, const Point<3>& b, const Point<3>& c);
 // A key that increases with the smallest interior angle, for comparisons only: -cos of it
 // (-1 if degenerate), with no trigonometry; compare it with angle_key(threshold in radians).
-double min_angle_key(const Point<3>& a, const Point<3>& b, const Point<3>& c);
+// (Inline, and choosing the vertex opposite the shortest edge without branches: it runs once
+// per triangle of every candidate edit, on data whose shortest edge is unpredictable.)
+inline double min_angle_key(const Point<3>& a, const Point<3>& b, const Point<3>& c) {
+  const Point<3> ab = b - a, bc = c - b, ca = a - c;
+  const double lab = ab.squaredNorm(), lbc = bc.squaredNorm(), lca = ca.squaredNorm();
+  // At a (opposite bc), at b (opposite ca), at c (opposite ab).
+  const double dot_a = -ab.dot(ca), dot_b = -bc.dot(ab), dot_c = -ca.dot(bc);
+  const bool at_a = lbc <= lab && lbc <= lca, at_b = !at_a && lca <= lab;
+  const double dot = at_a ? dot_a : (at_b ? dot_b : dot_c);
+  const double lengths2 = at_a ? lab * lca : (at_b ? lbc * lab : lca * lbc);
+  return lengths2 > 0 ? -dot / std::sqrt(lengths2) : -1.0;
+}
 inline double angle_key(double radians) { return -std::cos(radians); }
 // Interior angle at vertex a of triangle (a, b, c), radians.
 double angle_at(const Point<3>& a, const Point<3>& b, const Point<3>& c);
@@ -67,10 +78,13 @@ class EditMesh {
   // The live triangles at v (in the order they came), into `out`; or v's corners.
   void triangles_of(int v, std::vector<int>& out) const;
   std::span<const Corner> corners(int v) const { return vfan_[v]; }
-  double mean_edge_length() const { return mean_edge_; }
-  // Recomputes mean_edge_length() over the live triangles (a stage starting on a mesh that
-  // earlier stages edited sees the same value as on a freshly built EditMesh).
-  void refresh_mean_edge();
+  // The mean edge length of the live triangles, computed at the first call after construction
+  // or refresh_mean_edge() and kept until the next refresh (a stage that needs it reads it at
+  // its start; only some stages do, so it is not computed for every stage).
+  double mean_edge_length() const;
+  // Makes the next mean_edge_length() measure the mesh as it is then (a stage starting on a
+  // mesh that earlier stages edited sees the same value as on a freshly built EditMesh).
+  void refresh_mean_edge() { mean_edge_known_ = false; }
   // Vertices in at least one live triangle (what commit() would keep).
   int num_live_vertices() const { return live_vertices_; }
 
@@ -78,10 +92,19 @@ class EditMesh {
   void ring(int v, std::vector<int>& out) const;
   int valence(int v) const { return static_cast<int>(vfan_[v].size()); }
   // The triangle holding the directed edge a->b, or -1.
-  int face_with_edge(int a, int b) const;
+  int face_with_edge(int a, int b) const {
+    for (const Corner& c : vfan_[a])
+      if (c.next == b) return c.f;
+    return -1;
+  }
   bool has_edge(int a, int b) const { return face_with_edge(a, b) >= 0 || face_with_edge(b, a) >= 0; }
-  // The vertex opposite the directed edge a->b in its triangle.
-  int opposite(int f, int a, int b) const;
+  // The vertex opposite the directed edge a->b in its triangle f (a and b must be corners of f).
+  // (The sum of f's corners less a and b: no branch to mispredict; unsigned, so it may wrap.)
+  int opposite(int f, int a, int b) const {
+    const auto& t = tri_[f];
+    return static_cast<int>(static_cast<unsigned>(t[0]) + static_cast<unsigned>(t[1]) + static_cast<unsigned>(t[2]) -
+                            static_cast<unsigned>(a) - static_cast<unsigned>(b));
+  }
 
   int add_vertex(const Point<3>& p);  // a free vertex (template id -1)
   void set_pos(int v, const Point<3>& p) { pos_[v] = p; }  // tentative: no grid update
@@ -134,7 +157,8 @@ class EditMesh {
   std::vector<uint8_t> alive_;
   std::vector<std::vector<Corner>> vfan_;  // live triangles per vertex, as corners
   int live_vertices_ = 0;
-  double mean_edge_ = 1;
+  mutable double mean_edge_ = 1;
+  mutable bool mean_edge_known_ = false;
   // The grid: dims_ cells of size cell_ from origin_ (the mesh's box when it was built; boxes
   // outside are clamped to the border cells, which keeps every overlap), cell (x, y, z) at
   // cells_[x + dims_x (y + dims_y z)], listing the live triangles whose box meets it.

@@ -95,6 +95,7 @@ RemeshReport UniformRemesher::run(EditMesh& m, const RemeshContext<3>&) {
   std::vector<Triangle> fan_tris;
   std::vector<int> fan;
   const double floor_key = remesh_detail::angle_key(kMinAngleFloor);
+  const double mean_edge = m.mean_edge_length();  // of the mesh as this stage receives it
   for (int sweep = 0; sweep < options_.iterations; ++sweep) {
     // Proposals from the positions at the start of the sweep (thread-count independent).
 #pragma omp parallel if (n >= 256)
@@ -114,7 +115,7 @@ RemeshReport UniformRemesher::run(EditMesh& m, const RemeshContext<3>&) {
       if (!proposal[v]) continue;
       const Point<3> old = m.pos(v);
       // Moves below 1% of the mean edge are not worth their checks (the relaxation has converged).
-      if ((*proposal[v] - old).squaredNorm() < 1e-4 * m.mean_edge_length() * m.mean_edge_length()) continue;
+      if ((*proposal[v] - old).squaredNorm() < 1e-4 * mean_edge * mean_edge) continue;
       m.triangles_of(v, fan);
       if (fan.size() > 32) continue;  // valence > 32: beyond the batched check, left alone
       // The move may turn no triangle by more than the limit, and may lower the fan's smallest
