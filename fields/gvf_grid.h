@@ -4,6 +4,7 @@
 #pragma once
 
 #include "fields/gvf_solver.h"
+#include "framework/vector_clones.h"
 
 #include <cstdint>
 #include <vector>
@@ -13,8 +14,6 @@ namespace dsnake::gvf_detail {
 // Grids smaller than this run on one thread (a parallel region costs more than the work).
 constexpr int64_t kParallelMin = 32768;
 
-// Wide vectors where the CPU has them (AVX2 + FMA), SSE2 otherwise; picked once at load time.
-#define DSNAKE_VECTOR_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
 
 // One grid of the multigrid hierarchy (level 0 is the image grid).
 struct Level {

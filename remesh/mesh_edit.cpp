@@ -2,6 +2,7 @@
 
 #include "framework/errors.h"
 #include "framework/metrics_geometry.h"
+#include "framework/vector_clones.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -462,22 +463,66 @@ bool EditMesh::fan_is_embedded(int v) const {
 // low corner of the boxes' overlap (boxes grown slightly beyond intersects_any's padding).
 namespace {
 
-// end_optimistic's grid: per grid entry, a copy of what the pair loop reads (the float box, the
-// corners, the id, the mark, and on which axes its triangle's cell range starts there).
+// end_optimistic's grid, per live triangle: its float box, its corners, its id, its mark.
 struct VerifyEntry {
   FloatBox box;
   Triangle t;
   int id;
   uint8_t marked;
-  uint8_t starts;  // bit k set if the range's first cell on axis k is this one
 };
+
+// The grid's entries (a triangle once per cell it covers, the cells one after the other) as
+// columns, so that the pair filter runs over a cell's entries in wide vectors: the float box,
+// the corners, flags (bit k < 3: the triangle's cell range starts in this cell on axis k;
+// bit 3: marked) and the triangle's id.
+struct VerifyColumns {
+  std::array<std::vector<float>, 3> lo, hi;
+  std::array<std::vector<int>, 3> t;
+  std::vector<int> flags, id;
+
+  void resize(size_t n) {
+    for (int k = 0; k < 3; ++k) lo[k].resize(n), hi[k].resize(n), t[k].resize(n);
+    flags.resize(n);
+    id.resize(n);
+  }
+  void set(size_t e, const VerifyEntry& v, int starts) {
+    for (int k = 0; k < 3; ++k) lo[k][e] = v.box.lo[k], hi[k][e] = v.box.hi[k], t[k][e] = v.t[k];
+    flags[e] = starts | v.marked << 3;
+    id[e] = v.id;
+  }
+};
+
+// Whether entry i and one of the entries [j0, j1) make a pair to test: between them their
+// ranges start here on every axis (the cell of their overlap's low corner), one is marked,
+// they share no vertex and their boxes overlap. No branch: most entries of a cell pass some
+// filters and fail others, which a branch per filter would mispredict.
+DSNAKE_VECTOR_CLONES bool any_pair_to_test(const VerifyColumns& g, int i, int j0, int j1) {
+  const float alo0 = g.lo[0][i], alo1 = g.lo[1][i], alo2 = g.lo[2][i];
+  const float ahi0 = g.hi[0][i], ahi1 = g.hi[1][i], ahi2 = g.hi[2][i];
+  const int a0 = g.t[0][i], a1 = g.t[1][i], a2 = g.t[2][i], fa = g.flags[i];
+  const float *lo0 = g.lo[0].data(), *lo1 = g.lo[1].data(), *lo2 = g.lo[2].data();
+  const float *hi0 = g.hi[0].data(), *hi1 = g.hi[1].data(), *hi2 = g.hi[2].data();
+  const int *t0 = g.t[0].data(), *t1 = g.t[1].data(), *t2 = g.t[2].data(), *flags = g.flags.data();
+  int any = 0;
+#pragma omp simd reduction(| : any)
+  for (int j = j0; j < j1; ++j) {
+    const int both = ((fa | flags[j]) & 15) == 15;
+    const int shared = (a0 == t0[j]) | (a0 == t1[j]) | (a0 == t2[j]) | (a1 == t0[j]) | (a1 == t1[j]) |
+                       (a1 == t2[j]) | (a2 == t0[j]) | (a2 == t1[j]) | (a2 == t2[j]);
+    const int overlap = (alo0 <= hi0[j]) & (alo1 <= hi1[j]) & (alo2 <= hi2[j]) & (lo0[j] <= ahi0) &
+                        (lo1[j] <= ahi1) & (lo2[j] <= ahi2);
+    any |= both & !shared & overlap;
+  }
+  return any != 0;
+}
 
 // The grid's buffers, kept from one check to the next by the thread that builds the grid (in
 // fresh buffers of this size, every check would fault in a few megabytes of pages).
 struct VerifyScratch {
-  std::vector<int> live, start, fill;
+  std::vector<int> live, start, fill, slot;
   std::vector<std::array<int, 6>> range;
-  std::vector<VerifyEntry> proto, entries;
+  std::vector<VerifyEntry> proto;
+  VerifyColumns columns;
 };
 
 VerifyScratch& verify_scratch() {
@@ -532,6 +577,7 @@ bool EditMesh::end_optimistic(bool verify) {
   }
   const int L = static_cast<int>(live.size());
   if (L == 0 || !all_lo.allFinite() || !all_hi.allFinite()) return true;
+  DSNAKE_ASSERT(L < (1 << 28), "too many triangles for the check's entries (index << 3 | start bits)");
   double cell = std::max(kVerifyCell * mean_edge_length(), 1e-9);
   auto count = [&](int k) { return std::floor((all_hi[k] - all_lo[k]) / cell) + 3; };
   while (count(0) * count(1) * count(2) > 8.0 * L + 64) cell *= 1.25;
@@ -566,19 +612,23 @@ bool EditMesh::end_optimistic(bool verify) {
         for (int x = r[0]; x <= r[3]; ++x) ++start[index(x, y, z) + 1];
   }
   for (size_t c = 1; c < start.size(); ++c) start[c] += start[c - 1];
-  std::vector<VerifyEntry>& entries = scratch.entries;
+  // The entries in cell order: first which triangle (and its start bits) each one is, one
+  // scattered write per entry, then the columns in order (ten scattered writes per entry
+  // would cost more than the pair loop gains from the columns).
+  VerifyColumns& columns = scratch.columns;
   std::vector<int>& fill = scratch.fill;
-  entries.resize(start.back());
+  std::vector<int>& slot = scratch.slot;
+  slot.resize(start.back());
   fill.assign(start.begin(), start.end() - 1);
   for (int i = 0; i < L; ++i) {
     const auto& r = range[i];
     for (int z = r[2]; z <= r[5]; ++z)
       for (int y = r[1]; y <= r[4]; ++y)
-        for (int x = r[0]; x <= r[3]; ++x) {
-          VerifyEntry& e = entries[fill[index(x, y, z)]++] = proto[i];
-          e.starts = (x == r[0]) | (y == r[1]) << 1 | (z == r[2]) << 2;
-        }
+        for (int x = r[0]; x <= r[3]; ++x)
+          slot[fill[index(x, y, z)]++] = i << 3 | (x == r[0]) | (y == r[1]) << 1 | (z == r[2]) << 2;
   }
+  columns.resize(slot.size());
+  for (size_t e = 0; e < slot.size(); ++e) columns.set(e, proto[slot[e] >> 3], slot[e] & 7);
   // A pair is taken in the cell of its overlap's low corner: there, on each axis, one of the
   // two ranges starts (the larger first cell; the cell map is monotone).
 #pragma omp parallel for schedule(dynamic, 1) reduction(|| : found) if (L >= 8192)
@@ -586,16 +636,12 @@ bool EditMesh::end_optimistic(bool verify) {
     for (int y = 0; y < dims[1]; ++y)
       for (int x = 0; x < dims[0] && !found; ++x) {
         const size_t c = index(x, y, z);
-        const VerifyEntry* begin = entries.data() + start[c];
-        const VerifyEntry* end = entries.data() + start[c + 1];
-        for (const VerifyEntry* a = begin; a != end; ++a)
-          for (const VerifyEntry* b = a + 1; b != end; ++b) {
-            if ((a->starts | b->starts) != 7 || !(a->marked | b->marked)) continue;
-            const Triangle &t = a->t, &u = b->t;
-            const bool shared = (t[0] == u[0]) | (t[0] == u[1]) | (t[0] == u[2]) | (t[1] == u[0]) | (t[1] == u[1]) |
-                                (t[1] == u[2]) | (t[2] == u[0]) | (t[2] == u[1]) | (t[2] == u[2]);
-            found = found || (!apart(a->box, b->box) && !shared && conflict(a->id, b->id));
-          }
+        const int end = start[c + 1];
+        for (int i = start[c]; i < end && !found; ++i) {
+          if (!any_pair_to_test(columns, i, i + 1, end)) continue;  // (most rows)
+          for (int j = i + 1; j < end && !found; ++j)
+            found = any_pair_to_test(columns, i, j, j + 1) && conflict(columns.id[i], columns.id[j]);
+        }
       }
   return !found;
 }
