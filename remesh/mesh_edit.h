@@ -46,30 +46,6 @@ inline double min_angle_key(const Point<3>& a, const Point<3>& b, const Point<3>
   return lengths2 > 0 ? -dot / std::sqrt(lengths2) : -1.0;
 }
 inline double angle_key(double radians) { return -std::cos(radians); }
-// (cos theta, sin theta) for theta in [0, 2 pi], within a few units in the last place of the
-// library's values and several times faster than sincos: the quadrant from the nearest
-// multiple of pi / 2 (its remainder in [-pi / 4, pi / 4] taken in two parts, exact enough at
-// this range), then the Taylor series of sin and cos to degree 15 and 16 (the first term left
-// out is below 1e-16), rotated to the quadrant without branches. Uniform's ring images (§5.1).
-inline void unit_circle_point(double theta, double& c, double& s) {
-  constexpr double kTwoOverPi = 0.63661977236758134308;
-  constexpr double kHalfPiHi = 1.5707963267948966192;  // pi / 2 rounded, and the remainder
-  constexpr double kHalfPiLo = 6.123233995736766e-17;
-  const double q = std::nearbyint(theta * kTwoOverPi);
-  const double r = (theta - q * kHalfPiHi) - q * kHalfPiLo, r2 = r * r;
-  const double sin_r =
-      r + r * r2 *
-              (-1.0 / 6 + r2 * (1.0 / 120 + r2 * (-1.0 / 5040 + r2 * (1.0 / 362880 + r2 * (-1.0 / 39916800 +
-              r2 * (1.0 / 6227020800 + r2 * (-1.0 / 1307674368000)))))));
-  const double cos_r =
-      1 + r2 * (-0.5 + r2 * (1.0 / 24 + r2 * (-1.0 / 720 + r2 * (1.0 / 40320 + r2 * (-1.0 / 3628800 +
-              r2 * (1.0 / 479001600 + r2 * (-1.0 / 87178291200 + r2 * (1.0 / 20922789888000))))))));
-  const int quadrant = static_cast<int>(q);
-  const bool swap = quadrant & 1;  // quadrants 1 and 3 exchange cos and sin
-  const double x = swap ? sin_r : cos_r, y = swap ? cos_r : sin_r;
-  c = ((quadrant + 1) & 2) ? -x : x;  // negative in quadrants 1 and 2
-  s = (quadrant & 2) ? -y : y;        // negative in quadrants 2 and 3
-}
 // Interior angle at vertex a of triangle (a, b, c), radians.
 double angle_at(const Point<3>& a, const Point<3>& b, const Point<3>& c);
 

@@ -40,7 +40,8 @@ std::optional<Point<3>> relaxed_position(const EditMesh& m, int v, const std::ve
   auto& u = scratch.u;
   u.resize(k);
   for (int i = 0; i < k; ++i) {
-    remesh_detail::unit_circle_point(2 * std::numbers::pi * s[i] / s[k], u[i].x(), u[i].y());
+    const double th = 2 * std::numbers::pi * s[i] / s[k];
+    u[i] = {std::cos(th), std::sin(th)};
   }
   // Mean-value weights: w_i = (tan(a_{i-1}/2) + tan(a_i/2)) / |r_i - v|, a_i = angle(r_i, v, r_i+1),
   // with tan(a/2) = |e x f| / (|e| |f| + e . f) for the edges e, f from v (no trigonometry; the

@@ -8,7 +8,6 @@
 #include "remesh/refine.h"
 #include "remesh/registry.h"
 #include "remesh/simplify.h"
-#include "remesh/mesh_edit.h"
 #include "remesh/uniform.h"
 #include "tests/remesh/test_meshes.h"
 
@@ -145,25 +144,6 @@ TEST(UniformRemesher, MovesFreeVerticesAlongTheSurfaceTowardsTheirRingCentre) {
       EXPECT_EQ(s.positions()[w], before.positions()[w]);
     }
   }
-}
-
-// The ring's images on the unit circle: the series agrees with the library's cos and sin over
-// [0, 2 pi] (quadrant boundaries and both ends included) to a few units in the last place.
-TEST(UniformRemesher, UnitCirclePointsMatchTheLibrary) {
-  double worst = 0;
-  auto check = [&](double theta) {
-    double c, s;
-    remesh_detail::unit_circle_point(theta, c, s);
-    worst = std::max({worst, std::abs(c - std::cos(theta)), std::abs(s - std::sin(theta))});
-  };
-  for (int i = 0; i <= 200000; ++i) check(2 * std::numbers::pi * i / 200000);
-  for (int k = 0; k <= 8; ++k)
-    for (double d : {-1e-12, 0.0, 1e-12}) check(std::clamp(k * std::numbers::pi / 4 + d, 0.0, 2 * std::numbers::pi));
-  EXPECT_LT(worst, 1e-15);
-  double c, s;
-  remesh_detail::unit_circle_point(std::numbers::pi / 2, c, s);
-  EXPECT_NEAR(c, 0, 1e-16);
-  EXPECT_EQ(s, 1);
 }
 
 TEST(UniformRemesher, SameResultWithOneAndTwoThreads) {
