@@ -285,7 +285,6 @@ void EditMesh::ring(int v, std::vector<int>& out) const {
   DSNAKE_ASSERT(a == start && out.size() == fan.size(), "one-ring of a vertex is not a closed fan");
 }
 
-
 void EditMesh::move_vertex(int v, const Point<3>& p) {
   pos_[v] = p;
   changed_ = true;
@@ -691,28 +690,15 @@ int EditMesh::commit(Snake<3>& snake) {
     if (alive_[f]) tris.push_back({remap[tri_[f][0]], remap[tri_[f][1]], remap[tri_[f][2]]});
   // The ordered rings as Connectivity::mesh orders them: a vertex's corners are in triangle
   // order (added in order, removed in place), so its first corner is its first triangle, whose
-  // next vertex starts the ring (ring() walks the same links).
+  // next vertex starts ring() (which asserts one closed fan).
   const int n = static_cast<int>(q.size());
-  std::vector<int> offsets(n + 1, 0), adjacency;
+  std::vector<int> offsets(n + 1, 0), adjacency, ring_of_v;
   adjacency.reserve(corners);
   for (int v = 0; v < num_vertices(); ++v) {
     if (remap[v] < 0) continue;
     offsets[remap[v]] = static_cast<int>(adjacency.size());
-    const auto& fan = vfan_[v];
-    const int start = fan[0].next;
-    int a = start;
-    for (size_t i = 0; i < fan.size(); ++i) {
-      adjacency.push_back(remap[a]);
-      int to = -1;
-      for (const Corner& c : fan)
-        if (c.next == a) {
-          to = c.prev;
-          break;
-        }
-      a = to;
-      // (back at the start after exactly one turn: one closed fan)
-      DSNAKE_ASSERT(a >= 0 && (a == start) == (i + 1 == fan.size()), "one-ring of a vertex is not a closed fan");
-    }
+    ring(v, ring_of_v);
+    for (int a : ring_of_v) adjacency.push_back(remap[a]);
   }
   offsets[n] = static_cast<int>(adjacency.size());
   snake.set_topology(std::move(q), Connectivity::manifold_mesh(n, std::move(tris), std::move(offsets), std::move(adjacency)),
