@@ -493,8 +493,9 @@ struct VerifyColumns {
 
 // Whether entry i and one of the entries [j0, j1) make a pair to test: between them their
 // ranges start here on every axis (the cell of their overlap's low corner), one is marked,
-// they share no vertex and their boxes overlap. No branch: most entries of a cell pass some
-// filters and fail others, which a branch per filter would mispredict.
+// they share no vertex and their boxes overlap (the negation of apart(), by columns). No
+// branch: most entries of a cell pass some filters and fail others, which a branch per filter
+// would mispredict.
 DSNAKE_VECTOR_CLONES bool any_pair_to_test(const VerifyColumns& g, int i, int j0, int j1) {
   const float alo0 = g.lo[0][i], alo1 = g.lo[1][i], alo2 = g.lo[2][i];
   const float ahi0 = g.hi[0][i], ahi1 = g.hi[1][i], ahi2 = g.hi[2][i];

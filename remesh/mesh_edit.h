@@ -33,8 +33,8 @@ double triangle_area(const Point<3>& a, const Point<3>& b, const Point<3>& c);
 double min_angle(const Point<3>& a, const Point<3>& b, const Point<3>& c);
 // A key that increases with the smallest interior angle, for comparisons only: -cos of it
 // (-1 if degenerate), with no trigonometry; compare it with angle_key(threshold in radians).
-// (Inline, and choosing the vertex opposite the shortest edge without branches: it runs once
-// per triangle of every candidate edit, on data whose shortest edge is unpredictable.)
+// (Inline, with the vertex opposite the shortest edge chosen by selects rather than if/else: it
+// runs once per triangle of every candidate edit, on data whose shortest edge is unpredictable.)
 inline double min_angle_key(const Point<3>& a, const Point<3>& b, const Point<3>& c) {
   const Point<3> ab = b - a, bc = c - b, ca = a - c;
   const double lab = ab.squaredNorm(), lbc = bc.squaredNorm(), lca = ca.squaredNorm();
@@ -80,7 +80,8 @@ class EditMesh {
   std::span<const Corner> corners(int v) const { return vfan_[v]; }
   // The mean edge length of the live triangles, computed at the first call after construction
   // or refresh_mean_edge() and kept until the next refresh (a stage that needs it reads it at
-  // its start; only some stages do, so it is not computed for every stage).
+  // its start; only some stages do, so it is not computed for every stage). The first call
+  // after a refresh writes the cache: not from a parallel region.
   double mean_edge_length() const;
   // Makes the next mean_edge_length() measure the mesh as it is then (a stage starting on a
   // mesh that earlier stages edited sees the same value as on a freshly built EditMesh).
