@@ -6,20 +6,28 @@
 #pragma once
 
 #include "framework/energy.h"
+#include "framework/options.h"
 
 #include <memory>
 #include <string>
 
 namespace dsnake {
 
-struct ArapOptions {};
+struct ArapOptions {
+  template <class V>
+  void visit(V&) {}
+};
 
 template <int D>
 class ArapEnergy final : public Energy<D> {
  public:
+  using Options = ArapOptions;
+  static constexpr const char* kType = "arap";
+  static constexpr const char* kSummary = "as-rigid-as-possible (Sorkine & Alexa 2007) on the template connectivity";
+
   explicit ArapEnergy(const ArapOptions& options = {});
   ~ArapEnergy() override;
-  std::string type() const override { return "arap"; }
+  std::string type() const override { return kType; }
   Governs governs() const override { return Governs::kDeformationVertices; }
   void bind(const EnergyContext<D>& context, const Snake<D>& snake) override;
   void propose(const Snake<D>& snake, PointList<D>& out) override;

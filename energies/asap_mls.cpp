@@ -38,9 +38,22 @@ struct AsapMlsEnergy<D>::Data {
 };
 
 template <int D>
-AsapMlsEnergy<D>::AsapMlsEnergy(const AsapMlsOptions& options) : options_(options), data_(std::make_unique<Data>()) {
-  DSNAKE_ASSERT(options.neighborhood.falloff > 0 && options.power >= 1 && options.damping > 0 && options.damping <= 1,
-                "asap_mls options: falloff > 0, power >= 1, 0 < damping <= 1");
+AsapMlsEnergy<D>::AsapMlsEnergy(const AsapMlsOptions& options)
+    : options_(checked(options, kType)), data_(std::make_unique<Data>()) {
+  try {
+    check_options(options);
+  } catch (const OptionError& e) {
+    throw_invalid_options(kType, e);
+  }
+}
+
+template <int D>
+void AsapMlsEnergy<D>::check_template(const Template<D>& tmpl) const {
+  const NeighborhoodSpec& spec = options_.neighborhood;
+  const int n = tmpl.num_vertices();
+  if (spec.kind == NeighborhoodKind::kNearest && spec.k > n - 1)
+    throw OptionError{"k", "k = " + std::to_string(spec.k) + " exceeds the " + std::to_string(n - 1) +
+                               " other template vertices"};
 }
 
 template <int D>
@@ -65,10 +78,11 @@ void AsapMlsEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& sna
   if (tmpl != d.tmpl || tmpl->num_vertices() != d.n) {
     const int n = tmpl->num_vertices();
     const NeighborhoodSpec& spec = options_.neighborhood;
-    if (spec.kind == NeighborhoodKind::kNearest && spec.k > n - 1)
-      throw InputError(options_.file, options_.path.empty() ? "k" : options_.path + ".k",
-                       "k = " + std::to_string(spec.k) + " exceeds the " + std::to_string(n - 1) +
-                           " other template vertices");
+    try {
+      check_template(*tmpl);
+    } catch (const OptionError& e) {
+      throw_invalid_options(kType, e);
+    }
     d.tmpl = tmpl;
     d.n = n;
     d.nb = build_neighborhoods<D>(*tmpl, spec);
@@ -104,7 +118,7 @@ void AsapMlsEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& sna
     d.reverse_entries.assign(entries, 0);
     std::vector<int> fill(count.begin(), count.end() - 1);
     for (size_t e = 0; e < entries; ++e) d.reverse_entries[fill[d.nb.index[e]]++] = int(e);
-    if (D == 2 && options_.variant == "exact") build_quadratic();
+    if (D == 2 && options_.variant == AsapVariant::kExact) build_quadratic();
     d.q.resize(n);
     d.next.resize(n);
     d.similarity.resize(n);
@@ -159,7 +173,7 @@ template <int D>
 void AsapMlsEnergy<D>::step() {
   Data& d = *data_;
   const int n = d.n;
-  if (options_.variant == "approximate") {
+  if (options_.variant == AsapVariant::kApproximate) {
     // eq. (6): q_j <- T^_j(p_j) = q*_j + M^_j (p_j - p*_j), with cross = sum w q_i (p_i - p*)^T.
     // "jacobi": every vertex from the old positions (parallel); "gauss_seidel": one self-energy
     // at a time, in id order, from the newest positions (§4.4), serial.
@@ -176,7 +190,7 @@ void AsapMlsEnergy<D>::step() {
       }
       return centroid + best_similarity<D>(cross, d.spread_free[j]) * d.offset[j];
     };
-    if (options_.iteration == "gauss_seidel") {
+    if (options_.gauss_seidel()) {
       for (int j = 0; j < n; ++j) d.q[j] = fit(j, d.q);
       return;
     }
@@ -186,7 +200,7 @@ void AsapMlsEnergy<D>::step() {
     return;
   }
   if constexpr (D == 2) {
-    if (options_.iteration == "gauss_seidel") d.quadratic.gauss_seidel(d.q);
+    if (options_.gauss_seidel()) d.quadratic.gauss_seidel(d.q);
     else { d.quadratic.jacobi(d.q, d.next); std::swap(d.q, d.next); }
   } else {
     // §4.2, phase 1: the optimal mu_j R_j of every D_j at the current positions.

@@ -17,36 +17,71 @@
 
 #include "energies/mls_weights.h"
 #include "framework/energy.h"
+#include "framework/options.h"
 
 #include <memory>
 #include <string>
 
 namespace dsnake {
 
+enum class AsapVariant { kExact, kApproximate };
+template <>
+struct EnumNames<AsapVariant> {
+  static constexpr std::array<std::pair<AsapVariant, const char*>, 2> table{
+      {{AsapVariant::kExact, "exact"}, {AsapVariant::kApproximate, "approximate"}}};
+};
+// exact 2D and approximate: kJacobi (A) or kGaussSeidel (A2); exact 3D: kJacobi only (§4.2 moves
+// every vertex with the others frozen). kAuto: Gauss-Seidel where there is a choice.
+enum class AsapIteration { kAuto, kJacobi, kGaussSeidel };
+template <>
+struct EnumNames<AsapIteration> {
+  static constexpr std::array<std::pair<AsapIteration, const char*>, 3> table{
+      {{AsapIteration::kAuto, "auto"}, {AsapIteration::kJacobi, "jacobi"}, {AsapIteration::kGaussSeidel, "gauss_seidel"}}};
+};
+
 struct AsapMlsOptions {
-  std::string variant = "approximate";   // "exact" | "approximate"
-  NeighborhoodSpec neighborhood;         // JSON: "neighborhood": "all" | "k_nearest" | "rings", "k", "rings",
-                                         //       "falloff", "weights": "inverse_distance" | "uniform"
-  std::string iteration = "gauss_seidel"; // exact 2D and approximate: "jacobi" (A) | "gauss_seidel" (A2);
-                                          // exact 3D: "jacobi" only
-  int power = 1;                          // m of A3 = A2^m (steps per proposal), >= 1
-  double damping = 1.0;                   // lambda of A4, in (0, 1]
-  std::string file, path;                 // where the options came from, for errors found at bind()
+  AsapVariant variant = AsapVariant::kApproximate;
+  NeighborhoodSpec neighborhood;  // JSON: "neighborhood", "k", "rings", "falloff", "weights"
+  AsapIteration iteration = AsapIteration::kAuto;
+  int power = 1;         // m of A3 = A2^m (steps per proposal)
+  double damping = 1.0;  // lambda of A4
+
+  bool gauss_seidel() const { return iteration != AsapIteration::kJacobi; }
+  template <class V>
+  void visit(V& v) {
+    v(variant, Key{"variant", "", "exact D_j minimisation (§4.1-4.2) or the approximate fit of eq. (6) (§4.3)"});
+    neighborhood.visit(v);
+    v(iteration, Key{"iteration", "", "sweep order: jacobi (A, parallel) or gauss_seidel (A2, serial); auto: gauss_seidel, jacobi for the 3D exact variant"});
+    v(power, Key{"power", "steps", "m of A3 = A2^m: operator steps per proposal", Range::at_least(1)});
+    v(damping, Key{"damping", "1", "lambda of A4 = (1 - lambda) I + lambda A2", Range::open_closed(0, 1)});
+  }
 };
 
 template <int D>
 class AsapMlsEnergy final : public Energy<D> {
  public:
+  using Options = AsapMlsOptions;
+  static constexpr const char* kType = "asap_mls";
+  static constexpr const char* kSummary = "D-Snake's as-similar-as-possible deformation energy (§4)";
+
   explicit AsapMlsEnergy(const AsapMlsOptions& options = {});
   ~AsapMlsEnergy() override;
 
-  std::string type() const override { return "asap_mls"; }
+  // The dimension's own rule: the 3D exact variant moves every vertex with the others frozen.
+  static void check_options(const AsapMlsOptions& o) {
+    if (D == 3 && o.variant == AsapVariant::kExact && o.iteration == AsapIteration::kGaussSeidel)
+      throw OptionError{"iteration", "the 3D exact variant (§4.2) moves every vertex with the others frozen: only \"jacobi\""};
+  }
+  // k of a k_nearest neighbourhood must leave k other template vertices.
+  void check_template(const Template<D>& tmpl) const override;
+
+  std::string type() const override { return kType; }
   Governs governs() const override { return Governs::kDeformationVertices; }
   const AsapMlsOptions& options() const { return options_; }
 
   // Precomputes the neighbourhoods, weights and template data (and A in 2D exact) when the
-  // template changes; otherwise only the template id -> snake vertex map. Throws InputError
-  // (naming path.k) when k exceeds the number of other template vertices.
+  // template changes; otherwise only the template id -> snake vertex map. The template must pass
+  // check_template().
   void bind(const EnergyContext<D>& context, const Snake<D>& snake) override;
   // out[v] for every deformation vertex v (see the variants above).
   void propose(const Snake<D>& snake, PointList<D>& out) override;

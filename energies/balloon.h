@@ -6,6 +6,7 @@
 #pragma once
 
 #include "framework/energy.h"
+#include "framework/options.h"
 
 #include <string>
 
@@ -13,13 +14,25 @@ namespace dsnake {
 
 struct BalloonOptions {
   double pressure = 1.0;  // signed step along the normal, physical units; != 0
+
+  template <class V>
+  void visit(V& v) {
+    v(pressure, Key{"pressure", "mm per iteration", "signed step along the outward normal (> 0 inflates, < 0 deflates); not 0"});
+  }
+  void check() const {
+    if (pressure == 0) throw OptionError{"pressure", "must be a non-zero number"};
+  }
 };
 
 template <int D>
 class BalloonEnergy final : public Energy<D> {
  public:
-  explicit BalloonEnergy(const BalloonOptions& options = {}) : options_(options) {}
-  std::string type() const override { return "balloon"; }
+  using Options = BalloonOptions;
+  static constexpr const char* kType = "balloon";
+  static constexpr const char* kSummary = "Cohen's balloon: a constant step along the outward normal";
+
+  explicit BalloonEnergy(const BalloonOptions& options = {}) : options_(checked(options, kType)) {}
+  std::string type() const override { return kType; }
   void bind(const EnergyContext<D>& context, const Snake<D>& snake) override;
   void propose(const Snake<D>& snake, PointList<D>& out) override;
   double value(const Snake<D>& snake) const override;  // -pressure * signed measure

@@ -11,9 +11,7 @@
 namespace dsnake {
 
 template <int D>
-ExternalEnergy<D>::ExternalEnergy(const ExternalOptions& options) : options_(options) {
-  DSNAKE_ASSERT(options.tau > 0, "external energy options: tau > 0");
-}
+ExternalEnergy<D>::ExternalEnergy(const ExternalOptions& options) : options_(checked(options, kType)) {}
 
 template <int D>
 void ExternalEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& snake) {

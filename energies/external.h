@@ -4,21 +4,31 @@
 #pragma once
 
 #include "framework/energy.h"
+#include "framework/options.h"
 
 #include <string>
 
 namespace dsnake {
 
 struct ExternalOptions {
-  double tau = 1.0;  // step: physical displacement per unit force, > 0
+  double tau = 1.0;  // step: physical displacement per unit force
+
+  template <class V>
+  void visit(V& v) {
+    v(tau, Key{"tau", "mm per unit force", "step: physical displacement per unit of the field's force", Range::greater_than(0)});
+  }
 };
 
 template <int D>
 class ExternalEnergy final : public Energy<D> {
  public:
+  using Options = ExternalOptions;
+  static constexpr const char* kType = "external";
+  static constexpr const char* kSummary = "the image force alone, q^ext = q + tau F(q, n) (§3.1)";
+
   explicit ExternalEnergy(const ExternalOptions& options = {});
 
-  std::string type() const override { return "external"; }
+  std::string type() const override { return kType; }
   const ExternalOptions& options() const { return options_; }
 
   // Keeps the field; context.field must be set (a programmer error otherwise).

@@ -96,13 +96,7 @@ struct InternalEnergy<D>::Solver {
 
 template <int D>
 InternalEnergy<D>::InternalEnergy(const InternalOptions& options)
-    : options_(options), solver_(std::make_unique<Solver>()) {
-  DSNAKE_ASSERT(options.alpha >= 0 && options.beta >= 0 && options.gamma > 0,
-                "internal energy options: alpha >= 0, beta >= 0, gamma > 0");
-  DSNAKE_ASSERT(options.solver == "auto" || options.solver == "direct" || options.solver == "chebyshev",
-                "internal energy solver: auto, direct or chebyshev");
-  DSNAKE_ASSERT(options.tolerance > 0 && options.tolerance < 1, "internal energy tolerance in (0, 1)");
-}
+    : options_(checked(options, kType)), solver_(std::make_unique<Solver>()) {}
 
 namespace {
 
@@ -146,7 +140,7 @@ void InternalEnergy<D>::bind(const EnergyContext<D>&, const Snake<D>& snake) {
     weight_min = std::min(weight_min, w);
   }
   const int count = chebyshev_count(s.lo, s.hi, options_.tolerance / std::sqrt(weight_sum / weight_min));
-  const bool chebyshev = options_.solver == "chebyshev" || (options_.solver == "auto" && !polygon && count <= 32);
+  const bool chebyshev = options_.solver == InternalSolver::kChebyshev || (options_.solver == InternalSolver::kAuto && !polygon && count <= 32);
   s.iterations = chebyshev ? std::max(count, 1) : 0;
   if (chebyshev) {
     s.ring_offsets.assign(1, 0);

@@ -10,6 +10,7 @@
 #pragma once
 
 #include "framework/energy.h"
+#include "framework/options.h"
 
 #include <cstdint>
 #include <memory>
@@ -17,30 +18,50 @@
 
 namespace dsnake {
 
+// How (gamma I + A) x = gamma q is solved:
+//  - kDirect ("direct"): sparse LDL^T, factorised once per topology (exact to rounding);
+//  - kChebyshev ("chebyshev"): Chebyshev semi-iteration from x0 = q over the known spectrum of
+//    gamma I + A ([gamma, gamma + 2 alpha + 4 beta] on a mesh, [gamma, gamma + 4 alpha + 16 beta]
+//    on a polygon), with the iteration count fixed in advance so that every vertex's error is at
+//    most `tolerance` times the step's largest displacement; no factorisation, no reductions (the
+//    result does not depend on the thread count), one or two one-ring passes per iteration;
+//  - kAuto ("auto", default): chebyshev on meshes when that needs <= 32 iterations (a
+//    well-conditioned step: (2 alpha + 4 beta) / gamma <= ~11), direct otherwise and on polygons.
+enum class InternalSolver { kAuto, kDirect, kChebyshev };
+template <>
+struct EnumNames<InternalSolver> {
+  static constexpr std::array<std::pair<InternalSolver, const char*>, 3> table{
+      {{InternalSolver::kAuto, "auto"}, {InternalSolver::kDirect, "direct"}, {InternalSolver::kChebyshev, "chebyshev"}}};
+};
+
 struct InternalOptions {
-  double alpha = 0.5;  // tension: weight of the first differences, >= 0
-  double beta = 0.0;   // rigidity: weight of the second differences, >= 0
-  double gamma = 1.0;  // Kass's step viscosity (inverse step size), > 0
-  // How (gamma I + A) x = gamma q is solved:
-  //  - "direct": sparse LDL^T, factorised once per topology (exact to rounding);
-  //  - "chebyshev": Chebyshev semi-iteration from x0 = q over the known spectrum of gamma I + A
-  //    ([gamma, gamma + 2 alpha + 4 beta] on a mesh, [gamma, gamma + 4 alpha + 16 beta] on a
-  //    polygon), with the iteration count fixed in advance so that every vertex's error is at most
-  //    `tolerance` times the step's largest displacement; no factorisation, no reductions (the
-  //    result does not depend on the thread count), one or two one-ring passes per iteration;
-  //  - "auto" (default): chebyshev on meshes when that needs <= 32 iterations (a well-conditioned
-  //    step: (2 alpha + 4 beta) / gamma <= ~11), direct otherwise and on polygons.
-  std::string solver = "auto";
-  double tolerance = 1e-10;  // chebyshev: error bound relative to the largest displacement, (0, 1)
+  double alpha = 0.5;  // tension: weight of the first differences
+  double beta = 0.0;   // rigidity: weight of the second differences
+  double gamma = 1.0;  // Kass's step viscosity (inverse step size)
+  InternalSolver solver = InternalSolver::kAuto;
+  double tolerance = 1e-10;  // chebyshev: error bound relative to the largest displacement
+
+  template <class V>
+  void visit(V& v) {
+    v(alpha, Key{"alpha", "1 (per vertex, umbrella form)", "tension: weight of the first differences", Range::at_least(0)});
+    v(beta, Key{"beta", "1 (per vertex, umbrella form)", "rigidity: weight of the second differences", Range::at_least(0)});
+    v(gamma, Key{"gamma", "1", "Kass's step viscosity (inverse step size)", Range::greater_than(0)});
+    v(solver, Key{"solver", "", "how (gamma I + A) x = gamma q is solved"});
+    v(tolerance, Key{"tolerance", "1 (relative)", "chebyshev: error bound relative to the step's largest displacement", Range::open(0, 1)});
+  }
 };
 
 template <int D>
 class InternalEnergy final : public Energy<D> {
  public:
+  using Options = InternalOptions;
+  static constexpr const char* kType = "internal";
+  static constexpr const char* kSummary = "Kass's tension and rigidity, semi-implicit step (q^int of §3.1)";
+
   explicit InternalEnergy(const InternalOptions& options = {});
   ~InternalEnergy() override;
 
-  std::string type() const override { return "internal"; }
+  std::string type() const override { return kType; }
   const InternalOptions& options() const { return options_; }
 
   // Builds and factorises gamma I + A for the snake's connectivity (always rebuilds); with the

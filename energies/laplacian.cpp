@@ -122,7 +122,7 @@ void LaplacianEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   if (d.bound_vertices != snake.num_vertices() || d.bound_version != snake.topology_version())
     bind(EnergyContext<D>{}, snake);  // a remesh: only the template id -> vertex map changes
   for (int t = 0; t < d.n; ++t) d.q[t] = snake.positions()[d.vertex_of_id[t]];
-  if (options_.iteration == "gauss_seidel") d.quadratic.gauss_seidel(d.q);
+  if (options_.iteration == LaplacianIteration::kGaussSeidel) d.quadratic.gauss_seidel(d.q);
   else { d.quadratic.jacobi(d.q, d.next); std::swap(d.q, d.next); }
   for (int t = 0; t < d.n; ++t) out[d.vertex_of_id[t]] = d.q[t];
 }

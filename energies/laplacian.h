@@ -9,22 +9,41 @@
 #pragma once
 
 #include "framework/energy.h"
+#include "framework/options.h"
 
 #include <memory>
 #include <string>
 
 namespace dsnake {
 
+// The order of a sweep over the vertices: all from the old positions (parallel), or one at a
+// time from the newest (serial).
+enum class LaplacianIteration { kJacobi, kGaussSeidel };
+template <>
+struct EnumNames<LaplacianIteration> {
+  static constexpr std::array<std::pair<LaplacianIteration, const char*>, 2> table{
+      {{LaplacianIteration::kJacobi, "jacobi"}, {LaplacianIteration::kGaussSeidel, "gauss_seidel"}}};
+};
+
 struct LaplacianOptions {
-  std::string iteration = "jacobi";  // "jacobi" | "gauss_seidel"
+  LaplacianIteration iteration = LaplacianIteration::kJacobi;
+
+  template <class V>
+  void visit(V& v) {
+    v(iteration, Key{"iteration", "", "sweep order: every vertex from the old positions, or one at a time"});
+  }
 };
 
 template <int D>
 class LaplacianEnergy final : public Energy<D> {
  public:
+  using Options = LaplacianOptions;
+  static constexpr const char* kType = "laplacian";
+  static constexpr const char* kSummary = "Laplacian coordinates of the template, rotated per vertex (Sorkine et al. 2004)";
+
   explicit LaplacianEnergy(const LaplacianOptions& options = {});
   ~LaplacianEnergy() override;
-  std::string type() const override { return "laplacian"; }
+  std::string type() const override { return kType; }
   Governs governs() const override { return Governs::kDeformationVertices; }
   void bind(const EnergyContext<D>& context, const Snake<D>& snake) override;
   void propose(const Snake<D>& snake, PointList<D>& out) override;

@@ -69,7 +69,7 @@ MlsNeighborhoods build_neighborhoods(const Template<D>& tmpl, const Neighborhood
     for (int i : candidates) {
       const double d = (p[i] - p[j]).norm();
       if (d <= coincident) continue;  // infinite weight: left out (degenerate fallback)
-      const double w = spec.uniform ? 1.0 : std::pow(d, -2.0 * spec.falloff);
+      const double w = spec.weights == MlsWeighting::kUniform ? 1.0 : std::pow(d, -2.0 * spec.falloff);
       nb.index.push_back(i);
       nb.weight.push_back(w);
       total += w;

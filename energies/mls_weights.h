@@ -3,6 +3,7 @@
 //  - the weighted best similarity (2D closed form, 3D SVD, reflection-safe) and best rotation.
 #pragma once
 
+#include "framework/options.h"
 #include "framework/shape.h"
 
 #include <Eigen/Core>
@@ -13,6 +14,18 @@
 namespace dsnake {
 
 enum class NeighborhoodKind { kAll, kNearest, kRings };
+template <>
+struct EnumNames<NeighborhoodKind> {
+  static constexpr std::array<std::pair<NeighborhoodKind, const char*>, 3> table{
+      {{NeighborhoodKind::kAll, "all"}, {NeighborhoodKind::kNearest, "k_nearest"}, {NeighborhoodKind::kRings, "rings"}}};
+};
+// eq. (2)'s weights w~_ij = |p_i - p_j|^(-2 falloff), or 1 (eq. (3)'s w = 1).
+enum class MlsWeighting { kInverseDistance, kUniform };
+template <>
+struct EnumNames<MlsWeighting> {
+  static constexpr std::array<std::pair<MlsWeighting, const char*>, 2> table{
+      {{MlsWeighting::kInverseDistance, "inverse_distance"}, {MlsWeighting::kUniform, "uniform"}}};
+};
 
 // For every template vertex j, its neighbours i != j and their weights w_ij of eq. (2):
 //   w~_ij = |p_i - p_j|^(-2 falloff)  (or 1 when `uniform`: eq. (3)'s w = 1),  w_ij = w~_ij / sum_i w~_ij.
@@ -33,7 +46,16 @@ struct NeighborhoodSpec {
   int k = 8;            // kNearest: number of nearest template vertices (Euclidean, template positions)
   int rings = 1;        // kRings: vertices within this many edges on the template connectivity
   double falloff = 1.0; // eq. (2)'s fall-off exponent (> 0)
-  bool uniform = false; // w~ = 1 (the global similarity of eq. (3) when kind = kAll)
+  MlsWeighting weights = MlsWeighting::kInverseDistance;  // kUniform: the global similarity of eq. (3) when kind = kAll
+
+  template <class V>
+  void visit(V& v) {
+    v(kind, Key{"neighborhood", "", "N(j): every template vertex, the k nearest, or the vertices within `rings` edges"});
+    v(k, Key{"k", "vertices", "k_nearest: number of nearest template vertices (at most the template's size - 1)", Range::at_least(1)});
+    v(rings, Key{"rings", "edges", "rings: the neighbourhood's radius on the template connectivity", Range::at_least(1)});
+    v(falloff, Key{"falloff", "1", "eq. (2)'s fall-off exponent", Range::greater_than(0)});
+    v(weights, Key{"weights", "", "eq. (2)'s inverse-distance weights or uniform ones (eq. (3))"});
+  }
 };
 
 template <int D>

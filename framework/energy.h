@@ -43,6 +43,10 @@ class Energy {
   // Precomputes what depends on the template and the snake's connectivity. Called before the
   // first iteration and again whenever snake.topology_version() changes (after a remesh).
   virtual void bind(const EnergyContext<D>& context, const Snake<D>& snake) = 0;
+  // Rules that depend on the template (e.g. a neighbourhood size): throws OptionError naming
+  // the key. The experiment assembly calls it, so that the message names the file and path;
+  // bind() may assume it passed.
+  virtual void check_template(const Template<D>& tmpl) const {}
 
   // Snake view: writes out[v] for every governed vertex v (out has num_vertices() entries;
   // entries of vertices not governed are left as they are).

@@ -445,18 +445,20 @@ TEST(AsapMls, BadInputNamesTheKey) {
   EXPECT_EQ(where2(R"({"type": "asap_mls", "power": 0})"), "energies[0].power");
   EXPECT_EQ(where2(R"({"type": "asap_mls", "fallof": 1})"), "energies[0].fallof");
   EXPECT_EQ(where3(R"({"type": "asap_mls", "variant": "exact"})"), "no error");  // 3D exact defaults to jacobi
-  // k larger than the template: found at bind(), still naming the key
+  // k larger than the template: check_template() names the key (the experiment assembly adds
+  // the file and path; tests/experiments), and bind() refuses it as a programmer error
   const Template<2> t = jittered_polygon(10, 1);
   auto e = make2(R"({"type": "asap_mls", "neighborhood": "k_nearest", "k": 10})");
   Snake<2> s = Snake<2>::from_template(t, t.positions);
   try {
-    e->bind({&t}, s);
+    e->check_template(t);
     ADD_FAILURE() << "k = 10 > 9 accepted";
-  } catch (const InputError& err) {
-    EXPECT_EQ(err.where(), "energies[0].k");
-    EXPECT_EQ(err.file(), "test.json");
+  } catch (const OptionError& err) {
+    EXPECT_EQ(err.key, "k");
   }
+  EXPECT_THROW(e->bind({&t}, s), std::logic_error);
   auto ok = make2(R"({"type": "asap_mls", "neighborhood": "k_nearest", "k": 9})");
+  EXPECT_NO_THROW(ok->check_template(t));
   EXPECT_NO_THROW(ok->bind({&t}, s));
 }
 

@@ -196,7 +196,7 @@ TEST(InternalEnergy, IcosahedronShrinksSymmetrically3d) {
 }
 
 TEST(InternalEnergy, StepMatchesDenseSolve3d) {
-  for (const char* solver : {"direct", "chebyshev"})
+  for (InternalSolver solver : {InternalSolver::kDirect, InternalSolver::kChebyshev})
   for (bool split : {false, true}) {
     InternalOptions o{0.7, 0.3, 2.0};
     o.solver = solver;
@@ -218,7 +218,7 @@ TEST(InternalEnergy, StepMatchesDenseSolve3d) {
     for (int i = 0; i < n; ++i) q.row(i) = snake.positions()[i].transpose();
     const Eigen::MatrixXd expected = m.partialPivLu().solve(o.gamma * q);
     for (int i = 0; i < n; ++i)
-      for (int a = 0; a < 3; ++a) EXPECT_NEAR(out[i][a], expected(i, a), 1e-10) << split << solver;
+      for (int a = 0; a < 3; ++a) EXPECT_NEAR(out[i][a], expected(i, a), 1e-10) << split << enum_name(solver);
   }
 }
 
@@ -241,7 +241,7 @@ TEST(InternalEnergy, ChebyshevWithinItsBoundOfTheDirectStep3d) {
   for (const InternalOptions& base : {InternalOptions{0.1, 0.0, 1.0}, InternalOptions{0.5, 0.01, 1.0},
                                      InternalOptions{3.0, 1.0, 1.0}}) {
     InternalOptions direct_options = base;
-    direct_options.solver = "direct";
+    direct_options.solver = InternalSolver::kDirect;
     InternalEnergy<3> direct(direct_options);
     PointList<3> exact(n);
     direct.propose(snake, exact);
@@ -252,7 +252,7 @@ TEST(InternalEnergy, ChebyshevWithinItsBoundOfTheDirectStep3d) {
     int loose_iterations = 0;
     for (double tolerance : {1e-4, 1e-10}) {
       InternalOptions o = base;
-      o.solver = "chebyshev";
+      o.solver = InternalSolver::kChebyshev;
       o.tolerance = tolerance;
       InternalEnergy<3> cheb(o);
       PointList<3> out(n);
@@ -275,7 +275,7 @@ TEST(InternalEnergy, ChebyshevWithinItsBoundOfTheDirectStep3d) {
 TEST(InternalEnergy, ChebyshevMatchesDenseSolve2d) {
   for (int n : {3, 5, 300}) {
     InternalOptions o{0.7, 0.3, 2.0};
-    o.solver = "chebyshev";
+    o.solver = InternalSolver::kChebyshev;
     Snake<2> snake = polygon_snake(random_polygon(n, 9));
     InternalEnergy<2> energy(o);
     PointList<2> out(n);
