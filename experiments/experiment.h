@@ -1,7 +1,9 @@
-// The experiment file (DESIGN.md's contract) turned into ready-to-run objects: the image
-// (file or phantom, then seeded corruptions), the placed template, the ground truth, the
-// external field, the weighted energies and the phases. Every problem is an InputError naming
-// the file and the JSON path; building an Experiment validates it completely without running.
+// An experiment: the experiment file (docs/experiment-file.md is the contract) as loaded text
+// with its --set overrides, and the ready-to-run objects assembled from it: the image (file or
+// phantom, then seeded corruptions), the placed template, the ground truth, the external field,
+// the weighted energies and the phases. Reading is experiments/experiment_spec.h, building
+// experiments/assemble.h; make_experiment() does both. Every problem is an InputError naming
+// the file and the JSON path; making an Experiment validates it completely without running.
 #pragma once
 
 #include "framework/evolver.h"
@@ -9,6 +11,7 @@
 #include "framework/external_field.h"
 #include "framework/global_problem.h"
 #include "framework/metrics.h"
+#include "framework/options.h"
 
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -43,11 +46,36 @@ struct SuccessCriteria {
   bool skip_null_metrics = false;    // true for the defaults
   bool met(const Metrics& m) const;  // a threshold on a null metric is not met (unless skipped)
   static SuccessCriteria defaults();
+
+  template <class V>
+  void visit(V& v) {
+    v(mean_surface_distance, Key{"mean_surface_distance", "mm", "largest mean surface distance that counts as success"});
+    v(hausdorff95, Key{"hausdorff95", "mm", "largest 95th-percentile Hausdorff distance"});
+    v(hausdorff, Key{"hausdorff", "mm", "largest Hausdorff distance"});
+    v(dice, Key{"dice", "1", "smallest Dice overlap", Range::closed(0, 1)});
+    v(correspondence_error_mean, Key{"correspondence_error_mean", "mm", "largest mean correspondence error"});
+    v(correspondence_error_max, Key{"correspondence_error_max", "mm", "largest correspondence error of any vertex"});
+    v(self_intersections, Key{"self_intersections", "pairs", "most self-intersecting edge or triangle pairs", Range::at_least(0)});
+  }
 };
 
 struct OutputOptions {
   int snapshot_every = 0;   // write the snake every n iterations (0: never)
   bool figures = true;
+
+  template <class V>
+  void visit(V& v) {
+    v(snapshot_every, Key{"snapshot_every", "iterations", "write the snake every n iterations into snapshots/ (0: never)", Range::at_least(0)});
+    v(figures, Key{"figures", "", "write the PNG figures"});
+  }
+};
+
+// How a phase moves the snake: the snake iteration of §3.1 or one global Ceres solve.
+enum class SolverKind { kSnake, kGlobal };
+template <>
+struct EnumNames<SolverKind> {
+  static constexpr std::array<std::pair<SolverKind, const char*>, 2> table{
+      {{SolverKind::kSnake, "snake"}, {SolverKind::kGlobal, "global"}}};
 };
 
 template <int D>
@@ -55,7 +83,7 @@ struct Experiment {
   ExperimentFile file;
   std::string name;
   uint64_t seed = 0;
-  std::string solver = "snake";
+  SolverKind solver = SolverKind::kSnake;
   GlobalSolverOptions global;               // "global": Ceres' options
   std::optional<PotentialOptions> potential;  // the external term's potential (global view)
   Image<D> image;
@@ -65,11 +93,13 @@ struct Experiment {
   std::unique_ptr<ExternalField<D>> field;
   std::vector<WeightedEnergy<D>> energies;
   std::vector<Phase<D>> phases;
+  std::vector<std::string> phase_names;  // the file's "name" of each phase, or "#k"
   SuccessCriteria success;
   OutputOptions output;
 };
 
+// Reads the file's sections (read_experiment_spec) and assembles the objects (assemble).
 template <int D>
-Experiment<D> build_experiment(const ExperimentFile& file);
+Experiment<D> make_experiment(const ExperimentFile& file);
 
 }  // namespace dsnake

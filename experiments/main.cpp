@@ -39,10 +39,10 @@ int run(const std::string& config, const std::vector<std::string>& overrides, co
   if (!field_cache.empty() && file.document.contains("field") && file.document["field"].is_object())
     file.document["field"]["cache"] = field_cache;
   if (file.dimension == 2) {
-    auto ex = build_experiment<2>(file);
+    auto ex = make_experiment<2>(file);
     run_experiment(ex, options);
   } else {
-    auto ex = build_experiment<3>(file);
+    auto ex = make_experiment<3>(file);
     run_experiment(ex, options);
   }
   return 0;
@@ -60,8 +60,8 @@ int validate(const std::string& config, const std::vector<std::string>& override
     }
   }
   const ExperimentFile file = load(config, overrides);
-  if (file.dimension == 2) build_experiment<2>(file);
-  else build_experiment<3>(file);
+  if (file.dimension == 2) make_experiment<2>(file);
+  else make_experiment<3>(file);
   std::printf("%s: valid %dD experiment\n", file.path.c_str(), file.dimension);
   return 0;
 }

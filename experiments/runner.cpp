@@ -191,7 +191,7 @@ void publish(const fs::path& staging, const fs::path& out) {
 template <int D>
 nlohmann::ordered_json global_json(const Experiment<D>& ex, const std::vector<std::vector<GlobalSolveSummary>>& solves) {
   const GlobalSolverOptions& g = ex.global;
-  nlohmann::ordered_json j = {{"linear_solver", g.linear_solver}, {"max_iterations", g.max_iterations},
+  nlohmann::ordered_json j = {{"linear_solver", enum_name(g.linear_solver)}, {"max_iterations", g.max_iterations},
                               {"initial_trust_region_radius", g.initial_trust_region_radius},
                               {"max_trust_region_radius", g.max_trust_region_radius},
                               {"function_tolerance", g.function_tolerance},
@@ -256,19 +256,14 @@ nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& optio
       potential_s = seconds_since(t);
     }
     EnergyContext<D> context{&ex.tmpl, &ex.image, ex.field.get(), potential.get()};
-    std::vector<std::string> phase_names;
-    for (size_t p = 0; p < ex.phases.size(); ++p) {
-      const auto& doc = ex.file.document["phases"][p];
-      phase_names.push_back(doc.contains("name") && doc["name"].is_string() ? doc["name"].template get<std::string>()
-                                                                           : "#" + std::to_string(p + 1));
-    }
-    ProgressObserver<D> progress(ex.phases, phase_names, ex.solver == "global");
+    const std::vector<std::string>& phase_names = ex.phase_names;
+    ProgressObserver<D> progress(ex.phases, phase_names, ex.solver == SolverKind::kGlobal);
     RecordingObserver<D> recorder((staging / "snapshots").string(), ex.output.snapshot_every);
     std::vector<std::string> names;
     EvolveSummary summary;
     nlohmann::ordered_json global_report;
     t = Clock::now();
-    if (ex.solver == "global") {
+    if (ex.solver == SolverKind::kGlobal) {
       GlobalSolver<D> solver(context, std::move(ex.energies), ex.global);
       names = term_names(solver.energies());
       solver.add_observer(&recorder);

@@ -138,8 +138,8 @@ void validate_run(const Sweep& sweep, const SweepRun& run, const std::string& ba
   f.document = run.config;
   f.dimension = run.config.value("dimension", 2);
   try {
-    if (f.dimension == 3) build_experiment<3>(f);
-    else build_experiment<2>(f);
+    if (f.dimension == 3) make_experiment<3>(f);
+    else make_experiment<2>(f);
   } catch (const InputError& e) {
     throw InputError(sweep.path, "run " + run.id + " (" + context + ")", e.what());
   }

@@ -148,22 +148,22 @@ template <int D>
 GlobalSolveSummary GlobalProblem<D>::solve(const GlobalSolverOptions& options,
                                            const std::function<bool(int)>& on_iteration) {
   ceres::Solver::Options o;
-  if (options.linear_solver == "sparse_normal_cholesky") {
+  if (options.linear_solver == LinearSolver::kSparseNormalCholesky) {
     o.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  } else if (options.linear_solver == "sparse_schur" || options.linear_solver == "iterative_schur") {
-    o.linear_solver_type = options.linear_solver == "sparse_schur" ? ceres::SPARSE_SCHUR : ceres::ITERATIVE_SCHUR;
+  } else if (options.linear_solver == LinearSolver::kSparseSchur || options.linear_solver == LinearSolver::kIterativeSchur) {
+    o.linear_solver_type = options.linear_solver == LinearSolver::kSparseSchur ? ceres::SPARSE_SCHUR : ceres::ITERATIVE_SCHUR;
     o.preconditioner_type = ceres::SCHUR_JACOBI;
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
     for (auto& b : impl_->auxiliary) ordering->AddElementToGroup(b.data(), 0);
     for (int v = 0; v < impl_->num_vertices; ++v) ordering->AddElementToGroup(vertex(v), 1);
     if (!impl_->auxiliary.empty()) o.linear_solver_ordering = ordering;
-  } else if (options.linear_solver == "cgnr") {
+  } else if (options.linear_solver == LinearSolver::kCgnr) {
     o.linear_solver_type = ceres::CGNR;
     o.preconditioner_type = ceres::JACOBI;
-  } else if (options.linear_solver == "dense_qr") {
+  } else if (options.linear_solver == LinearSolver::kDenseQr) {
     o.linear_solver_type = ceres::DENSE_QR;
   } else {
-    DSNAKE_ASSERT(false, "unknown linear solver " + options.linear_solver);
+    DSNAKE_ASSERT(false, "unknown linear solver");
   }
   o.max_num_iterations = options.max_iterations;
   o.initial_trust_region_radius = options.initial_trust_region_radius;

@@ -8,6 +8,7 @@
 // no residual couples two of them.
 #pragma once
 
+#include "framework/options.h"
 #include "framework/shape.h"
 
 #include <functional>
@@ -29,10 +30,18 @@ namespace dsnake {
 enum class AuxiliaryKind { kEuclidean, kQuaternion, kQuaternionAndScale };
 
 // Ceres solver options (the experiment file's "global" object; see experiments/experiment.cpp).
+// Ceres' linear solver: sparse_normal_cholesky; sparse_schur (eliminates the auxiliary blocks);
+// the matrix-free cgnr and iterative_schur (conjugate gradients); dense_qr (tiny problems).
+enum class LinearSolver { kSparseNormalCholesky, kSparseSchur, kIterativeSchur, kCgnr, kDenseQr };
+template <>
+struct EnumNames<LinearSolver> {
+  static constexpr std::array<std::pair<LinearSolver, const char*>, 5> table{
+      {{LinearSolver::kSparseNormalCholesky, "sparse_normal_cholesky"}, {LinearSolver::kSparseSchur, "sparse_schur"},
+       {LinearSolver::kIterativeSchur, "iterative_schur"}, {LinearSolver::kCgnr, "cgnr"}, {LinearSolver::kDenseQr, "dense_qr"}}};
+};
+
 struct GlobalSolverOptions {
-  // "sparse_normal_cholesky", "sparse_schur" (eliminates the auxiliary blocks), or the
-  // matrix-free "cgnr" and "iterative_schur" (conjugate gradients), or "dense_qr" (tiny problems)
-  std::string linear_solver = "sparse_normal_cholesky";
+  LinearSolver linear_solver = LinearSolver::kSparseNormalCholesky;
   int max_iterations = 200;
   // Levenberg-Marquardt's trust region (in the scaled step norm): a small radius keeps the solve
   // local, near the start, as the snake is; Ceres' defaults (1e4, 1e16) let its first
@@ -44,6 +53,23 @@ struct GlobalSolverOptions {
   double parameter_tolerance = 1e-10;
   int threads = 1;  // Ceres' threads (part of the file, so the numbers do not depend on --threads)
   int remesh_rounds = 2;  // a phase with remeshers: solve, then (remesh, re-solve) this many times
+
+  template <class V>
+  void visit(V& v) {
+    v(linear_solver, Key{"linear_solver", "", "Ceres' linear solver"});
+    v(max_iterations, Key{"max_iterations", "iterations", "Levenberg-Marquardt iterations per solve", Range::closed(1, 1000000)});
+    v(initial_trust_region_radius, Key{"initial_trust_region_radius", "1 (scaled step)", "first trust region radius; small keeps the solve near the start", Range::greater_than(0)});
+    v(max_trust_region_radius, Key{"max_trust_region_radius", "1 (scaled step)", "largest trust region radius (>= initial_trust_region_radius)", Range::greater_than(0)});
+    v(function_tolerance, Key{"function_tolerance", "1 (relative)", "Ceres' relative cost change to stop at", Range::at_least(0)});
+    v(gradient_tolerance, Key{"gradient_tolerance", "1 (relative)", "Ceres' gradient tolerance", Range::at_least(0)});
+    v(parameter_tolerance, Key{"parameter_tolerance", "1 (relative)", "Ceres' relative step size to stop at", Range::at_least(0)});
+    v(threads, Key{"threads", "threads", "Ceres' threads (in the file so that the numbers do not depend on --threads)", Range::closed(1, 256)});
+    v(remesh_rounds, Key{"remesh_rounds", "rounds", "a phase with remeshers: solve, then (remesh, re-solve) this many times", Range::closed(0, 1000)});
+  }
+  void check() const {
+    if (max_trust_region_radius < initial_trust_region_radius)
+      throw OptionError{"max_trust_region_radius", "must be >= initial_trust_region_radius"};
+  }
 };
 
 // What Ceres reports (its Summary), for result.json.

@@ -99,6 +99,11 @@ std::string enum_choices() {
 
 namespace options_detail {
 
+template <class T>
+struct IsOptional : std::false_type {};
+template <class T>
+struct IsOptional<std::optional<T>> : std::true_type {};
+
 template <class O>
 concept HasCheck = requires(const O& o) { o.check(); };
 
@@ -109,7 +114,12 @@ class ReadVisitor {
   explicit ReadVisitor(JsonReader& reader) : reader_(reader) {}
   template <class T>
   void operator()(T& value, const Key& key) {
-    if constexpr (NamedEnum<T>) {
+    if constexpr (IsOptional<T>::value) {  // absent: no value
+      if (!reader_.has(key.name)) return;
+      typename T::value_type x{};
+      (*this)(x, key);
+      value = x;
+    } else if constexpr (NamedEnum<T>) {
       if (!reader_.has(key.name)) return;
       std::string name;
       reader_.read(key.name, name);
@@ -129,7 +139,9 @@ class ReadVisitor {
 struct RangeVisitor {
   template <class T>
   void operator()(const T& value, const Key& key) const {
-    if constexpr (std::is_arithmetic_v<T> && !std::is_same_v<T, bool>) {
+    if constexpr (IsOptional<T>::value) {
+      if (value) (*this)(*value, key);
+    } else if constexpr (std::is_arithmetic_v<T> && !std::is_same_v<T, bool>) {
       if (!key.range.contains(static_cast<double>(value))) throw OptionError{key.name, key.range.requirement()};
     }
   }

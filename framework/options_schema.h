@@ -31,13 +31,19 @@ template <> struct TypeInfo<std::vector<std::string>> { static constexpr const c
 
 template <class T>
 nlohmann::ordered_json value_json(const T& value) {
-  if constexpr (NamedEnum<T>) return enum_name(value);
+  if constexpr (IsOptional<T>::value) return value ? value_json(*value) : nlohmann::ordered_json(nullptr);
+  else if constexpr (NamedEnum<T>) return enum_name(value);
   else return value;
 }
 
 // JSON Schema "properties" of the keys, with each key's default and range.
 class SchemaVisitor {
  public:
+  template <class T>
+  void operator()(const std::optional<T>& value, const Key& key) {  // absent by default
+    (*this)(value ? *value : T{}, key);
+    if (!value) properties[key.name].erase("default");
+  }
   template <class T>
   void operator()(const T& value, const Key& key) {
     nlohmann::ordered_json p;
@@ -73,6 +79,11 @@ struct ValueVisitor {
 };
 
 struct RowVisitor {
+  template <class T>
+  void operator()(const std::optional<T>& value, const Key& key) {
+    (*this)(value ? *value : T{}, key);
+    if (!value) rows.back().default_value = "none";
+  }
   template <class T>
   void operator()(const T& value, const Key& key) {
     KeyRow row;

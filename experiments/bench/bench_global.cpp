@@ -42,7 +42,7 @@ Case& star_case(int subdivisions) {
     c->file = load_experiment_file(std::string(DSNAKE_SOURCE_DIR) + "/experiments/ablation/global/star_clean.json",
                                    {"template.subdivisions=" + std::to_string(subdivisions),
                                     "energies[2].neighborhood=rings", "energies[2].rings=2"});
-    c->experiment = build_experiment<3>(c->file);
+    c->experiment = make_experiment<3>(c->file);
     c->experiment.field->compute(c->experiment.image);
     c->potential = make_potential<3>(*c->experiment.potential, c->experiment.image, c->experiment.field.get());
   }
@@ -50,7 +50,7 @@ Case& star_case(int subdivisions) {
 }
 
 // Fresh energies for every run (they keep per-snake state).
-std::vector<WeightedEnergy<3>> energies_of(const ExperimentFile& file) { return build_experiment<3>(file).energies; }
+std::vector<WeightedEnergy<3>> energies_of(const ExperimentFile& file) { return make_experiment<3>(file).energies; }
 
 void BM_GlobalSolve(benchmark::State& state) {
   const int threads = static_cast<int>(state.range(1));
@@ -61,7 +61,7 @@ void BM_GlobalSolve(benchmark::State& state) {
   options.max_iterations = 100;
   options.threads = threads;
   static const char* solvers[] = {"sparse_normal_cholesky", "sparse_schur", "cgnr"};
-  options.linear_solver = solvers[state.range(2)];
+  options.linear_solver = *enum_from_name<LinearSolver>(solvers[state.range(2)]);
   Snake<3> snake = Snake<3>::from_template(ex.tmpl, ex.initial);
   GlobalSolveSummary summary;
   for (auto _ : state) {

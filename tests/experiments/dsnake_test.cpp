@@ -15,7 +15,7 @@ namespace fs = std::filesystem;
 TEST(DSnake, SphereToEllipsoidWithRemeshingFromTheExampleFile) {
   const fs::path out = fs::temp_directory_path() / ("dsnake_example_" + std::to_string(::getpid()));
   fs::remove_all(out);
-  auto ex = build_experiment<3>(load_experiment_file(
+  auto ex = make_experiment<3>(load_experiment_file(
       std::string(DSNAKE_SOURCE_DIR) + "/experiments/examples/dsnake_sphere_to_ellipsoid.json",
       {"phases[0].iterations=250", "phases[1].iterations=50", "output.figures=false"}));
   const auto r = run_experiment(ex, RunOptions{out.string(), true});

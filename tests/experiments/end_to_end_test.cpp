@@ -23,7 +23,7 @@ fs::path fresh_dir(const std::string& name) {
 template <int D>
 nlohmann::ordered_json run_builtin(const std::string& name, const fs::path& out,
                                    const std::vector<std::string>& overrides = {}) {
-  auto ex = build_experiment<D>(builtin_experiment(name, overrides));
+  auto ex = make_experiment<D>(builtin_experiment(name, overrides));
   return run_experiment(ex, RunOptions{out.string(), true});
 }
 

@@ -26,7 +26,7 @@ fs::path fresh_dir(const std::string& name) {
 const std::string kPuzzle = std::string(DSNAKE_SOURCE_DIR) + "/experiments/ablation/global/puzzle_2d.json";
 
 nlohmann::ordered_json run_file(const std::string& path, const fs::path& out, const std::vector<std::string>& overrides) {
-  auto ex = build_experiment<2>(load_experiment_file(path, overrides));
+  auto ex = make_experiment<2>(load_experiment_file(path, overrides));
   return run_experiment(ex, RunOptions{out.string(), true});
 }
 
@@ -97,7 +97,7 @@ TEST(GlobalRun, SameNumbersWhateverTheThreadCount) {
 // times: the built-in default's second phase resamples the contour by arc length.
 TEST(GlobalRun, PhasesWithRemeshingSolveRemeshAndResolve) {
   const fs::path out = fresh_dir("remesh");
-  auto ex = build_experiment<2>(builtin_experiment(
+  auto ex = make_experiment<2>(builtin_experiment(
       "default", {"solver=global", "global.max_iterations=15", "global.remesh_rounds=2"}));
   const auto r = run_experiment(ex, RunOptions{out.string(), true});
   const auto& solves = r["global"]["solves"];
@@ -112,7 +112,7 @@ TEST(GlobalRun, PhasesWithRemeshingSolveRemeshAndResolve) {
 TEST(GlobalRun, BadGlobalConfigurationsNameTheJsonPath) {
   const auto where = [](const std::vector<std::string>& overrides) {
     try {
-      build_experiment<2>(load_experiment_file(kPuzzle, overrides));
+      make_experiment<2>(load_experiment_file(kPuzzle, overrides));
     } catch (const InputError& e) {
       return e.where();
     }

@@ -1,0 +1,194 @@
+#include "experiments/assemble.h"
+
+#include "experiments/phantoms.h"
+#include "framework/errors.h"
+#include "framework/image_io.h"
+#include "framework/mesh_io.h"
+#include "remesh/pass.h"
+
+#include <fstream>
+
+namespace dsnake {
+
+namespace {
+
+// Strips nlohmann's "[json.exception.x.y] " prefix from a message.
+std::string clean_json_message(const std::string& what) {
+  const auto p = what.find("] ");
+  return p == std::string::npos ? what : what.substr(p + 2);
+}
+
+// Reads {"targets": [[x, y(, z)] | null, ...]} with one entry per template vertex.
+template <int D>
+std::vector<std::optional<Point<D>>> read_targets(const std::string& path, int num_template_vertices) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path, "", "cannot open the correspondence file");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(path, "", clean_json_message(e.what()));
+  }
+  JsonReader r(j, path, "");
+  const auto& t = r.raw("targets");
+  r.finish();
+  if (!t.is_array()) r.fail("targets", "expected an array");
+  if (int(t.size()) != num_template_vertices)
+    r.fail("targets", "expected one target per template vertex (" + std::to_string(num_template_vertices) +
+                          "), found " + std::to_string(t.size()));
+  std::vector<std::optional<Point<D>>> targets(t.size());
+  for (size_t i = 0; i < t.size(); ++i) {
+    if (t[i].is_null()) continue;
+    const std::string where = "targets[" + std::to_string(i) + "]";
+    if (!t[i].is_array() || int(t[i].size()) != D) throw InputError(path, where, "expected null or " + std::to_string(D) + " numbers");
+    Point<D> p;
+    for (int a = 0; a < D; ++a) {
+      if (!t[i][a].is_number()) throw InputError(path, where, "expected numbers");
+      p[a] = t[i][a].get<double>();
+    }
+    targets[i] = p;
+  }
+  return targets;
+}
+
+template <int D>
+Template<D> read_template_file(const std::string& path) {
+  if constexpr (D == 2) return read_contour_template(path);
+  else return read_mesh_template(path);
+}
+
+// The image (a file or a rendered phantom), then the corruptions in order. Returns the phantom,
+// whose truth the experiment takes unless files override it.
+template <int D>
+std::optional<Phantom<D>> assemble_image(const ExperimentSpec<D>& spec, Image<D>& image) {
+  std::optional<Phantom<D>> phantom;
+  if (spec.image.phantom) {
+    JsonReader r(spec.image.phantom->object, spec.image.phantom->file, spec.image.phantom->path);
+    phantom = make_phantom<D>(r);
+    r.finish();
+    image = phantom->image;
+  } else {
+    image = read_image<D>(spec.image.file);
+  }
+  for (size_t i = 0; i < spec.image.corruptions.size(); ++i)
+    apply_corruption<D>(image, spec.image.corruptions[i], spec.seed, static_cast<int>(i));
+  return phantom;
+}
+
+template <int D>
+Template<D> assemble_template(const ExperimentSpec<D>& spec) {
+  const TemplateSpec<D>& t = spec.tmpl;
+  Template<D> tmpl;
+  if (t.phantom) {
+    JsonReader r(t.phantom->object, t.phantom->file, t.phantom->path);
+    tmpl = make_template_phantom<D>(r);
+    r.finish();
+  } else {
+    tmpl = read_template_file<D>(t.file);
+  }
+  if (tmpl.num_vertices() == 0) throw InputError(spec.file.path, "template", "empty template");
+  for (const auto& [name, id] : t.landmarks) {
+    if (id >= tmpl.num_vertices())
+      throw InputError(spec.file.path, "template.landmarks." + name,
+                       "expected a template vertex id in [0, " + std::to_string(tmpl.num_vertices() - 1) + "]");
+    tmpl.landmarks[name] = id;
+  }
+  return tmpl;
+}
+
+// Ground truth: the phantom's own, then explicit files override.
+template <int D>
+GroundTruth<D> assemble_truth(const ExperimentSpec<D>& spec, const std::optional<Phantom<D>>& phantom,
+                              const Template<D>& tmpl) {
+  GroundTruth<D> truth;
+  if (phantom) {
+    truth.mask = phantom->mask;
+    truth.surface = phantom->surface;
+    if (spec.tmpl.phantom) truth.targets = phantom_targets<D>(spec.image.phantom->object, spec.tmpl.phantom->object, tmpl);
+  }
+  const GroundTruthSpec& files = spec.truth;
+  if (!files.mask.empty()) truth.mask = read_image<D>(files.mask);
+  if (!files.surface.empty()) truth.surface = read_shape<D>(files.surface);
+  if (!files.correspondence.empty()) truth.targets = read_targets<D>(files.correspondence, tmpl.num_vertices());
+  return truth;
+}
+
+// Builds the energies, with the checks that need them built: the template's own rules, a
+// least-squares form for a global solve, and some energy governing free vertices.
+template <int D>
+std::vector<WeightedEnergy<D>> assemble_energies(const ExperimentSpec<D>& spec, const Template<D>& tmpl) {
+  std::vector<WeightedEnergy<D>> energies;
+  bool governs_all = false;
+  for (const EnergySpec<D>& e : spec.energies) {
+    WeightedEnergy<D> we{e.weight, e.energy.build()};
+    try {
+      we.energy->check_template(tmpl);
+    } catch (const OptionError& error) {
+      throw InputError(spec.file.path, e.path + "." + error.key, error.message);
+    }
+    if (spec.solver == SolverKind::kGlobal && !we.energy->has_least_squares_form())
+      throw InputError(spec.file.path, e.path + ".type",
+                       "the " + we.energy->type() + " energy has no least-squares form, so \"solver\": \"global\" cannot use it");
+    governs_all |= we.energy->governs() == Governs::kAllVertices;
+    energies.push_back(std::move(we));
+  }
+  if (!governs_all)
+    throw InputError(spec.file.path, "energies", "no energy governs free vertices: add \"internal\" or \"external\"");
+  return energies;
+}
+
+template <int D>
+std::vector<Phase<D>> assemble_phases(const ExperimentSpec<D>& spec) {
+  std::vector<Phase<D>> phases;
+  for (const PhaseSpec<D>& s : spec.phases) {
+    Phase<D> ph;
+    ph.iterations = s.iterations;
+    ph.tolerance = s.tolerance;
+    ph.every = s.every;
+    ph.weights = s.weights;
+    for (const auto& stage : s.remesh) ph.remeshers.push_back(stage.build());
+    // 3D stages share one editable mesh per pass (same result, no rebuild between stages)
+    if constexpr (D == 3)
+      if (!ph.remeshers.empty()) ph.remesh_pass = apply_pass;
+    phases.push_back(std::move(ph));
+  }
+  return phases;
+}
+
+}  // namespace
+
+template <int D>
+Experiment<D> assemble(const ExperimentSpec<D>& spec) {
+  Experiment<D> ex;
+  ex.file = spec.file;
+  ex.name = spec.name;
+  ex.seed = spec.seed;
+  ex.solver = spec.solver;
+  ex.global = spec.global;
+  ex.potential = spec.potential;
+  const std::optional<Phantom<D>> phantom = assemble_image(spec, ex.image);
+  ex.tmpl = assemble_template(spec);
+  const PlacementSpec<D>& t = spec.tmpl.transform;
+  ex.initial = place<D>(ex.tmpl.positions, t.scale, t.rotation_deg, t.translation);
+  ex.truth = assemble_truth(spec, phantom, ex.tmpl);
+  ex.field = build_field(spec.field);
+  ex.energies = assemble_energies(spec, ex.tmpl);
+  ex.phases = assemble_phases(spec);
+  for (size_t p = 0; p < spec.phases.size(); ++p)
+    ex.phase_names.push_back(spec.phases[p].name.empty() ? "#" + std::to_string(p + 1) : spec.phases[p].name);
+  ex.success = spec.success;
+  ex.output = spec.output;
+  return ex;
+}
+
+template <int D>
+Experiment<D> make_experiment(const ExperimentFile& file) {
+  return assemble(read_experiment_spec<D>(file));
+}
+
+template Experiment<2> assemble<2>(const ExperimentSpec<2>&);
+template Experiment<3> assemble<3>(const ExperimentSpec<3>&);
+template Experiment<2> make_experiment<2>(const ExperimentFile&);
+template Experiment<3> make_experiment<3>(const ExperimentFile&);
+
+}  // namespace dsnake

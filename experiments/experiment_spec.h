@@ -1,0 +1,93 @@
+// The experiment file as typed values (docs/experiment-file.md is the contract): one plain
+// struct per section, filled by small section readers that check every key and name the file
+// and the JSON path of any problem. Nothing after reading looks at the JSON document again: the
+// assembly (experiments/assemble.h) builds the objects from these structs. Plug-ins (energies,
+// the field, remeshing stages) are read into PluginSpecs, validated but not yet built.
+// Phantoms are the exception that is kept as JSON: a phantom's keys depend on its family and
+// are read by the phantom itself when the assembly renders it (experiments/phantoms.h).
+#pragma once
+
+#include "experiments/corruption.h"
+#include "experiments/experiment.h"
+#include "experiments/field_spec_shim.h"
+
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace dsnake {
+
+// A phantom's section object (its "phantom" kind and parameters) with where it came from.
+struct PhantomSource {
+  nlohmann::json object;
+  std::string file, path;
+};
+
+template <int D>
+struct ImageSpec {
+  std::string file;                      // resolved against the experiment file's folder
+  std::optional<PhantomSource> phantom;  // exactly one of file and phantom
+  std::vector<CorruptionSpec> corruptions;  // "corruption": applied in order
+};
+
+template <int D>
+struct PlacementSpec {  // "template.transform": x -> scale R x + translation
+  double scale = 1.0;
+  std::vector<double> rotation_deg;  // 2D: one angle; 3D: up to three (x, y, z)
+  Point<D> translation = Point<D>::Zero();
+};
+
+template <int D>
+struct TemplateSpec {
+  std::string file;
+  std::optional<PhantomSource> phantom;
+  std::map<std::string, int> landmarks;  // checked against the template's size at assembly
+  PlacementSpec<D> transform;
+};
+
+struct GroundTruthSpec {  // "ground_truth": files that override a phantom's own truth
+  std::string mask, surface, correspondence;  // resolved paths; "" when absent
+};
+
+template <int D>
+struct EnergySpec {
+  double weight = 1.0;
+  PluginSpec<Energy<D>> energy;
+  std::string path;  // "energies[i]", for messages found at assembly
+};
+
+template <int D>
+struct PhaseSpec {
+  std::string name;  // "" when the file gives none
+  int iterations = 100;
+  double tolerance = 0.0;
+  int every = 1;
+  std::vector<double> weights;  // one per energy, or empty
+  std::vector<PluginSpec<Remesher<D>>> remesh;
+};
+
+template <int D>
+struct ExperimentSpec {
+  ExperimentFile file;  // path and folder for messages and relative paths; the document only for result.json's "config"
+  std::string name, description;
+  uint64_t seed = 0;
+  SolverKind solver = SolverKind::kSnake;
+  GlobalSolverOptions global;
+  std::optional<PotentialOptions> potential;
+  ImageSpec<D> image;
+  TemplateSpec<D> tmpl;
+  GroundTruthSpec truth;
+  FieldSpec<D> field;
+  std::vector<EnergySpec<D>> energies;
+  std::vector<PhaseSpec<D>> phases;
+  SuccessCriteria success;
+  OutputOptions output;
+};
+
+// Reads and checks every section; throws InputError naming the file and the JSON path.
+template <int D>
+ExperimentSpec<D> read_experiment_spec(const ExperimentFile& file);
+
+}  // namespace dsnake
