@@ -4,8 +4,8 @@
 #include "experiments/builtin.h"
 #include "experiments/corruption.h"
 #include "experiments/phantoms.h"
-#include "fields/potential.h"
 #include "fields/registry.h"
+#include "fields/smooth_potential.h"
 #include "framework/errors.h"
 #include "framework/image_io.h"
 #include "framework/json_reader.h"
@@ -221,7 +221,7 @@ void read_global(JsonReader r, GlobalSolverOptions& g, std::optional<PotentialOp
   r.expect(g.threads >= 1 && g.threads <= 256, "threads", "must be in [1, 256]");
   r.read("remesh_rounds", g.remesh_rounds);
   r.expect(g.remesh_rounds >= 0 && g.remesh_rounds <= 1000, "remesh_rounds", "must be in [0, 1000]");
-  potential = read_potential_options(r);
+  potential = read_options<PotentialOptions>(r);
   r.finish();
 }
 
@@ -339,7 +339,7 @@ Experiment<D> build_experiment(const ExperimentFile& file) {
   // Field, energies, phases.
   {
     JsonReader r = top.child("field");
-    ex.field = field_registry<D>().create(r);
+    ex.field = build_field<D>(read_field_spec<D>(r));  // "cache" (--field-cache) and the field
   }
   {
     const auto& list = top.raw("energies");

@@ -7,7 +7,7 @@
 // Run: build/release/experiments/bench/bench_potential --benchmark_repetitions=5
 //        --benchmark_report_aggregates_only=true
 #include "fields/gradient.h"
-#include "fields/potential.h"
+#include "fields/smooth_potential.h"
 
 #include "experiments/bench/bench_images.h"
 
@@ -39,7 +39,7 @@ void BM_IntegratedPotential(benchmark::State& state) {
   const int threads = omp_get_max_threads();
   omp_set_num_threads(int(state.range(1)));
   PotentialOptions o;
-  o.type = "integrated";
+  o.type = PotentialType::kIntegrated;
   for (auto _ : state) benchmark::DoNotOptimize(compute_potential<D>(o, image, &field).data().data());
   omp_set_num_threads(threads);
   state.counters["voxels"] = double(image.num_voxels());
