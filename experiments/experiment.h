@@ -7,7 +7,7 @@
 #pragma once
 
 #include "framework/evolver.h"
-#include "fields/potential.h"
+#include "fields/smooth_potential.h"
 #include "framework/external_field.h"
 #include "framework/global_problem.h"
 #include "framework/metrics.h"

@@ -180,7 +180,7 @@ void read_run_keys(JsonReader& top, ExperimentSpec<D>& spec) {
     // global solve or for a snake run whose energies are reported with the same potential.
     JsonReader g = top.child("global");
     read_options(g, spec.global);
-    spec.potential = read_potential_options(g);
+    spec.potential = read_options<PotentialOptions>(g);
     g.finish();
   } else if (spec.solver == SolverKind::kGlobal) {
     spec.potential = PotentialOptions{};

@@ -9,7 +9,7 @@
 
 #include "experiments/corruption.h"
 #include "experiments/experiment.h"
-#include "experiments/field_spec_shim.h"
+#include "fields/registry.h"
 
 #include <map>
 #include <nlohmann/json.hpp>

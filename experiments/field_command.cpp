@@ -98,7 +98,7 @@ int run(const FieldCommandOptions& o) {
   const Image<D> image = read_image<D>(o.image);
   const nlohmann::json spec = field_spec(o);
   JsonReader reader(spec, "", "field");
-  auto field = field_registry<D>().create(reader);
+  auto field = build_field<D>(read_field_spec<D>(reader));
   const auto t0 = std::chrono::steady_clock::now();
   field->compute(image);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

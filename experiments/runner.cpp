@@ -341,7 +341,7 @@ nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& optio
       result["energy"] = {{"terms", terms}, {"total", recorder.trace.back().total_energy}};
     }
     if (ex.potential)
-      result["potential"] = {{"type", ex.potential->type}, {"interpolation", ex.potential->interpolation}};
+      result["potential"] = {{"type", enum_name(ex.potential->type)}, {"interpolation", enum_name(ex.potential->interpolation)}};
     if (!global_report.is_null()) result["global"] = global_report;
     result["timings"] = {{"field_s", field_s}, {"potential_s", potential_s}, {"evolve_s", evolve_s},
                          {"metrics_s", metrics_s}, {"total_s", seconds_since(start)}};

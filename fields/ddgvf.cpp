@@ -28,10 +28,7 @@
 namespace dsnake {
 
 template <int D>
-DdgvfField<D>::DdgvfField(const DdgvfFieldOptions& options) : options_(options) {
-  DSNAKE_ASSERT(options.solve.mu > 0, "ddgvf options: mu > 0");
-  DSNAKE_ASSERT(options.polarity == "dark_inside" || options.polarity == "bright_inside", "ddgvf polarity");
-}
+DdgvfField<D>::DdgvfField(const DdgvfFieldOptions& options) : options_(checked(options, kType)) {}
 
 template <int D>
 void DdgvfField<D>::compute(const Image<D>& image) {
@@ -42,7 +39,7 @@ void DdgvfField<D>::compute(const Image<D>& image) {
   for (auto& axis : components_)
     for (auto& c : axis) c = Image<D>(grid);
   if (edges.f_max == 0) return;  // no edges: zero components (warned by compute_edge_map)
-  const float p = options_.polarity == "dark_inside" ? 1.f : -1.f;
+  const float p = options_.polarity == DdgvfPolarity::kDarkInside ? 1.f : -1.f;
   std::vector<float> b(n);
 #pragma omp parallel for schedule(static)
   for (int64_t l = 0; l < n; ++l) {

@@ -14,20 +14,41 @@
 
 namespace dsnake {
 
+// Which side of the boundary is dark: kDarkInside ("dark_inside": the image gets brighter along
+// the outward normal, e.g. a lung in CT) or kBrightInside ("bright_inside").
+enum class DdgvfPolarity { kDarkInside, kBrightInside };
+template <>
+struct EnumNames<DdgvfPolarity> {
+  static constexpr std::array<std::pair<DdgvfPolarity, const char*>, 2> table{
+      {{DdgvfPolarity::kDarkInside, "dark_inside"}, {DdgvfPolarity::kBrightInside, "bright_inside"}}};
+};
+
 struct DdgvfFieldOptions {
   EdgeMapOptions edge;    // JSON: "sigma", "normalize"
   GvfSolveOptions solve;  // JSON: "mu", "solver", "tolerance", "iterations", "time_step"
-  // Which side of the boundary is dark: "dark_inside" (the image gets brighter along the outward
-  // normal, e.g. a lung in CT) or "bright_inside". JSON: "polarity".
-  std::string polarity = "dark_inside";
+  DdgvfPolarity polarity = DdgvfPolarity::kDarkInside;  // JSON: "polarity"
+
+  template <class V>
+  void visit(V& v) {
+    edge.visit(v);
+    solve.visit(v);
+    v(polarity, Key{"polarity", "", "which side of the boundary is dark: the image gets brighter along the outward "
+                                    "normal (dark_inside) or darker (bright_inside)"});
+  }
+  void check() const { solve.check(); }
 };
 
 template <int D>
 class DdgvfField final : public ExternalField<D> {
  public:
+  using Options = DdgvfFieldOptions;
+  static constexpr const char* kType = "ddgvf";
+  static constexpr const char* kSummary =
+      "dynamic directional gradient vector flow, Cheng & Foo 2006, the field D-Snake uses (§2.1)";
+
   explicit DdgvfField(const DdgvfFieldOptions& options = {});
 
-  std::string type() const override { return "ddgvf"; }
+  std::string type() const override { return kType; }
   const DdgvfFieldOptions& options() const { return options_; }
 
   // Edge map, image gradient, then 2D scalar GVF solves (one per axis and sign).

@@ -74,9 +74,7 @@ std::vector<double> squared_distance_transform(const Grid<D>& grid, const std::v
 }
 
 template <int D>
-DistanceField<D>::DistanceField(const DistanceFieldOptions& options) : options_(options) {
-  DSNAKE_ASSERT(options.threshold > 0 && options.threshold <= 1, "distance options: threshold in (0, 1]");
-}
+DistanceField<D>::DistanceField(const DistanceFieldOptions& options) : options_(checked(options, kType)) {}
 
 template <int D>
 void DistanceField<D>::compute(const Image<D>& image) {

@@ -16,15 +16,26 @@ namespace dsnake {
 
 struct DistanceFieldOptions {
   EdgeMapOptions edge;     // JSON: "sigma", "normalize"
-  double threshold = 0.5;  // edge voxels: f >= threshold * max f, in (0, 1]
+  double threshold = 0.5;  // edge voxels: f >= threshold * max f
+
+  template <class V>
+  void visit(V& v) {
+    edge.visit(v);
+    v(threshold, Key{"threshold", "1 (fraction of max f)", "edge voxels: edge map f >= threshold x its maximum",
+                     Range::open_closed(0, 1)});
+  }
 };
 
 template <int D>
 class DistanceField final : public ExternalField<D> {
  public:
+  using Options = DistanceFieldOptions;
+  static constexpr const char* kType = "distance";
+  static constexpr const char* kSummary = "distance-potential force, Cohen & Cohen 1993 (a baseline of D-Snake §1)";
+
   explicit DistanceField(const DistanceFieldOptions& options = {});
 
-  std::string type() const override { return "distance"; }
+  std::string type() const override { return kType; }
   const DistanceFieldOptions& options() const { return options_; }
 
   // Edge map, edge voxels, distance transform and its gradient. A constant image (no edges)

@@ -5,6 +5,7 @@
 #pragma once
 
 #include "framework/image.h"
+#include "framework/options.h"
 
 #include <array>
 #include <string>
@@ -13,8 +14,16 @@
 namespace dsnake {
 
 struct EdgeMapOptions {
-  double sigma = 1.0;     // Gaussian pre-smoothing, standard deviation in physical units, >= 0
+  double sigma = 1.0;     // Gaussian pre-smoothing, standard deviation in physical units
   bool normalize = true;  // scale f to [0, 1] by its maximum
+
+  // JSON: "sigma", "normalize" (flattened into the field's object).
+  template <class V>
+  void visit(V& v) {
+    v(sigma, Key{"sigma", "mm", "Gaussian pre-smoothing of the image before the edge map, standard deviation (0: none)",
+                 Range::at_least(0)});
+    v(normalize, Key{"normalize", "", "scale the edge map f = |grad(G_sigma * I)|^2 to [0, 1] by its maximum"});
+  }
 };
 
 template <int D>

@@ -1,7 +1,8 @@
 // The field cache: `"cache": "DIR"` in a field's JSON (or `--field-cache DIR` on the command
-// line) stores the computed field in DIR, keyed by a hash of the image (voxels and grid) and
-// of the field's type and parameters, so that a sweep over snake settings computes each field
-// once. CachedField<D> wraps any field that implements save_state()/load_state(): compute()
+// line; read by read_field_spec, built by build_field in fields/registry.h) stores the computed
+// field in DIR, keyed by a hash of the image (voxels and grid) and of the field's type and
+// options (their canonical JSON, every key with its value), so that a sweep over snake settings
+// computes each field once. CachedField<D> wraps any field that implements save_state()/load_state(): compute()
 // loads DIR/<type>-<key>.field when it exists and fits, and otherwise computes and stores it
 // (atomically: a killed run never leaves a half-written entry). A field that cannot save its
 // state is computed every time. Everything else is forwarded to the wrapped field.
@@ -18,7 +19,8 @@ namespace dsnake {
 template <int D>
 class CachedField final : public ExternalField<D> {
  public:
-  // `parameters`: a canonical text of the field's options (the JSON object without "cache").
+  // `parameters`: a canonical text of the field's options (build_field: options_json(...).dump(),
+  // every key, defaults made explicit).
   CachedField(std::unique_ptr<ExternalField<D>> field, std::string dir, std::string parameters);
 
   std::string type() const override { return field_->type(); }

@@ -12,9 +12,7 @@
 namespace dsnake {
 
 template <int D>
-GradientField<D>::GradientField(const GradientFieldOptions& options) : options_(options) {
-  DSNAKE_ASSERT(options.sigma >= 0, "gradient field options: sigma >= 0");
-}
+GradientField<D>::GradientField(const GradientFieldOptions& options) : options_(checked(options, kType)) {}
 
 // The edge map f = |grad (G_sigma * I)|^2 (§1: E_ext = -f) and its gradient, the force
 // F = grad f = -grad P, kept on the image grid for linear sampling.

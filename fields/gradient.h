@@ -7,23 +7,36 @@
 #pragma once
 
 #include "framework/external_field.h"
+#include "framework/options.h"
 
 #include <string>
 
 namespace dsnake {
 
 struct GradientFieldOptions {
-  double sigma = 1.0;      // Gaussian pre-smoothing, standard deviation in physical units, >= 0
+  double sigma = 1.0;      // Gaussian pre-smoothing, standard deviation in physical units
                            // (0: no smoothing)
   bool normalize = true;   // scale the edge map to [0, 1] by its maximum
+
+  template <class V>
+  void visit(V& v) {
+    v(sigma, Key{"sigma", "mm", "Gaussian pre-smoothing of the image before the edge map, standard deviation (0: none)",
+                 Range::at_least(0)});
+    v(normalize, Key{"normalize", "", "scale the edge map f = |grad(G_sigma * I)|^2 to [0, 1] by its maximum"});
+  }
 };
 
 template <int D>
 class GradientField final : public ExternalField<D> {
  public:
+  using Options = GradientFieldOptions;
+  static constexpr const char* kType = "gradient";
+  static constexpr const char* kSummary =
+      "the edge-map gradient F = grad |grad(G_sigma * I)|^2, Kass, Witkin & Terzopoulos 1988 (D-Snake §1)";
+
   explicit GradientField(const GradientFieldOptions& options = {});
 
-  std::string type() const override { return "gradient"; }
+  std::string type() const override { return kType; }
   const GradientFieldOptions& options() const { return options_; }
 
   // Blurs, builds the edge map f and its gradient on the image grid. Parallel over voxels;

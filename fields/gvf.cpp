@@ -7,9 +7,7 @@
 namespace dsnake {
 
 template <int D>
-GvfField<D>::GvfField(const GvfFieldOptions& options) : options_(options) {
-  DSNAKE_ASSERT(options.solve.mu > 0, "gvf options: mu > 0");
-}
+GvfField<D>::GvfField(const GvfFieldOptions& options) : options_(checked(options, kType)) {}
 
 template <int D>
 void GvfField<D>::compute(const Image<D>& image) {

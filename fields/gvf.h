@@ -17,14 +17,25 @@ namespace dsnake {
 struct GvfFieldOptions {
   EdgeMapOptions edge;    // JSON: "sigma", "normalize"
   GvfSolveOptions solve;  // JSON: "mu", "solver", "tolerance", "iterations", "time_step"
+
+  template <class V>
+  void visit(V& v) {
+    edge.visit(v);
+    solve.visit(v);
+  }
+  void check() const { solve.check(); }
 };
 
 template <int D>
 class GvfField final : public ExternalField<D> {
  public:
+  using Options = GvfFieldOptions;
+  static constexpr const char* kType = "gvf";
+  static constexpr const char* kSummary = "gradient vector flow, Xu & Prince 1998 (D-Snake §2)";
+
   explicit GvfField(const GvfFieldOptions& options = {});
 
-  std::string type() const override { return "gvf"; }
+  std::string type() const override { return kType; }
   const GvfFieldOptions& options() const { return options_; }
 
   // Edge map, then the GVF solve starting from v = grad f. A constant image gives a zero field.

@@ -705,7 +705,7 @@ GvfSolveStats solve_gvf(const Grid<D>& grid, const std::vector<float>& b,
   const int64_t n = grid.num_voxels();
   DSNAKE_ASSERT(int64_t(b.size()) == n, "GVF: b on the grid");
   Level shape = level_of(grid);
-  if (o.solver == "explicit") {
+  if (o.solver == GvfSolver::kExplicit) {
     // |b c|^2, the scale of the relative residual (the multigrid solver computes its own).
     // In 8 partial sums, fixed order (vectorised, the same on any machine and thread count).
     double part[8] = {}, rhs_norm2 = 0;
@@ -725,7 +725,7 @@ GvfSolveStats solve_gvf(const Grid<D>& grid, const std::vector<float>& b,
     for (double p : part) rhs_norm2 += p;
     return solve_explicit(shape, b, c, v, o, rhs_norm2);
   }
-  DSNAKE_ASSERT(o.solver == "multigrid", "GVF: solver is explicit or multigrid");
+  DSNAKE_ASSERT(o.solver == GvfSolver::kMultigrid, "GVF: solver is explicit or multigrid");
   if (workspace) return solve_multigrid_pcg(shape, b, c, v, o, workspace->impl());
   GvfWorkspace::Impl local;
   return solve_multigrid_pcg(shape, b, c, v, o, local);

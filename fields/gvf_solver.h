@@ -17,6 +17,7 @@
 #pragma once
 
 #include "framework/image.h"
+#include "framework/options.h"
 
 #include <memory>
 #include <string>
@@ -24,12 +25,36 @@
 
 namespace dsnake {
 
+// The two solvers above: kMultigrid ("multigrid", the default) and kExplicit ("explicit").
+enum class GvfSolver { kMultigrid, kExplicit };
+template <>
+struct EnumNames<GvfSolver> {
+  static constexpr std::array<std::pair<GvfSolver, const char*>, 2> table{
+      {{GvfSolver::kMultigrid, "multigrid"}, {GvfSolver::kExplicit, "explicit"}}};
+};
+
 struct GvfSolveOptions {
-  double mu = 0.2;          // diffusion weight, > 0 (physical units: mm^2 per unit b)
-  std::string solver = "multigrid";  // "multigrid" or "explicit"
+  double mu = 0.2;          // diffusion weight (physical units: mm^2 per unit b)
+  GvfSolver solver = GvfSolver::kMultigrid;
   double tolerance = 1e-4;  // relative residual to stop at; 0: run all iterations
   int iterations = 0;       // max iterations (explicit) or V-cycles (multigrid); 0: 100000 / 100
   double time_step = 0.0;   // explicit only: 0 = 0.9 x the stability bound
+
+  // JSON: "mu", "solver", "tolerance", "iterations", "time_step" (flattened into the field's object).
+  template <class V>
+  void visit(V& v) {
+    v(mu, Key{"mu", "mm^2 per unit b", "diffusion weight of the GVF equation mu Lap v - b (v - c) = 0", Range::greater_than(0)});
+    v(solver, Key{"solver", "", "multigrid V-cycles (default) or Xu & Prince's explicit iteration (the reference)"});
+    v(tolerance, Key{"tolerance", "1 (relative residual)", "stop at |b c - A v| / |b c| <= tolerance (0: run all iterations)",
+                     Range::closed_open(0, 1)});
+    v(iterations, Key{"iterations", "iterations or V-cycles", "cap on explicit iterations or V-cycles (0: 100000 / 100)",
+                      Range::at_least(0)});
+    v(time_step, Key{"time_step", "1 / unit of b", "explicit solver's step dt (0: 0.9 x the stability bound)",
+                     Range::at_least(0)});
+  }
+  void check() const {
+    if (tolerance == 0 && iterations == 0) throw OptionError{"iterations", "must be > 0 when tolerance is 0"};
+  }
 };
 
 struct GvfSolveStats {

@@ -74,10 +74,7 @@ struct VfcField<D>::Fft {
 };
 
 template <int D>
-VfcField<D>::VfcField(const VfcFieldOptions& options) : options_(options) {
-  DSNAKE_ASSERT(options.radius > 0, "vfc options: radius > 0");
-  DSNAKE_ASSERT(options.kernel == "power" || options.kernel == "gaussian", "vfc options: kernel");
-}
+VfcField<D>::VfcField(const VfcFieldOptions& options) : options_(checked(options, kType)) {}
 
 template <int D>
 VfcField<D>::~VfcField() = default;
@@ -87,7 +84,7 @@ Point<D> VfcField<D>::kernel(const Point<D>& d) const {
   const double r = d.norm();
   if (r == 0.0 || r > options_.radius) return Point<D>::Zero();
   double m;
-  if (options_.kernel == "power") {
+  if (options_.kernel == VfcKernel::kPower) {
     m = std::pow(r + options_.epsilon, -options_.gamma);
   } else {
     const double zeta = options_.zeta > 0 ? options_.zeta : options_.radius / 2;

@@ -19,13 +19,33 @@
 
 namespace dsnake {
 
+// The kernel's magnitude m(r): kPower ("power"): (r + eps)^-gamma; kGaussian ("gaussian"):
+// exp(-r^2 / zeta^2).
+enum class VfcKernel { kPower, kGaussian };
+template <>
+struct EnumNames<VfcKernel> {
+  static constexpr std::array<std::pair<VfcKernel, const char*>, 2> table{
+      {{VfcKernel::kPower, "power"}, {VfcKernel::kGaussian, "gaussian"}}};
+};
+
 struct VfcFieldOptions {
-  EdgeMapOptions edge;            // JSON: "sigma", "normalize"
-  double radius = 16.0;           // kernel radius R, physical units, > 0 and <= the image extent
-  std::string kernel = "power";   // "power": (r + eps)^-gamma; "gaussian": exp(-r^2 / zeta^2)
-  double gamma = 2.0;             // power kernel exponent, > 0
-  double epsilon = 1e-8;          // power kernel regulariser, >= 0 (mm)
-  double zeta = 0.0;              // Gaussian kernel width (mm), >= 0; 0: R / 2
+  EdgeMapOptions edge;                  // JSON: "sigma", "normalize"
+  double radius = 16.0;                 // kernel radius R, physical units, <= the image extent
+  VfcKernel kernel = VfcKernel::kPower;
+  double gamma = 2.0;                   // power kernel exponent
+  double epsilon = 1e-8;                // power kernel regulariser (mm)
+  double zeta = 0.0;                    // Gaussian kernel width (mm); 0: R / 2
+
+  template <class V>
+  void visit(V& v) {
+    edge.visit(v);
+    v(radius, Key{"radius", "mm", "kernel radius R (at most the image's largest extent, checked at compute)",
+                  Range::greater_than(0)});
+    v(kernel, Key{"kernel", "", "kernel magnitude m(r): power (r + epsilon)^-gamma or gaussian exp(-r^2 / zeta^2)"});
+    v(gamma, Key{"gamma", "1", "power kernel: exponent", Range::greater_than(0)});
+    v(epsilon, Key{"epsilon", "mm", "power kernel: regulariser of r", Range::at_least(0)});
+    v(zeta, Key{"zeta", "mm", "gaussian kernel: width (0: radius / 2)", Range::at_least(0)});
+  }
 };
 
 // Wall-clock seconds of the last compute(), for benchmarks.
@@ -36,10 +56,14 @@ struct VfcTimings {
 template <int D>
 class VfcField final : public ExternalField<D> {
  public:
+  using Options = VfcFieldOptions;
+  static constexpr const char* kType = "vfc";
+  static constexpr const char* kSummary = "vector field convolution, Li & Acton 2007 (compared in D-Snake §2)";
+
   explicit VfcField(const VfcFieldOptions& options = {});
   ~VfcField() override;
 
-  std::string type() const override { return "vfc"; }
+  std::string type() const override { return kType; }
   const VfcFieldOptions& options() const { return options_; }
 
   // Edge map, then the FFT convolution. Throws InputError naming "field.radius" if R is larger

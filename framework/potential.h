@@ -1,6 +1,6 @@
 // Potential<D>: a smooth scalar potential P >= 0 on the image domain, sampled with its gradient
 // at any physical point. The global solve's external term is E_ext = sum_v P(q_v) (Levi &
-// Gotsman, §1); GVF, DDGVF and VFC are not gradients of a potential, so fields/potential.h
+// Gotsman, §1); GVF, DDGVF and VFC are not gradients of a potential, so fields/smooth_potential.h
 // builds one (edge, distance, or the least-squares integral of the field).
 #pragma once
 

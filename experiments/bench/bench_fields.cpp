@@ -60,14 +60,14 @@ void run_solver(benchmark::State& state, const GvfSolveOptions& o) {
 
 void BM_GvfExplicit100_3d(benchmark::State& state) {
   GvfSolveOptions o;
-  o.solver = "explicit", o.mu = 0.2, o.iterations = 100, o.tolerance = 0;
+  o.solver = GvfSolver::kExplicit, o.mu = 0.2, o.iterations = 100, o.tolerance = 0;
   run_solver<3>(state, o);
 }
 BENCHMARK(BM_GvfExplicit100_3d)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_GvfExplicit100_2d(benchmark::State& state) {
   GvfSolveOptions o;
-  o.solver = "explicit", o.mu = 0.2, o.iterations = 100, o.tolerance = 0;
+  o.solver = GvfSolver::kExplicit, o.mu = 0.2, o.iterations = 100, o.tolerance = 0;
   run_solver<2>(state, o);
 }
 BENCHMARK(BM_GvfExplicit100_2d)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
@@ -84,7 +84,7 @@ void BM_GvfExplicitDepth2d(benchmark::State& state) {
   std::vector<std::vector<float>*> out;
   for (int a = 0; a < 2; ++a) c.push_back(&s.edges.grad_f[a]), out.push_back(&v[a]);
   GvfSolveOptions o;
-  o.solver = "explicit", o.mu = 0.2, o.iterations = 100, o.tolerance = 0;
+  o.solver = GvfSolver::kExplicit, o.mu = 0.2, o.iterations = 100, o.tolerance = 0;
   for (auto _ : state) {
     for (int a = 0; a < 2; ++a) v[a] = s.edges.grad_f[a];
     // (The rhs norm only scales the reported residual; tolerance 0 runs all 100 iterations.)
@@ -95,14 +95,14 @@ BENCHMARK(BM_GvfExplicitDepth2d)->Arg(1)->Arg(2)->Arg(4)->Arg(10)->Arg(16)->Unit
 
 void BM_GvfMultigridConverged3d(benchmark::State& state) {
   GvfSolveOptions o;
-  o.solver = "multigrid", o.mu = 0.2, o.tolerance = 1e-4;
+  o.solver = GvfSolver::kMultigrid, o.mu = 0.2, o.tolerance = 1e-4;
   run_solver<3>(state, o);
 }
 BENCHMARK(BM_GvfMultigridConverged3d)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_GvfMultigridConverged2d(benchmark::State& state) {
   GvfSolveOptions o;
-  o.solver = "multigrid", o.mu = 0.2, o.tolerance = 1e-4;
+  o.solver = GvfSolver::kMultigrid, o.mu = 0.2, o.tolerance = 1e-4;
   run_solver<2>(state, o);
 }
 BENCHMARK(BM_GvfMultigridConverged2d)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();

@@ -11,7 +11,7 @@
 // Run: build/release/experiments/bench/bench_global --benchmark_repetitions=3
 //        --benchmark_report_aggregates_only=true
 #include "experiments/experiment.h"
-#include "fields/potential.h"
+#include "fields/smooth_potential.h"
 #include "framework/evolver.h"
 #include "framework/global_solver.h"
 #include "framework/metrics.h"

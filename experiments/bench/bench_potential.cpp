@@ -1,4 +1,4 @@
-// Potentials for the global solve (fields/potential.h): the least-squares integration of a
+// Potentials for the global solve (fields/smooth_potential.h): the least-squares integration of a
 // field ("integrated", DCT Poisson solve) on the paper's volume size (230 x 300 x 80 voxels, a
 // smooth ellipsoid, the force being the gradient field grad f of its edge map, sigma = 1) and
 // on a 512^2 disk; and one evaluation of the smooth interpolant (value and gradient) at random
@@ -7,7 +7,7 @@
 // Run: build/release/experiments/bench/bench_potential --benchmark_repetitions=5
 //        --benchmark_report_aggregates_only=true
 #include "fields/gradient.h"
-#include "fields/potential.h"
+#include "fields/smooth_potential.h"
 
 #include "experiments/bench/bench_images.h"
 
@@ -39,7 +39,7 @@ void BM_IntegratedPotential(benchmark::State& state) {
   const int threads = omp_get_max_threads();
   omp_set_num_threads(int(state.range(1)));
   PotentialOptions o;
-  o.type = "integrated";
+  o.type = PotentialType::kIntegrated;
   for (auto _ : state) benchmark::DoNotOptimize(compute_potential<D>(o, image, &field).data().data());
   omp_set_num_threads(threads);
   state.counters["voxels"] = double(image.num_voxels());

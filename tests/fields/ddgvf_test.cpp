@@ -91,7 +91,7 @@ Image<3> ball() {
 
 TEST(DdgvfField, BallAttractsOutwardNormalsWithMatchingPolarity) {
   DdgvfFieldOptions o;
-  o.polarity = "bright_inside";
+  o.polarity = DdgvfPolarity::kBrightInside;
   DdgvfField<3> field(o);
   field.compute(ball());
   const Point<3> c(16, 16, 16);
@@ -132,7 +132,7 @@ TEST(DdgvfField, RegistryReadsPolarity) {
   auto field = field_registry<3>().create(reader);
   auto* d = dynamic_cast<DdgvfField<3>*>(field.get());
   ASSERT_NE(d, nullptr);
-  EXPECT_EQ(d->options().polarity, "bright_inside");
+  EXPECT_EQ(d->options().polarity, DdgvfPolarity::kBrightInside);
   EXPECT_TRUE(d->uses_normal());
   const nlohmann::json bad = nlohmann::json::parse(R"({"type": "ddgvf", "polarity": "up"})");
   JsonReader r2(bad, "exp.json", "field");

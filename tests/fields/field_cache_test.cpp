@@ -1,6 +1,7 @@
 // Field cache: the second compute with the same image and parameters loads the stored field
 // (identical vectors, no solve), a changed voxel or parameter misses, a corrupt entry is
-// recomputed, and every cacheable field type round-trips its state.
+// recomputed, every cacheable field type round-trips its state, and the key is the canonical
+// JSON of the options (a default spelt out hits the same entry).
 #include "fields/field_cache.h"
 #include "fields/gvf.h"
 #include "fields/registry.h"
@@ -21,11 +22,12 @@ std::string fresh_dir(const std::string& name) {
   return dir.string();
 }
 
+// A "field" object with "cache", as an experiment file gives it.
 template <int D>
 std::unique_ptr<ExternalField<D>> make(const std::string& json) {
   const nlohmann::json j = nlohmann::json::parse(json);
   JsonReader reader(j, "exp.json", "field");
-  return field_registry<D>().create(reader);
+  return build_field<D>(read_field_spec<D>(reader));
 }
 
 Image<2> disk(float inside) {
@@ -128,14 +130,55 @@ TEST(FieldCache, KeyDependsOnGridAndParameters) {
   EXPECT_NE(field_cache_key(a, "gvf", R"({"mu":0.2})"), field_cache_key(a, "gvf", R"({"mu":0.3})"));
 }
 
-TEST(FieldCache, RegistryRejectsEmptyCache) {
+TEST(FieldCache, DefaultsSpeltOutHitTheSameEntry) {
+  const std::string dir = fresh_dir("canonical");
+  const Image<2> image = disk(1.0f);
+  auto implicit = make<2>(R"({"type": "gvf", "cache": ")" + dir + R"("})");
+  implicit->compute(image);
+  auto spelt = make<2>(R"({"cache": ")" + dir + R"(", "mu": 0.2, "type": "gvf", "sigma": 1.0, "solver": "multigrid"})");
+  spelt->compute(image);
+  EXPECT_TRUE(dynamic_cast<CachedField<2>*>(spelt.get())->loaded_from_cache());
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), {}), 1);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(FieldCache, SpecHoldsEveryOptionAndTheFolder) {
+  const nlohmann::json j = nlohmann::json::parse(R"({"type": "ddgvf", "mu": 0.1, "cache": "c"})");
+  JsonReader reader(j, "exp.json", "field");
+  const FieldSpec<3> spec = read_field_spec<3>(reader);
+  EXPECT_EQ(spec.cache_dir, "c");
+  EXPECT_EQ(spec.field.type, "ddgvf");
+  EXPECT_EQ(spec.field.options.dump(),
+            R"({"sigma":1.0,"normalize":true,"mu":0.1,"solver":"multigrid","tolerance":0.0001,"iterations":0,)"
+            R"("time_step":0.0,"polarity":"dark_inside"})");
+  // Without a folder: the plain field, no wrapper.
+  const nlohmann::json plain = nlohmann::json::parse(R"({"type": "gvf"})");
+  JsonReader rp(plain, "exp.json", "field");
+  auto field = build_field<2>(read_field_spec<2>(rp));
+  EXPECT_EQ(dynamic_cast<CachedField<2>*>(field.get()), nullptr);
+  EXPECT_NE(dynamic_cast<GvfField<2>*>(field.get()), nullptr);
+  const auto schema = field_common_schema_properties();
+  ASSERT_TRUE(schema.contains("cache"));
+  EXPECT_EQ(schema["cache"]["type"], "string");
+}
+
+TEST(FieldCache, RejectsEmptyCacheAndRegistryAloneRejectsCache) {
   const nlohmann::json j = nlohmann::json::parse(R"({"type": "gvf", "cache": ""})");
   JsonReader reader(j, "exp.json", "field");
   try {
-    field_registry<2>().create(reader);
+    read_field_spec<2>(reader);
     FAIL();
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("field.cache"), std::string::npos);
+  }
+  // The registry knows the fields' own keys only: "cache" is unknown there.
+  const nlohmann::json k = nlohmann::json::parse(R"({"type": "gvf", "cache": "dir"})");
+  JsonReader rk(k, "exp.json", "field");
+  try {
+    field_registry<2>().create(rk);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("field.cache"), std::string::npos) << e.what();
   }
 }
 

@@ -287,7 +287,7 @@ TEST(GvfExplicitWavefront, DdgvfUnstableStepIsAnInputErrorOnTwoThreads) {
   for (int64_t l = 0; l < image.num_voxels(); ++l)
     image[l] = (grid.to_physical(grid.index(l)) - Point<3>(7.5, 7.5, 7.5)).norm() < 5 ? 1.f : 0.f;
   DdgvfFieldOptions o;
-  o.solve.solver = "explicit", o.solve.time_step = 100.0, o.solve.iterations = 3, o.solve.tolerance = 0;
+  o.solve.solver = GvfSolver::kExplicit, o.solve.time_step = 100.0, o.solve.iterations = 3, o.solve.tolerance = 0;
   const int saved = omp_get_max_threads();
   omp_set_num_threads(2);
   DdgvfField<3> field(o);

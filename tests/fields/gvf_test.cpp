@@ -57,13 +57,13 @@ TEST(GvfField, MultigridReachesTheExplicitFixedPoint) {
   GvfFieldOptions o;
   o.edge.sigma = 1.0;
   o.solve.mu = 0.2;
-  o.solve.solver = "explicit";
+  o.solve.solver = GvfSolver::kExplicit;
   o.solve.tolerance = 1e-6;
   GvfField<2> ref(o);
   ref.compute(image);
   ASSERT_LE(ref.stats().relative_residual, 1e-6);
   ASSERT_GT(ref.stats().iterations, 100);  // a real diffusion, not a trivial start
-  o.solve.solver = "multigrid";
+  o.solve.solver = GvfSolver::kMultigrid;
   o.solve.tolerance = 1e-6;
   GvfField<2> mg(o);
   mg.compute(image);
@@ -84,7 +84,7 @@ TEST(GvfField, MultigridReachesTheExplicitFixedPoint) {
 TEST(GvfField, MultigridConvergesInAFewCyclesOnEvenAndOddGrids) {
   GvfFieldOptions o;
   o.solve.mu = 0.2;
-  o.solve.solver = "multigrid";
+  o.solve.solver = GvfSolver::kMultigrid;
   o.solve.tolerance = 1e-6;
   for (int n : {48, 49}) {
     GvfField<3> field3(o);
@@ -195,7 +195,7 @@ TEST(GvfField, IndependentOfThreadCount) {
   const int threads = omp_get_max_threads();
   // 49 x 49 x 20 voxels: above the solver's serial threshold (32768), so 2 threads split it.
   const Image<3> image = ball(2.5, 48, Point<3>(24, 24, 24), 12.0);
-  for (const char* solver : {"multigrid", "explicit"}) {
+  for (const GvfSolver solver : {GvfSolver::kMultigrid, GvfSolver::kExplicit}) {
     GvfFieldOptions o;
     o.solve.solver = solver;
     o.solve.iterations = 4;
@@ -206,7 +206,7 @@ TEST(GvfField, IndependentOfThreadCount) {
     omp_set_num_threads(2);
     two.compute(image);
     omp_set_num_threads(threads);
-    for (int64_t l = 0; l < image.num_voxels(); ++l) ASSERT_EQ(one.vectors()[l], two.vectors()[l]) << solver << l;
+    for (int64_t l = 0; l < image.num_voxels(); ++l) ASSERT_EQ(one.vectors()[l], two.vectors()[l]) << enum_name(solver) << l;
   }
 }
 
@@ -242,7 +242,7 @@ TEST(GvfField, RegistryReadsOptionsAndRejectsBadOnes) {
   ASSERT_NE(gvf, nullptr);
   EXPECT_EQ(gvf->options().solve.mu, 0.3);
   EXPECT_EQ(gvf->options().edge.sigma, 2.0);
-  EXPECT_EQ(gvf->options().solve.solver, "explicit");
+  EXPECT_EQ(gvf->options().solve.solver, GvfSolver::kExplicit);
   EXPECT_EQ(gvf->options().solve.iterations, 50);
   EXPECT_NE(error_of(R"({"type": "gvf", "mu": 0})").find("field.mu"), std::string::npos);
   EXPECT_NE(error_of(R"({"type": "gvf", "mu": -1})").find("field.mu"), std::string::npos);
@@ -253,7 +253,7 @@ TEST(GvfField, RegistryReadsOptionsAndRejectsBadOnes) {
 
 TEST(GvfField, UnstableExplicitStepNamesTheKey) {
   GvfFieldOptions o;
-  o.solve.solver = "explicit";
+  o.solve.solver = GvfSolver::kExplicit;
   o.solve.time_step = 10.0;
   GvfField<2> field(o);
   try {

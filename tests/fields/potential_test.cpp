@@ -3,7 +3,7 @@
 // edge and distance potentials match their definitions; the smooth interpolation reproduces
 // quadratics (cubic) and linear functions (linear), matches the Catmull-Rom kernel and has
 // derivatives consistent with its values (finite differences and Ceres' GradientChecker).
-#include "fields/potential.h"
+#include "fields/smooth_potential.h"
 
 #include "fields/distance.h"
 #include "fields/edge_map.h"
@@ -198,7 +198,7 @@ void expect_gvf_potential_minimum_on_boundary(const Grid<D>& grid, const Point<D
   GvfField<D> gvf;
   gvf.compute(image);
   PotentialOptions o;
-  o.type = "integrated";
+  o.type = PotentialType::kIntegrated;
   const Image<D> p = compute_potential(o, image, &gvf);
   const auto it = std::min_element(p.data().begin(), p.data().end());
   EXPECT_EQ(*it, 0.0f);
@@ -227,7 +227,7 @@ TEST(ComputePotential, EdgeIsMaxMinusEdgeMap) {
   Image<2> ramp(line);
   for (int i = 0; i < 5; ++i) ramp[i] = float(i * i);
   PotentialOptions o;
-  o.type = "edge";
+  o.type = PotentialType::kEdge;
   o.sigma = 0;
   const Image<2> p = compute_potential<2>(o, ramp, nullptr);
   const double expected[5] = {48 / 49.0, 45 / 49.0, 33 / 49.0, 13 / 49.0, 0};
@@ -253,7 +253,7 @@ TEST(ComputePotential, DistanceIsZeroOnEdgesAndDistanceElsewhere) {
   const Grid<3> grid = make_grid<3>(GridIndex<3>(20, 18, 10), Point<3>(1, 1, 2.5), Point<3>(0, 0, 0));
   const Image<3> image = ball_image<3>(grid, Point<3>(9.5, 8.7, 11.0), 6.0);
   PotentialOptions o;
-  o.type = "distance";
+  o.type = PotentialType::kDistance;
   o.sigma = 1.0;
   const Image<3> p = compute_potential<3>(o, image, nullptr);
   const EdgeMap<3> edges = compute_edge_map(image, EdgeMapOptions{1.0, true}, false, "test");
@@ -272,22 +272,22 @@ TEST(ComputePotential, DistanceIsZeroOnEdgesAndDistanceElsewhere) {
 TEST(ComputePotential, ReadsOptionsAndNamesBadKeys) {
   const nlohmann::json ok = {{"potential", "distance"}, {"interpolation", "linear"}, {"sigma", 2.0}, {"other", 1}};
   JsonReader r(ok, "f.json", "solver");
-  const PotentialOptions o = read_potential_options(r);
-  EXPECT_EQ(o.type, "distance");
-  EXPECT_EQ(o.interpolation, "linear");
+  const PotentialOptions o = read_options<PotentialOptions>(r);
+  EXPECT_EQ(o.type, PotentialType::kDistance);
+  EXPECT_EQ(o.interpolation, PotentialInterpolation::kLinear);
   EXPECT_EQ(o.sigma, 2.0);
   const nlohmann::json empty = nlohmann::json::object();
   JsonReader re(empty, "f.json", "solver");
-  const PotentialOptions d = read_potential_options(re);
-  EXPECT_EQ(d.type, "integrated");
-  EXPECT_EQ(d.interpolation, "cubic");
+  const PotentialOptions d = read_options<PotentialOptions>(re);
+  EXPECT_EQ(d.type, PotentialType::kIntegrated);
+  EXPECT_EQ(d.interpolation, PotentialInterpolation::kCubic);
   EXPECT_EQ(d.sigma, 1.0);
   for (const auto& [key, value] : std::vector<std::pair<std::string, nlohmann::json>>{
            {"potential", "gvf"}, {"interpolation", "quintic"}, {"sigma", -1.0}, {"sigma", "one"}}) {
     const nlohmann::json bad = {{key, value}};
     JsonReader rb(bad, "f.json", "solver");
     try {
-      read_potential_options(rb);
+      read_options<PotentialOptions>(rb);
       ADD_FAILURE() << key << " accepted";
     } catch (const InputError& e) {
       EXPECT_EQ(e.where(), "solver." + key);

@@ -68,7 +68,7 @@ TEST(VfcField, FftEqualsDirectConvolution2d) {
   o.radius = 9.0;
   o.gamma = 1.7;
   expect_matches_direct<2>(o, blobs<2>(GridIndex<2>(23, 17), Point<2>(1.0, 1.5)));
-  o.kernel = "gaussian";
+  o.kernel = VfcKernel::kGaussian;
   o.zeta = 3.0;
   expect_matches_direct<2>(o, blobs<2>(GridIndex<2>(23, 17), Point<2>(1.0, 1.5)));
 }

@@ -65,7 +65,7 @@ void BM_DsnakeExplicitGvf(benchmark::State& state) {
   std::vector<std::vector<float>*> out;
   for (int a = 0; a < 3; ++a) c.push_back(&e.grad_f[a]), out.push_back(&ours_result[a]);
   GvfSolveOptions o;
-  o.solver = "explicit", o.mu = kMu, o.iterations = kIterations, o.tolerance = 0, o.time_step = kItkTimeStep;
+  o.solver = GvfSolver::kExplicit, o.mu = kMu, o.iterations = kIterations, o.tolerance = 0, o.time_step = kItkTimeStep;
   for (auto _ : state) {
     for (size_t l = 0; l < b.size(); ++l)
       b[l] = e.grad_f[0][l] * e.grad_f[0][l] + e.grad_f[1][l] * e.grad_f[1][l] + e.grad_f[2][l] * e.grad_f[2][l];

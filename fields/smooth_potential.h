@@ -14,6 +14,7 @@
 
 #include "framework/external_field.h"
 #include "framework/image.h"
+#include "framework/options.h"
 #include "framework/potential.h"
 
 #include <memory>
@@ -22,18 +23,39 @@
 
 namespace dsnake {
 
-class JsonReader;
-
-struct PotentialOptions {
-  std::string type = "integrated";     // JSON "potential": "edge" | "distance" | "integrated"
-  std::string interpolation = "cubic";  // JSON "interpolation": "cubic" | "linear"
-  double sigma = 1.0;  // JSON "sigma": Gaussian pre-smoothing of the edge map ("edge" and
-                       // "distance"), standard deviation in physical units, >= 0
+// The three potentials above: kEdge ("edge"), kDistance ("distance"), kIntegrated ("integrated").
+enum class PotentialType { kEdge, kDistance, kIntegrated };
+template <>
+struct EnumNames<PotentialType> {
+  static constexpr std::array<std::pair<PotentialType, const char*>, 3> table{
+      {{PotentialType::kEdge, "edge"}, {PotentialType::kDistance, "distance"}, {PotentialType::kIntegrated, "integrated"}}};
+};
+// SmoothPotential's interpolation (below): kCubic ("cubic", Catmull-Rom) or kLinear ("linear").
+enum class PotentialInterpolation { kCubic, kLinear };
+template <>
+struct EnumNames<PotentialInterpolation> {
+  static constexpr std::array<std::pair<PotentialInterpolation, const char*>, 2> table{
+      {{PotentialInterpolation::kCubic, "cubic"}, {PotentialInterpolation::kLinear, "linear"}}};
 };
 
-// Reads "potential", "interpolation" and "sigma" (all optional) and range-checks them; errors
-// name the key. Does not call reader.finish(): the caller's object holds other keys.
-PotentialOptions read_potential_options(JsonReader& reader);
+// The keys "potential", "interpolation" and "sigma" of an experiment's "global" object (all
+// optional); read with read_options<PotentialOptions>(reader), which does not call
+// reader.finish() (the caller's object holds other keys).
+struct PotentialOptions {
+  PotentialType type = PotentialType::kIntegrated;                       // JSON "potential"
+  PotentialInterpolation interpolation = PotentialInterpolation::kCubic;  // JSON "interpolation"
+  double sigma = 1.0;  // JSON "sigma": Gaussian pre-smoothing of the edge map ("edge" and
+                       // "distance"), standard deviation in physical units
+
+  template <class V>
+  void visit(V& v) {
+    v(type, Key{"potential", "", "the external term's potential: the edge potential 1 - f (§1), the distance to the "
+                                 "nearest edge, or the least-squares integral of the field"});
+    v(interpolation, Key{"interpolation", "", "interpolation of the potential between voxels: C^1 Catmull-Rom cubic or linear"});
+    v(sigma, Key{"sigma", "mm", "edge and distance potentials: Gaussian pre-smoothing of the image before the edge map, "
+                                "standard deviation (0: none)", Range::at_least(0)});
+  }
+};
 
 // The potential P on the image grid, P >= 0 with min P = 0 (all zero for an image without
 // edges or a zero field). `field` (computed on `image`'s grid) is used by "integrated" only

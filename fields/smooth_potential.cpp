@@ -1,6 +1,6 @@
 // Potentials for the global solve and their smooth interpolation; see potential.h (issue 7;
 // Levi & Gotsman, D-Snake §1-§2 for the fields these potentials stand in for).
-#include "fields/potential.h"
+#include "fields/smooth_potential.h"
 
 #include "fields/distance.h"
 #include "fields/edge_map.h"
@@ -115,19 +115,6 @@ Image<D> distance_potential(const Image<D>& image, double sigma) {
 
 }  // namespace
 
-PotentialOptions read_potential_options(JsonReader& reader) {
-  PotentialOptions o;
-  reader.read("potential", o.type);
-  reader.read("interpolation", o.interpolation);
-  reader.read("sigma", o.sigma);
-  reader.expect(o.type == "edge" || o.type == "distance" || o.type == "integrated", "potential",
-                "must be \"edge\", \"distance\" or \"integrated\"");
-  reader.expect(o.interpolation == "cubic" || o.interpolation == "linear", "interpolation",
-                "must be \"cubic\" or \"linear\"");
-  reader.expect(std::isfinite(o.sigma) && o.sigma >= 0, "sigma", "must be >= 0 (physical units; 0: no smoothing)");
-  return o;
-}
-
 // Least-squares integration (see potential.h): right-hand side D^T g, DCT-II on every axis,
 // division by the Neumann Laplacian's eigenvalues, DCT-III back, normalisation, shift.
 template <int D>
@@ -190,10 +177,10 @@ std::vector<double> integrate_field(const VectorField<D>& field) {
 template <int D>
 Image<D> compute_potential(const PotentialOptions& options, const Image<D>& image, const ExternalField<D>* field) {
   DSNAKE_ASSERT(image.num_voxels() > 0, "compute_potential: a non-empty image");
-  DSNAKE_ASSERT(options.sigma >= 0, "potential options: sigma >= 0");
-  if (options.type == "edge") return edge_potential(image, options.sigma);
-  if (options.type == "distance") return distance_potential(image, options.sigma);
-  DSNAKE_ASSERT(options.type == "integrated", "potential options: type is edge, distance or integrated");
+  checked(options, "potential");
+  if (options.type == PotentialType::kEdge) return edge_potential(image, options.sigma);
+  if (options.type == PotentialType::kDistance) return distance_potential(image, options.sigma);
+  DSNAKE_ASSERT(options.type == PotentialType::kIntegrated, "potential options: type is edge, distance or integrated");
   DSNAKE_ASSERT(field != nullptr, "the integrated potential needs a field");
   const VectorField<D>& vectors = field->vectors();
   DSNAKE_ASSERT(!vectors.empty() && vectors.grid().same_geometry(image.grid()),
@@ -399,7 +386,8 @@ template class SmoothPotential<3>;
 template <int D>
 std::unique_ptr<SmoothPotential<D>> make_potential(const PotentialOptions& options, const Image<D>& image,
                                                    const ExternalField<D>* field) {
-  return std::make_unique<SmoothPotential<D>>(compute_potential<D>(options, image, field), options.interpolation);
+  return std::make_unique<SmoothPotential<D>>(compute_potential<D>(options, image, field),
+                                              enum_name(options.interpolation));
 }
 
 template std::unique_ptr<SmoothPotential<2>> make_potential<2>(const PotentialOptions&, const Image<2>&,
