@@ -161,7 +161,7 @@ int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_r
 RemeshReport DelaunayRemesher::run(EditMesh& m, const RemeshContext<3>&) {
   RemeshReport report{"delaunay", 0, 0, 0};
   const double cos_dihedral = std::cos(options_.max_dihedral_deg * std::numbers::pi / 180);
-  if (options_.method == "planar") report.rejected_edits += remesh_detail::planar_delaunay(m, cos_dihedral);
+  if (options_.method == DelaunayMethod::kPlanar) report.rejected_edits += remesh_detail::planar_delaunay(m, cos_dihedral);
   // The planar pass leaves patch seams as they were; flips finish them (and are the whole job
   // for the "flips" method).
   report.rejected_edits += delaunay_by_flips(m, cos_dihedral);
@@ -169,18 +169,6 @@ RemeshReport DelaunayRemesher::run(EditMesh& m, const RemeshContext<3>&) {
     report.rejected_edits +=
         regularize_valences(m, cos_dihedral, options_.min_angle_deg * std::numbers::pi / 180, reuse_refusals_);
   return report;
-}
-
-std::unique_ptr<Remesher<3>> make_delaunay_remesher(JsonReader& r) {
-  DelaunayOptions o;
-  r.read("method", o.method);
-  r.read("max_dihedral_deg", o.max_dihedral_deg);
-  r.read("regularize", o.regularize);
-  r.read("min_angle_deg", o.min_angle_deg);
-  r.expect(o.method == "flips" || o.method == "planar", "method", "must be \"flips\" or \"planar\"");
-  r.expect(o.max_dihedral_deg > 0 && o.max_dihedral_deg < 180, "max_dihedral_deg", "must be in (0, 180)");
-  r.expect(o.min_angle_deg >= 0 && o.min_angle_deg < 60, "min_angle_deg", "must be in [0, 60)");
-  return std::make_unique<DelaunayRemesher>(o);
 }
 
 }  // namespace dsnake

@@ -12,26 +12,47 @@
 // smaller of the two triangles' minimum angles below min_angle_deg.
 #pragma once
 
-#include "framework/json_reader.h"
+#include "framework/options.h"
 #include "framework/remesher.h"
 #include "remesh/pass.h"
 
-#include <memory>
 #include <string>
 
 namespace dsnake {
 
+enum class DelaunayMethod { kFlips, kPlanar };
+template <>
+struct EnumNames<DelaunayMethod> {
+  static constexpr std::array<std::pair<DelaunayMethod, const char*>, 2> table{
+      {{DelaunayMethod::kFlips, "flips"}, {DelaunayMethod::kPlanar, "planar"}}};
+};
+
 struct DelaunayOptions {
-  std::string method = "flips";  // "flips" or "planar"
+  DelaunayMethod method = DelaunayMethod::kFlips;
   double max_dihedral_deg = 30;  // largest bend across an edge that a flip may straighten
   bool regularize = true;        // valence-driven flips after the Delaunay pass
   double min_angle_deg = 25;     // floor on triangle angles for the valence flips
+
+  template <class V>
+  void visit(V& v) {
+    v(method, Key{"method", "", "intrinsic Delaunay by edge flips, or planar Delaunay of parameterised disc patches (§5.2)"});
+    v(max_dihedral_deg, Key{"max_dihedral_deg", "degrees", "largest bend across an edge that a flip may straighten",
+                            Range::open(0, 180)});
+    v(regularize, Key{"regularize", "", "valence-driven flips (towards valence 6) after the Delaunay pass"});
+    v(min_angle_deg, Key{"min_angle_deg", "degrees", "floor on triangle angles for the valence flips",
+                         Range::closed_open(0, 60)});
+  }
 };
 
-class DelaunayRemesher : public EditStage {
+class DelaunayRemesher final : public EditStage {
  public:
-  explicit DelaunayRemesher(DelaunayOptions options) : options_(options) {}
-  std::string type() const override { return "delaunay"; }
+  using Options = DelaunayOptions;
+  static constexpr const char* kType = "delaunay";
+  static constexpr const char* kSummary =
+      "§5.2 mesh connectivity: Delaunay by edge flips or planar patches, then valence-regularising flips";
+
+  explicit DelaunayRemesher(const DelaunayOptions& options = {}) : options_(checked(options, kType)) {}
+  std::string type() const override { return kType; }
   RemeshReport run(remesh_detail::EditMesh& m, const RemeshContext<3>& context) override;
   // false: every edge evaluated in every regularisation sweep (the reference for tests; the
   // default reuses a refusal while nothing around the edge changed, with the same result).
@@ -41,7 +62,5 @@ class DelaunayRemesher : public EditStage {
   DelaunayOptions options_;
   bool reuse_refusals_ = true;
 };
-
-std::unique_ptr<Remesher<3>> make_delaunay_remesher(JsonReader& reader);
 
 }  // namespace dsnake

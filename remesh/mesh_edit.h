@@ -4,6 +4,9 @@
 // triangles would cross the rest of the surface is rejected (a flat uniform grid over triangle
 // boxes, each triangle listed exactly in the cells its box covers, updated as triangles come,
 // go and move). One EditMesh may serve all the stages of a pass (remesh/pass.h).
+// Implementation: mesh_edit.cpp (the mesh, its edits and write-back, try_flip), broad_phase.cpp
+// (the grid and the queries of single edits), optimistic_check.cpp (begin/end_optimistic and
+// the check of a stage's result); the pair tests they share in triangle_pairs.h.
 #pragma once
 
 #include "framework/shape.h"

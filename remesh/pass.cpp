@@ -1,5 +1,6 @@
 #include "remesh/pass.h"
 
+#include "framework/errors.h"
 #include "remesh/mesh_edit.h"
 
 #include <vector>
@@ -75,15 +76,26 @@ void apply_edit_stages(std::span<EditStage* const> stages, Snake<3>& snake, cons
 
 }  // namespace
 
-std::vector<RemeshReport> apply_pass(std::span<const std::unique_ptr<Remesher<3>>> stages, Snake<3>& snake,
+namespace remesh_detail {
+
+std::vector<EditStage*> edit_stages(std::span<const std::unique_ptr<Remesher<3>>> stages) {
+  std::vector<EditStage*> edit;
+  edit.reserve(stages.size());
+  for (const auto& stage : stages) edit.push_back(dynamic_cast<EditStage*>(stage.get()));
+  return edit;
+}
+
+std::vector<RemeshReport> apply_pass(std::span<const std::unique_ptr<Remesher<3>>> stages,
+                                     std::span<EditStage* const> edit, Snake<3>& snake,
                                      const RemeshContext<3>& context) {
+  DSNAKE_ASSERT(edit.size() == stages.size(), "apply_pass: one EditStage view per stage");
   std::vector<RemeshReport> reports;
   reports.reserve(stages.size());
   std::vector<EditStage*> run;
   for (size_t i = 0; i <= stages.size(); ++i) {
-    auto* edit = i < stages.size() ? dynamic_cast<EditStage*>(stages[i].get()) : nullptr;
-    if (edit) {
-      run.push_back(edit);
+    EditStage* stage = i < stages.size() ? edit[i] : nullptr;
+    if (stage) {
+      run.push_back(stage);
       continue;
     }
     if (!run.empty()) apply_edit_stages(run, snake, context, reports);
@@ -91,6 +103,14 @@ std::vector<RemeshReport> apply_pass(std::span<const std::unique_ptr<Remesher<3>
     if (i < stages.size()) reports.push_back(stages[i]->apply(snake, context));
   }
   return reports;
+}
+
+}  // namespace remesh_detail
+
+std::vector<RemeshReport> apply_pass(std::span<const std::unique_ptr<Remesher<3>>> stages, Snake<3>& snake,
+                                     const RemeshContext<3>& context) {
+  const std::vector<EditStage*> edit = remesh_detail::edit_stages(stages);
+  return remesh_detail::apply_pass(stages, edit, snake, context);
 }
 
 }  // namespace dsnake

@@ -62,4 +62,16 @@ class EditStage : public Remesher<3> {
 std::vector<RemeshReport> apply_pass(std::span<const std::unique_ptr<Remesher<3>>> stages, Snake<3>& snake,
                                      const RemeshContext<3>& context);
 
+namespace remesh_detail {
+
+// Each stage as an EditStage, or null for another remesher (the one type test of a pass; a
+// RemeshPipeline makes it once, when it is built).
+std::vector<EditStage*> edit_stages(std::span<const std::unique_ptr<Remesher<3>>> stages);
+// apply_pass with that test made: edit[i] is stages[i] as an EditStage, or null.
+std::vector<RemeshReport> apply_pass(std::span<const std::unique_ptr<Remesher<3>>> stages,
+                                     std::span<EditStage* const> edit, Snake<3>& snake,
+                                     const RemeshContext<3>& context);
+
+}  // namespace remesh_detail
+
 }  // namespace dsnake

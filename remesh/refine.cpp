@@ -68,16 +68,4 @@ RemeshReport RefineRemesher::run(remesh_detail::EditMesh& m, const RemeshContext
   return report;
 }
 
-std::unique_ptr<Remesher<3>> make_refine_remesher(JsonReader& r) {
-  RefineOptions o;
-  r.read("max_edge", o.max_edge);
-  r.read("start_max_edge", o.start_max_edge);
-  r.read("ramp", o.ramp);
-  r.expect(o.max_edge > 0, "max_edge", "must be > 0");
-  r.expect(o.start_max_edge == 0 || o.start_max_edge >= o.max_edge, "start_max_edge",
-           "must be 0 (no schedule) or >= max_edge");
-  r.expect(o.ramp > 0 && o.ramp <= 1, "ramp", "must be in (0, 1]");
-  return std::make_unique<RefineRemesher>(o);
-}
-
 }  // namespace dsnake

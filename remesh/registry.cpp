@@ -1,3 +1,6 @@
+// Registration of the remeshing stages: one line per stage class. Each class declares its name,
+// its options (which read and check themselves) and a summary; see framework/registry.h. A stage
+// of the other dimension is refused with a message naming both dimensions.
 #include "remesh/registry.h"
 
 #include "remesh/delaunay.h"
@@ -6,17 +9,16 @@
 #include "remesh/simplify.h"
 #include "remesh/uniform.h"
 
+#include <string>
+
 namespace dsnake {
 
 namespace {
 
 // A stage asked in the wrong dimension: a configuration error naming the "type" key.
-template <int D>
-typename Registry<Remesher<D>>::Factory wrong_dimension(const std::string& name, int other) {
-  return [name, other](JsonReader& r) -> std::unique_ptr<Remesher<D>> {
-    r.fail("type", "\"" + name + "\" is a " + std::to_string(other) + "D remeshing stage; this experiment is " +
-                       std::to_string(D) + "D");
-  };
+std::string wrong_dimension(const std::string& name, int other, int dimension) {
+  return "\"" + name + "\" is a " + std::to_string(other) + "D remeshing stage; this experiment is " +
+         std::to_string(dimension) + "D";
 }
 
 }  // namespace
@@ -25,8 +27,8 @@ template <>
 const Registry<Remesher<2>>& remesher_registry<2>() {
   static const Registry<Remesher<2>> registry = [] {
     Registry<Remesher<2>> r;
-    r.add("resample", make_resample_remesher);
-    for (const char* s : {"uniform", "delaunay", "refine", "simplify"}) r.add(s, wrong_dimension<2>(s, 3));
+    r.add<ResampleRemesher>();
+    for (const char* s : {"uniform", "delaunay", "refine", "simplify"}) r.add_refusal(s, wrong_dimension(s, 3, 2));
     return r;
   }();
   return registry;
@@ -36,11 +38,11 @@ template <>
 const Registry<Remesher<3>>& remesher_registry<3>() {
   static const Registry<Remesher<3>> registry = [] {
     Registry<Remesher<3>> r;
-    r.add("uniform", make_uniform_remesher);    // §5.1
-    r.add("delaunay", make_delaunay_remesher);  // §5.2
-    r.add("refine", make_refine_remesher);      // §5.3
-    r.add("simplify", make_simplify_remesher);  // §5.4
-    r.add("resample", wrong_dimension<3>("resample", 2));
+    r.add<UniformRemesher>();   // §5.1
+    r.add<DelaunayRemesher>();  // §5.2
+    r.add<RefineRemesher>();    // §5.3
+    r.add<SimplifyRemesher>();  // §5.4
+    r.add_refusal("resample", wrong_dimension("resample", 2, 3));
     return r;
   }();
   return registry;

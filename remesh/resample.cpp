@@ -55,13 +55,4 @@ RemeshReport ResampleRemesher::apply(Snake<2>& snake, const RemeshContext<2>&) {
   return report;
 }
 
-std::unique_ptr<Remesher<2>> make_resample_remesher(JsonReader& r) {
-  ResampleOptions o;
-  r.read("min_edge", o.min_edge);
-  r.read("max_edge", o.max_edge);
-  r.expect(o.min_edge > 0, "min_edge", "must be > 0");
-  r.expect(o.max_edge >= 2 * o.min_edge, "max_edge", "must be >= 2 * min_edge");
-  return std::make_unique<ResampleRemesher>(o);
-}
-
 }  // namespace dsnake

@@ -5,28 +5,38 @@
 // min_edge stays as it is: anchors are never merged.)
 #pragma once
 
-#include "framework/json_reader.h"
+#include "framework/options.h"
 #include "framework/remesher.h"
-
-#include <memory>
 
 namespace dsnake {
 
 struct ResampleOptions {
   double min_edge = 0.5;  // physical units
-  double max_edge = 2.0;  // physical units; must be >= 2 * min_edge so that a fit exists
+  double max_edge = 2.0;  // physical units; >= 2 * min_edge so that a fit exists
+
+  template <class V>
+  void visit(V& v) {
+    v(min_edge, Key{"min_edge", "mm", "shortest edge between two free vertices", Range::greater_than(0)});
+    v(max_edge, Key{"max_edge", "mm", "longest edge; at least 2 * min_edge, so that a fit exists", Range::greater_than(0)});
+  }
+  void check() const {
+    if (!(max_edge >= 2 * min_edge)) throw OptionError{"max_edge", "must be >= 2 * min_edge"};
+  }
 };
 
-class ResampleRemesher : public Remesher<2> {
+class ResampleRemesher final : public Remesher<2> {
  public:
-  explicit ResampleRemesher(ResampleOptions options) : options_(options) {}
-  std::string type() const override { return "resample"; }
+  using Options = ResampleOptions;
+  static constexpr const char* kType = "resample";
+  static constexpr const char* kSummary =
+      "2D resampling by arc length: free edges in [min_edge, max_edge], deformation vertices as anchors";
+
+  explicit ResampleRemesher(const ResampleOptions& options = {}) : options_(checked(options, kType)) {}
+  std::string type() const override { return kType; }
   RemeshReport apply(Snake<2>& snake, const RemeshContext<2>& context) override;
 
  private:
   ResampleOptions options_;
 };
-
-std::unique_ptr<Remesher<2>> make_resample_remesher(JsonReader& reader);
 
 }  // namespace dsnake

@@ -191,19 +191,4 @@ RemeshReport SimplifyRemesher::run(EditMesh& m, const RemeshContext<3>& context)
   return report;
 }
 
-std::unique_ptr<Remesher<3>> make_simplify_remesher(JsonReader& r) {
-  SimplifyOptions o;
-  r.read("min_edge", o.min_edge);
-  r.read("max_edge", o.max_edge);
-  r.read("curvature_ratio", o.curvature_ratio);
-  r.read("max_normal_change_deg", o.max_normal_change_deg);
-  r.expect(o.min_edge >= 0, "min_edge", "must be >= 0 (0: one voxel edge)");
-  r.expect(o.max_edge >= 0, "max_edge", "must be >= 0 (0: 2 * min_edge)");
-  r.expect(o.max_edge == 0 || o.min_edge == 0 || o.min_edge < o.max_edge, "min_edge", "must be < max_edge");
-  r.expect(o.curvature_ratio >= 0 && o.curvature_ratio <= 1, "curvature_ratio", "must be in [0, 1]");
-  r.expect(o.max_normal_change_deg > 0 && o.max_normal_change_deg <= 180, "max_normal_change_deg",
-           "must be in (0, 180]");
-  return std::make_unique<SimplifyRemesher>(o);
-}
-
 }  // namespace dsnake

@@ -12,11 +12,10 @@
 // edge can survive when collapsing it would do more harm).
 #pragma once
 
-#include "framework/json_reader.h"
+#include "framework/options.h"
 #include "framework/remesher.h"
 #include "remesh/pass.h"
 
-#include <memory>
 #include <vector>
 
 namespace dsnake {
@@ -26,12 +25,32 @@ struct SimplifyOptions {
   double max_edge = 0;                // longest edge a curvature collapse may create; 0: 2 * min_edge
   double curvature_ratio = 0.1;       // 0 disables the curvature collapses
   double max_normal_change_deg = 45;  // largest turn of a fan triangle's normal per collapse
+
+  template <class V>
+  void visit(V& v) {
+    v(min_edge, Key{"min_edge", "mm", "edges shorter than this are collapsed; 0: one voxel edge (the image's smallest spacing)",
+                    Range::at_least(0)});
+    v(max_edge, Key{"max_edge", "mm", "longest edge a curvature collapse may create; 0: 2 * min_edge", Range::at_least(0)});
+    v(curvature_ratio, Key{"curvature_ratio", "1",
+                           "collapse where the surface moves by less than curvature_ratio * l / 8 [Hoppe 1993]; 0: off",
+                           Range::closed(0, 1)});
+    v(max_normal_change_deg, Key{"max_normal_change_deg", "degrees",
+                                 "largest turn of a fan triangle's normal per collapse", Range::open_closed(0, 180)});
+  }
+  void check() const {
+    if (max_edge != 0 && min_edge != 0 && !(min_edge < max_edge)) throw OptionError{"min_edge", "must be < max_edge"};
+  }
 };
 
-class SimplifyRemesher : public EditStage {
+class SimplifyRemesher final : public EditStage {
  public:
-  explicit SimplifyRemesher(SimplifyOptions options) : options_(options) {}
-  std::string type() const override { return "simplify"; }
+  using Options = SimplifyOptions;
+  static constexpr const char* kType = "simplify";
+  static constexpr const char* kSummary =
+      "§5.4 simplification: half-edge collapses of free vertices on short or flat edges [Hoppe et al. 1993]";
+
+  explicit SimplifyRemesher(const SimplifyOptions& options = {}) : options_(checked(options, kType)) {}
+  std::string type() const override { return kType; }
   RemeshReport run(remesh_detail::EditMesh& m, const RemeshContext<3>& context) override;
   // false: every candidate evaluated in every sweep (the reference for tests; the default
   // reuses a refusal while nothing around the candidate changed, with the same result).
@@ -41,8 +60,6 @@ class SimplifyRemesher : public EditStage {
   SimplifyOptions options_;
   bool reuse_refusals_ = true;
 };
-
-std::unique_ptr<Remesher<3>> make_simplify_remesher(JsonReader& reader);
 
 namespace remesh_detail {
 

@@ -157,14 +157,4 @@ RemeshReport UniformRemesher::run(EditMesh& m, const RemeshContext<3>&) {
   return report;
 }
 
-std::unique_ptr<Remesher<3>> make_uniform_remesher(JsonReader& r) {
-  UniformOptions o;
-  r.read("iterations", o.iterations);
-  r.read("max_normal_change_deg", o.max_normal_change_deg);
-  r.expect(o.iterations >= 1, "iterations", "must be >= 1");
-  r.expect(o.max_normal_change_deg > 0 && o.max_normal_change_deg <= 180, "max_normal_change_deg",
-           "must be in (0, 180]");
-  return std::make_unique<UniformRemesher>(o);
-}
-
 }  // namespace dsnake

@@ -8,29 +8,37 @@
 // angle below min(its old value, 15 degrees), or make the fan cross the surface is rejected.
 #pragma once
 
-#include "framework/json_reader.h"
+#include "framework/options.h"
 #include "framework/remesher.h"
 #include "remesh/pass.h"
-
-#include <memory>
 
 namespace dsnake {
 
 struct UniformOptions {
   int iterations = 1;                 // relaxation sweeps per application
   double max_normal_change_deg = 45;  // largest turn of a fan triangle's normal per move
+
+  template <class V>
+  void visit(V& v) {
+    v(iterations, Key{"iterations", "sweeps", "relaxation sweeps per application", Range::at_least(1)});
+    v(max_normal_change_deg, Key{"max_normal_change_deg", "degrees", "largest turn of a fan triangle's normal per move",
+                                 Range::open_closed(0, 180)});
+  }
 };
 
-class UniformRemesher : public EditStage {
+class UniformRemesher final : public EditStage {
  public:
-  explicit UniformRemesher(UniformOptions options) : options_(options) {}
-  std::string type() const override { return "uniform"; }
+  using Options = UniformOptions;
+  static constexpr const char* kType = "uniform";
+  static constexpr const char* kSummary =
+      "§5.1 uniform distribution: each free vertex to the centre of its one-ring parameterised on the unit circle";
+
+  explicit UniformRemesher(const UniformOptions& options = {}) : options_(checked(options, kType)) {}
+  std::string type() const override { return kType; }
   RemeshReport run(remesh_detail::EditMesh& m, const RemeshContext<3>& context) override;
 
  private:
   UniformOptions options_;
 };
-
-std::unique_ptr<Remesher<3>> make_uniform_remesher(JsonReader& reader);
 
 }  // namespace dsnake

@@ -74,9 +74,9 @@ std::vector<std::unique_ptr<Remesher<3>>> stages(const std::string& which, doubl
   std::vector<std::unique_ptr<Remesher<3>>> out;
   auto add = [&](const std::string& name) {
     if (name == "refine") out.push_back(std::make_unique<RefineRemesher>(RefineOptions{1.3 * edge, 0, 0.5}));
-    if (name == "flips") out.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{"flips", 30, true, 25}));
-    if (name == "flips_only") out.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{"flips", 30, false, 25}));
-    if (name == "planar") out.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{"planar", 30, false, 25}));
+    if (name == "flips") out.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{DelaunayMethod::kFlips, 30, true, 25}));
+    if (name == "flips_only") out.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{DelaunayMethod::kFlips, 30, false, 25}));
+    if (name == "planar") out.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{DelaunayMethod::kPlanar, 30, false, 25}));
     if (name == "uniform") out.push_back(std::make_unique<UniformRemesher>(UniformOptions{1, 45}));
     if (name == "simplify") out.push_back(std::make_unique<SimplifyRemesher>(SimplifyOptions{0.5 * edge, edge, 0.1, 45}));
   };

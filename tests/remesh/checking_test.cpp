@@ -28,9 +28,9 @@ using remesh_detail::EditMesh;
 std::vector<std::unique_ptr<Remesher<3>>> pipeline(double edge, EditChecking checking) {
   std::vector<std::unique_ptr<Remesher<3>>> p;
   p.push_back(std::make_unique<RefineRemesher>(RefineOptions{0.8 * edge, 0, 0.5}));
-  p.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{"flips", 30, true, 25}));
+  p.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{DelaunayMethod::kFlips, 30, true, 25}));
   p.push_back(std::make_unique<UniformRemesher>(UniformOptions{2, 45}));
-  p.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{"planar", 30, true, 25}));
+  p.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{DelaunayMethod::kPlanar, 30, true, 25}));
   p.push_back(std::make_unique<SimplifyRemesher>(SimplifyOptions{0.3 * edge, 0.8 * edge, 0.1, 45}));
   for (auto& r : p) static_cast<EditStage&>(*r).set_checking(checking);
   return p;
@@ -142,7 +142,7 @@ TEST(OptimisticChecking, ACrossingAfterAPassSendsTheWholePassBackToCheckingEvery
   const Snake<3> base = nested_spheres(2e-4);
   auto run = [&](EditChecking checking) {
     std::vector<std::unique_ptr<Remesher<3>>> stages;
-    stages.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{"flips", 30, false, 25}));
+    stages.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{DelaunayMethod::kFlips, 30, false, 25}));
     stages.push_back(std::make_unique<UniformRemesher>(UniformOptions{1, 45}));
     stages.push_back(std::make_unique<UniformRemesher>(UniformOptions{1, 45}));
     for (auto& r : stages) static_cast<EditStage&>(*r).set_checking(checking);
@@ -362,7 +362,7 @@ TEST(ReusedRefusals, SameMeshAndReportsAsEvaluatingEveryCandidate) {
     auto stages = [&](bool reuse) {
       std::vector<std::unique_ptr<Remesher<3>>> p;
       p.push_back(std::make_unique<RefineRemesher>(RefineOptions{0.9 * c.edge, 0, 0.5}));
-      auto flips = std::make_unique<DelaunayRemesher>(DelaunayOptions{"flips", 30, true, 25});
+      auto flips = std::make_unique<DelaunayRemesher>(DelaunayOptions{DelaunayMethod::kFlips, 30, true, 25});
       flips->set_reuse_refusals(reuse);
       p.push_back(std::move(flips));
       p.push_back(std::make_unique<UniformRemesher>(UniformOptions{1, 45}));

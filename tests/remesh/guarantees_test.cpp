@@ -56,7 +56,7 @@ std::vector<std::unique_ptr<Remesher<3>>> pipeline(double edge) {
   p.push_back(std::make_unique<RefineRemesher>(RefineOptions{0.8 * edge, 0, 0.5}));
   p.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{}));
   p.push_back(std::make_unique<UniformRemesher>(UniformOptions{2, 45}));
-  p.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{"planar", 30, true, 25}));
+  p.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{DelaunayMethod::kPlanar, 30, true, 25}));
   p.push_back(std::make_unique<SimplifyRemesher>(SimplifyOptions{0.3 * edge, 0.8 * edge, 0.1, 45}));
   return p;
 }

@@ -235,10 +235,10 @@ Snake<3> jittered_torus(int nu, int nv, unsigned seed) {
 std::vector<std::unique_ptr<Remesher<3>>> full_pass(double edge) {
   std::vector<std::unique_ptr<Remesher<3>>> p;
   p.push_back(std::make_unique<RefineRemesher>(RefineOptions{1.3 * edge, 0, 0.5}));
-  p.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{"flips", 30, true, 25}));
+  p.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{DelaunayMethod::kFlips, 30, true, 25}));
   p.push_back(std::make_unique<UniformRemesher>(UniformOptions{2, 45}));
   p.push_back(std::make_unique<SimplifyRemesher>(SimplifyOptions{0.5 * edge, edge, 0.1, 45}));
-  p.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{"planar", 30, true, 25}));
+  p.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{DelaunayMethod::kPlanar, 30, true, 25}));
   p.push_back(std::make_unique<UniformRemesher>(UniformOptions{1, 45}));
   return p;
 }

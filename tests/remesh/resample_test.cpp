@@ -1,5 +1,7 @@
 #include "remesh/resample.h"
 
+#include "remesh/registry.h"
+
 #include "framework/errors.h"
 
 #include <gtest/gtest.h>
@@ -49,8 +51,7 @@ TEST(ResampleRemesher, EdgesFallBetweenMinAndMaxAndAnchorsStay) {
 TEST(ResampleRemesher, RejectsInconsistentOptions) {
   const auto j = nlohmann::json::parse(R"({"type": "resample", "min_edge": 2, "max_edge": 3})");
   JsonReader reader(j, "f", "phases[0].remesh[0]");
-  reader.skip("type");
-  EXPECT_THROW(make_resample_remesher(reader), InputError);
+  EXPECT_THROW(remesher_registry<2>().create(reader), InputError);
 }
 
 }  // namespace

@@ -101,7 +101,7 @@ TEST(DelaunayRemesher, FlipsMakeEveryEdgeDelaunayWithoutMovingVertices) {
   RefineRemesher({0.1, 0, 0.5}).apply(s, {});  // sqrt(3)-style 1->3 split of every triangle
   ASSERT_GT(max_opposite_angle_sum(s), std::numbers::pi + 0.1);
   const PointList<3> before = s.positions();
-  const auto report = DelaunayRemesher({"flips", 30, false, 25}).apply(s, {});
+  const auto report = DelaunayRemesher({DelaunayMethod::kFlips, 30, false, 25}).apply(s, {});
   EXPECT_EQ(report.rejected_edits, 0);
   EXPECT_LE(max_opposite_angle_sum(s), std::numbers::pi + 1e-9);
   EXPECT_EQ(s.positions(), before);
@@ -241,7 +241,7 @@ TEST(RemeshQuality, FullRefinementPipelineOnASphereIsAlmostRegular) {
   // A refined sphere: refine past the edge length, then the pipeline, a few passes.
   Snake<3> s = test::with_free_vertices(test::icosphere(2, 10.0), 1);
   RefineRemesher refine({1.5, 0, 0.5});
-  DelaunayRemesher delaunay({});
+  DelaunayRemesher delaunay;
   UniformRemesher uniform({2, 45});
   SimplifyRemesher simplify({0.5, 1.0, 0.1, 45});
   for (int pass = 0; pass < 4; ++pass)
@@ -259,7 +259,7 @@ TEST(RemeshQuality, GradualScheduleOnASphere) {
   // §6: the threshold falls over the phase, so refinement is partial at most passes.
   Snake<3> s = test::icosphere(1, 10.0);
   RefineRemesher refine({1.0, 6.0, 0.6});
-  DelaunayRemesher delaunay({});
+  DelaunayRemesher delaunay;
   UniformRemesher uniform({2, 45});
   SimplifyRemesher simplify({0.4, 0.8, 0.1, 45});
   RemeshContext<3> context;
@@ -284,7 +284,7 @@ TEST(RemeshQuality, GradualScheduleOnAStarMakesNoSlivers) {
   for (auto& x : q) x *= 10;
   s = Snake<3>(q, s.connectivity(), s.template_ids());
   RefineRemesher refine({1.0, 6.0, 0.6});
-  DelaunayRemesher delaunay({});
+  DelaunayRemesher delaunay;
   UniformRemesher uniform({2, 45});
   SimplifyRemesher simplify({0.4, 0.8, 0.1, 45});
   RemeshContext<3> context;

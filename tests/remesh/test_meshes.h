@@ -1,5 +1,6 @@
 // Closed test surfaces built in code for the remeshing tests and benchmark: an icosphere
-// (genus 0), a torus (genus 1), a two-holed slab (genus 2) and a star-shaped sphere.
+// (genus 0), a torus (genus 1), a two-holed slab (genus 2) and a star-shaped sphere; and a
+// closed polygon for the 2D stages.
 #pragma once
 
 #include "framework/shape.h"
@@ -138,6 +139,20 @@ inline Snake<3> with_free_vertices(const Snake<3>& s, int keep_every) {
   for (size_t v = 0; v < ids.size(); ++v)
     if (v % keep_every != 0) ids[v] = -1;
   return Snake<3>(s.positions(), s.connectivity(), std::move(ids));
+}
+
+// An ellipse with semi-axes a and b as a closed counter-clockwise polygon of n vertices, spaced
+// unevenly (the parameter t_k = 2 pi k / n + 0.3 sin(2 pi k / n)), every `keep_every`-th a
+// deformation vertex (template id k), the others free.
+inline Snake<2> uneven_ellipse(int n, double a = 20.0, double b = 10.0, int keep_every = 4) {
+  PointList<2> q;
+  std::vector<int> ids;
+  for (int k = 0; k < n; ++k) {
+    const double u = 2 * std::numbers::pi * k / n, t = u + 0.3 * std::sin(u);
+    q.push_back(Point<2>(a * std::cos(t), b * std::sin(t)));
+    ids.push_back(k % keep_every == 0 ? k : -1);
+  }
+  return Snake<2>(std::move(q), Connectivity::polygon(n), std::move(ids));
 }
 
 }  // namespace dsnake::test

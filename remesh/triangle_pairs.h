@@ -1,0 +1,125 @@
+// Internal to remesh/: the pair tests of the EditMesh's crossing checks (mesh_edit.h), shared by
+// the broad phase of single edits (broad_phase.cpp), the optimistic check of a stage's result
+// (optimistic_check.cpp) and the brute-force reference: float box filters rounded outwards, and
+// whether two triangles conflict given the vertices they share. Inline, as they were when they
+// lived in one file with their callers: they run once per candidate pair.
+#pragma once
+
+#include "framework/metrics_geometry.h"
+#include "remesh/mesh_edit.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+namespace dsnake::remesh_detail {
+
+// x as a float at most / at least x (box filters that never reject a real overlap): moved
+// outwards by 2^-20 relative (plus a tiny absolute term) before the conversion, whose
+// rounding is at most 2^-24 relative. Cheaper than nextafter, and only a filter.
+inline float float_down(double x) { return static_cast<float>(x - (std::abs(x) * 0x1p-20 + 1e-30)); }
+inline float float_up(double x) { return static_cast<float>(x + (std::abs(x) * 0x1p-20 + 1e-30)); }
+
+// [lo, hi] as a FloatBox that contains it.
+inline FloatBox outward(const Point<3>& lo, const Point<3>& hi) {
+  FloatBox b;
+  for (int k = 0; k < 3; ++k) b.lo[k] = float_down(lo[k]), b.hi[k] = float_up(hi[k]);
+  return b;
+}
+
+// Boxes entirely apart along some axis (without branches, which mispredict on such data).
+inline bool apart(const FloatBox& a, const FloatBox& b) {
+  return (a.lo[0] > b.hi[0]) | (a.lo[1] > b.hi[1]) | (a.lo[2] > b.hi[2]) | (b.lo[0] > a.hi[0]) |
+         (b.lo[1] > a.hi[1]) | (b.lo[2] > a.hi[2]);
+}
+
+constexpr double kFoldCos = 0.990268;  // cos(8 degrees): closer than that across an edge is a fold
+
+// Closed segment [p, q] against the closed triangle (a, b, c), Moller-Trumbore; a segment
+// parallel to the triangle's plane counts as missing it (the coplanar case is left to the
+// fold and normal checks of the edits). Two cheap rejections come first: disjoint boxes, and
+// both ends strictly on one side of the plane (by a relative margin of 1e-9, far above
+// rounding, so that the exact test could only have said "no" as well: t would be outside
+// [0, 1] by more than 1e-9).
+// tlo, thi: the triangle's bounding box (the caller has it).
+inline bool segment_hits_triangle(const Point<3>& p, const Point<3>& q, const Point<3>& a, const Point<3>& b,
+                                  const Point<3>& c, const Point<3>& tlo, const Point<3>& thi) {
+  const double slack = 1e-9 * (thi - tlo).maxCoeff();
+  if ((p.cwiseMax(q).array() < tlo.array() - slack).any() || (p.cwiseMin(q).array() > thi.array() + slack).any())
+    return false;
+  const Point<3> e1 = b - a, e2 = c - a;
+  const Point<3> n = e1.cross(e2);
+  const double dp = n.dot(p - a), dq = n.dot(q - a);
+  if ((dp > 0 && dq > 0) || (dp < 0 && dq < 0)) {
+    const double small = std::min(std::abs(dp), std::abs(dq)), large = std::max(std::abs(dp), std::abs(dq));
+    if (small > 1e-9 * large) return false;
+  }
+  const Point<3> d = q - p;
+  const Point<3> h = d.cross(e2);
+  const double det = e1.dot(h);
+  const double scale = d.norm() * e1.norm() * e2.norm();
+  if (std::abs(det) <= 1e-12 * scale) return false;
+  const double inv = 1.0 / det;
+  const Point<3> s = p - a;
+  const double u = inv * s.dot(h);
+  if (u < -1e-12 || u > 1 + 1e-12) return false;
+  const Point<3> qv = s.cross(e1);
+  const double v = inv * d.dot(qv);
+  if (v < -1e-12 || u + v > 1 + 1e-12) return false;
+  const double t = inv * e2.dot(qv);
+  return t >= -1e-12 && t <= 1 + 1e-12;
+}
+
+// true if the three points lie strictly on one side of the plane of triangle q, by a margin
+// (1e-10 of |n|_1 |x - q0|_inf, which bounds |n . (x - q0)|) far above rounding: then the
+// two triangles cannot meet, whatever the exact test would compute.
+inline bool strictly_one_side(const std::array<Point<3>, 3>& p, const std::array<Point<3>, 3>& q) {
+  const Point<3> n = (q[1] - q[0]).cross(q[2] - q[0]);
+  const double n1 = n.lpNorm<1>();
+  int above = 0, below = 0;
+  for (const auto& x : p) {
+    const Point<3> r = x - q[0];
+    const double d = n.dot(r), margin = 1e-10 * n1 * r.lpNorm<Eigen::Infinity>();
+    if (d > margin) ++above;
+    else if (d < -margin) ++below;
+  }
+  return above == 3 || below == 3;
+}
+
+// Whether triangles A and B (vertex ids ta, tb, positions pa, pb) conflict, given the vertices
+// they share: disjoint ones must not touch; with one shared vertex, neither opposite edge may
+// pierce the other triangle; with a shared edge, they must not fold onto each other.
+// loa, hia, lob, hib: the triangles' bounding boxes.
+inline bool pair_conflicts(const Triangle& ta, const std::array<Point<3>, 3>& pa, const Point<3>& loa,
+                           const Point<3>& hia, const Triangle& tb, const std::array<Point<3>, 3>& pb, const Point<3>& lob,
+                           const Point<3>& hib) {
+  int shared = 0, ia = -1, ib = -1;  // ia/ib: a shared corner's index in A/B
+  int sa[3] = {0, 0, 0}, sb[3] = {0, 0, 0};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (ta[i] == tb[j]) { ++shared; sa[i] = 1; sb[j] = 1; ia = i; ib = j; }
+  if (shared == 0) {
+    if (strictly_one_side(pa, pb) || strictly_one_side(pb, pa)) return false;
+    return detail::triangles_intersect(pa, pb);
+  }
+  if (shared == 3) return true;  // a duplicate triangle
+  if (shared == 1) {
+    return segment_hits_triangle(pa[(ia + 1) % 3], pa[(ia + 2) % 3], pb[0], pb[1], pb[2], lob, hib) ||
+           segment_hits_triangle(pb[(ib + 1) % 3], pb[(ib + 2) % 3], pa[0], pa[1], pa[2], loa, hia);
+  }
+  // Shared edge: the opening angle between the two half-planes must exceed 8 degrees.
+  int oa = 0, ob = 0;
+  while (sa[oa]) ++oa;
+  while (sb[ob]) ++ob;
+  const Point<3>& u = pa[(oa + 1) % 3];
+  const Point<3> e = (pa[(oa + 2) % 3] - u).normalized();
+  Point<3> xa = pa[oa] - u, xb = pb[ob] - u;
+  xa -= xa.dot(e) * e;
+  xb -= xb.dot(e) * e;
+  const double na = xa.norm(), nb = xb.norm();
+  if (na == 0 || nb == 0) return true;
+  return xa.dot(xb) / (na * nb) > kFoldCos;
+}
+
+}  // namespace dsnake::remesh_detail
