@@ -54,8 +54,8 @@ template <int D>
 void ArapEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   Data& d = *data_;
   DSNAKE_ASSERT(d.tmpl != nullptr, "bind() before propose()");
-  if (d.bound_vertices != snake.num_vertices() || d.bound_version != snake.topology_version())
-    bind(EnergyContext<D>{}, snake);  // a remesh: only the template id -> vertex map changes
+  DSNAKE_ASSERT(d.bound_vertices == snake.num_vertices() && d.bound_version == snake.topology_version(),
+                "bound to the snake's topology (the phase driver rebinds after a remesh)");
   const Template<D>& t = *d.tmpl;
   const int n = d.n;
   for (int k = 0; k < n; ++k) d.q[k] = snake.positions()[d.vertex_of_id[k]];

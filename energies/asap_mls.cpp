@@ -234,8 +234,8 @@ template <int D>
 void AsapMlsEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   Data& d = *data_;
   DSNAKE_ASSERT(d.tmpl != nullptr, "bind() before propose()");
-  if (d.bound_vertices != snake.num_vertices() || d.bound_version != snake.topology_version())
-    bind(EnergyContext<D>{}, snake);  // a remesh: only the template id -> vertex map changes
+  DSNAKE_ASSERT(d.bound_vertices == snake.num_vertices() && d.bound_version == snake.topology_version(),
+                "bound to the snake's topology (the phase driver rebinds after a remesh)");
   const PointList<D>& q = snake.positions();
   for (int t = 0; t < d.n; ++t) d.q[t] = q[d.vertex_of_id[t]];
   for (int s = 0; s < options_.power; ++s) step();

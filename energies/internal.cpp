@@ -178,8 +178,8 @@ void InternalEnergy<D>::bind(const EnergyContext<D>&, const Snake<D>& snake) {
 template <int D>
 void InternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   Solver& s = *solver_;
-  if (s.num_vertices != snake.num_vertices() || s.topology_version != snake.topology_version())
-    bind(EnergyContext<D>{}, snake);
+  DSNAKE_ASSERT(s.num_vertices == snake.num_vertices() && s.topology_version == snake.topology_version(),
+                "bound to the snake's topology (the phase driver rebinds after a remesh)");
   DSNAKE_ASSERT(int(out.size()) == snake.num_vertices(), "out has one entry per vertex");
   if (s.iterations > 0)
     propose_chebyshev(snake, out);

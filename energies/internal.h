@@ -68,8 +68,8 @@ class InternalEnergy final : public Energy<D> {
   // Chebyshev solver, builds the one-ring table and the iteration count instead.
   void bind(const EnergyContext<D>& context, const Snake<D>& snake) override;
 
-  // out[v] = ((gamma I + A)^{-1} gamma q)_v for every vertex; rebinds first if the snake's
-  // topology version or size differs from the bound one. Allocates nothing otherwise.
+  // out[v] = ((gamma I + A)^{-1} gamma q)_v for every vertex. Asserts that bind() saw the
+  // snake's current topology (the phase driver rebinds after a remesh). Allocates nothing.
   void propose(const Snake<D>& snake, PointList<D>& out) override;
 
   // 2D: sum_i 1/2 alpha |q_{i+1} - q_i|^2 + 1/2 beta |q_{i+1} - 2 q_i + q_{i-1}|^2, whose

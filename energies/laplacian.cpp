@@ -119,8 +119,8 @@ template <int D>
 void LaplacianEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   Data& d = *data_;
   DSNAKE_ASSERT(d.tmpl != nullptr, "bind() before propose()");
-  if (d.bound_vertices != snake.num_vertices() || d.bound_version != snake.topology_version())
-    bind(EnergyContext<D>{}, snake);  // a remesh: only the template id -> vertex map changes
+  DSNAKE_ASSERT(d.bound_vertices == snake.num_vertices() && d.bound_version == snake.topology_version(),
+                "bound to the snake's topology (the phase driver rebinds after a remesh)");
   for (int t = 0; t < d.n; ++t) d.q[t] = snake.positions()[d.vertex_of_id[t]];
   if (options_.iteration == LaplacianIteration::kGaussSeidel) d.quadratic.gauss_seidel(d.q);
   else { d.quadratic.jacobi(d.q, d.next); std::swap(d.q, d.next); }

@@ -4,7 +4,7 @@
 #include "framework/errors.h"
 #include "framework/image_io.h"
 #include "framework/mesh_io.h"
-#include "remesh/pass.h"
+#include "remesh/pipeline.h"
 
 #include <fstream>
 
@@ -146,10 +146,12 @@ std::vector<Phase<D>> assemble_phases(const ExperimentSpec<D>& spec) {
     ph.tolerance = s.tolerance;
     ph.every = s.every;
     ph.weights = s.weights;
-    for (const auto& stage : s.remesh) ph.remeshers.push_back(stage.build());
-    // 3D stages share one editable mesh per pass (same result, no rebuild between stages)
-    if constexpr (D == 3)
-      if (!ph.remeshers.empty()) ph.remesh_pass = apply_pass;
+    // The stages as one pipeline (3D: one pass over a shared editable mesh, same result).
+    if (!s.remesh.empty()) {
+      std::vector<std::unique_ptr<Remesher<D>>> stages;
+      for (const auto& stage : s.remesh) stages.push_back(stage.build());
+      ph.remesher = std::make_unique<RemeshPipeline<D>>(std::move(stages));
+    }
     phases.push_back(std::move(ph));
   }
   return phases;

@@ -224,13 +224,13 @@ PointList<3> undeform_bunny(const Template<3>& t, const Point<3>& center, const 
 
 std::optional<Template<3>> make_bunny_template(JsonReader& r, const std::string& kind) {
   if (kind != "bunny") return std::nullopt;
-  const std::string path = read_mesh_path(r);
   const double fit = read_fit(r);
   const Point<3> center = read_center(r, fit);
   int vertices = 358;
   r.read("vertices", vertices);
   r.expect(vertices >= 8 && vertices <= 1000000, "vertices", "must be in [8, 1000000]");
   const BunnyDeformation d = read_deformation(r);
+  const std::string path = read_mesh_path(r);  // last: the parameters are checked first
   Template<3> t = simplify_mesh_quadric(load_fitted_mesh(path, fit, center), vertices);
   deform_bunny(t, center, d);
   return t;

@@ -114,15 +114,8 @@ std::vector<EnergySpec<D>> read_energies_section(JsonReader& top, const Experime
 template <int D>
 PhaseSpec<D> read_phase(JsonReader& r, size_t num_energies) {
   PhaseSpec<D> ph;
-  r.read("name", ph.name);
-  r.read("iterations", ph.iterations);
-  r.read("tolerance", ph.tolerance);
-  r.read("every", ph.every);
-  r.expect(ph.iterations >= 0 && ph.iterations <= 10000000, "iterations", "must be in [0, 10000000]");
-  r.expect(ph.tolerance >= 0, "tolerance", "must be >= 0");
-  r.expect(ph.every >= 1, "every", "must be >= 1");
+  read_options(r, ph);
   if (r.has("weights")) {
-    r.read("weights", ph.weights);
     r.expect(ph.weights.size() == num_energies, "weights",
              "expected one weight per energy (" + std::to_string(num_energies) + ")");
     bool any = false;

@@ -66,6 +66,16 @@ struct PhaseSpec {
   int every = 1;
   std::vector<double> weights;  // one per energy, or empty
   std::vector<PluginSpec<Remesher<D>>> remesh;
+
+  // The phase's own keys ("remesh" is read by the remesher registry).
+  template <class V>
+  void visit(V& v) {
+    v(name, Key{"name", "", "shown in progress lines and result.json (default \"#k\")"});
+    v(iterations, Key{"iterations", "iterations", "the phase's iteration budget (global solve: Ceres iterations are counted)", Range::closed(0, 10000000)});
+    v(tolerance, Key{"tolerance", "mm", "stop when the largest vertex move of an iteration is below (0: never)", Range::at_least(0)});
+    v(every, Key{"every", "iterations", "run the remeshing stages every `every` iterations", Range::at_least(1)});
+    v(weights, Key{"weights", "1", "one weight per energy for this phase, in the energies' order (0 switches a term off); default: their own weights"});
+  }
 };
 
 template <int D>

@@ -6,16 +6,18 @@
 //   dsnake field --image X --type gvf [--param key=value ...] [--field-cache DIR] --out field.mha
 //   dsnake sweep SWEEP.json [--out DIR] [-j N] [--threads T] [--manifest parallel|slurm]
 //                [--aggregate-only] [--quiet]                    (experiments/sweep.h)
+//   dsnake schema [--markdown]       the experiment file's JSON Schema, or its key tables
 // Exit codes: 0 done, 2 bad input (one line on stderr naming the file and the JSON path or
 // element), 1 anything else (for a sweep: a run failed), 130 a sweep stopped by a signal.
 #include "experiments/experiment.h"
 #include "experiments/field_command.h"
 #include "experiments/runner.h"
+#include "experiments/schema.h"
 #include "experiments/sweep.h"
+#include "framework/errors.h"
 
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include "framework/errors.h"
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
@@ -78,6 +80,99 @@ int sweep(const std::string& file, SweepOptions options) {
   return summary.failed > 0 ? 1 : 0;
 }
 
+// Every subcommand's options, filled by CLI11.
+struct CommandLine {
+  std::string config;
+  std::vector<std::string> overrides;
+  RunOptions run;
+  int threads = 0;
+  std::string field_cache;
+  std::string validate_config;
+  std::vector<std::string> validate_overrides;
+  FieldCommandOptions field;
+  std::string sweep_file;
+  SweepOptions sweep;
+  bool schema_markdown = false;
+  CLI::App *run_cmd = nullptr, *validate_cmd = nullptr, *field_cmd = nullptr, *sweep_cmd = nullptr,
+           *schema_cmd = nullptr;
+};
+
+// "--set key.path=value", repeatable.
+void add_overrides(CLI::App* cmd, std::vector<std::string>& overrides, const char* help) {
+  cmd->add_option("--set", overrides, help)
+      ->expected(1)
+      ->allow_extra_args(false)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+}
+
+void add_run_and_validate(CLI::App& app, CommandLine& c) {
+  c.run_cmd = app.add_subcommand("run", "Run an experiment and write its output folder");
+  c.run_cmd->add_option("config", c.config,
+                        "Experiment file (JSON), or builtin:NAME (default, ellipsoid); none runs builtin:default");
+  c.run_cmd->add_option("--out,-o", c.run.out_dir, "Output folder (default: out/<experiment name>)");
+  add_overrides(c.run_cmd, c.overrides, "Override a key of the experiment file: key.path=value (repeatable)");
+  c.run_cmd->add_option("--threads,-j", c.threads, "OpenMP threads (default: all cores)")->check(CLI::Range(1, 1024));
+  c.run_cmd->add_flag("--quiet,-q", c.run.quiet, "No progress lines on stderr");
+  c.run_cmd->add_option("--field-cache", c.field_cache, "Store and reuse computed fields in this folder");
+
+  c.validate_cmd = app.add_subcommand("validate", "Check an experiment or sweep file without running it");
+  c.validate_cmd->add_option("config", c.validate_config, "Experiment file (JSON), sweep file, or builtin:NAME")->required();
+  add_overrides(c.validate_cmd, c.validate_overrides, "Override a key: key.path=value (repeatable)");
+}
+
+void add_field(CLI::App& app, CommandLine& c) {
+  c.field_cmd = app.add_subcommand("field", "Compute one external field from an image and write it (2D: also a PNG)");
+  FieldCommandOptions& f = c.field;
+  c.field_cmd->add_option("--image", f.image, "Image or volume file")->required();
+  c.field_cmd->add_option("--type", f.type, "gradient, gvf, ddgvf, vfc or distance (default gvf)");
+  c.field_cmd->add_option("--param", f.params, "A field option key=value (repeatable), e.g. --param mu=0.1")
+      ->expected(1)
+      ->allow_extra_args(false)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  c.field_cmd->add_option("--field-cache", f.cache, "Field cache folder");
+  c.field_cmd->add_option("--out,-o", f.out, "Output vector image (.mha, .mhd, .nii, .nii.gz)")->required();
+  c.field_cmd->add_option("--png", f.png, "2D figure (default: --out with .png)");
+  c.field_cmd->add_flag("--no-png", f.no_png, "No 2D figure");
+  c.field_cmd->add_option("--threads,-j", c.threads, "OpenMP threads (default: all cores)")->check(CLI::Range(1, 1024));
+}
+
+void add_sweep_and_schema(CLI::App& app, CommandLine& c) {
+  c.sweep_cmd = app.add_subcommand(
+      "sweep", "Run an experiment over methods x parameter grid x corruption levels x seeds (resumable)");
+  SweepOptions& o = c.sweep;
+  c.sweep_cmd->add_option("sweep", c.sweep_file, "Sweep file (JSON; format in experiments/sweep.h)")->required();
+  c.sweep_cmd->add_option("--out,-o", o.out_dir, "Output folder (runs/, results.csv, breakdown.csv; default out/<sweep file name>)");
+  c.sweep_cmd->add_option("--jobs,-j", o.jobs, "Runs at once (child processes; default 1)")->check(CLI::Range(1, 1024));
+  c.sweep_cmd->add_option("--threads", o.threads, "OpenMP threads per run (default: 1 with -j > 1, else all)")
+      ->check(CLI::Range(1, 1024));
+  auto* manifest_opt =
+      c.sweep_cmd
+          ->add_option("--manifest", o.manifest,
+                       "Write the unfinished runs for GNU parallel (manifest.txt) or Slurm (also sweep.slurm); run nothing")
+          ->check(CLI::IsMember({"parallel", "slurm"}));
+  c.sweep_cmd->add_flag("--aggregate-only", o.aggregate_only, "Only rebuild results.csv and breakdown.csv")->excludes(manifest_opt);
+  c.sweep_cmd->add_flag("--quiet,-q", o.quiet, "No progress lines on stderr");
+
+  c.schema_cmd = app.add_subcommand(
+      "schema", "Print the JSON Schema of experiment and sweep files (editors validate and complete with it)");
+  c.schema_cmd->add_flag("--markdown", c.schema_markdown, "Print the key tables of docs/experiment-file.md instead");
+}
+
+int schema(bool markdown) {
+  const std::string text = markdown ? experiment_reference_markdown() : experiment_schema().dump(2) + "\n";
+  std::fwrite(text.data(), 1, text.size(), stdout);
+  return 0;
+}
+
+int dispatch(const CommandLine& c) {
+  if (c.threads > 0) omp_set_num_threads(c.threads);
+  if (*c.run_cmd) return run(c.config, c.overrides, c.field_cache, c.run);
+  if (*c.field_cmd) return run_field_command(c.field);
+  if (*c.sweep_cmd) return sweep(c.sweep_file, c.sweep);
+  if (*c.schema_cmd) return schema(c.schema_markdown);
+  return validate(c.validate_config, c.validate_overrides);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -85,65 +180,10 @@ int main(int argc, char** argv) {
                "(D-Snake, Levi & Gotsman)"};
   app.require_subcommand(1);
   app.set_version_flag("--version", dsnake_version());
-
-  std::string config;
-  std::vector<std::string> overrides;
-  RunOptions options;
-  int threads = 0;
-  auto* run_cmd = app.add_subcommand("run", "Run an experiment and write its output folder");
-  run_cmd->add_option("config", config,
-                      "Experiment file (JSON), or builtin:NAME (default, ellipsoid); none runs builtin:default");
-  run_cmd->add_option("--out,-o", options.out_dir, "Output folder (default: out/<experiment name>)");
-  run_cmd->add_option("--set", overrides, "Override a key of the experiment file: key.path=value (repeatable)")
-      ->expected(1)
-      ->allow_extra_args(false)
-      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
-  run_cmd->add_option("--threads,-j", threads, "OpenMP threads (default: all cores)")->check(CLI::Range(1, 1024));
-  run_cmd->add_flag("--quiet,-q", options.quiet, "No progress lines on stderr");
-  std::string field_cache;
-  run_cmd->add_option("--field-cache", field_cache, "Store and reuse computed fields in this folder");
-
-  std::string validate_config;
-  std::vector<std::string> validate_overrides;
-  auto* validate_cmd = app.add_subcommand("validate", "Check an experiment or sweep file without running it");
-  validate_cmd->add_option("config", validate_config, "Experiment file (JSON), sweep file, or builtin:NAME")->required();
-  validate_cmd->add_option("--set", validate_overrides, "Override a key: key.path=value (repeatable)")
-      ->expected(1)
-      ->allow_extra_args(false)
-      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
-
-  FieldCommandOptions field_options;
-  auto* field_cmd =
-      app.add_subcommand("field", "Compute one external field from an image and write it (2D: also a PNG)");
-  field_cmd->add_option("--image", field_options.image, "Image or volume file")->required();
-  field_cmd->add_option("--type", field_options.type, "gradient, gvf, ddgvf, vfc or distance (default gvf)");
-  field_cmd->add_option("--param", field_options.params, "A field option key=value (repeatable), e.g. --param mu=0.1")
-      ->expected(1)
-      ->allow_extra_args(false)
-      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
-  field_cmd->add_option("--field-cache", field_options.cache, "Field cache folder");
-  field_cmd->add_option("--out,-o", field_options.out, "Output vector image (.mha, .mhd, .nii, .nii.gz)")->required();
-  field_cmd->add_option("--png", field_options.png, "2D figure (default: --out with .png)");
-  field_cmd->add_flag("--no-png", field_options.no_png, "No 2D figure");
-  field_cmd->add_option("--threads,-j", threads, "OpenMP threads (default: all cores)")->check(CLI::Range(1, 1024));
-
-  std::string sweep_file;
-  SweepOptions sweep_options;
-  auto* sweep_cmd = app.add_subcommand(
-      "sweep", "Run an experiment over methods x parameter grid x corruption levels x seeds (resumable)");
-  sweep_cmd->add_option("sweep", sweep_file, "Sweep file (JSON; format in experiments/sweep.h)")->required();
-  sweep_cmd->add_option("--out,-o", sweep_options.out_dir,
-                        "Output folder (runs/, results.csv, breakdown.csv; default out/<sweep file name>)");
-  sweep_cmd->add_option("--jobs,-j", sweep_options.jobs, "Runs at once (child processes; default 1)")->check(CLI::Range(1, 1024));
-  sweep_cmd->add_option("--threads", sweep_options.threads, "OpenMP threads per run (default: 1 with -j > 1, else all)")
-      ->check(CLI::Range(1, 1024));
-  auto* manifest_opt = sweep_cmd->add_option("--manifest", sweep_options.manifest,
-                        "Write the unfinished runs for GNU parallel (manifest.txt) or Slurm (also sweep.slurm); run nothing")
-      ->check(CLI::IsMember({"parallel", "slurm"}));
-  sweep_cmd->add_flag("--aggregate-only", sweep_options.aggregate_only, "Only rebuild results.csv and breakdown.csv")
-      ->excludes(manifest_opt);
-  sweep_cmd->add_flag("--quiet,-q", sweep_options.quiet, "No progress lines on stderr");
-
+  CommandLine c;
+  add_run_and_validate(app, c);
+  add_field(app, c);
+  add_sweep_and_schema(app, c);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -156,13 +196,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "dsnake: error: command line: %s (see dsnake --help)\n", e.what());
     return 2;
   }
-
   try {
-    if (threads > 0) omp_set_num_threads(threads);
-    if (*run_cmd) return run(config, overrides, field_cache, options);
-    if (*field_cmd) return run_field_command(field_options);
-    if (*sweep_cmd) return sweep(sweep_file, sweep_options);
-    return validate(validate_config, validate_overrides);
+    return dispatch(c);
   } catch (const InputError& e) {
     std::fprintf(stderr, "dsnake: error: %s\n", e.what());
     return 2;

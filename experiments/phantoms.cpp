@@ -480,4 +480,17 @@ template std::vector<std::optional<Point<2>>> phantom_targets<2>(const nlohmann:
 template std::vector<std::optional<Point<3>>> phantom_targets<3>(const nlohmann::json&, const nlohmann::json&,
                                                                  const Template<3>&);
 
+template <>
+std::vector<std::string> image_phantom_kinds<2>() { return {"disk", "square", "star", "puzzle", "lung_slice"}; }
+template <>
+std::vector<std::string> image_phantom_kinds<3>() {
+  return {"sphere", "ellipsoid", "star", "tetris", "lung", "bone", "mesh", "points"};
+}
+template <>
+std::vector<std::string> template_phantom_kinds<2>() { return {"circle", "star", "puzzle", "lung_slice"}; }
+template <>
+std::vector<std::string> template_phantom_kinds<3>() {
+  return {"sphere", "ellipsoid", "star", "tetris", "bar", "c_shape", "lung", "bone", "bunny"};
+}
+
 }  // namespace dsnake

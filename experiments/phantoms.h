@@ -50,6 +50,12 @@ std::vector<std::optional<Point<D>>> phantom_targets(const nlohmann::json& image
                                                      const nlohmann::json& template_spec,
                                                      const Template<D>& tmpl);
 
+// The kinds that "image": {"phantom": ...} and "template": {"phantom": ...} accept in D dimensions.
+template <int D>
+std::vector<std::string> image_phantom_kinds();
+template <int D>
+std::vector<std::string> template_phantom_kinds();
+
 // A closed icosphere of radius 1 about the origin: 10 * 4^k + 2 vertices, outward triangles.
 Template<3> make_icosphere(int subdivisions);
 

@@ -3,6 +3,7 @@
 #include "experiments/figures.h"
 #include "framework/atomic_file.h"
 #include "framework/errors.h"
+#include "framework/evolver.h"
 #include "framework/global_solver.h"
 #include "framework/potential.h"
 #include "framework/mesh_io.h"
@@ -200,7 +201,9 @@ nlohmann::ordered_json global_json(const Experiment<D>& ex, const std::vector<st
                               {"remesh_rounds", g.remesh_rounds}};
   int iterations = 0, residual_evaluations = 0, jacobian_evaluations = 0;
   nlohmann::ordered_json phases = nlohmann::ordered_json::array();
-  for (const auto& phase : solves) {
+  std::vector<std::vector<GlobalSolveSummary>> per_phase = solves;
+  per_phase.resize(std::max(per_phase.size(), ex.phases.size()));  // phases after a divergence: no solve
+  for (const auto& phase : per_phase) {
     nlohmann::ordered_json list = nlohmann::ordered_json::array();
     for (const auto& s : phase) {
       list.push_back({{"iterations", s.iterations}, {"successful_steps", s.successful_steps},
@@ -229,6 +232,156 @@ void write_figures(const Experiment<D>& ex, const Snake<D>& snake, const fs::pat
 
 std::string dsnake_version() { return DSNAKE_VERSION; }
 
+namespace {
+
+// What a run produced, for the output files and result.json.
+template <int D>
+struct RunRecord {
+  RunRecord(const fs::path& staging, int snapshot_every) : recorder((staging / "snapshots").string(), snapshot_every) {}
+  Snake<D> snake;
+  int initial_vertices = 0;
+  RecordingObserver<D> recorder;
+  std::vector<std::string> names;  // the energy terms' column names
+  EvolveSummary summary;
+  nlohmann::ordered_json global_report;
+  Metrics metrics;
+  CorrespondenceError correspondence;
+  bool finite = false;  // a diverged snake (non-finite positions) has no meaningful metrics
+  double field_s = 0, potential_s = 0, evolve_s = 0, metrics_s = 0;
+};
+
+// Computes the field (and the potential of the global view, when the file asks for one), then
+// runs the phases with one phase driver whose minimizer the file's "solver" picks.
+template <int D>
+void evolve(Experiment<D>& ex, const RunOptions& options, RunRecord<D>& rec) {
+  if (!options.quiet)
+    std::fprintf(stderr, "dsnake: %s: computing the %s field on %s\n", ex.name.c_str(), ex.field->type().c_str(),
+                 D == 2 ? "the image" : "the volume");
+  auto t = Clock::now();
+  ex.field->compute(ex.image);
+  rec.field_s = seconds_since(t);
+  rec.snake = Snake<D>::from_template(ex.tmpl, ex.initial);
+  rec.initial_vertices = rec.snake.num_vertices();
+  std::unique_ptr<SmoothPotential<D>> potential;
+  if (ex.potential) {
+    t = Clock::now();
+    potential = make_potential<D>(*ex.potential, ex.image, ex.field.get());
+    rec.potential_s = seconds_since(t);
+  }
+  EnergyContext<D> context{&ex.tmpl, &ex.image, ex.field.get(), potential.get()};
+  ProgressObserver<D> progress(ex.phases, ex.phase_names, ex.solver == SolverKind::kGlobal);
+  t = Clock::now();
+  std::unique_ptr<Minimizer<D>> minimizer;
+  GlobalSolve<D>* global = nullptr;
+  if (ex.solver == SolverKind::kGlobal) {
+    auto g = std::make_unique<GlobalSolve<D>>(ex.global);
+    global = g.get();
+    minimizer = std::move(g);
+  } else {
+    minimizer = std::make_unique<SnakeStep<D>>();
+  }
+  PhaseDriver<D> driver(context, std::move(ex.energies), std::move(minimizer));
+  rec.names = term_names(driver.energies());
+  driver.add_observer(&rec.recorder);
+  if (!options.quiet) driver.add_observer(&progress);
+  rec.summary = driver.run(rec.snake, ex.phases);
+  if (global) rec.global_report = global_json(ex, global->solves());
+  rec.evolve_s = seconds_since(t);
+}
+
+template <int D>
+void measure(const Experiment<D>& ex, RunRecord<D>& rec) {
+  const auto t = Clock::now();
+  const auto& q = rec.snake.positions();
+  rec.finite = std::all_of(q.begin(), q.end(), [](const Point<D>& p) { return p.allFinite(); });
+  rec.metrics = rec.finite ? compute_metrics(rec.snake, ex.truth) : Metrics{};
+  rec.metrics_s = seconds_since(t);
+  rec.correspondence = correspondence_error(rec.snake, ex.truth.targets);
+}
+
+// final.* and initial.* (VTK with template_id and displacement scalars), the CSV tables, figures.
+template <int D>
+void write_outputs(const Experiment<D>& ex, const RunRecord<D>& rec, const fs::path& staging) {
+  const Snake<D>& snake = rec.snake;
+  const std::string mesh_ext = D == 2 ? ".txt" : ".ply";
+  auto scalars = RecordingObserver<D>::template_id_scalars(snake);
+  VertexScalars displacement{"displacement", {}};
+  for (int v = 0; v < snake.num_vertices(); ++v) {
+    const int id = snake.template_id(v);
+    displacement.values.push_back(id >= 0 ? (snake.positions()[v] - ex.initial[id]).norm() : NAN);
+  }
+  scalars.push_back(displacement);
+  write_shape<D>(snake.positions(), snake.connectivity(), (staging / "final.vtk").string(), scalars);
+  write_shape<D>(snake.positions(), snake.connectivity(), (staging / ("final" + mesh_ext)).string());
+  write_shape<D>(ex.initial, ex.tmpl.connectivity, (staging / "initial.vtk").string());
+  write_shape<D>(ex.initial, ex.tmpl.connectivity, (staging / ("initial" + mesh_ext)).string());
+  write_file_atomically((staging / "correspondence.csv").string(), correspondence_csv(ex, snake, rec.correspondence));
+  write_file_atomically((staging / "energy_trace.csv").string(), trace_csv<D>(rec.recorder.trace, rec.names));
+  if (ex.output.figures && rec.finite) write_figures(ex, snake, staging, rec.recorder.trace, rec.names);
+}
+
+nlohmann::ordered_json metrics_json(const Metrics& m, bool finite) {
+  return {{"mean_surface_distance", optional_number(m.mean_surface_distance)},
+          {"hausdorff95", optional_number(m.hausdorff95)},
+          {"hausdorff", optional_number(m.hausdorff)},
+          {"dice", optional_number(m.dice)},
+          {"correspondence_error_mean", optional_number(m.correspondence_error_mean)},
+          {"correspondence_error_max", optional_number(m.correspondence_error_max)},
+          {"self_intersections", finite ? nlohmann::ordered_json(m.self_intersections) : nlohmann::ordered_json(nullptr)}};
+}
+
+// result.json's "phases": per phase its name, iterations, status, remeshing and mesh quality.
+template <int D>
+nlohmann::ordered_json phases_json(const Experiment<D>& ex, const RunRecord<D>& rec) {
+  nlohmann::ordered_json phases = nlohmann::ordered_json::array();
+  for (size_t p = 0; p < rec.summary.phases.size(); ++p) {
+    const auto& ps = rec.summary.phases[p];
+    nlohmann::ordered_json j = {{"name", ex.phase_names[p]}, {"iterations", ps.iterations},
+                                {"status", to_string(ps.status)}, {"last_displacement", ps.last_displacement}};
+    for (const auto& r : ps.remesh_reports)
+      j["remesh"].push_back({{"stage", r.stage}, {"vertices_before", r.vertices_before},
+                             {"vertices_after", r.vertices_after}, {"rejected_edits", r.rejected_edits}});
+    const auto quality = rec.recorder.mesh_quality.find(int(p));
+    if (quality != rec.recorder.mesh_quality.end()) j["mesh_quality"] = quality->second;
+    phases.push_back(j);
+  }
+  return phases;
+}
+
+template <int D>
+nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& rec, Clock::time_point start) {
+  nlohmann::ordered_json result;
+  result["name"] = ex.name;
+  result["metrics"] = metrics_json(rec.metrics, rec.finite);
+  result["success"] = rec.summary.status != EvolveStatus::kDiverged && ex.success.met(rec.metrics);
+  result["status"] = to_string(rec.summary.status);
+  result["iterations"] = rec.summary.iterations;
+  result["vertices"] = {{"initial", rec.initial_vertices}, {"final", rec.snake.num_vertices()},
+                        {"deformation", rec.snake.num_deformation_vertices()}};
+  result["phases"] = phases_json(ex, rec);
+  const auto& recorder = rec.recorder;
+  if (!recorder.mesh_quality.empty()) result["mesh_quality"] = recorder.mesh_quality.rbegin()->second;
+  if (!recorder.trace.empty()) {
+    const auto& last = recorder.trace.back();
+    nlohmann::ordered_json terms;
+    for (size_t i = 0; i < rec.names.size(); ++i)
+      terms[rec.names[i]] = optional_number(last.energy_terms.empty() ? std::optional<double>()
+                                                                      : std::optional<double>(last.energy_terms[i]));
+    result["energy"] = {{"terms", terms}, {"total", last.total_energy}};
+  }
+  if (ex.potential)
+    result["potential"] = {{"type", enum_name(ex.potential->type)}, {"interpolation", enum_name(ex.potential->interpolation)}};
+  if (!rec.global_report.is_null()) result["global"] = rec.global_report;
+  result["timings"] = {{"field_s", rec.field_s}, {"potential_s", rec.potential_s}, {"evolve_s", rec.evolve_s},
+                       {"metrics_s", rec.metrics_s}, {"total_s", seconds_since(start)}};
+  result["seed"] = ex.seed;
+  result["config"] = ex.file.document;
+  result["version"] = dsnake_version();
+  return result;
+}
+
+}  // namespace
+
 template <int D>
 nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& options) {
   const auto start = Clock::now();
@@ -238,116 +391,11 @@ nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& optio
   fs::remove_all(staging);
   fs::create_directories(staging);
   try {
-    if (!options.quiet)
-      std::fprintf(stderr, "dsnake: %s: computing the %s field on %s\n", ex.name.c_str(), ex.field->type().c_str(),
-                   D == 2 ? "the image" : "the volume");
-    auto t = Clock::now();
-    ex.field->compute(ex.image);
-    const double field_s = seconds_since(t);
-
-    Snake<D> snake = Snake<D>::from_template(ex.tmpl, ex.initial);
-    const int initial_vertices = snake.num_vertices();
-    // The external term's smooth potential (the global view; also reported for a snake run).
-    std::unique_ptr<SmoothPotential<D>> potential;
-    double potential_s = 0.0;
-    if (ex.potential) {
-      t = Clock::now();
-      potential = make_potential<D>(*ex.potential, ex.image, ex.field.get());
-      potential_s = seconds_since(t);
-    }
-    EnergyContext<D> context{&ex.tmpl, &ex.image, ex.field.get(), potential.get()};
-    const std::vector<std::string>& phase_names = ex.phase_names;
-    ProgressObserver<D> progress(ex.phases, phase_names, ex.solver == SolverKind::kGlobal);
-    RecordingObserver<D> recorder((staging / "snapshots").string(), ex.output.snapshot_every);
-    std::vector<std::string> names;
-    EvolveSummary summary;
-    nlohmann::ordered_json global_report;
-    t = Clock::now();
-    if (ex.solver == SolverKind::kGlobal) {
-      GlobalSolver<D> solver(context, std::move(ex.energies), ex.global);
-      names = term_names(solver.energies());
-      solver.add_observer(&recorder);
-      if (!options.quiet) solver.add_observer(&progress);
-      summary = solver.run(snake, ex.phases);
-      global_report = global_json(ex, solver.solves());
-    } else {
-      Evolver<D> evolver(context, std::move(ex.energies));
-      names = term_names(evolver.energies());
-      evolver.add_observer(&recorder);
-      if (!options.quiet) evolver.add_observer(&progress);
-      summary = evolver.run(snake, ex.phases);
-    }
-    const double evolve_s = seconds_since(t);
-
-    // A diverged snake (non-finite positions) has no meaningful metrics: they stay null.
-    t = Clock::now();
-    const bool finite = std::all_of(snake.positions().begin(), snake.positions().end(),
-                                    [](const Point<D>& p) { return p.allFinite(); });
-    const Metrics m = finite ? compute_metrics(snake, ex.truth) : Metrics{};
-    const double metrics_s = seconds_since(t);
-    const CorrespondenceError corr = correspondence_error(snake, ex.truth.targets);
-
-    // Output files.
-    const std::string mesh_ext = D == 2 ? ".txt" : ".ply";
-    auto scalars = RecordingObserver<D>::template_id_scalars(snake);
-    VertexScalars displacement{"displacement", {}};
-    for (int v = 0; v < snake.num_vertices(); ++v) {
-      const int id = snake.template_id(v);
-      displacement.values.push_back(id >= 0 ? (snake.positions()[v] - ex.initial[id]).norm() : NAN);
-    }
-    scalars.push_back(displacement);
-    write_shape<D>(snake.positions(), snake.connectivity(), (staging / "final.vtk").string(), scalars);
-    write_shape<D>(snake.positions(), snake.connectivity(), (staging / ("final" + mesh_ext)).string());
-    write_shape<D>(ex.initial, ex.tmpl.connectivity, (staging / "initial.vtk").string());
-    write_shape<D>(ex.initial, ex.tmpl.connectivity, (staging / ("initial" + mesh_ext)).string());
-    write_file_atomically((staging / "correspondence.csv").string(), correspondence_csv(ex, snake, corr));
-    write_file_atomically((staging / "energy_trace.csv").string(), trace_csv<D>(recorder.trace, names));
-    if (ex.output.figures && finite) write_figures(ex, snake, staging, recorder.trace, names);
-
-    nlohmann::ordered_json result;
-    result["name"] = ex.name;
-    result["metrics"] = {{"mean_surface_distance", optional_number(m.mean_surface_distance)},
-                         {"hausdorff95", optional_number(m.hausdorff95)},
-                         {"hausdorff", optional_number(m.hausdorff)},
-                         {"dice", optional_number(m.dice)},
-                         {"correspondence_error_mean", optional_number(m.correspondence_error_mean)},
-                         {"correspondence_error_max", optional_number(m.correspondence_error_max)},
-                         {"self_intersections", finite ? nlohmann::ordered_json(m.self_intersections)
-                                                       : nlohmann::ordered_json(nullptr)}};
-    result["success"] = summary.status != EvolveStatus::kDiverged && ex.success.met(m);
-    result["status"] = to_string(summary.status);
-    result["iterations"] = summary.iterations;
-    result["vertices"] = {{"initial", initial_vertices}, {"final", snake.num_vertices()},
-                          {"deformation", snake.num_deformation_vertices()}};
-    nlohmann::ordered_json phases = nlohmann::ordered_json::array();
-    for (size_t p = 0; p < summary.phases.size(); ++p) {
-      const auto& ps = summary.phases[p];
-      nlohmann::ordered_json j = {{"name", phase_names[p]}, {"iterations", ps.iterations},
-                                  {"status", to_string(ps.status)}, {"last_displacement", ps.last_displacement}};
-      for (const auto& r : ps.remesh_reports)
-        j["remesh"].push_back({{"stage", r.stage}, {"vertices_before", r.vertices_before},
-                               {"vertices_after", r.vertices_after}, {"rejected_edits", r.rejected_edits}});
-      if (recorder.mesh_quality.count(int(p))) j["mesh_quality"] = recorder.mesh_quality[int(p)];
-      phases.push_back(j);
-    }
-    result["phases"] = phases;
-    if (!recorder.mesh_quality.empty()) result["mesh_quality"] = recorder.mesh_quality.rbegin()->second;
-    if (!recorder.trace.empty()) {
-      nlohmann::ordered_json terms;
-      for (size_t i = 0; i < names.size(); ++i)
-        terms[names[i]] = optional_number(recorder.trace.back().energy_terms.empty()
-                                              ? std::optional<double>()
-                                              : std::optional<double>(recorder.trace.back().energy_terms[i]));
-      result["energy"] = {{"terms", terms}, {"total", recorder.trace.back().total_energy}};
-    }
-    if (ex.potential)
-      result["potential"] = {{"type", enum_name(ex.potential->type)}, {"interpolation", enum_name(ex.potential->interpolation)}};
-    if (!global_report.is_null()) result["global"] = global_report;
-    result["timings"] = {{"field_s", field_s}, {"potential_s", potential_s}, {"evolve_s", evolve_s},
-                         {"metrics_s", metrics_s}, {"total_s", seconds_since(start)}};
-    result["seed"] = ex.seed;
-    result["config"] = ex.file.document;
-    result["version"] = dsnake_version();
+    RunRecord<D> rec(staging, ex.output.snapshot_every);
+    evolve(ex, options, rec);
+    measure(ex, rec);
+    write_outputs(ex, rec, staging);
+    const nlohmann::ordered_json result = result_json(ex, rec, start);
     write_file_atomically((staging / "result.json").string(), result.dump(2) + "\n");
     publish(staging, out);
     if (!options.quiet)

@@ -21,11 +21,26 @@ void JsonReader::fail(const std::string& key, const std::string& message) const 
   throw InputError(file_, key.empty() ? path_ : path_of(key), message);
 }
 
-bool JsonReader::has(const std::string& key) const { return object_->contains(key); }
+namespace {
+thread_local KeyRecorder* active_recorder = nullptr;
+}  // namespace
+
+KeyRecorder::KeyRecorder() { active_recorder = this; }
+KeyRecorder::~KeyRecorder() { active_recorder = nullptr; }
+
+void JsonReader::note(const std::string& key, const char* type, const std::string& default_json) {
+  if (active_recorder) active_recorder->records.push_back({key, type, default_json});
+}
+
+bool JsonReader::has(const std::string& key) const {
+  if (active_recorder) note(key, "", "");  // a key asked about is one the reader knows
+  return object_->contains(key);
+}
 
 static const char* type_name(const nlohmann::json& j) { return j.type_name(); }
 
 void JsonReader::read(const std::string& key, double& value) {
+  if (active_recorder) note(key, "number", nlohmann::json(value).dump());
   if (!has(key)) return;
   seen_.insert(key);
   const auto& j = (*object_)[key];
@@ -35,6 +50,7 @@ void JsonReader::read(const std::string& key, double& value) {
 }
 
 void JsonReader::read(const std::string& key, int& value) {
+  if (active_recorder) note(key, "integer", std::to_string(value));
   if (!has(key)) return;
   seen_.insert(key);
   const auto& j = (*object_)[key];
@@ -51,6 +67,7 @@ void JsonReader::read(const std::string& key, int& value) {
 }
 
 void JsonReader::read(const std::string& key, bool& value) {
+  if (active_recorder) note(key, "boolean", value ? "true" : "false");
   if (!has(key)) return;
   seen_.insert(key);
   const auto& j = (*object_)[key];
@@ -59,6 +76,7 @@ void JsonReader::read(const std::string& key, bool& value) {
 }
 
 void JsonReader::read(const std::string& key, std::string& value) {
+  if (active_recorder) note(key, "string", nlohmann::json(value).dump());
   if (!has(key)) return;
   seen_.insert(key);
   const auto& j = (*object_)[key];
@@ -67,6 +85,7 @@ void JsonReader::read(const std::string& key, std::string& value) {
 }
 
 void JsonReader::read(const std::string& key, std::vector<double>& value) {
+  if (active_recorder) note(key, "array", nlohmann::json(value).dump());
   if (!has(key)) return;
   seen_.insert(key);
   const auto& j = (*object_)[key];
@@ -80,6 +99,7 @@ void JsonReader::read(const std::string& key, std::vector<double>& value) {
 }
 
 void JsonReader::read(const std::string& key, std::vector<std::string>& value) {
+  if (active_recorder) note(key, "array", nlohmann::json(value).dump());
   if (!has(key)) return;
   seen_.insert(key);
   const auto& j = (*object_)[key];
@@ -93,6 +113,7 @@ void JsonReader::read(const std::string& key, std::vector<std::string>& value) {
 }
 
 const nlohmann::json& JsonReader::raw(const std::string& key) {
+  if (active_recorder) note(key, "", "");
   if (!has(key)) fail(key, "is required");
   seen_.insert(key);
   return (*object_)[key];

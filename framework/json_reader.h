@@ -14,6 +14,21 @@
 
 namespace dsnake {
 
+// Every key that JsonReaders on this thread are asked for while a KeyRecorder lives, with its
+// JSON type and the default it had: how the schema learns the keys of readers that are not
+// options structs (the phantoms, whose keys depend on their kind).
+struct KeyRecord {
+  std::string key, type, default_json;  // type: "number", "integer", "boolean", "string", "array"
+};
+class KeyRecorder {
+ public:
+  KeyRecorder();
+  ~KeyRecorder();
+  KeyRecorder(const KeyRecorder&) = delete;
+  KeyRecorder& operator=(const KeyRecorder&) = delete;
+  std::vector<KeyRecord> records;
+};
+
 class JsonReader {
  public:
   // `object` must outlive the reader. Throws InputError if it is not a JSON object.
@@ -30,7 +45,12 @@ class JsonReader {
   template <int D>
   void read(const std::string& key, Point<D>& value) {
     std::vector<double> v;
-    if (!has(key)) return;
+    if (!has(key)) {
+      std::string text = "[";
+      for (int a = 0; a < D; ++a) text += (a ? ", " : "") + std::to_string(value[a]);
+      note(key, "array", text + "]");
+      return;
+    }
     read(key, v);
     if (int(v.size()) != D) fail(key, "expected " + std::to_string(D) + " numbers");
     for (int a = 0; a < D; ++a) value[a] = v[a];
@@ -38,7 +58,10 @@ class JsonReader {
   // Required keys: as read(), but a missing key is an error.
   template <class T>
   void require(const std::string& key, T& value) {
-    if (!has(key)) fail(key, "is required");
+    if (!has(key)) {
+      note(key, "", "");  // a recorder learns the key even though the reader fails here
+      fail(key, "is required");
+    }
     read(key, value);
   }
   // Range checks, after reading: expect(opts.mu > 0, "mu", "must be > 0").
@@ -53,6 +76,9 @@ class JsonReader {
 
   // Throws on the first key that was never read: unknown keys are errors.
   void finish() const;
+
+  // Tells a live KeyRecorder about a key (read() does this for every key it is asked for).
+  static void note(const std::string& key, const char* type, const std::string& default_json);
 
   [[noreturn]] void fail(const std::string& key, const std::string& message) const;
   const std::string& file() const { return file_; }

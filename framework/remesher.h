@@ -9,6 +9,7 @@
 #include "framework/shape.h"
 
 #include <string>
+#include <vector>
 
 namespace dsnake {
 
@@ -35,6 +36,10 @@ class Remesher {
   virtual ~Remesher() = default;
   virtual std::string type() const = 0;
   virtual RemeshReport apply(Snake<D>& snake, const RemeshContext<D>& context) = 0;
+  // As apply(), with one report per stage for a remesher made of stages (remesh/pipeline.h).
+  virtual std::vector<RemeshReport> apply_stages(Snake<D>& snake, const RemeshContext<D>& context) {
+    return {apply(snake, context)};
+  }
 };
 
 }  // namespace dsnake

@@ -32,6 +32,9 @@ class RemeshPipeline final : public Remesher<D> {
   // Runs the stages on the snake; one report per stage, in order (as apply_pass in 3D, or each
   // stage's apply() in 2D).
   std::vector<RemeshReport> apply_all(Snake<D>& snake, const RemeshContext<D>& context);
+  std::vector<RemeshReport> apply_stages(Snake<D>& snake, const RemeshContext<D>& context) override {
+    return apply_all(snake, context);
+  }
 
   const std::vector<std::unique_ptr<Remesher<D>>>& stages() const { return stages_; }
 

@@ -244,6 +244,7 @@ TEST(InternalEnergy, ChebyshevWithinItsBoundOfTheDirectStep3d) {
     direct_options.solver = InternalSolver::kDirect;
     InternalEnergy<3> direct(direct_options);
     PointList<3> exact(n);
+    direct.bind({}, snake);
     direct.propose(snake, exact);
     EXPECT_EQ(direct.chebyshev_iterations(), 0);
     double max_move = 0;
@@ -256,6 +257,7 @@ TEST(InternalEnergy, ChebyshevWithinItsBoundOfTheDirectStep3d) {
       o.tolerance = tolerance;
       InternalEnergy<3> cheb(o);
       PointList<3> out(n);
+      cheb.bind({}, snake);
       cheb.propose(snake, out);
       double max_error = 0;
       for (int v = 0; v < n; ++v) max_error = std::max(max_error, (out[v] - exact[v]).norm());
@@ -279,6 +281,7 @@ TEST(InternalEnergy, ChebyshevMatchesDenseSolve2d) {
     Snake<2> snake = polygon_snake(random_polygon(n, 9));
     InternalEnergy<2> energy(o);
     PointList<2> out(n);
+    energy.bind({}, snake);
     energy.propose(snake, out);
     const Eigen::MatrixXd m = o.gamma * Eigen::MatrixXd::Identity(n, n) + kass_matrix(n, o.alpha, o.beta);
     const Eigen::MatrixXd expected = m.partialPivLu().solve(o.gamma * as_matrix(snake.positions()));
@@ -295,18 +298,22 @@ TEST(InternalEnergy, AutoSolverChoiceAndThreadIndependence) {
   InternalEnergy<3> mild(InternalOptions{0.1, 0.01, 1.0});
   PointList<3> a(n), b(n);
   omp_set_num_threads(1);
+  mild.bind({}, snake);
   mild.propose(snake, a);
   omp_set_num_threads(2);
+  mild.bind({}, snake);
   mild.propose(snake, b);
   EXPECT_GT(mild.chebyshev_iterations(), 0);
   EXPECT_LE(mild.chebyshev_iterations(), 12);
   for (int v = 0; v < n; ++v) EXPECT_EQ(a[v], b[v]);
   InternalEnergy<3> stiff(InternalOptions{50.0, 0.0, 1.0});
+  stiff.bind({}, snake);
   stiff.propose(snake, a);
   EXPECT_EQ(stiff.chebyshev_iterations(), 0);
   InternalEnergy<2> polygon(InternalOptions{0.1, 0.0, 1.0});
   Snake<2> p = polygon_snake(random_polygon(400, 2));
   PointList<2> out(400);
+  polygon.bind({}, p);
   polygon.propose(p, out);
   EXPECT_EQ(polygon.chebyshev_iterations(), 0);
 }
@@ -367,9 +374,12 @@ TEST(InternalEnergy, RebindsAfterTopologyChange) {
   energy.propose(snake, out10);
   check(out10);
 
-  // Without the explicit bind, propose notices the new topology version itself.
+  // Without the bind, propose refuses the new topology (the phase driver rebinds; an energy does
+  // not rebind itself), and works again once bound.
   snake.set_topology(random_polygon(9, 7), Connectivity::polygon(9), std::vector<int>(9, -1));
   PointList<2> out9(9);
+  EXPECT_THROW(energy.propose(snake, out9), std::logic_error);
+  energy.bind({}, snake);
   energy.propose(snake, out9);
   check(out9);
 }

@@ -155,7 +155,7 @@ TEST(Evolver, RemeshersRunEveryKIterationsAndEnergiesRebind) {
   phases[0].every = 4;
   auto remesher = std::make_unique<InsertOnce>();
   InsertOnce* r = remesher.get();
-  phases[0].remeshers.push_back(std::move(remesher));
+  phases[0].remesher = std::move(remesher);
   evolver.run(s, phases);
   EXPECT_EQ(r->iterations_seen, (std::vector<int>{4, 8}));
   EXPECT_EQ(s.num_vertices(), 5);

@@ -1,6 +1,7 @@
 // The global-solve baseline (issue 7): every residual's derivatives against Ceres' numeric ones
 // (GradientChecker, with the rotation manifolds), ASAP alone reaching a similarity of the
 // template, and the global optimum at least as low as the snake's fixed point.
+#include "framework/evolver.h"
 #include "framework/global_solver.h"
 
 #include "energies/registry.h"
@@ -156,6 +157,23 @@ TEST(GlobalSolver, EveryResidualPassesTheGradientChecker) {
       R"({"type": "arap"})"};
   check_energies<2>(wobbly_polygon(20, 10.0), specs, 11);
   check_energies<3>(wobbly_sphere(1, 10.0), specs, 12);
+}
+
+// The registry walked, not a list: every registered energy with a least-squares form, from its
+// defaults, passes the gradient checker (a new energy is checked the day it is registered).
+template <int D>
+std::vector<std::string> registered_with_residuals() {
+  std::vector<std::string> specs;
+  for (const auto& name : energy_registry<D>().names())
+    if (energy_registry<D>().entry(name).make_default()->has_least_squares_form()) specs.push_back(R"({"type": ")" + name + "\"}");
+  return specs;
+}
+
+TEST(GlobalSolver, EveryRegisteredEnergyWithResidualsPassesTheGradientCheckerAtItsDefaults) {
+  const auto specs2 = registered_with_residuals<2>(), specs3 = registered_with_residuals<3>();
+  EXPECT_GE(specs2.size(), 5u);  // internal, external, asap_mls, laplacian, arap at least
+  check_energies<2>(wobbly_polygon(20, 10.0), specs2, 21);
+  check_energies<3>(wobbly_sphere(1, 10.0), specs3, 22);
 }
 
 // Procrustes with scale (Umeyama 1991): the RMS distance from q to the best similarity image of

@@ -4,6 +4,7 @@
 #include "energies/internal.h"
 #include "framework/evolver.h"
 #include "framework/metrics.h"
+#include "remesh/pipeline.h"
 #include "remesh/delaunay.h"
 #include "remesh/refine.h"
 #include "remesh/simplify.h"
@@ -27,10 +28,12 @@ TEST(RemeshInLoop, PipelineRunsInsideTheEvolutionAndKeepsItsGuarantees) {
   std::vector<Phase<3>> phases(1);
   phases[0].iterations = 40;
   phases[0].every = 5;
-  phases[0].remeshers.push_back(std::make_unique<RefineRemesher>(RefineOptions{1.5, 5.0, 0.5}));
-  phases[0].remeshers.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{}));
-  phases[0].remeshers.push_back(std::make_unique<UniformRemesher>(UniformOptions{1, 45}));
-  phases[0].remeshers.push_back(std::make_unique<SimplifyRemesher>(SimplifyOptions{0.5, 1.0, 0.1, 45}));
+  std::vector<std::unique_ptr<Remesher<3>>> stages;
+  stages.push_back(std::make_unique<RefineRemesher>(RefineOptions{1.5, 5.0, 0.5}));
+  stages.push_back(std::make_unique<DelaunayRemesher>(DelaunayOptions{}));
+  stages.push_back(std::make_unique<UniformRemesher>(UniformOptions{1, 45}));
+  stages.push_back(std::make_unique<SimplifyRemesher>(SimplifyOptions{0.5, 1.0, 0.1, 45}));
+  phases[0].remesher = std::make_unique<RemeshPipeline<3>>(std::move(stages));
   const EvolveSummary summary = evolver.run(s, phases);
   EXPECT_NE(summary.status, EvolveStatus::kDiverged);
   EXPECT_GT(s.num_vertices(), 4 * start.num_vertices());  // refined as the threshold fell
