@@ -356,80 +356,102 @@ void write_slice_figure(const Image<3>& volume, const std::vector<ShapeLayer3>& 
   write_png(canvas, png_path);
 }
 
-void write_curve_figure(const std::vector<std::string>& names, const std::vector<std::vector<double>>& series,
-                        const std::string& png_path, const std::string& title, bool log_y) {
-  DSNAKE_ASSERT(names.size() == series.size(), "write_curve_figure: " + std::to_string(names.size()) +
-                                                   " names for " + std::to_string(series.size()) + " series");
-  // Colours of the series (Tableau 10), as RGB.
-  static const std::array<Rgb, 10> kPalette{{{31, 119, 180}, {255, 127, 14}, {44, 160, 44}, {214, 39, 40},
-                                             {148, 103, 189}, {140, 86, 75}, {227, 119, 194}, {127, 127, 127},
-                                             {188, 189, 34}, {23, 190, 207}}};
-  auto usable = [&](double v) { return std::isfinite(v) && (!log_y || v > 0.0); };
-  auto y_of = [&](double v) { return log_y ? std::log10(v) : v; };
+namespace {
 
-  // Data ranges: x = index, y = value (log10 with log_y).
+// Colours of the curve figure's series (Tableau 10), as RGB.
+const std::array<Rgb, 10> kCurvePalette{{{31, 119, 180}, {255, 127, 14}, {44, 160, 44}, {214, 39, 40},
+                                    {148, 103, 189}, {140, 86, 75}, {227, 119, 194}, {127, 127, 127},
+                                    {188, 189, 34}, {23, 190, 207}}};
+
+// A curve figure's value ranges and pixel layout: x = index, y = value (log10 with log_y).
+struct CurveFrame {
+  bool log_y = false;
+  bool has_data = false;
+  double lo = 0, hi = 0;            // the frame's y range: the data range plus 5% on each side
+  double data_lo = 0, data_hi = 0;  // the data's y range (opened a little for a flat curve)
+  double x_max = 1;
+  std::string x_hi;  // tick label of x_max
+  int width = 900, height = 0, left = 0, right = 0, top = 0, bottom = 0;
+
+  bool usable(double v) const { return std::isfinite(v) && (!log_y || v > 0.0); }
+  double y_of(double v) const { return log_y ? std::log10(v) : v; }
+  std::string value_text(double y) const { return tick_text(log_y ? std::pow(10.0, y) : y); }
+  Eigen::Vector2d to_px(double x, double y) const {
+    return Eigen::Vector2d(left + (right - left) * x / x_max, bottom - (bottom - top) * (y - lo) / (hi - lo));
+  }
+};
+
+// The ranges of the usable values and the layout: a title band (title, scale note), the plot
+// area with tick labels on the left and below.
+CurveFrame curve_frame(const std::vector<std::vector<double>>& series, const std::string& title, bool log_y) {
+  CurveFrame fr;
+  fr.log_y = log_y;
   size_t longest = 0;
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   for (const auto& s : series) {
     longest = std::max(longest, s.size());
     for (double v : s)
-      if (usable(v)) {
-        lo = std::min(lo, y_of(v));
-        hi = std::max(hi, y_of(v));
+      if (fr.usable(v)) {
+        lo = std::min(lo, fr.y_of(v));
+        hi = std::max(hi, fr.y_of(v));
       }
   }
-  const bool has_data = lo <= hi;
-  if (!has_data) lo = hi = 0.0;
+  fr.has_data = lo <= hi;
+  if (!fr.has_data) lo = hi = 0.0;
   if (hi - lo < 1e-12 * std::max(1.0, std::abs(hi))) {  // a flat curve: open the range a little
     const double pad = log_y ? 0.5 : std::max(1.0, 0.1 * std::abs(hi));
     lo -= pad;
     hi += pad;
   }
-  const double x_max = longest > 1 ? static_cast<double>(longest - 1) : 1.0;
+  fr.x_max = longest > 1 ? static_cast<double>(longest - 1) : 1.0;
   // The frame spans the data range plus 5% on each side, so no curve runs along the frame.
-  const double data_lo = lo, data_hi = hi, pad = 0.05 * (hi - lo);
-  lo -= pad;
-  hi += pad;
-  auto value_text = [&](double y) { return tick_text(log_y ? std::pow(10.0, y) : y); };
+  const double pad = 0.05 * (hi - lo);
+  fr.data_lo = lo;
+  fr.data_hi = hi;
+  fr.lo = lo - pad;
+  fr.hi = hi + pad;
 
-  // Layout: title band (title, scale note), plot area with tick labels on the left and below.
-  const int width = 900, plot_h = 480;
+  const int plot_h = 480;
   const int title_h = title.empty() && !log_y ? 0 : text_height() + kMarginPx;
-  const int left = 2 * kMarginPx + std::max(text_width(value_text(data_lo)), text_width(value_text(data_hi)));
-  const std::string x_hi = tick_text(x_max);
-  const int top = kMarginPx + title_h, right = width - kMarginPx - std::max(kMarginPx, text_width(x_hi) / 2 + 2);
-  const int bottom = top + plot_h;
-  const int height = bottom + 2 * kMarginPx + text_height();
-  cv::Mat canvas(height, width, CV_8UC3, kWhite);
-  if (!title.empty()) put_text(canvas, title, kMarginPx, kMarginPx);
-  if (log_y) put_text(canvas, "(log scale)", right - text_width("(log scale)"), kMarginPx);
-  auto to_px = [&](double x, double y) {
-    return Eigen::Vector2d(left + (right - left) * x / x_max, bottom - (bottom - top) * (y - lo) / (hi - lo));
-  };
+  fr.left = 2 * kMarginPx + std::max(text_width(fr.value_text(fr.data_lo)), text_width(fr.value_text(fr.data_hi)));
+  fr.x_hi = tick_text(fr.x_max);
+  fr.top = kMarginPx + title_h;
+  fr.right = fr.width - kMarginPx - std::max(kMarginPx, text_width(fr.x_hi) / 2 + 2);
+  fr.bottom = fr.top + plot_h;
+  fr.height = fr.bottom + 2 * kMarginPx + text_height();
+  return fr;
+}
 
-  // Grid at the quarter lines, frame, tick marks and labels at the data's min and max.
+// Title and scale note, grid at the quarter lines, frame, tick marks and labels at the data's
+// min and max (and "no data" for a figure without a usable value).
+void draw_curve_axes(cv::Mat& canvas, const CurveFrame& fr, const std::string& title) {
+  const int left = fr.left, right = fr.right, top = fr.top, bottom = fr.bottom;
+  if (!title.empty()) put_text(canvas, title, kMarginPx, kMarginPx);
+  if (fr.log_y) put_text(canvas, "(log scale)", right - text_width("(log scale)"), kMarginPx);
   for (int q = 1; q < 4; ++q) {
     const int gx = left + (right - left) * q / 4, gy = top + (bottom - top) * q / 4;
     cv::line(canvas, {gx, top}, {gx, bottom}, kLightGrey, 1);
     cv::line(canvas, {left, gy}, {right, gy}, kLightGrey, 1);
   }
   cv::rectangle(canvas, {left, top}, {right, bottom}, kBlack, 1);
-  for (double y : {data_lo, data_hi}) {
-    const int py = static_cast<int>(std::lround(to_px(0.0, y).y()));
-    const std::string text = value_text(y);
+  for (double y : {fr.data_lo, fr.data_hi}) {
+    const int py = static_cast<int>(std::lround(fr.to_px(0.0, y).y()));
+    const std::string text = fr.value_text(y);
     cv::line(canvas, {left - 5, py}, {left, py}, kBlack, 1);
     put_text(canvas, text, left - kMarginPx / 2 - 4 - text_width(text), py - text_height() / 2);
   }
   for (int x : {left, right}) cv::line(canvas, {x, bottom}, {x, bottom + 5}, kBlack, 1);
   put_text(canvas, "0", left - text_width("0") / 2, bottom + kMarginPx / 2 + 2);
-  put_text(canvas, x_hi, right - text_width(x_hi) / 2, bottom + kMarginPx / 2 + 2);
-  if (!has_data) put_text(canvas, "no data", (left + right) / 2 - text_width("no data") / 2, (top + bottom) / 2);
+  put_text(canvas, fr.x_hi, right - text_width(fr.x_hi) / 2, bottom + kMarginPx / 2 + 2);
+  if (!fr.has_data) put_text(canvas, "no data", (left + right) / 2 - text_width("no data") / 2, (top + bottom) / 2);
+}
 
-  // The curves, clipped to the plot area; a skipped value breaks the line.
-  cv::Mat plot = canvas(cv::Rect(left, top, right - left + 1, bottom - top + 1));
-  const Eigen::Vector2d plot_origin(left, top);
+// The curves, clipped to the plot area; a skipped value breaks the line.
+void draw_curves(cv::Mat& canvas, const CurveFrame& fr, const std::vector<std::vector<double>>& series) {
+  cv::Mat plot = canvas(cv::Rect(fr.left, fr.top, fr.right - fr.left + 1, fr.bottom - fr.top + 1));
+  const Eigen::Vector2d plot_origin(fr.left, fr.top);
   for (size_t i = 0; i < series.size(); ++i) {
-    const cv::Scalar colour = to_bgr(kPalette[i % kPalette.size()]);
+    const cv::Scalar colour = to_bgr(kCurvePalette[i % kCurvePalette.size()]);
     std::vector<cv::Point> run;
     auto flush = [&] {
       if (run.size() == 1) cv::circle(plot, run[0], static_cast<int>(3 * kShiftScale), colour, cv::FILLED, cv::LINE_AA, kShiftBits);
@@ -438,32 +460,45 @@ void write_curve_figure(const std::vector<std::string>& names, const std::vector
     };
     for (size_t k = 0; k < series[i].size(); ++k) {
       const double v = series[i][k];
-      if (!usable(v)) {
+      if (!fr.usable(v)) {
         flush();
         continue;
       }
-      run.push_back(fixed_point(to_px(static_cast<double>(k), y_of(v)) - plot_origin));
+      run.push_back(fixed_point(fr.to_px(static_cast<double>(k), fr.y_of(v)) - plot_origin));
     }
     flush();
   }
+}
 
-  // Legend in the top-right corner of the plot: a line sample and the name per series.
-  if (!series.empty()) {
-    int name_w = 0;
-    for (const auto& n : names) name_w = std::max(name_w, text_width(n));
-    const int row_h = text_height() + kMarginPx / 2;
-    const int box_w = 36 + name_w + 2 * kMarginPx, box_h = static_cast<int>(names.size()) * row_h + kMarginPx;
-    const cv::Rect box(right - box_w - kMarginPx, top + kMarginPx, box_w, box_h);
-    cv::rectangle(canvas, box, kWhite, cv::FILLED);
-    cv::rectangle(canvas, box, cv::Scalar(120, 120, 120), 1);
-    for (size_t i = 0; i < names.size(); ++i) {
-      const int y = box.y + kMarginPx / 2 + static_cast<int>(i) * row_h;
-      const int mid = y + text_height() / 2;
-      cv::line(canvas, {box.x + kMarginPx / 2, mid}, {box.x + kMarginPx / 2 + 28, mid},
-               to_bgr(kPalette[i % kPalette.size()]), kLineWidthPx + 1, cv::LINE_AA);
-      put_text(canvas, names[i], box.x + kMarginPx / 2 + 36, y);
-    }
+// Legend in the top-right corner of the plot: a line sample and the name per series.
+void draw_curve_legend(cv::Mat& canvas, const CurveFrame& fr, const std::vector<std::string>& names) {
+  int name_w = 0;
+  for (const auto& n : names) name_w = std::max(name_w, text_width(n));
+  const int row_h = text_height() + kMarginPx / 2;
+  const int box_w = 36 + name_w + 2 * kMarginPx, box_h = static_cast<int>(names.size()) * row_h + kMarginPx;
+  const cv::Rect box(fr.right - box_w - kMarginPx, fr.top + kMarginPx, box_w, box_h);
+  cv::rectangle(canvas, box, kWhite, cv::FILLED);
+  cv::rectangle(canvas, box, cv::Scalar(120, 120, 120), 1);
+  for (size_t i = 0; i < names.size(); ++i) {
+    const int y = box.y + kMarginPx / 2 + static_cast<int>(i) * row_h;
+    const int mid = y + text_height() / 2;
+    cv::line(canvas, {box.x + kMarginPx / 2, mid}, {box.x + kMarginPx / 2 + 28, mid},
+             to_bgr(kCurvePalette[i % kCurvePalette.size()]), kLineWidthPx + 1, cv::LINE_AA);
+    put_text(canvas, names[i], box.x + kMarginPx / 2 + 36, y);
   }
+}
+
+}  // namespace
+
+void write_curve_figure(const std::vector<std::string>& names, const std::vector<std::vector<double>>& series,
+                        const std::string& png_path, const std::string& title, bool log_y) {
+  DSNAKE_ASSERT(names.size() == series.size(), "write_curve_figure: " + std::to_string(names.size()) +
+                                                   " names for " + std::to_string(series.size()) + " series");
+  const CurveFrame frame = curve_frame(series, title, log_y);
+  cv::Mat canvas(frame.height, frame.width, CV_8UC3, kWhite);
+  draw_curve_axes(canvas, frame, title);
+  draw_curves(canvas, frame, series);
+  if (!series.empty()) draw_curve_legend(canvas, frame, names);
   write_png(canvas, png_path);
 }
 

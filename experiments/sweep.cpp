@@ -154,35 +154,41 @@ std::string SweepRun::label() const {
   return s + describe_corruption(corruption, corruption_level).label + "/seed=" + std::to_string(seed);
 }
 
-Sweep load_sweep(const std::string& path, bool validate) {
-  Sweep sweep;
-  sweep.path = path;
+namespace {
+
+// The sweep file parsed twice: `doc` to read, `ordered` for the keys in file order.
+void parse_sweep_file(const std::string& path, json& doc, nlohmann::ordered_json& ordered) {
   std::ifstream in(path);
   if (!in) throw InputError(path, "", fs::exists(path) ? "cannot read the sweep file" : "no such sweep file");
   std::stringstream text;
   text << in.rdbuf();
-  json doc;
-  nlohmann::ordered_json ordered;
   try {
     doc = json::parse(text.str(), nullptr, true, /*ignore_comments=*/true);
     ordered = nlohmann::ordered_json::parse(text.str(), nullptr, true, true);
   } catch (const json::parse_error& e) {
     throw InputError(path, "", "JSON syntax error: " + clean_json_message(e.what()));
   }
-  const std::string sweep_dir = fs::path(path).parent_path().string();
+}
 
-  JsonReader top(doc, path, "");
-  std::string description, base;
-  top.read("description", description);
-  top.require("base", base);
-  top.expect(!base.empty(), "base", "must name an experiment file");
+// Everything a sweep file asks for, read and checked, before the expansion into runs.
+struct SweepPlan {
+  std::string sweep_dir;                       // the sweep file's folder
+  std::vector<std::vector<json>> grid_values;  // per grid key (sweep.grid_keys), its values
+  size_t grid_points = 1;
+  bool has_levels = false;
+  std::vector<json> levels;  // corruption lists; without "corruptions" one null (the base's own)
+  bool seeds_given = false;
+  std::vector<uint64_t> seeds;
+  std::vector<MethodSpec> methods;
+  std::string success_override;  // "success=..." or empty
+};
 
-  // The grid: one list of values per key path.
-  sweep.grid_keys = keys_in_file_order(ordered, "grid");
+// The grid: one list of values per key path (the keys in file order).
+std::vector<std::vector<json>> read_grid(JsonReader& top, const std::vector<std::string>& grid_keys) {
   std::vector<std::vector<json>> grid_values;
   if (top.has("grid")) {
     JsonReader g = top.child("grid");
-    for (const auto& key : sweep.grid_keys) {
+    for (const auto& key : grid_keys) {
       const json& values = g.raw(key);
       if (!values.is_array() || values.empty()) g.fail(key, "expected a non-empty array of values");
       if (key.find('=') != std::string::npos) g.fail(key, "a key path cannot contain '='");
@@ -190,25 +196,26 @@ Sweep load_sweep(const std::string& path, bool validate) {
     }
     g.finish();
   }
-  size_t grid_points = 1;
-  for (const auto& v : grid_values) grid_points *= v.size();
+  return grid_values;
+}
 
-  // Corruption levels: each a list replacing the experiment's "corruption".
-  const bool has_levels = top.has("corruptions");
-  std::vector<json> levels;
-  if (has_levels) {
+// Corruption levels: each a list replacing the experiment's "corruption".
+void read_levels(JsonReader& top, SweepPlan& plan) {
+  plan.has_levels = top.has("corruptions");
+  if (plan.has_levels) {
     const json& l = top.raw("corruptions");
     if (!l.is_array() || l.empty()) top.fail("corruptions", "expected a non-empty array of corruption lists");
     for (size_t i = 0; i < l.size(); ++i)
       if (!l[i].is_array()) top.fail("corruptions[" + std::to_string(i) + "]", "expected a list of corruptions ([] for none)");
-    levels.assign(l.begin(), l.end());
+    plan.levels.assign(l.begin(), l.end());
   } else {
-    levels.push_back(json());  // the base's own corruption
+    plan.levels.push_back(json());  // the base's own corruption
   }
+}
 
-  bool seeds_given = false;
-  const std::vector<uint64_t> seeds = read_seeds(top, seeds_given);
-
+// "methods": per name (in file order) its base (default: the sweep's) and overrides; absent:
+// one unnamed method, the base itself.
+std::vector<MethodSpec> read_methods(JsonReader& top, const nlohmann::ordered_json& ordered, const std::string& base) {
   std::vector<MethodSpec> methods;
   if (top.has("methods")) {
     JsonReader m = top.child("methods");
@@ -234,71 +241,117 @@ Sweep load_sweep(const std::string& path, bool validate) {
   } else {
     methods.push_back({"", base, {}});
   }
-  std::string success_override;
+  return methods;
+}
+
+// The top level of a sweep file, in the order its errors are reported; fills sweep.grid_keys.
+SweepPlan read_sweep_plan(Sweep& sweep, const json& doc, const nlohmann::ordered_json& ordered) {
+  SweepPlan plan;
+  plan.sweep_dir = fs::path(sweep.path).parent_path().string();
+  JsonReader top(doc, sweep.path, "");
+  std::string description, base;
+  top.read("description", description);
+  top.require("base", base);
+  top.expect(!base.empty(), "base", "must name an experiment file");
+  sweep.grid_keys = keys_in_file_order(ordered, "grid");
+  plan.grid_values = read_grid(top, sweep.grid_keys);
+  for (const auto& v : plan.grid_values) plan.grid_points *= v.size();
+  read_levels(top, plan);
+  plan.seeds = read_seeds(top, plan.seeds_given);
+  plan.methods = read_methods(top, ordered, base);
   if (top.has("success")) {
     const json& s = top.raw("success");
     if (!s.is_object()) top.fail("success", "expected an object of thresholds");
-    success_override = "success=" + s.dump();
+    plan.success_override = "success=" + s.dump();
   }
   top.finish();
+  return plan;
+}
 
-  // Expansion: method, grid point (last key fastest), level, seed.
-  for (const auto& method : methods) {
-    const std::string where_method = method.name.empty() ? "base" : "methods." + method.name;
-    std::string base_dir;
-    try {
-      base_dir = load_base(method.base, sweep_dir, method.overrides).base_dir;
-    } catch (const InputError& e) {
-      throw InputError(path, method.name.empty() ? "base" : where_method + (e.where().empty() || e.file().empty() ? "" : ".overrides"),
-                       e.what());
-    }
-    for (size_t g = 0; g < grid_points; ++g) {
-      std::vector<std::pair<std::string, json>> parameters;
-      std::vector<std::string> overrides = method.overrides;
-      size_t rest = g;
-      for (size_t k = grid_values.size(); k-- > 0;) {
-        parameters.emplace_back(sweep.grid_keys[k], grid_values[k][rest % grid_values[k].size()]);
-        rest /= grid_values[k].size();
-      }
-      std::reverse(parameters.begin(), parameters.end());
-      for (const auto& [key, value] : parameters) overrides.push_back(key + "=" + value.dump());
-      for (size_t l = 0; l < levels.size(); ++l) {
-        for (size_t s = 0; s < seeds.size(); ++s) {
-          std::vector<std::string> all = overrides;
-          if (has_levels) all.push_back("corruption=" + levels[l].dump());
-          if (seeds_given) all.push_back("seed=" + std::to_string(seeds[s]));
-          if (!success_override.empty()) all.push_back(success_override);
-          ExperimentFile f;
-          const std::string context = where_method + ", grid point " + std::to_string(g) +
-                                      (has_levels ? ", corruptions[" + std::to_string(l) + "]" : "");
-          try {
-            f = load_base(method.base, sweep_dir, all);
-          } catch (const InputError& e) {  // an override's key path that does not fit the base
-            std::string where = context;
-            for (const auto& key : sweep.grid_keys)
-              if (e.where() == key) where = "grid." + key + " (" + context + ")";
-            throw InputError(path, where, e.what());
-          }
-          SweepRun run;
-          run.method = method.name;
-          run.grid_point = static_cast<int>(g);
-          run.parameters = parameters;
-          run.corruption_level = static_cast<int>(l);
-          run.corruption = f.document.contains("corruption") ? f.document["corruption"] : json::array();
-          const json& seed = f.document.contains("seed") ? f.document["seed"] : json(0);
-          run.seed = seed.is_number_unsigned() ? seed.get<uint64_t>()
-                     : seed.is_number()        ? static_cast<uint64_t>(std::max(0.0, seed.get<double>()))
-                                               : 0;
-          run.id = (method.name.empty() ? "" : method.name + "-") + "g" + std::to_string(g) + "-c" +
-                   std::to_string(l) + "-s" + std::to_string(run.seed) + "-" + hex8(fnv1a(f.document.dump()));
-          run.config = f.document;
-          absolutise_paths(run.config, base_dir);
-          if (validate && s == 0) validate_run(sweep, run, f.path, context);
-          sweep.runs.push_back(std::move(run));
-        }
-      }
-    }
+// One grid point of the expansion: its (key, value) pairs and the method's overrides with them.
+struct GridPoint {
+  size_t index = 0;
+  std::vector<std::pair<std::string, json>> parameters;
+  std::vector<std::string> overrides;
+};
+
+// One run: the method's base with the grid point's, the level's, the seed's and the success
+// overrides; its id from the resolved document; validated (if asked) for the first seed.
+void add_run(Sweep& sweep, const SweepPlan& plan, const MethodSpec& method, const std::string& base_dir,
+             const GridPoint& point, size_t l, size_t s, const std::string& context, bool validate) {
+  std::vector<std::string> all = point.overrides;
+  if (plan.has_levels) all.push_back("corruption=" + plan.levels[l].dump());
+  if (plan.seeds_given) all.push_back("seed=" + std::to_string(plan.seeds[s]));
+  if (!plan.success_override.empty()) all.push_back(plan.success_override);
+  ExperimentFile f;
+  try {
+    f = load_base(method.base, plan.sweep_dir, all);
+  } catch (const InputError& e) {  // an override's key path that does not fit the base
+    std::string where = context;
+    for (const auto& key : sweep.grid_keys)
+      if (e.where() == key) where = "grid." + key + " (" + context + ")";
+    throw InputError(sweep.path, where, e.what());
   }
+  const size_t g = point.index;
+  SweepRun run;
+  run.method = method.name;
+  run.grid_point = static_cast<int>(g);
+  run.parameters = point.parameters;
+  run.corruption_level = static_cast<int>(l);
+  run.corruption = f.document.contains("corruption") ? f.document["corruption"] : json::array();
+  const json& seed = f.document.contains("seed") ? f.document["seed"] : json(0);
+  run.seed = seed.is_number_unsigned() ? seed.get<uint64_t>()
+             : seed.is_number()        ? static_cast<uint64_t>(std::max(0.0, seed.get<double>()))
+                                       : 0;
+  run.id = (method.name.empty() ? "" : method.name + "-") + "g" + std::to_string(g) + "-c" + std::to_string(l) + "-s" +
+           std::to_string(run.seed) + "-" + hex8(fnv1a(f.document.dump()));
+  run.config = f.document;
+  absolutise_paths(run.config, base_dir);
+  if (validate && s == 0) validate_run(sweep, run, f.path, context);
+  sweep.runs.push_back(std::move(run));
+}
+
+// A method's runs: grid point (last key fastest), level, seed.
+void expand_method(Sweep& sweep, const SweepPlan& plan, const MethodSpec& method, bool validate) {
+  const std::string where_method = method.name.empty() ? "base" : "methods." + method.name;
+  std::string base_dir;
+  try {
+    base_dir = load_base(method.base, plan.sweep_dir, method.overrides).base_dir;
+  } catch (const InputError& e) {
+    throw InputError(sweep.path, method.name.empty() ? "base" : where_method + (e.where().empty() || e.file().empty() ? "" : ".overrides"),
+                     e.what());
+  }
+  for (size_t g = 0; g < plan.grid_points; ++g) {
+    GridPoint point;
+    point.index = g;
+    point.overrides = method.overrides;
+    size_t rest = g;
+    for (size_t k = plan.grid_values.size(); k-- > 0;) {
+      point.parameters.emplace_back(sweep.grid_keys[k], plan.grid_values[k][rest % plan.grid_values[k].size()]);
+      rest /= plan.grid_values[k].size();
+    }
+    std::reverse(point.parameters.begin(), point.parameters.end());
+    for (const auto& [key, value] : point.parameters) point.overrides.push_back(key + "=" + value.dump());
+    for (size_t l = 0; l < plan.levels.size(); ++l)
+      for (size_t s = 0; s < plan.seeds.size(); ++s) {
+        const std::string context = where_method + ", grid point " + std::to_string(g) +
+                                    (plan.has_levels ? ", corruptions[" + std::to_string(l) + "]" : "");
+        add_run(sweep, plan, method, base_dir, point, l, s, context, validate);
+      }
+  }
+}
+
+}  // namespace
+
+// Reads and checks the whole file first, then expands it: method, grid point, level, seed.
+Sweep load_sweep(const std::string& path, bool validate) {
+  Sweep sweep;
+  sweep.path = path;
+  json doc;
+  nlohmann::ordered_json ordered;
+  parse_sweep_file(path, doc, ordered);
+  const SweepPlan plan = read_sweep_plan(sweep, doc, ordered);
+  for (const auto& method : plan.methods) expand_method(sweep, plan, method, validate);
   std::set<std::string> ids;
   for (const auto& r : sweep.runs)
     if (!ids.insert(r.id).second) throw InputError(path, "", "two runs resolve to the same id " + r.id);
@@ -505,24 +558,9 @@ void aggregate(const Sweep& sweep, const fs::path& out, bool quiet) {
                  (out / "results.csv").c_str(), finished, sweep.runs.size());
 }
 
-}  // namespace
-
-SweepSummary run_sweep(const Sweep& sweep, const SweepOptions& o) {
-  using Clock = std::chrono::steady_clock;
-  DSNAKE_ASSERT(o.jobs >= 1, "at least one job");
-  const fs::path out = fs::absolute(o.out_dir).lexically_normal();
-  SweepSummary summary;
-  summary.total = static_cast<int>(sweep.runs.size());
-  fs::create_directories(out);
-  if (o.aggregate_only) {
-    aggregate(sweep, out, o.quiet);
-    for (const auto& run : sweep.runs) summary.skipped += fs::exists(result_path(out, run));
-    return summary;
-  }
-  FolderLock lock(out);
-  for (const char* sub : {"runs", "configs", "logs"}) fs::create_directories(out / sub);
-  remove_leftovers(out);
-
+// The unfinished runs (finished ones counted as skipped), each with a fresh folder and its
+// configs/<id>.json written.
+std::vector<size_t> prepare_pending(const Sweep& sweep, const fs::path& out, SweepSummary& summary) {
   std::vector<size_t> pending;
   for (size_t i = 0; i < sweep.runs.size(); ++i) {
     if (fs::exists(result_path(out, sweep.runs[i]))) ++summary.skipped;
@@ -535,22 +573,36 @@ SweepSummary run_sweep(const Sweep& sweep, const SweepOptions& o) {
   }
   for (size_t i : pending)
     write_file_atomically((out / "configs" / (sweep.runs[i].id + ".json")).string(), sweep.runs[i].config.dump(2) + "\n");
-  if (!o.manifest.empty()) {
-    write_manifest(sweep, o, out, pending);
-    return summary;
-  }
+  return pending;
+}
 
-  const int threads = o.threads > 0 ? o.threads : (o.jobs > 1 ? 1 : 0);
-  if (!o.quiet)
-    std::fprintf(stderr, "dsnake sweep: %d runs, %d finished already (skipped), running %zu with -j %d%s\n",
-                 summary.total, summary.skipped, pending.size(), o.jobs,
-                 threads > 0 ? (" (" + std::to_string(threads) + " OpenMP thread" + (threads > 1 ? "s" : "") + " each)").c_str() : "");
+// The progress line of a run that ended: its outcome, or why it failed and its log's last line.
+void report_run(const SweepRun& run, int status, const std::optional<json>& result, bool ok, double seconds,
+                const fs::path& out, const SweepSummary& summary) {
+  const int done = summary.skipped + summary.completed + summary.failed;
+  if (ok) {
+    const bool success = result->value("success", false);
+    std::fprintf(stderr, "[%d/%d] %s: %s (%.1f s)\n", done, summary.total, run.label().c_str(),
+                 success ? "success" : "failure", seconds);
+  } else {
+    const std::string why = WIFEXITED(status) ? "exit code " + std::to_string(WEXITSTATUS(status))
+                                              : "killed by signal " + std::to_string(WTERMSIG(status));
+    const fs::path log = out / "logs" / (run.id + ".log");
+    std::fprintf(stderr, "[%d/%d] %s: run failed (%s; %s): %s\n", done, summary.total, run.label().c_str(),
+                 why.c_str(), log.c_str(), last_line(log).c_str());
+  }
+}
+
+// Runs the pending runs as up to o.jobs child processes, counting them in `summary`; a stop
+// signal terminates the running children (which then count as neither completed nor failed).
+void run_children(const Sweep& sweep, const SweepOptions& o, const fs::path& out, const std::vector<size_t>& pending,
+                  int threads, SweepSummary& summary) {
+  using Clock = std::chrono::steady_clock;
   struct Child {
     size_t run;
     Clock::time_point start;
   };
   std::map<pid_t, Child> running;
-  StopSignals signals;
   bool terminated = false;
   size_t next = 0;
   while ((next < pending.size() && !g_stop) || !running.empty()) {
@@ -580,19 +632,40 @@ SweepSummary run_sweep(const Sweep& sweep, const SweepOptions& o) {
     if (ok) ++summary.completed;
     else if (!terminated) ++summary.failed;
     if (o.quiet || (terminated && !ok)) continue;
-    const int done = summary.skipped + summary.completed + summary.failed;
-    if (ok) {
-      const bool success = result->value("success", false);
-      std::fprintf(stderr, "[%d/%d] %s: %s (%.1f s)\n", done, summary.total, run.label().c_str(),
-                   success ? "success" : "failure", seconds);
-    } else {
-      const std::string why = WIFEXITED(status) ? "exit code " + std::to_string(WEXITSTATUS(status))
-                                                : "killed by signal " + std::to_string(WTERMSIG(status));
-      const fs::path log = out / "logs" / (run.id + ".log");
-      std::fprintf(stderr, "[%d/%d] %s: run failed (%s; %s): %s\n", done, summary.total, run.label().c_str(),
-                   why.c_str(), log.c_str(), last_line(log).c_str());
-    }
+    report_run(run, status, result, ok, seconds, out, summary);
   }
+}
+
+}  // namespace
+
+SweepSummary run_sweep(const Sweep& sweep, const SweepOptions& o) {
+  DSNAKE_ASSERT(o.jobs >= 1, "at least one job");
+  const fs::path out = fs::absolute(o.out_dir).lexically_normal();
+  SweepSummary summary;
+  summary.total = static_cast<int>(sweep.runs.size());
+  fs::create_directories(out);
+  if (o.aggregate_only) {
+    aggregate(sweep, out, o.quiet);
+    for (const auto& run : sweep.runs) summary.skipped += fs::exists(result_path(out, run));
+    return summary;
+  }
+  FolderLock lock(out);
+  for (const char* sub : {"runs", "configs", "logs"}) fs::create_directories(out / sub);
+  remove_leftovers(out);
+
+  const std::vector<size_t> pending = prepare_pending(sweep, out, summary);
+  if (!o.manifest.empty()) {
+    write_manifest(sweep, o, out, pending);
+    return summary;
+  }
+
+  const int threads = o.threads > 0 ? o.threads : (o.jobs > 1 ? 1 : 0);
+  if (!o.quiet)
+    std::fprintf(stderr, "dsnake sweep: %d runs, %d finished already (skipped), running %zu with -j %d%s\n",
+                 summary.total, summary.skipped, pending.size(), o.jobs,
+                 threads > 0 ? (" (" + std::to_string(threads) + " OpenMP thread" + (threads > 1 ? "s" : "") + " each)").c_str() : "");
+  StopSignals signals;  // installed until the return, the aggregation included
+  run_children(sweep, o, out, pending, threads, summary);
   summary.interrupted = g_stop != 0;
   remove_leftovers(out);  // staging folders of runs stopped by a signal
   aggregate(sweep, out, o.quiet);

@@ -71,7 +71,106 @@ struct VfcField<D>::Fft {
     for (int a = D - 2; a >= 1; --a) off = off * n[a] + i[a];
     return off * real_stride + i[0];
   }
+  // Padded sizes (linear, not circular, convolution), buffers and the r2c / c2r plan pair.
+  void plan(const Grid<D>& image_grid, int plan_threads, const std::array<int, D>& half);
+  // The D kernel spectra: k_a sampled at offsets d in [-half, half], wrapped around the padded grid.
+  void make_kernel_spectra(const VfcField<D>& field, const std::array<int, D>& half);
+  // F_a = IFFT(FFT(f) * FFT(k_a)) / N, cropped to the image grid into `vectors`.
+  void convolve(const Grid<D>& image_grid, const float* f, VectorField<D>& vectors);
 };
+
+template <int D>
+void VfcField<D>::Fft::plan(const Grid<D>& image_grid, int plan_threads, const std::array<int, D>& half) {
+  grid = image_grid;
+  threads = plan_threads;
+  for (int a = 0; a < D; ++a) n[a] = fft_size(image_grid.size[a] + half[a]);  // linear, not circular
+  real_stride = 2 * (n[0] / 2 + 1);
+  int64_t rows = 1;
+  for (int a = 1; a < D; ++a) rows *= n[a];
+  buffer_floats = rows * real_stride;
+  complex_count = buffer_floats / 2;
+  work.reset(fftwf_alloc_real(buffer_floats));
+  product.reset(fftwf_alloc_real(buffer_floats));
+  int dims[D];
+  for (int a = 0; a < D; ++a) dims[a] = n[D - 1 - a];  // FFTW: last dimension fastest
+  {
+    std::lock_guard<std::mutex> lock(planner_mutex());
+    fftwf_plan_with_nthreads(plan_threads);
+    float* w = work.get();
+    forward = fftwf_plan_dft_r2c(D, dims, w, reinterpret_cast<fftwf_complex*>(w), FFTW_ESTIMATE);
+    backward = fftwf_plan_dft_c2r(D, dims, reinterpret_cast<fftwf_complex*>(w), w, FFTW_ESTIMATE);
+  }
+  DSNAKE_ASSERT(forward && backward, "FFTW plans");
+}
+
+template <int D>
+void VfcField<D>::Fft::make_kernel_spectra(const VfcField<D>& field, const std::array<int, D>& half) {
+  double dv = 1;
+  for (int a = 0; a < D; ++a) dv *= grid.spacing[a];
+  for (int a = 0; a < D; ++a) {
+    kernel_spectra[a].reset(fftwf_alloc_real(buffer_floats));
+    std::fill_n(kernel_spectra[a].get(), buffer_floats, 0.0f);
+  }
+  int64_t count = 1;
+  for (int a = 0; a < D; ++a) count *= 2 * half[a] + 1;
+#pragma omp parallel for schedule(static)
+  for (int64_t l = 0; l < count; ++l) {
+    std::array<int, D> wrapped{};
+    Point<D> d;
+    int64_t rest = l;
+    for (int a = 0; a < D; ++a) {
+      const int o = int(rest % (2 * half[a] + 1)) - half[a];
+      rest /= 2 * half[a] + 1;
+      d[a] = o * grid.spacing[a];
+      wrapped[a] = o < 0 ? o + n[a] : o;
+    }
+    const Point<D> k = field.kernel(d) * dv;
+    const int64_t offset = at(wrapped);
+    for (int a = 0; a < D; ++a) kernel_spectra[a].get()[offset] = float(k[a]);
+  }
+  for (int a = 0; a < D; ++a) {
+    float* k = kernel_spectra[a].get();
+    fftwf_execute_dft_r2c(forward, k, reinterpret_cast<fftwf_complex*>(k));
+  }
+}
+
+template <int D>
+void VfcField<D>::Fft::convolve(const Grid<D>& image_grid, const float* f, VectorField<D>& vectors) {
+  float* w = work.get();
+  // Image rows (x runs) to padded rows and back: row r of the image is padded row pad_row(r).
+  const int nx = image_grid.size[0];
+  const int64_t image_rows = image_grid.num_voxels() / nx;
+  auto pad_row = [&](int64_t r) {
+    int64_t off = 0, mul = 1;
+    for (int a = 1; a < D; ++a) {
+      off += (r % image_grid.size[a]) * mul;
+      r /= image_grid.size[a];
+      mul *= n[a];
+    }
+    return off * real_stride;
+  };
+  std::fill_n(w, buffer_floats, 0.0f);
+#pragma omp parallel for schedule(static)
+  for (int64_t r = 0; r < image_rows; ++r) std::copy_n(f + r * nx, nx, w + pad_row(r));
+  fftwf_execute_dft_r2c(forward, w, reinterpret_cast<fftwf_complex*>(w));
+  double n_total = 1;
+  for (int a = 0; a < D; ++a) n_total *= n[a];
+  const float scale = float(1.0 / n_total);
+  const auto* fhat = reinterpret_cast<const std::complex<float>*>(w);
+  for (int a = 0; a < D; ++a) {
+    const auto* khat = reinterpret_cast<const std::complex<float>*>(kernel_spectra[a].get());
+    auto* out = reinterpret_cast<std::complex<float>*>(product.get());
+#pragma omp parallel for schedule(static)
+    for (int64_t l = 0; l < complex_count; ++l) out[l] = fhat[l] * khat[l] * scale;
+    fftwf_execute_dft_c2r(backward, reinterpret_cast<fftwf_complex*>(product.get()), product.get());
+    const float* real = product.get();
+#pragma omp parallel for schedule(static)
+    for (int64_t r = 0; r < image_rows; ++r) {
+      const float* src = real + pad_row(r);
+      for (int x = 0; x < nx; ++x) vectors[r * nx + x][a] = src[x];
+    }
+  }
+}
 
 template <int D>
 VfcField<D>::VfcField(const VfcFieldOptions& options) : options_(checked(options, kType)) {}
@@ -115,98 +214,17 @@ void VfcField<D>::compute(const Image<D>& image) {
     auto t0 = std::chrono::steady_clock::now();
     init_fftw_threads();
     auto fft = std::make_unique<Fft>();
-    fft->grid = grid;
-    fft->threads = threads;
-    for (int a = 0; a < D; ++a) fft->n[a] = fft_size(grid.size[a] + half[a]);  // linear, not circular
-    fft->real_stride = 2 * (fft->n[0] / 2 + 1);
-    int64_t rows = 1;
-    for (int a = 1; a < D; ++a) rows *= fft->n[a];
-    fft->buffer_floats = rows * fft->real_stride;
-    fft->complex_count = fft->buffer_floats / 2;
-    fft->work.reset(fftwf_alloc_real(fft->buffer_floats));
-    fft->product.reset(fftwf_alloc_real(fft->buffer_floats));
-    int dims[D];
-    for (int a = 0; a < D; ++a) dims[a] = fft->n[D - 1 - a];  // FFTW: last dimension fastest
-    {
-      std::lock_guard<std::mutex> lock(planner_mutex());
-      fftwf_plan_with_nthreads(threads);
-      float* w = fft->work.get();
-      fft->forward = fftwf_plan_dft_r2c(D, dims, w, reinterpret_cast<fftwf_complex*>(w), FFTW_ESTIMATE);
-      fft->backward = fftwf_plan_dft_c2r(D, dims, reinterpret_cast<fftwf_complex*>(w), w, FFTW_ESTIMATE);
-    }
-    DSNAKE_ASSERT(fft->forward && fft->backward, "FFTW plans");
+    fft->plan(grid, threads, half);
     timings_.plan_s = seconds_since(t0);
-
-    // Kernel spectra: k_a sampled at offsets d in [-half, half], wrapped around the padded grid.
     t0 = std::chrono::steady_clock::now();
-    double dv = 1;
-    for (int a = 0; a < D; ++a) dv *= grid.spacing[a];
-    for (int a = 0; a < D; ++a) {
-      fft->kernel_spectra[a].reset(fftwf_alloc_real(fft->buffer_floats));
-      std::fill_n(fft->kernel_spectra[a].get(), fft->buffer_floats, 0.0f);
-    }
-    int64_t count = 1;
-    for (int a = 0; a < D; ++a) count *= 2 * half[a] + 1;
-#pragma omp parallel for schedule(static)
-    for (int64_t l = 0; l < count; ++l) {
-      std::array<int, D> wrapped{};
-      Point<D> d;
-      int64_t rest = l;
-      for (int a = 0; a < D; ++a) {
-        const int o = int(rest % (2 * half[a] + 1)) - half[a];
-        rest /= 2 * half[a] + 1;
-        d[a] = o * grid.spacing[a];
-        wrapped[a] = o < 0 ? o + fft->n[a] : o;
-      }
-      const Point<D> k = kernel(d) * dv;
-      const int64_t at = fft->at(wrapped);
-      for (int a = 0; a < D; ++a) fft->kernel_spectra[a].get()[at] = float(k[a]);
-    }
-    for (int a = 0; a < D; ++a) {
-      float* k = fft->kernel_spectra[a].get();
-      fftwf_execute_dft_r2c(fft->forward, k, reinterpret_cast<fftwf_complex*>(k));
-    }
+    fft->make_kernel_spectra(*this, half);
     timings_.kernel_s = seconds_since(t0);
     fft_ = std::move(fft);
   }
 
   // F_a = IFFT(FFT(f) * FFT(k_a)) / N, cropped to the image.
   const auto t0 = std::chrono::steady_clock::now();
-  Fft& fft = *fft_;
-  float* w = fft.work.get();
-  // Image rows (x runs) to padded rows and back: row r of the image is padded row pad_row(r).
-  const int nx = grid.size[0];
-  const int64_t image_rows = grid.num_voxels() / nx;
-  auto pad_row = [&](int64_t r) {
-    int64_t off = 0, mul = 1;
-    for (int a = 1; a < D; ++a) {
-      off += (r % grid.size[a]) * mul;
-      r /= grid.size[a];
-      mul *= fft.n[a];
-    }
-    return off * fft.real_stride;
-  };
-  std::fill_n(w, fft.buffer_floats, 0.0f);
-#pragma omp parallel for schedule(static)
-  for (int64_t r = 0; r < image_rows; ++r) std::copy_n(edges.f.data() + r * nx, nx, w + pad_row(r));
-  fftwf_execute_dft_r2c(fft.forward, w, reinterpret_cast<fftwf_complex*>(w));
-  double n_total = 1;
-  for (int a = 0; a < D; ++a) n_total *= fft.n[a];
-  const float scale = float(1.0 / n_total);
-  const auto* fhat = reinterpret_cast<const std::complex<float>*>(w);
-  for (int a = 0; a < D; ++a) {
-    const auto* khat = reinterpret_cast<const std::complex<float>*>(fft.kernel_spectra[a].get());
-    auto* out = reinterpret_cast<std::complex<float>*>(fft.product.get());
-#pragma omp parallel for schedule(static)
-    for (int64_t l = 0; l < fft.complex_count; ++l) out[l] = fhat[l] * khat[l] * scale;
-    fftwf_execute_dft_c2r(fft.backward, reinterpret_cast<fftwf_complex*>(fft.product.get()), fft.product.get());
-    const float* real = fft.product.get();
-#pragma omp parallel for schedule(static)
-    for (int64_t r = 0; r < image_rows; ++r) {
-      const float* src = real + pad_row(r);
-      for (int x = 0; x < nx; ++x) vectors_[r * nx + x][a] = src[x];
-    }
-  }
+  fft_->convolve(grid, edges.f.data(), vectors_);
   timings_.convolve_s = seconds_since(t0);
 }
 

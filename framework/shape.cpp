@@ -36,36 +36,25 @@ Connectivity Connectivity::polygon(int n) {
   return c;
 }
 
-// Flat arrays throughout (it runs after every remeshing pass): incident triangles in CSR form,
-// the directed half-edges sorted once for the duplicate and twin checks, and each one-ring
-// walked through a linear search of its few (a -> b) links.
-Connectivity Connectivity::mesh(int n, std::vector<Triangle> triangles) {
-  Connectivity c;
-  c.num_vertices_ = n;
-  c.triangles_ = std::move(triangles);
-  const auto& tris = c.triangles_;
-  const int F = static_cast<int>(tris.size());
-  auto fail = [&](std::string why) {
-    if (c.problem_.empty()) c.problem_ = std::move(why);
-  };
-  if (tris.empty()) fail("the mesh has no triangles");
-  for (int f = 0; f < F; ++f)
-    for (int k = 0; k < 3; ++k)
-      if (tris[f][k] < 0 || tris[f][k] >= n) {
-        fail("triangle " + std::to_string(f) + " refers to vertex " + std::to_string(tris[f][k]) + " of " +
-             std::to_string(n));
-        return c;
-      }
-  auto degenerate = [&](int f) {
-    const auto& t = tris[f];
-    return t[0] == t[1] || t[1] == t[2] || t[0] == t[2];
-  };
+namespace {
 
-  // Incident non-degenerate triangles of each vertex, in triangle order (CSR).
+// The first problem found is the one reported: later ones do not overwrite it.
+void set_problem(std::string& problem, std::string why) {
+  if (problem.empty()) problem = std::move(why);
+}
+
+// A triangle with a repeated vertex: left out of the rings and the half-edges, and reported.
+bool degenerate(const Triangle& t) { return t[0] == t[1] || t[1] == t[2] || t[0] == t[2]; }
+
+// Incident non-degenerate triangles of each vertex, in triangle order (CSR: `incident` from
+// first_incident[v] to first_incident[v + 1]); returns the first degenerate triangle (or F).
+int incident_triangles(int n, const std::vector<Triangle>& tris, std::vector<int>& first_incident,
+                       std::vector<int>& incident) {
+  const int F = static_cast<int>(tris.size());
   int first_degenerate = F;
-  std::vector<int> first_incident(n + 1, 0), incident;
+  first_incident.assign(n + 1, 0);
   for (int f = 0; f < F; ++f) {
-    if (degenerate(f)) {
+    if (degenerate(tris[f])) {
       first_degenerate = std::min(first_degenerate, f);
       continue;
     }
@@ -76,20 +65,25 @@ Connectivity Connectivity::mesh(int n, std::vector<Triangle> triangles) {
   {
     std::vector<int> fill(first_incident.begin(), first_incident.end() - 1);
     for (int f = 0; f < F; ++f)
-      if (!degenerate(f))
+      if (!degenerate(tris[f]))
         for (int k = 0; k < 3; ++k) incident[fill[tris[f][k]]++] = f;
   }
+  return first_degenerate;
+}
 
-  // The directed half-edges a -> b of the non-degenerate triangles, with their position 3 f + k,
-  // per vertex a sorted by (b, position) (the same CSR layout): a repeated one is shared by more
-  // than two triangles or oriented inconsistently; one without its twin b -> a is on a boundary.
-  // The first problem in triangle order is reported (the earliest second occurrence of a
-  // half-edge; the missing twin of the smallest (a, b)). Linear in the mesh size.
-  struct Outgoing {
-    int to, position;
-    bool operator<(const Outgoing& o) const { return to != o.to ? to < o.to : position < o.position; }
-  };
-  std::vector<Outgoing> outgoing(incident.size());
+// A directed half-edge a -> b at position 3 f + k, ordered by (b, position).
+struct Outgoing {
+  int to, position;
+  bool operator<(const Outgoing& o) const { return to != o.to ? to < o.to : position < o.position; }
+};
+
+// The directed half-edges a -> b of the non-degenerate triangles, per vertex a sorted by
+// (b, position) (the CSR layout of `incident`); returns the position of the earliest second
+// occurrence of a half-edge (3 F if none).
+int sorted_half_edges(int n, const std::vector<Triangle>& tris, const std::vector<int>& first_incident,
+                      const std::vector<int>& incident, std::vector<Outgoing>& outgoing) {
+  const int F = static_cast<int>(tris.size());
+  outgoing.resize(incident.size());
   int first_repeat = 3 * F;  // position of the earliest second occurrence of a half-edge
   for (int a = 0; a < n; ++a) {
     const auto begin = outgoing.begin() + first_incident[a], end = outgoing.begin() + first_incident[a + 1];
@@ -102,36 +96,52 @@ Connectivity Connectivity::mesh(int n, std::vector<Triangle> triangles) {
     for (auto it = begin; it != end && it + 1 != end; ++it)
       if (it[1].to == it->to) first_repeat = std::min(first_repeat, it[1].position);
   }
+  return first_repeat;
+}
+
+// A repeated half-edge is shared by more than two triangles or oriented inconsistently; one
+// without its twin b -> a is on a boundary. The first problem in triangle order is reported
+// (a degenerate triangle or the earliest second occurrence of a half-edge; then the missing
+// twin of the smallest (a, b)).
+void check_edges(int n, const std::vector<Triangle>& tris, int first_degenerate, int first_repeat,
+                 const std::vector<int>& first_incident, const std::vector<Outgoing>& outgoing,
+                 std::string& problem) {
+  const int F = static_cast<int>(tris.size());
   if (first_degenerate < F && first_degenerate <= first_repeat / 3) {
-    fail("triangle " + std::to_string(first_degenerate) + " is degenerate (repeated vertex)");
+    set_problem(problem, "triangle " + std::to_string(first_degenerate) + " is degenerate (repeated vertex)");
   } else if (first_repeat < 3 * F) {
     const auto& t = tris[first_repeat / 3];
     const int k = first_repeat % 3;
-    fail("edge (" + std::to_string(t[k]) + ", " + std::to_string(t[(k + 1) % 3]) +
-         ") is shared by more than two triangles or oriented inconsistently");
+    set_problem(problem, "edge (" + std::to_string(t[k]) + ", " + std::to_string(t[(k + 1) % 3]) +
+                             ") is shared by more than two triangles or oriented inconsistently");
   }
-  for (int a = 0; a < n && c.problem_.empty(); ++a)
+  for (int a = 0; a < n && problem.empty(); ++a)
     for (int i = first_incident[a]; i < first_incident[a + 1]; ++i) {
       const int b = outgoing[i].to;
       const auto b_begin = outgoing.begin() + first_incident[b], b_end = outgoing.begin() + first_incident[b + 1];
       const auto twin = std::lower_bound(b_begin, b_end, Outgoing{a, -1});
       if (twin == b_end || twin->to != a) {
-        fail("edge (" + std::to_string(std::min(a, b)) + ", " + std::to_string(std::max(a, b)) +
-             ") is a boundary edge or oriented inconsistently: the mesh is not closed");
+        set_problem(problem, "edge (" + std::to_string(std::min(a, b)) + ", " + std::to_string(std::max(a, b)) +
+                                 ") is a boundary edge or oriented inconsistently: the mesh is not closed");
         break;
       }
     }
+}
 
-  // Ordered one-rings: around v, each incident triangle (v, a, b) links a -> b; the ring starts
-  // at the first incident triangle's a.
-  c.offsets_.assign(n + 1, 0);
-  c.adjacency_.clear();
-  c.adjacency_.reserve(incident.size());
+// Ordered one-rings in CSR form: around v, each incident triangle (v, a, b) links a -> b; the
+// ring starts at the first incident triangle's a. A vertex whose triangles are not one fan gets
+// its unordered neighbour set, so that the adjacency stays usable.
+void ordered_rings(int n, const std::vector<Triangle>& tris, const std::vector<int>& first_incident,
+                   const std::vector<int>& incident, std::vector<int>& offsets, std::vector<int>& adjacency,
+                   std::string& problem) {
+  offsets.assign(n + 1, 0);
+  adjacency.clear();
+  adjacency.reserve(incident.size());
   std::vector<std::pair<int, int>> links;
   for (int v = 0; v < n; ++v) {
-    c.offsets_[v] = static_cast<int>(c.adjacency_.size());
+    offsets[v] = static_cast<int>(adjacency.size());
     if (first_incident[v] == first_incident[v + 1]) {
-      fail("vertex " + std::to_string(v) + " is in no triangle");
+      set_problem(problem, "vertex " + std::to_string(v) + " is in no triangle");
       continue;
     }
     links.clear();
@@ -149,21 +159,47 @@ Connectivity Connectivity::mesh(int n, std::vector<Triangle> triangles) {
     int a = start;
     size_t steps = 0;
     do {
-      c.adjacency_.push_back(a);
+      adjacency.push_back(a);
       a = next_of(a);
     } while (a >= 0 && a != start && ++steps <= links.size());
-    if (c.adjacency_.size() - c.offsets_[v] != links.size()) {
-      fail("vertex " + std::to_string(v) + " is non-manifold (its triangles do not form one fan)");
-      // Fall back to an unordered neighbour set so that the adjacency stays usable.
-      c.adjacency_.resize(c.offsets_[v]);
+    if (adjacency.size() - offsets[v] != links.size()) {
+      set_problem(problem, "vertex " + std::to_string(v) + " is non-manifold (its triangles do not form one fan)");
+      adjacency.resize(offsets[v]);
       std::vector<int> nb;
       for (const auto& [x, y] : links) nb.push_back(x), nb.push_back(y);
       std::sort(nb.begin(), nb.end());
       nb.erase(std::unique(nb.begin(), nb.end()), nb.end());
-      c.adjacency_.insert(c.adjacency_.end(), nb.begin(), nb.end());
+      adjacency.insert(adjacency.end(), nb.begin(), nb.end());
     }
   }
-  c.offsets_[n] = static_cast<int>(c.adjacency_.size());
+  offsets[n] = static_cast<int>(adjacency.size());
+}
+
+}  // namespace
+
+// Flat arrays throughout (it runs after every remeshing pass): incident triangles in CSR form,
+// the directed half-edges sorted once for the duplicate and twin checks, and each one-ring
+// walked through a linear search of its few (a -> b) links. Linear in the mesh size.
+Connectivity Connectivity::mesh(int n, std::vector<Triangle> triangles) {
+  Connectivity c;
+  c.num_vertices_ = n;
+  c.triangles_ = std::move(triangles);
+  const auto& tris = c.triangles_;
+  const int F = static_cast<int>(tris.size());
+  if (tris.empty()) set_problem(c.problem_, "the mesh has no triangles");
+  for (int f = 0; f < F; ++f)
+    for (int k = 0; k < 3; ++k)
+      if (tris[f][k] < 0 || tris[f][k] >= n) {
+        set_problem(c.problem_, "triangle " + std::to_string(f) + " refers to vertex " + std::to_string(tris[f][k]) +
+                                    " of " + std::to_string(n));
+        return c;
+      }
+  std::vector<int> first_incident, incident;
+  const int first_degenerate = incident_triangles(n, tris, first_incident, incident);
+  std::vector<Outgoing> outgoing;
+  const int first_repeat = sorted_half_edges(n, tris, first_incident, incident, outgoing);
+  check_edges(n, tris, first_degenerate, first_repeat, first_incident, outgoing, c.problem_);
+  ordered_rings(n, tris, first_incident, incident, c.offsets_, c.adjacency_, c.problem_);
   return c;
 }
 

@@ -150,30 +150,18 @@ std::vector<double> mean_value_weights(const EditMesh& m, int v, const std::vect
   return w;
 }
 
-// Re-triangulates one disc patch; returns false (patch untouched) when it cannot be done safely.
-bool retriangulate_patch(EditMesh& m, const std::vector<int>& faces, double cos_max_dihedral) {
-  const std::set<int> in(faces.begin(), faces.end());
-  const auto loop = boundary_loop(boundary_edges(m, faces, in));
-  std::vector<int> verts;
-  for (int f : faces)
-    for (int v : m.tri(f)) verts.push_back(v);
-  std::sort(verts.begin(), verts.end());
-  verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
-  std::unordered_map<int, int> local;  // mesh vertex -> parameter index
-  for (size_t i = 0; i < verts.size(); ++i) local[verts[i]] = static_cast<int>(i);
+// Mean-value parameterisation of a disc patch into `uv` (nv x 2, zero): the boundary loop on
+// the unit circle by arc length, counter-clockwise (the faces' orientation), the interior
+// vertices from one sparse LU solve; false when the solve fails.
+bool parameterise_patch(const EditMesh& m, const std::vector<int>& verts, const std::unordered_map<int, int>& local,
+                        const std::vector<int>& loop, const std::vector<char>& on_boundary, Eigen::MatrixX2d& uv) {
   const int nv = static_cast<int>(verts.size());
-  std::vector<char> on_boundary(nv, 0);
-  for (int v : loop) on_boundary[local[v]] = 1;
-  if (nv == static_cast<int>(loop.size())) return false;  // no interior vertex
-
-  // Boundary on the unit circle by arc length, counter-clockwise (the faces' orientation).
-  Eigen::MatrixX2d uv = Eigen::MatrixX2d::Zero(nv, 2);
   const int nb = static_cast<int>(loop.size());
   std::vector<double> s(nb + 1, 0.0);
   for (int i = 0; i < nb; ++i) s[i + 1] = s[i] + (m.pos(loop[(i + 1) % nb]) - m.pos(loop[i])).norm();
   for (int i = 0; i < nb; ++i) {
     const double th = 2 * std::numbers::pi * s[i] / s[nb];
-    uv.row(local[loop[i]]) << std::cos(th), std::sin(th);
+    uv.row(local.at(loop[i])) << std::cos(th), std::sin(th);
   }
   // Interior: u_i - sum_j w_ij u_j = sum over boundary j of w_ij u_j (one sparse LU solve).
   std::vector<int> interior_index(nv, -1);
@@ -204,8 +192,21 @@ bool retriangulate_patch(EditMesh& m, const std::vector<int>& faces, double cos_
   if (lu.info() != Eigen::Success || !x.allFinite()) return false;
   for (int i = 0; i < nv; ++i)
     if (!on_boundary[i]) uv.row(i) = x.row(interior_index[i]);
+  return true;
+}
 
-  // Planar Delaunay (Subdiv2D works in float on an integer rectangle: scale the unit disc).
+// The triangle with its smallest vertex first (the same triangle whatever its starting corner).
+std::array<int, 3> rotated_key(const std::array<int, 3>& t) {
+  std::array<int, 3> key = t;
+  std::rotate(key.begin(), std::min_element(key.begin(), key.end()), key.end());
+  return key;
+}
+
+// Planar Delaunay triangles of the parameter points `uv` as mesh triangles (counter-clockwise in
+// the plane = outward in 3D), each once, into `fresh`; false when two points merge in float or a
+// triangle is flat. Subdiv2D works in float on an integer rectangle: the unit disc is scaled.
+bool delaunay_triangles(const Eigen::MatrixX2d& uv, const std::vector<int>& verts, std::vector<Triangle>& fresh) {
+  const int nv = static_cast<int>(verts.size());
   constexpr double kScale = 1000, kShift = 1010;
   cv::Subdiv2D sub(cv::Rect(0, 0, 2020, 2020));
   std::unordered_map<int, int> of_subdiv;  // Subdiv2D vertex id -> parameter index
@@ -216,7 +217,6 @@ bool retriangulate_patch(EditMesh& m, const std::vector<int>& faces, double cos_
   std::vector<int> leading;
   sub.getLeadingEdgeList(leading);
   std::set<std::array<int, 3>> seen;
-  std::vector<Triangle> fresh;
   for (int e : leading) {
     const int e1 = sub.getEdge(e, cv::Subdiv2D::NEXT_AROUND_LEFT);
     const int e2 = sub.getEdge(e1, cv::Subdiv2D::NEXT_AROUND_LEFT);
@@ -235,35 +235,38 @@ bool retriangulate_patch(EditMesh& m, const std::vector<int>& faces, double cos_
     const double orient = (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
     if (orient == 0) return false;
     if (orient < 0) std::swap(t[1], t[2]);
-    std::array<int, 3> key = t;
-    std::rotate(key.begin(), std::min_element(key.begin(), key.end()), key.end());
-    if (!seen.insert(key).second) continue;
+    if (!seen.insert(rotated_key(t)).second) continue;
     fresh.push_back({verts[t[0]], verts[t[1]], verts[t[2]]});
   }
-  // The same number of triangles and every boundary edge kept, or the patch stays.
-  if (fresh.size() != faces.size()) return false;
+  return true;
+}
+
+// Whether the new triangles number as many as the old and keep every boundary edge of the loop.
+bool keeps_patch_boundary(const std::vector<Triangle>& fresh, size_t old_count, const std::vector<int>& loop) {
+  if (fresh.size() != old_count) return false;
+  const int nb = static_cast<int>(loop.size());
   std::set<Edge> fresh_edges;
   for (const auto& t : fresh)
     for (int k = 0; k < 3; ++k) fresh_edges.emplace(t[k], t[(k + 1) % 3]);
   for (int i = 0; i < nb; ++i)
     if (!fresh_edges.count({loop[i], loop[(i + 1) % nb]})) return false;
-  // Unchanged connectivity: nothing to do.
+  return true;
+}
+
+// Whether the new triangles are the old ones (up to each triangle's starting corner).
+bool same_triangles(const EditMesh& m, const std::vector<int>& faces, const std::vector<Triangle>& fresh) {
   std::set<std::array<int, 3>> old_keys;
-  for (int f : faces) {
-    std::array<int, 3> key = m.tri(f);
-    std::rotate(key.begin(), std::min_element(key.begin(), key.end()), key.end());
-    old_keys.insert(key);
-  }
+  for (int f : faces) old_keys.insert(rotated_key(m.tri(f)));
   bool same = true;
-  for (const auto& t : fresh) {
-    std::array<int, 3> key = t;
-    std::rotate(key.begin(), std::min_element(key.begin(), key.end()), key.end());
-    same = same && old_keys.count(key);
-  }
-  if (same) return true;
-  // Geometry: every new triangle non-degenerate and within the dihedral limit (at least 60
-  // degrees: a patch spans more curvature than one edge) of the old surface's normal at each
-  // of its corners (area-weighted over the old patch faces).
+  for (const auto& t : fresh) same = same && old_keys.count(rotated_key(t));
+  return same;
+}
+
+// Geometry: every new triangle non-degenerate and within the dihedral limit (at least 60
+// degrees: a patch spans more curvature than one edge) of the old surface's normal at each
+// of its corners (area-weighted over the old patch faces).
+bool fits_old_surface(const EditMesh& m, const std::vector<int>& faces, const std::vector<Triangle>& fresh,
+                      double cos_max_dihedral) {
   std::unordered_map<int, Point<3>> vn;
   for (int f : faces) {
     const auto& t = m.tri(f);
@@ -279,7 +282,12 @@ bool retriangulate_patch(EditMesh& m, const std::vector<int>& faces, double cos_
     for (int v : t)
       if (n.dot(vn[v].normalized()) < std::min(cos_max_dihedral, 0.5)) return false;
   }
-  // Swap the patch in, triangle by triangle, checking each against the rest of the surface.
+  return true;
+}
+
+// Swaps the patch in, triangle by triangle, checking each against the rest of the surface;
+// on an intersection the old triangles are restored and false is returned.
+bool swap_in_patch(EditMesh& m, const std::vector<int>& faces, const std::vector<Triangle>& fresh) {
   std::vector<Triangle> old;
   for (int f : faces) old.push_back(m.tri(f));
   for (int f : faces) m.remove_triangle(f);
@@ -293,6 +301,33 @@ bool retriangulate_patch(EditMesh& m, const std::vector<int>& faces, double cos_
     added.push_back(m.add_triangle(t));
   }
   return true;
+}
+
+// Re-triangulates one disc patch; returns false (patch untouched) when it cannot be done safely.
+bool retriangulate_patch(EditMesh& m, const std::vector<int>& faces, double cos_max_dihedral) {
+  const std::set<int> in(faces.begin(), faces.end());
+  const auto loop = boundary_loop(boundary_edges(m, faces, in));
+  std::vector<int> verts;
+  for (int f : faces)
+    for (int v : m.tri(f)) verts.push_back(v);
+  std::sort(verts.begin(), verts.end());
+  verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+  std::unordered_map<int, int> local;  // mesh vertex -> parameter index
+  for (size_t i = 0; i < verts.size(); ++i) local[verts[i]] = static_cast<int>(i);
+  const int nv = static_cast<int>(verts.size());
+  std::vector<char> on_boundary(nv, 0);
+  for (int v : loop) on_boundary[local[v]] = 1;
+  if (nv == static_cast<int>(loop.size())) return false;  // no interior vertex
+
+  Eigen::MatrixX2d uv = Eigen::MatrixX2d::Zero(nv, 2);
+  if (!parameterise_patch(m, verts, local, loop, on_boundary, uv)) return false;
+  std::vector<Triangle> fresh;
+  if (!delaunay_triangles(uv, verts, fresh)) return false;
+  // The same number of triangles and every boundary edge kept, or the patch stays.
+  if (!keeps_patch_boundary(fresh, faces.size(), loop)) return false;
+  if (same_triangles(m, faces, fresh)) return true;  // unchanged connectivity: nothing to do
+  if (!fits_old_surface(m, faces, fresh, cos_max_dihedral)) return false;
+  return swap_in_patch(m, faces, fresh);
 }
 
 }  // namespace
