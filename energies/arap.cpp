@@ -3,7 +3,7 @@
 
 #include "energies/mls_weights.h"
 #include "energies/residual_blocks.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <cmath>
 

@@ -5,8 +5,8 @@
 // minimiser with the rotations and the other vertices frozen. Governs the template vertices.
 #pragma once
 
-#include "framework/energy.h"
-#include "framework/options.h"
+#include "framework/core/energy.h"
+#include "framework/core/options.h"
 
 #include <memory>
 #include <string>

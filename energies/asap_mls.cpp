@@ -6,7 +6,7 @@
 #include "energies/block_quadratic.h"
 #include "energies/mls_weights.h"
 #include "energies/residual_blocks.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <cmath>
 

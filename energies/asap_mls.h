@@ -16,8 +16,8 @@
 #pragma once
 
 #include "energies/mls_weights.h"
-#include "framework/energy.h"
-#include "framework/options.h"
+#include "framework/core/energy.h"
+#include "framework/core/options.h"
 
 #include <memory>
 #include <string>

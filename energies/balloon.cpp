@@ -1,7 +1,7 @@
 // Balloon force; see balloon.h. Cohen 1991, eq. (5) there: F = k1 n(s).
 #include "energies/balloon.h"
 
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 namespace dsnake {
 

@@ -5,8 +5,8 @@
 // the area-weighted normal; it is not a sum of squares, so it has no residuals (global solve).
 #pragma once
 
-#include "framework/energy.h"
-#include "framework/options.h"
+#include "framework/core/energy.h"
+#include "framework/core/options.h"
 
 #include <string>
 

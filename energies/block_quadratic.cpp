@@ -2,7 +2,7 @@
 // Levi & Gotsman, D-Snake, §4.1 eq. (5) and the Gauss-Seidel operator A2.
 #include "energies/block_quadratic.h"
 
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <Eigen/Dense>
 

@@ -6,7 +6,7 @@
 // never increases E). Used by the exact 2D ASAP energy and the Laplacian editing energy.
 #pragma once
 
-#include "framework/types.h"
+#include "framework/core/types.h"
 
 #include <Eigen/Core>
 #include <map>

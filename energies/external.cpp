@@ -1,10 +1,10 @@
 // External energy; see external.h. Levi & Gotsman, D-Snake, §1 (E_ext) and §3.1 (q^ext).
 #include "energies/external.h"
 
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 #include "energies/residual_blocks.h"
-#include "framework/external_field.h"
-#include "framework/potential.h"
+#include "framework/core/external_field.h"
+#include "framework/core/potential.h"
 
 #include <limits>
 

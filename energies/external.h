@@ -3,8 +3,8 @@
 // explicit external term of eqs. (19)-(20)). With the basic field of §1, F = -grad E_ext.
 #pragma once
 
-#include "framework/energy.h"
-#include "framework/options.h"
+#include "framework/core/energy.h"
+#include "framework/core/options.h"
 
 #include <string>
 

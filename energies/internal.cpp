@@ -2,8 +2,8 @@
 // contour models" (1988), appendix; Levi & Gotsman, D-Snake, §1 (E_int) and §3.1 (q^int).
 #include "energies/internal.h"
 
-#include "framework/errors.h"
-#include "framework/global_problem.h"
+#include "framework/core/errors.h"
+#include "framework/global/global_problem.h"
 
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>

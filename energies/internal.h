@@ -9,8 +9,8 @@
 // The factorisation is built in bind() and kept until the snake's topology changes.
 #pragma once
 
-#include "framework/energy.h"
-#include "framework/options.h"
+#include "framework/core/energy.h"
+#include "framework/core/options.h"
 
 #include <cstdint>
 #include <memory>

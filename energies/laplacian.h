@@ -8,8 +8,8 @@
 // ASAP operator of D-Snake §4.1. Governs the template vertices (like ASAP, §6).
 #pragma once
 
-#include "framework/energy.h"
-#include "framework/options.h"
+#include "framework/core/energy.h"
+#include "framework/core/options.h"
 
 #include <memory>
 #include <string>

@@ -4,7 +4,7 @@
 // point patterns" (PAMI 1991) for the reflection-safe rotation.
 #include "energies/mls_weights.h"
 
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <Eigen/Dense>
 #include <algorithm>

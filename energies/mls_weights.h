@@ -3,8 +3,8 @@
 //  - the weighted best similarity (2D closed form, 3D SVD, reflection-safe) and best rotation.
 #pragma once
 
-#include "framework/options.h"
-#include "framework/shape.h"
+#include "framework/core/options.h"
+#include "framework/core/shape.h"
 
 #include <Eigen/Core>
 #include <span>

@@ -1,5 +1,5 @@
 // Registration of the energies: one line per energy class. Each class declares its name, its
-// options (which read and check themselves) and a summary; see framework/registry.h.
+// options (which read and check themselves) and a summary; see framework/core/registry.h.
 #include "energies/registry.h"
 
 #include "energies/arap.h"

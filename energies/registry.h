@@ -1,8 +1,8 @@
 // The energies that an experiment file can name in "energies": [{"type": ..., ...}].
 #pragma once
 
-#include "framework/energy.h"
-#include "framework/registry.h"
+#include "framework/core/energy.h"
+#include "framework/core/registry.h"
 
 namespace dsnake {
 

@@ -1,7 +1,7 @@
 // Ceres cost functions for the deformation energies; see residual_blocks.h.
 #include "energies/residual_blocks.h"
 
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <Eigen/Geometry>
 #include <ceres/ceres.h>

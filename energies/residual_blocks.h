@@ -6,8 +6,8 @@
 //    manifold), times e^sigma for a similarity.
 #pragma once
 
-#include "framework/global_problem.h"
-#include "framework/potential.h"
+#include "framework/global/global_problem.h"
+#include "framework/core/potential.h"
 
 #include <Eigen/Core>
 #include <vector>

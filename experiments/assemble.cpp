@@ -1,9 +1,9 @@
 #include "experiments/assemble.h"
 
 #include "experiments/phantoms.h"
-#include "framework/errors.h"
-#include "framework/image_io.h"
-#include "framework/mesh_io.h"
+#include "framework/core/errors.h"
+#include "framework/io/image_io.h"
+#include "framework/io/mesh_io.h"
 #include "remesh/pipeline.h"
 
 #include <fstream>

@@ -1,6 +1,6 @@
 #include "experiments/builtin.h"
 
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <map>
 

@@ -1,8 +1,8 @@
 #include "experiments/bunny.h"
 
 #include "experiments/phantoms.h"
-#include "framework/errors.h"
-#include "framework/mesh_io.h"
+#include "framework/core/errors.h"
+#include "framework/io/mesh_io.h"
 
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 #include <OpenMesh/Tools/Decimater/DecimaterT.hh>

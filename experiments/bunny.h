@@ -27,8 +27,8 @@
 //    The correspondence target of template vertex k is its position before the deformation.
 #pragma once
 
-#include "framework/json_reader.h"
-#include "framework/shape.h"
+#include "framework/core/json_reader.h"
+#include "framework/core/shape.h"
 
 #include <optional>
 #include <string>

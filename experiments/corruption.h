@@ -7,9 +7,9 @@
 //    The foreground is the less frequent of the two extreme grey levels unless "foreground" is given.
 #pragma once
 
-#include "framework/image.h"
-#include "framework/json_reader.h"
-#include "framework/options.h"
+#include "framework/core/image.h"
+#include "framework/core/json_reader.h"
+#include "framework/core/options.h"
 
 #include <cstdint>
 

@@ -6,12 +6,12 @@
 // the file and the JSON path; making an Experiment validates it completely without running.
 #pragma once
 
-#include "framework/evolver.h"
+#include "framework/core/evolver.h"
 #include "fields/smooth_potential.h"
-#include "framework/external_field.h"
-#include "framework/global_problem.h"
-#include "framework/metrics.h"
-#include "framework/options.h"
+#include "framework/core/external_field.h"
+#include "framework/global/global_problem.h"
+#include "framework/metrics/metrics.h"
+#include "framework/core/options.h"
 
 #include <memory>
 #include <nlohmann/json.hpp>

@@ -1,7 +1,7 @@
 #include "experiments/experiment.h"
 
 #include "experiments/builtin.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <cmath>
 #include <filesystem>

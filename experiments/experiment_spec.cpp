@@ -1,7 +1,7 @@
 #include "experiments/experiment_spec.h"
 
 #include "energies/registry.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 #include "remesh/registry.h"
 
 #include <cmath>

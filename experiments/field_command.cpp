@@ -2,9 +2,9 @@
 #include "experiments/field_command.h"
 
 #include "fields/registry.h"
-#include "framework/atomic_file.h"
-#include "framework/errors.h"
-#include "framework/image_io.h"
+#include "framework/core/atomic_file.h"
+#include "framework/core/errors.h"
+#include "framework/io/image_io.h"
 
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>

@@ -12,7 +12,7 @@
 namespace dsnake {
 
 struct FieldCommandOptions {
-  std::string image;                // --image: 2D or 3D image file (framework/image_io.h)
+  std::string image;                // --image: 2D or 3D image file (framework/io/image_io.h)
   std::string type = "gvf";         // --type: a field registry name
   std::vector<std::string> params;  // --param key=value (repeatable): the field's JSON keys;
                                     // the value is read as JSON (number, bool) or else a string

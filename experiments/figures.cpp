@@ -1,7 +1,7 @@
 #include "experiments/figures.h"
 
-#include "framework/atomic_file.h"
-#include "framework/errors.h"
+#include "framework/core/atomic_file.h"
+#include "framework/core/errors.h"
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>

@@ -9,9 +9,9 @@
 // axis runs DOWNWARDS (row = y index, as image files store it). Every PNG is written atomically.
 #pragma once
 
-#include "framework/image.h"
-#include "framework/shape.h"
-#include "framework/types.h"
+#include "framework/core/image.h"
+#include "framework/core/shape.h"
+#include "framework/core/types.h"
 
 #include <array>
 #include <cstdint>

@@ -14,7 +14,7 @@
 #include "experiments/runner.h"
 #include "experiments/schema.h"
 #include "experiments/sweep.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -72,7 +72,7 @@ int validate(const std::string& config, const std::vector<std::string>& override
 // only aggregates finished runs.
 int sweep(const std::string& file, SweepOptions options) {
   const Sweep s = load_sweep(file, /*validate=*/!options.aggregate_only);
-  if (options.out_dir.empty())  // DESIGN.md's `dsnake sweep FILE`: out/<the sweep file's name>
+  if (options.out_dir.empty())  // `dsnake sweep FILE`: out/<the sweep file's name> (docs/experiment-file.md)
     options.out_dir = (std::filesystem::path("out") / std::filesystem::path(file).stem()).string();
   options.executable = std::filesystem::read_symlink("/proc/self/exe").string();
   const SweepSummary summary = run_sweep(s, options);

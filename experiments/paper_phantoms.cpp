@@ -1,7 +1,7 @@
 #include "experiments/paper_phantoms.h"
 
 #include "experiments/phantoms.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>

@@ -45,8 +45,8 @@
 //    V - E + F = -2. A template may be subdivided like the star's.
 #pragma once
 
-#include "framework/json_reader.h"
-#include "framework/shape.h"
+#include "framework/core/json_reader.h"
+#include "framework/core/shape.h"
 
 #include <optional>
 #include <string>

@@ -2,9 +2,9 @@
 
 #include "experiments/bunny.h"
 #include "experiments/paper_phantoms.h"
-#include "framework/errors.h"
-#include "framework/image_filters.h"
-#include "framework/metrics.h"
+#include "framework/core/errors.h"
+#include "framework/core/image_filters.h"
+#include "framework/metrics/metrics.h"
 
 #include <Eigen/Geometry>
 #include <cmath>
@@ -204,7 +204,7 @@ void paint_tube(Image<D>& image, const PhantomCanvas<D>& c, const typename Paper
 }
 
 // Renders the interior of a closed boundary (polygon or mesh) as render() does, with the
-// rasteriser of the metrics (framework/metrics.h), so that the mask is exactly the Dice mask of
+// rasteriser of the metrics (framework/metrics/metrics.h), so that the mask is exactly the Dice mask of
 // the true surface; partial volume counts the 3^D sub-voxel centres on a grid 3 times finer.
 template <int D>
 void render_surface(Phantom<D>& ph, const PhantomCanvas<D>& c, const PaperImageShape<D>& shape) {

@@ -14,9 +14,9 @@
 // phantom of a matching family also gets correspondence targets (see phantom_targets).
 #pragma once
 
-#include "framework/image.h"
-#include "framework/json_reader.h"
-#include "framework/shape.h"
+#include "framework/core/image.h"
+#include "framework/core/json_reader.h"
+#include "framework/core/shape.h"
 
 #include <optional>
 #include <string>

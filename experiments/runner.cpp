@@ -1,12 +1,12 @@
 #include "experiments/runner.h"
 
 #include "experiments/figures.h"
-#include "framework/atomic_file.h"
-#include "framework/errors.h"
-#include "framework/evolver.h"
-#include "framework/global_solver.h"
-#include "framework/potential.h"
-#include "framework/mesh_io.h"
+#include "framework/core/atomic_file.h"
+#include "framework/core/errors.h"
+#include "framework/core/evolver.h"
+#include "framework/global/global_solver.h"
+#include "framework/core/potential.h"
+#include "framework/io/mesh_io.h"
 #include "remesh/quality.h"
 
 #include <chrono>
@@ -85,7 +85,7 @@ class RecordingObserver : public EvolverObserver<D> {
     for (int t : snake.template_ids()) ids.values.push_back(t);
     return {ids};
   }
-  // Mesh quality after each 3D phase that remeshed (DESIGN.md: "mesh_quality" in result.json).
+  // Mesh quality after each 3D phase that remeshed ("mesh_quality" in result.json, docs/experiment-file.md).
   void on_phase_end(int phase, const PhaseSummary& summary, const Snake<D>& snake) override {
     if constexpr (D == 3) {
       if (summary.remesh_reports.empty()) return;

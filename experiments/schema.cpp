@@ -6,7 +6,7 @@
 #include "experiments/phantoms.h"
 #include "fields/registry.h"
 #include "fields/smooth_potential.h"
-#include "framework/options_schema.h"
+#include "framework/core/options_schema.h"
 #include "remesh/registry.h"
 
 #include <map>

@@ -3,9 +3,9 @@
 #include "experiments/sweep.h"
 
 #include "experiments/experiment.h"
-#include "framework/atomic_file.h"
-#include "framework/errors.h"
-#include "framework/json_reader.h"
+#include "framework/core/atomic_file.h"
+#include "framework/core/errors.h"
+#include "framework/core/json_reader.h"
 
 #include <algorithm>
 #include <cctype>

@@ -19,7 +19,7 @@
 #include "fields/ddgvf.h"
 
 #include "fields/field_state.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <algorithm>
 #include <exception>

@@ -2,8 +2,8 @@
 #include "fields/distance.h"
 
 #include "fields/field_state.h"
-#include "framework/errors.h"
-#include "framework/image_filters.h"
+#include "framework/core/errors.h"
+#include "framework/core/image_filters.h"
 
 #include <cmath>
 #include <limits>

@@ -8,7 +8,7 @@
 #pragma once
 
 #include "fields/edge_map.h"
-#include "framework/external_field.h"
+#include "framework/core/external_field.h"
 
 #include <string>
 

@@ -1,8 +1,8 @@
 // Edge map f = |grad(G_sigma*I)|^2 and its gradient; see edge_map.h (D-Snake §2; Xu & Prince 1998).
 #include "fields/edge_map.h"
 
-#include "framework/errors.h"
-#include "framework/image_filters.h"
+#include "framework/core/errors.h"
+#include "framework/core/image_filters.h"
 
 #include <algorithm>
 #include <cstdio>

@@ -4,8 +4,8 @@
 // component (structure of arrays), laid out on the image grid (x fastest), in physical units.
 #pragma once
 
-#include "framework/image.h"
-#include "framework/options.h"
+#include "framework/core/image.h"
+#include "framework/core/options.h"
 
 #include <array>
 #include <string>

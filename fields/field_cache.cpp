@@ -1,7 +1,7 @@
 // Field cache; see field_cache.h.
 #include "fields/field_cache.h"
 
-#include "framework/atomic_file.h"
+#include "framework/core/atomic_file.h"
 
 #include <cstdio>
 #include <cstring>

@@ -8,7 +8,7 @@
 // state is computed every time. Everything else is forwarded to the wrapped field.
 #pragma once
 
-#include "framework/external_field.h"
+#include "framework/core/external_field.h"
 
 #include <cstdint>
 #include <memory>

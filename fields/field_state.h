@@ -4,7 +4,7 @@
 // truncated file loads as "does not fit" instead of garbage.
 #pragma once
 
-#include "framework/image.h"
+#include "framework/core/image.h"
 
 #include <cstdint>
 #include <cstring>

@@ -1,7 +1,7 @@
 // Gradient (edge-map) field; see gradient.h. Levi & Gotsman, D-Snake, §1: E_ext = -|grad I|^2.
 #include "fields/gradient.h"
 
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 #include "fields/edge_map.h"
 
 #include <algorithm>

@@ -6,8 +6,8 @@
 // the same field as an isotropic one of the same object.
 #pragma once
 
-#include "framework/external_field.h"
-#include "framework/options.h"
+#include "framework/core/external_field.h"
+#include "framework/core/options.h"
 
 #include <string>
 

@@ -2,7 +2,7 @@
 #include "fields/gvf.h"
 
 #include "fields/field_state.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 namespace dsnake {
 

@@ -8,7 +8,7 @@
 
 #include "fields/edge_map.h"
 #include "fields/gvf_solver.h"
-#include "framework/external_field.h"
+#include "framework/core/external_field.h"
 
 #include <string>
 

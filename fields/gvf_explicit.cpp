@@ -26,7 +26,7 @@
 // (README: the 2D figure).
 #include "fields/gvf_grid.h"
 
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <algorithm>
 #include <bit>

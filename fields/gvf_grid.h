@@ -4,7 +4,7 @@
 #pragma once
 
 #include "fields/gvf_solver.h"
-#include "framework/vector_clones.h"
+#include "framework/core/vector_clones.h"
 
 #include <cstdint>
 #include <vector>

@@ -4,7 +4,7 @@
 
 #include "fields/gvf_grid.h"
 
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <Eigen/Dense>
 #include <omp.h>

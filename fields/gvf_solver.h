@@ -16,8 +16,8 @@
 // every sum is accumulated per row, then in row order).
 #pragma once
 
-#include "framework/image.h"
-#include "framework/options.h"
+#include "framework/core/image.h"
+#include "framework/core/options.h"
 
 #include <memory>
 #include <string>

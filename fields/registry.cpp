@@ -1,5 +1,5 @@
 // Registration of the external fields: one line per field class. Each class declares its name,
-// its options (which read and check themselves) and a summary; see framework/registry.h. The
+// its options (which read and check themselves) and a summary; see framework/core/registry.h. The
 // "cache" key is read here, around the registry (read_field_spec); the gradient field has no
 // stored state, so it is recomputed even with a cache.
 #include "fields/registry.h"

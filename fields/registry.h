@@ -3,8 +3,8 @@
 // fields/field_cache.h).
 #pragma once
 
-#include "framework/external_field.h"
-#include "framework/registry.h"
+#include "framework/core/external_field.h"
+#include "framework/core/registry.h"
 
 #include <memory>
 #include <nlohmann/json.hpp>

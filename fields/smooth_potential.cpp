@@ -4,8 +4,8 @@
 
 #include "fields/distance.h"
 #include "fields/edge_map.h"
-#include "framework/errors.h"
-#include "framework/json_reader.h"
+#include "framework/core/errors.h"
+#include "framework/core/json_reader.h"
 
 #include <ceres/cubic_interpolation.h>
 #include <fftw3.h>  // double precision (fftw_*)

@@ -12,10 +12,10 @@
 // derivatives, for Ceres' residuals and its GradientChecker.
 #pragma once
 
-#include "framework/external_field.h"
-#include "framework/image.h"
-#include "framework/options.h"
-#include "framework/potential.h"
+#include "framework/core/external_field.h"
+#include "framework/core/image.h"
+#include "framework/core/options.h"
+#include "framework/core/potential.h"
 
 #include <memory>
 #include <string>

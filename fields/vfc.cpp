@@ -2,7 +2,7 @@
 #include "fields/vfc.h"
 
 #include "fields/field_state.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <fftw3.h>  // single precision (fftwf_*): half the memory traffic of double
 #include <omp.h>

@@ -12,7 +12,7 @@
 #pragma once
 
 #include "fields/edge_map.h"
-#include "framework/external_field.h"
+#include "framework/core/external_field.h"
 
 #include <memory>
 #include <string>

@@ -4,7 +4,7 @@
 // brute-force reference for tests.
 #include "remesh/mesh_edit.h"
 
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 #include "remesh/triangle_pairs.h"
 
 #include <algorithm>

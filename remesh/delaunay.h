@@ -12,8 +12,8 @@
 // smaller of the two triangles' minimum angles below min_angle_deg.
 #pragma once
 
-#include "framework/options.h"
-#include "framework/remesher.h"
+#include "framework/core/options.h"
+#include "framework/core/remesher.h"
 #include "remesh/pass.h"
 
 #include <string>

@@ -4,7 +4,7 @@
 // stage's result).
 #include "remesh/mesh_edit.h"
 
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>

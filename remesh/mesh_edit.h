@@ -9,7 +9,7 @@
 // the check of a stage's result); the pair tests they share in triangle_pairs.h.
 #pragma once
 
-#include "framework/shape.h"
+#include "framework/core/shape.h"
 
 #include <Eigen/Geometry>
 

@@ -4,8 +4,8 @@
 // share none through a grid of its own over the final mesh.
 #include "remesh/mesh_edit.h"
 
-#include "framework/errors.h"
-#include "framework/vector_clones.h"
+#include "framework/core/errors.h"
+#include "framework/core/vector_clones.h"
 #include "remesh/triangle_pairs.h"
 
 #include <algorithm>

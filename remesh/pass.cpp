@@ -1,6 +1,6 @@
 #include "remesh/pass.h"
 
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 #include "remesh/mesh_edit.h"
 
 #include <vector>

@@ -8,7 +8,7 @@
 // from the mean edge length of the mesh it receives.
 #pragma once
 
-#include "framework/remesher.h"
+#include "framework/core/remesher.h"
 
 #include <memory>
 #include <span>

@@ -1,6 +1,6 @@
 #include "remesh/pipeline.h"
 
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 #include "remesh/pass.h"
 
 #include <utility>

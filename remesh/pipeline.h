@@ -6,7 +6,7 @@
 // stage, apply() one for the whole.
 #pragma once
 
-#include "framework/remesher.h"
+#include "framework/core/remesher.h"
 
 #include <memory>
 #include <string>

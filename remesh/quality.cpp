@@ -1,6 +1,6 @@
 #include "remesh/quality.h"
 
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>

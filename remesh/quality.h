@@ -2,7 +2,7 @@
 // what result.json reports under "mesh_quality" after a remeshing phase in 3D.
 #pragma once
 
-#include "framework/shape.h"
+#include "framework/core/shape.h"
 
 #include <nlohmann/json_fwd.hpp>
 #include <vector>

@@ -5,8 +5,8 @@
 // so that the snake reaches its full resolution gradually. New vertices are free (id -1).
 #pragma once
 
-#include "framework/options.h"
-#include "framework/remesher.h"
+#include "framework/core/options.h"
+#include "framework/core/remesher.h"
 #include "remesh/pass.h"
 
 namespace dsnake {

@@ -1,5 +1,5 @@
 // Registration of the remeshing stages: one line per stage class. Each class declares its name,
-// its options (which read and check themselves) and a summary; see framework/registry.h. A stage
+// its options (which read and check themselves) and a summary; see framework/core/registry.h. A stage
 // of the other dimension is refused with a message naming both dimensions.
 #include "remesh/registry.h"
 

@@ -1,8 +1,8 @@
 // The remesher registry: every remeshing stage (§5), built by name from its JSON object.
 #pragma once
 
-#include "framework/registry.h"
-#include "framework/remesher.h"
+#include "framework/core/registry.h"
+#include "framework/core/remesher.h"
 
 namespace dsnake {
 

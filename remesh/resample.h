@@ -5,8 +5,8 @@
 // min_edge stays as it is: anchors are never merged.)
 #pragma once
 
-#include "framework/options.h"
-#include "framework/remesher.h"
+#include "framework/core/options.h"
+#include "framework/core/remesher.h"
 
 namespace dsnake {
 

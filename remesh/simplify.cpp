@@ -1,6 +1,6 @@
 #include "remesh/simplify.h"
 
-#include "framework/image.h"
+#include "framework/core/image.h"
 #include "remesh/mesh_edit.h"
 
 #include <algorithm>

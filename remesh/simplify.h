@@ -12,8 +12,8 @@
 // edge can survive when collapsing it would do more harm).
 #pragma once
 
-#include "framework/options.h"
-#include "framework/remesher.h"
+#include "framework/core/options.h"
+#include "framework/core/remesher.h"
 #include "remesh/pass.h"
 
 #include <vector>

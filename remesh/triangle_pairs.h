@@ -5,7 +5,7 @@
 // lived in one file with their callers: they run once per candidate pair.
 #pragma once
 
-#include "framework/metrics_geometry.h"
+#include "framework/metrics/metrics_geometry.h"
 #include "remesh/mesh_edit.h"
 
 #include <Eigen/Geometry>

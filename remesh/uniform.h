@@ -8,8 +8,8 @@
 // angle below min(its old value, 15 degrees), or make the fan cross the surface is rejected.
 #pragma once
 
-#include "framework/options.h"
-#include "framework/remesher.h"
+#include "framework/core/options.h"
+#include "framework/core/remesher.h"
 #include "remesh/pass.h"
 
 namespace dsnake {

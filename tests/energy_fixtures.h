@@ -4,7 +4,7 @@
 
 #include "energies/registry.h"
 #include "experiments/phantoms.h"
-#include "framework/json_reader.h"
+#include "framework/core/json_reader.h"
 
 #include <nlohmann/json.hpp>
 

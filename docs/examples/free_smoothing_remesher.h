@@ -1,11 +1,11 @@
 // docs/extending.md's worked example of a new remesher: smooths the free vertices (those that
 // remeshing inserted, §6) towards the mean of their one-ring by a share `lambda`, leaving every
 // deformation vertex, the connectivity and so the energies' precomputation as they are
-// (framework/remesher.h: a remesher that only moves free vertices writes positions in place).
+// (framework/core/remesher.h: a remesher that only moves free vertices writes positions in place).
 #pragma once
 
-#include "framework/options.h"
-#include "framework/remesher.h"
+#include "framework/core/options.h"
+#include "framework/core/remesher.h"
 
 namespace dsnake {
 

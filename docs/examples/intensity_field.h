@@ -5,8 +5,8 @@
 // structure brighter or darker than its surroundings; no potential (the global view has none).
 #pragma once
 
-#include "framework/external_field.h"
-#include "framework/options.h"
+#include "framework/core/external_field.h"
+#include "framework/core/options.h"
 
 namespace dsnake {
 

@@ -5,8 +5,8 @@
 // registration line: this header, umbrella_energy.cpp, and `r.template add<UmbrellaEnergy<D>>();`.
 #pragma once
 
-#include "framework/energy.h"
-#include "framework/options.h"
+#include "framework/core/energy.h"
+#include "framework/core/options.h"
 
 namespace dsnake {
 

@@ -5,8 +5,8 @@
 #include "energies/registry.h"
 #include "experiments/phantoms.h"
 #include "fields/registry.h"
-#include "framework/evolver.h"
-#include "framework/image_filters.h"
+#include "framework/core/evolver.h"
+#include "framework/core/image_filters.h"
 
 #include <benchmark/benchmark.h>
 #include <nlohmann/json.hpp>

@@ -12,9 +12,9 @@
 //        --benchmark_report_aggregates_only=true
 #include "experiments/experiment.h"
 #include "fields/smooth_potential.h"
-#include "framework/evolver.h"
-#include "framework/global_solver.h"
-#include "framework/metrics.h"
+#include "framework/core/evolver.h"
+#include "framework/global/global_solver.h"
+#include "framework/metrics/metrics.h"
 
 #include <benchmark/benchmark.h>
 #include <map>

@@ -2,7 +2,7 @@
 // paper's lung-volume size, or a disk in 512^2, built once per process.
 #pragma once
 
-#include "framework/image.h"
+#include "framework/core/image.h"
 
 #include <cmath>
 

@@ -3,7 +3,7 @@
 // Run: build/release/experiments/bench/bench_metrics --benchmark_repetitions=5
 //        --benchmark_report_aggregates_only=true
 #include "experiments/phantoms.h"
-#include "framework/metrics.h"
+#include "framework/metrics/metrics.h"
 
 #include <benchmark/benchmark.h>
 #include <omp.h>

@@ -4,8 +4,8 @@
 #include "energies/asap_mls.h"
 #include "energies/registry.h"
 #include "experiments/phantoms.h"
-#include "framework/evolver.h"
-#include "framework/external_field.h"
+#include "framework/core/evolver.h"
+#include "framework/core/external_field.h"
 
 #include <Eigen/Dense>
 #include <cmath>

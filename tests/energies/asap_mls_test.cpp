@@ -4,7 +4,7 @@
 #include "energies/asap_mls.h"
 #include "energies/registry.h"
 #include "experiments/phantoms.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <Eigen/Geometry>
 #include <cmath>

@@ -6,8 +6,8 @@
 #include "docs/examples/umbrella_energy.h"
 #include "energies/registry.h"
 #include "fields/gradient.h"
-#include "framework/errors.h"
-#include "framework/image.h"
+#include "framework/core/errors.h"
+#include "framework/core/image.h"
 #include "tests/energy_fixtures.h"
 
 #include <gtest/gtest.h>

@@ -7,8 +7,8 @@
 #include "energies/laplacian.h"
 #include "energies/registry.h"
 #include "experiments/phantoms.h"
-#include "framework/errors.h"
-#include "framework/global_problem.h"
+#include "framework/core/errors.h"
+#include "framework/global/global_problem.h"
 
 #include <Eigen/Geometry>
 #include <ceres/ceres.h>

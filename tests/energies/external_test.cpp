@@ -2,7 +2,7 @@
 // orientations of a contour, a closed mesh), its value, and its binding contract.
 #include "energies/external.h"
 
-#include "framework/external_field.h"
+#include "framework/core/external_field.h"
 
 #include <Eigen/Geometry>
 #include <cmath>

@@ -7,7 +7,7 @@
 #include "experiments/bunny.h"
 #include "experiments/paper_phantoms.h"
 #include "experiments/phantoms.h"
-#include "framework/mesh_io.h"
+#include "framework/io/mesh_io.h"
 
 #include <Eigen/Geometry>
 #include "tests/experiments/temp_dir_test.h"

@@ -1,7 +1,7 @@
 // The dsnake command on bad input: exactly one line on stderr naming the file and the JSON
 // path or element, exit code 2, and nothing in the output folder.
 #include "experiments/builtin.h"
-#include "framework/image_io.h"
+#include "framework/io/image_io.h"
 
 #include "tests/experiments/temp_dir_test.h"
 

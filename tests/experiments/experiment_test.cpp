@@ -1,7 +1,7 @@
 #include "experiments/corruption.h"
 #include "experiments/experiment.h"
 #include "experiments/phantoms.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>

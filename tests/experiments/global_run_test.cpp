@@ -3,7 +3,7 @@
 // numbers for any OpenMP thread count, and rejects energies without a least-squares form.
 #include "experiments/experiment.h"
 #include "experiments/runner.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <gtest/gtest.h>
 #include <omp.h>

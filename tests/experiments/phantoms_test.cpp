@@ -3,8 +3,8 @@
 // true shapes.
 #include "experiments/paper_phantoms.h"
 #include "experiments/phantoms.h"
-#include "framework/errors.h"
-#include "framework/metrics.h"
+#include "framework/core/errors.h"
+#include "framework/metrics/metrics.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>

@@ -2,7 +2,7 @@
 // (parallel runs, skip on rerun, resume after a kill, GNU parallel and Slurm manifests, bad
 // sweep files) on tiny 2D experiments.
 #include "experiments/sweep.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include "tests/experiments/temp_dir_test.h"
 

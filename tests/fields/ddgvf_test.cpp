@@ -3,7 +3,7 @@
 // the polarity option flips the roles; the field is thread-count independent and cacheable.
 #include "fields/ddgvf.h"
 #include "fields/registry.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <cmath>
 #include <gtest/gtest.h>

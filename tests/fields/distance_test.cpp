@@ -2,7 +2,7 @@
 // the distance to the disk's edge, the force points at it with unit length; registry checks.
 #include "fields/distance.h"
 #include "fields/registry.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <cmath>
 #include <gtest/gtest.h>

@@ -1,8 +1,8 @@
 // The example field of docs/extending.md (docs/examples/intensity_field.*): one registration
 // line, then reading, the enum's names, and forces against hand-computed values on a ramp.
 #include "docs/examples/intensity_field.h"
-#include "framework/errors.h"
-#include "framework/registry.h"
+#include "framework/core/errors.h"
+#include "framework/core/registry.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>

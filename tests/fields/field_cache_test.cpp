@@ -5,7 +5,7 @@
 #include "fields/field_cache.h"
 #include "fields/gvf.h"
 #include "fields/registry.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <filesystem>
 #include <fstream>

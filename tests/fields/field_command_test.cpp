@@ -2,8 +2,8 @@
 // for 2D images, uses the cache, and names bad parameters.
 #include "experiments/field_command.h"
 #include "fields/registry.h"
-#include "framework/errors.h"
-#include "framework/image_io.h"
+#include "framework/core/errors.h"
+#include "framework/io/image_io.h"
 
 #include <filesystem>
 #include <gtest/gtest.h>

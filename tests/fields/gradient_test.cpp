@@ -3,7 +3,7 @@
 // independent of the thread count; and the field registry's error messages.
 #include "fields/gradient.h"
 #include "fields/registry.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <cmath>
 #include <gtest/gtest.h>

@@ -4,7 +4,7 @@
 // plain iteration matches an independent double-precision loop written here.
 #include "fields/ddgvf.h"
 #include "fields/gvf_grid.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <cmath>
 #include <cstring>

@@ -4,7 +4,7 @@
 #include "fields/gvf.h"
 #include "fields/gvf_solver.h"
 #include "fields/registry.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <cmath>
 #include <cstring>

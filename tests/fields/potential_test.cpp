@@ -9,8 +9,8 @@
 #include "fields/edge_map.h"
 #include "fields/gradient.h"
 #include "fields/gvf.h"
-#include "framework/errors.h"
-#include "framework/json_reader.h"
+#include "framework/core/errors.h"
+#include "framework/core/json_reader.h"
 
 #include <ceres/cost_function.h>
 #include <ceres/gradient_checker.h>

@@ -3,8 +3,8 @@
 // (each key, given its default, is accepted; the canonical options hold the same keys); entries
 // carry a summary and a key table.
 #include "fields/registry.h"
-#include "framework/errors.h"
-#include "framework/image_filters.h"
+#include "framework/core/errors.h"
+#include "framework/core/image_filters.h"
 
 #include <cmath>
 #include <gtest/gtest.h>

@@ -4,7 +4,7 @@
 #include "fields/edge_map.h"
 #include "fields/registry.h"
 #include "fields/vfc.h"
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <cmath>
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-#include "framework/evolver.h"
+#include "framework/core/evolver.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // The global view: residual blocks whose squares sum to the energy's value, with derivatives
 // that agree with finite differences of value().
-#include "framework/global_problem.h"
+#include "framework/global/global_problem.h"
 
 #include "energies/internal.h"
 #include "experiments/phantoms.h"

@@ -1,13 +1,13 @@
 // The global-solve baseline (issue 7): every residual's derivatives against Ceres' numeric ones
 // (GradientChecker, with the rotation manifolds), ASAP alone reaching a similarity of the
 // template, and the global optimum at least as low as the snake's fixed point.
-#include "framework/evolver.h"
-#include "framework/global_solver.h"
+#include "framework/core/evolver.h"
+#include "framework/global/global_solver.h"
 
 #include "energies/registry.h"
 #include "experiments/phantoms.h"
-#include "framework/external_field.h"
-#include "framework/potential.h"
+#include "framework/core/external_field.h"
+#include "framework/core/potential.h"
 
 #include <Eigen/Geometry>
 #include <ceres/ceres.h>

@@ -1,8 +1,8 @@
 // Round trips and error reports of framework/image_io: MetaImage (raw, separate .raw, zlib),
 // NIfTI-1 (.nii, .nii.gz, scaled integer types, big-endian headers), PNG, vector fields.
-#include "framework/image_io.h"
+#include "framework/io/image_io.h"
 
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <gtest/gtest.h>
 #include <zlib.h>

@@ -1,5 +1,5 @@
-#include "framework/image.h"
-#include "framework/image_filters.h"
+#include "framework/core/image.h"
+#include "framework/core/image_filters.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
-#include "framework/json_reader.h"
+#include "framework/core/json_reader.h"
 
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>

@@ -1,8 +1,8 @@
 // Round trips and error reports of framework/mesh_io: meshes in OFF, OBJ, PLY, STL, VTK;
 // contours in text, JSON, VTK; open, non-manifold, empty and inward-oriented input.
-#include "framework/mesh_io.h"
+#include "framework/io/mesh_io.h"
 
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>

@@ -1,7 +1,7 @@
-// Tests of framework/metrics.h against hand-computed values: concentric circles and spheres,
+// Tests of framework/metrics/metrics.h against hand-computed values: concentric circles and spheres,
 // rasterised disks and balls, Dice of known overlaps, correspondence with missing targets,
 // self-intersections of simple shapes, and the grid search against brute force.
-#include "framework/metrics.h"
+#include "framework/metrics/metrics.h"
 
 #include <gtest/gtest.h>
 #include <omp.h>

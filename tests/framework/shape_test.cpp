@@ -1,4 +1,4 @@
-#include "framework/shape.h"
+#include "framework/core/shape.h"
 
 #include "experiments/phantoms.h"
 

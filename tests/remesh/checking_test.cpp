@@ -2,7 +2,7 @@
 // optimistic checking gives the mesh that checking every edit gives; a crossing found after a
 // stage sends it back to checking every edit; and the check after the stage answers as the
 // brute-force pair tests do.
-#include "framework/metrics.h"
+#include "framework/metrics/metrics.h"
 #include "remesh/delaunay.h"
 #include "remesh/mesh_edit.h"
 #include "remesh/pass.h"

@@ -1,11 +1,11 @@
 // Every remesher the registry can build (remesher_registry<D>().names(), D = 2 and 3), made
-// from its defaults, keeps the remesher contract (framework/remesher.h) on a small test shape:
+// from its defaults, keeps the remesher contract (framework/core/remesher.h) on a small test shape:
 // every deformation vertex keeps its template id and its position, none is lost or added, and
 // the result is a closed polygon / closed manifold mesh. And every key of an entry's schema is
 // a key that the registry's create() accepts (alone and all together, at its default).
 #include "remesh/registry.h"
 
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 #include "tests/remesh/test_meshes.h"
 
 #include <gtest/gtest.h>

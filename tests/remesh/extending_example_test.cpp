@@ -1,8 +1,8 @@
 // The example remesher of docs/extending.md (docs/examples/free_smoothing_remesher.*): one
 // registration line; free vertices move to the hand-computed point, deformation vertices, the
-// connectivity and the topology version stay (the remesher contract, framework/remesher.h).
+// connectivity and the topology version stay (the remesher contract, framework/core/remesher.h).
 #include "docs/examples/free_smoothing_remesher.h"
-#include "framework/registry.h"
+#include "framework/core/registry.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>

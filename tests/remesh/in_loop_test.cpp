@@ -2,8 +2,8 @@
 // iterations with a falling refinement threshold; the internal energy learns of each new
 // topology through topology_version() (no special case), and every guarantee still holds.
 #include "energies/internal.h"
-#include "framework/evolver.h"
-#include "framework/metrics.h"
+#include "framework/core/evolver.h"
+#include "framework/metrics/metrics.h"
 #include "remesh/pipeline.h"
 #include "remesh/delaunay.h"
 #include "remesh/refine.h"

@@ -7,7 +7,7 @@
 // - min_angle (one atan2, at the corner opposite the shortest edge) is the smallest of the three;
 // - apply_pass (one EditMesh for all stages, one write-back) gives the very same snake and
 //   vertex counts as applying the stages one by one, and the same with 1 and 2 threads.
-#include "framework/metrics_geometry.h"
+#include "framework/metrics/metrics_geometry.h"
 #include "remesh/delaunay.h"
 #include "remesh/mesh_edit.h"
 #include "remesh/pass.h"

@@ -2,7 +2,7 @@
 
 #include "remesh/registry.h"
 
-#include "framework/errors.h"
+#include "framework/core/errors.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>

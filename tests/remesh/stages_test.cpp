@@ -1,8 +1,8 @@
 // Each 3D stage against hand-computed results and invariants (§5), the §6 schedule, the
 // options' range checks and the mesh-quality statistics.
-#include "framework/errors.h"
-#include "framework/image.h"
-#include "framework/metrics.h"
+#include "framework/core/errors.h"
+#include "framework/core/image.h"
+#include "framework/metrics/metrics.h"
 #include "remesh/delaunay.h"
 #include "remesh/quality.h"
 #include "remesh/refine.h"

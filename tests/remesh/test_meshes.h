@@ -3,7 +3,7 @@
 // closed polygon for the 2D stages.
 #pragma once
 
-#include "framework/shape.h"
+#include "framework/core/shape.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>

@@ -1,0 +1,81 @@
+#include "framework/core/evolver.h"
+
+#include "framework/core/errors.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace dsnake {
+
+template <int D>
+double SnakeStep<D>::step(PhaseDriver<D>& driver, Snake<D>& snake) {
+  driver.bind(snake);
+  auto& energies = driver.energies();
+  const int n = snake.num_vertices();
+  proposals_.resize(energies.size());
+  for (auto& p : proposals_) p.resize(n, Point<D>::Zero());
+  next_.resize(n, Point<D>::Zero());
+  for (size_t e = 0; e < energies.size(); ++e)
+    if (energies[e].weight > 0) energies[e].energy->propose(snake, proposals_[e]);
+
+  // Weighted average over the energies that govern each vertex (§3.1, §6).
+  double max_move = 0.0;
+  auto& q = snake.positions();
+#pragma omp parallel for reduction(max : max_move) schedule(static) if (n >= 256)
+  for (int v = 0; v < n; ++v) {
+    Point<D> sum = Point<D>::Zero();
+    double weight = 0.0;
+    const bool deformation = snake.is_deformation_vertex(v);
+    for (size_t e = 0; e < energies.size(); ++e) {
+      if (energies[e].weight == 0) continue;  // switched off for this phase
+      if (!deformation && energies[e].energy->governs() == Governs::kDeformationVertices) continue;
+      sum += energies[e].weight * proposals_[e][v];
+      weight += energies[e].weight;
+    }
+    next_[v] = weight > 0 ? Point<D>(sum / weight) : q[v];
+    const double move = (next_[v] - q[v]).norm();
+    max_move = std::isfinite(move) ? std::max(max_move, move) : INFINITY;
+  }
+  q.swap(next_);
+  return max_move;
+}
+
+template <int D>
+PhaseSummary SnakeStep<D>::run_phase(PhaseDriver<D>& driver, Snake<D>& snake, const Phase<D>& phase, int phase_index) {
+  PhaseSummary ps;
+  std::vector<RemeshReport> last_reports;
+  for (int it = 1; it <= phase.iterations; ++it) {
+    const double move = step(driver, snake);
+    ps.iterations = it;
+    ps.last_displacement = move;
+    IterationInfo info;
+    info.phase = phase_index;
+    info.phase_iteration = it;
+    info.max_displacement = move;
+    if (driver.trace_energy()) {
+      info.energy_terms = driver.energy_terms(snake);
+      for (double t : info.energy_terms)
+        if (std::isfinite(t)) info.total_energy += t;
+    }
+    if (!std::isfinite(move)) {
+      ps.status = EvolveStatus::kDiverged;
+      driver.report(info, snake);
+      break;
+    }
+    const bool converged = phase.tolerance > 0 && move < phase.tolerance;
+    if (phase.remesher && !converged && it % std::max(1, phase.every) == 0) last_reports = driver.remesh(snake, phase, it);
+    driver.report(info, snake);
+    if (converged) {
+      ps.status = EvolveStatus::kConverged;
+      break;
+    }
+  }
+  for (const auto& r : last_reports)
+    if (!r.stage.empty()) ps.remesh_reports.push_back(r);
+  return ps;
+}
+
+template class SnakeStep<2>;
+template class SnakeStep<3>;
+
+}  // namespace dsnake

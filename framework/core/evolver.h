@@ -1,0 +1,38 @@
+// SnakeStep<D>: the snake iteration of §3.1 as a Minimizer. Each iteration moves every vertex to
+// the weighted average of the positions that each force alone would give,
+//   q_v(t+1) = sum_{e governs v} w_e propose_e(q(t))_v / sum_{e governs v} w_e,
+// e.g. (q_int + kappa q_ext + eta q_def) / (1 + kappa + eta) for a deformation vertex and
+// (q_int + kappa q_ext) / (1 + kappa) for a free one (§6). A phase runs until its iteration
+// budget or until the largest vertex displacement is below its tolerance, remeshing every
+// `every` iterations. Evolver<D> is the PhaseDriver that uses it.
+#pragma once
+
+#include "framework/core/phase_driver.h"
+
+namespace dsnake {
+
+template <int D>
+class SnakeStep final : public Minimizer<D> {
+ public:
+  static constexpr const char* kType = "snake";
+  std::string type() const override { return kType; }
+  PhaseSummary run_phase(PhaseDriver<D>& driver, Snake<D>& snake, const Phase<D>& phase, int phase_index) override;
+  // One iteration of the averaged update; returns the largest displacement.
+  double step(PhaseDriver<D>& driver, Snake<D>& snake);
+
+ private:
+  std::vector<PointList<D>> proposals_;  // per energy, reused between iterations
+  PointList<D> next_;
+};
+
+// The phase driver with the snake iteration.
+template <int D>
+class Evolver : public PhaseDriver<D> {
+ public:
+  Evolver(EnergyContext<D> context, std::vector<WeightedEnergy<D>> energies)
+      : PhaseDriver<D>(context, std::move(energies), std::make_unique<SnakeStep<D>>()) {}
+  // One iteration of the averaged update; returns the largest displacement.
+  double step(Snake<D>& snake) { return static_cast<SnakeStep<D>&>(this->minimizer()).step(*this, snake); }
+};
+
+}  // namespace dsnake

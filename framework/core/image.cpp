@@ -1,0 +1,155 @@
+#include "framework/core/image.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace dsnake {
+
+template <int D>
+int64_t Grid<D>::num_voxels() const {
+  int64_t n = 1;
+  for (int a = 0; a < D; ++a) n *= size[a];
+  return n;
+}
+
+template <int D>
+int64_t Grid<D>::linear(const GridIndex<D>& idx) const {
+  int64_t l = idx[D - 1];
+  for (int a = D - 2; a >= 0; --a) l = l * size[a] + idx[a];
+  return l;
+}
+
+template <int D>
+GridIndex<D> Grid<D>::index(int64_t l) const {
+  GridIndex<D> idx;
+  for (int a = 0; a < D; ++a) {
+    idx[a] = static_cast<int>(l % size[a]);
+    l /= size[a];
+  }
+  return idx;
+}
+
+template <int D>
+Point<D> Grid<D>::to_physical(const GridIndex<D>& idx) const {
+  return origin + idx.template cast<double>().cwiseProduct(spacing);
+}
+
+template <int D>
+Point<D> Grid<D>::to_continuous_index(const Point<D>& x) const {
+  return (x - origin).cwiseQuotient(spacing);
+}
+
+template <int D>
+bool Grid<D>::inside(const Point<D>& x) const {
+  const Point<D> c = to_continuous_index(x);
+  for (int a = 0; a < D; ++a)
+    if (!(c[a] >= 0.0 && c[a] <= size[a] - 1)) return false;
+  return true;
+}
+
+template <int D>
+bool Grid<D>::same_geometry(const Grid& o, double tol) const {
+  return size == o.size && (spacing - o.spacing).cwiseAbs().maxCoeff() <= tol &&
+         (origin - o.origin).cwiseAbs().maxCoeff() <= tol;
+}
+
+namespace {
+
+// The linear stencil's base voxel around x (clamped to the grid), the offsets from it to the
+// upper neighbour along each axis (0 on an axis of one voxel) and the fractions t_a; shared by
+// Grid::stencil and VectorField::prefetch.
+template <int D>
+[[gnu::always_inline]] inline int64_t stencil_base(const Grid<D>& g, const Point<D>& x, std::array<int64_t, D>& step, std::array<double, D>& t) {
+  int64_t base = 0, stride = 1;
+  for (int a = 0; a < D; ++a) {
+    const double c = (x[a] - g.origin[a]) / g.spacing[a];
+    const double ca = std::clamp(std::isfinite(c) ? c : 0.0, 0.0, double(g.size[a] - 1));
+    const int lo = std::min(static_cast<int>(std::floor(ca)), std::max(g.size[a] - 2, 0));
+    t[a] = ca - lo;
+    base += lo * stride;
+    step[a] = g.size[a] > 1 ? stride : 0;
+    stride *= g.size[a];
+  }
+  return base;
+}
+
+}  // namespace
+
+// Clamped corner indices lo..lo+1 per axis (lo + 1 = lo on an axis of one voxel) and the weights
+// w_k = prod_a (bit_a(k) ? t_a : 1 - t_a), multiplied in axis order. The corners are offsets from
+// the base voxel, so the per-corner work is one add (the sampling loops of every field force).
+template <int D>
+typename Grid<D>::Stencil Grid<D>::stencil(const Point<D>& x) const {
+  Stencil s;
+  std::array<int64_t, D> step;
+  std::array<double, D> t;
+  const int64_t base = stencil_base<D>(*this, x, step, t);
+  constexpr int kCorners = D == 2 ? 4 : 8;
+  for (int k = 0; k < kCorners; ++k) {
+    int64_t voxel = base;
+    double w = 1.0;
+    for (int a = 0; a < D; ++a) {
+      const int bit = (k >> a) & 1;
+      voxel += bit * step[a];
+      w *= bit ? t[a] : 1.0 - t[a];
+    }
+    s.voxel[k] = voxel;
+    s.weight[k] = w;
+  }
+  return s;
+}
+
+template <int D>
+Image<D>::Image(const Grid<D>& grid, float value) : grid_(grid), data_(grid.num_voxels(), value) {}
+
+template <int D>
+double Image<D>::sample(const Point<D>& x) const {
+  const auto s = grid_.stencil(x);
+  double v = 0.0;
+  for (size_t k = 0; k < s.voxel.size(); ++k) v += s.weight[k] * data_[s.voxel[k]];
+  return v;
+}
+
+template <int D>
+VectorField<D>::VectorField(const Grid<D>& grid)
+    : grid_(grid), vectors_(grid.num_voxels(), Point<D>::Zero()) {}
+
+template <int D>
+Point<D> VectorField<D>::sample(const Point<D>& x) const {
+  const auto s = grid_.stencil(x);
+  Point<D> v = Point<D>::Zero();
+  for (size_t k = 0; k < s.voxel.size(); ++k) v += s.weight[k] * vectors_[s.voxel[k]];
+  return v;
+}
+
+template <int D>
+void VectorField<D>::prefetch(const Point<D>& x) const {
+  if (vectors_.empty()) return;
+  // the stencil's base voxel only (no weights): its x neighbour shares the line or the next one
+  std::array<int64_t, D> step;
+  std::array<double, D> t;
+  const int64_t base = stencil_base<D>(grid_, x, step, t);
+  const char* p = reinterpret_cast<const char*>(vectors_.data() + base);
+  for (int k = 0; k < (1 << (D - 1)); ++k) {
+    int64_t offset = 0;
+    for (int a = 1; a < D; ++a) offset += ((k >> (a - 1)) & 1) * step[a];
+    __builtin_prefetch(p + offset * int64_t(sizeof(Point<D>)));
+    __builtin_prefetch(p + offset * int64_t(sizeof(Point<D>)) + 2 * sizeof(Point<D>) - 1);
+  }
+}
+
+template <int D>
+Image<D> VectorField<D>::component(int axis) const {
+  Image<D> img(grid_);
+  for (int64_t i = 0; i < num_voxels(); ++i) img[i] = static_cast<float>(vectors_[i][axis]);
+  return img;
+}
+
+template struct Grid<2>;
+template struct Grid<3>;
+template class Image<2>;
+template class Image<3>;
+template class VectorField<2>;
+template class VectorField<3>;
+
+}  // namespace dsnake

@@ -1,0 +1,103 @@
+#include "framework/core/image_filters.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace dsnake {
+
+namespace {
+
+// Distance in the linear index between neighbours along `axis` (x fastest).
+template <int D>
+int64_t axis_stride(const Grid<D>& grid, int axis) {
+  int64_t s = 1;
+  for (int a = 0; a < axis; ++a) s *= grid.size[a];
+  return s;
+}
+
+// One pass of the separable Gaussian along `axis` (deviation sigma_voxels, 3-sigma support,
+// weights summing to 1, border replicated).
+template <int D>
+void blur_axis(const Grid<D>& grid, int axis, double sigma_voxels, const std::vector<double>& in,
+               std::vector<double>& out) {
+  const int radius = std::max(1, static_cast<int>(std::ceil(3.0 * sigma_voxels)));
+  std::vector<double> weight(radius + 1);
+  double total = 0.0;
+  for (int k = 0; k <= radius; ++k) {
+    weight[k] = std::exp(-0.5 * k * k / (sigma_voxels * sigma_voxels));
+    total += k == 0 ? weight[k] : 2.0 * weight[k];
+  }
+  for (double& w : weight) w /= total;
+  const int64_t stride = axis_stride(grid, axis);
+  const int size = grid.size[axis];
+  const int64_t n = grid.num_voxels();
+#pragma omp parallel for schedule(static)
+  for (int64_t l = 0; l < n; ++l) {
+    const int i = static_cast<int>((l / stride) % size);
+    const int64_t base = l - i * stride;
+    double sum = weight[0] * in[l];
+    for (int k = 1; k <= radius; ++k) {
+      const int lo = std::max(i - k, 0), hi = std::min(i + k, size - 1);
+      sum += weight[k] * (in[base + lo * stride] + in[base + hi * stride]);
+    }
+    out[l] = sum;
+  }
+}
+
+}  // namespace
+
+template <int D>
+void gaussian_blur(const Grid<D>& grid, std::vector<double>& values, double sigma) {
+  if (!(sigma > 0)) return;
+  std::vector<double> scratch(values.size());
+  for (int a = 0; a < D; ++a) {
+    const double s = sigma / grid.spacing[a];
+    if (grid.size[a] < 2 || s < 1e-3) continue;
+    blur_axis(grid, a, s, values, scratch);
+    values.swap(scratch);
+  }
+}
+
+template <int D>
+Image<D> gaussian_blur(const Image<D>& image, double sigma) {
+  std::vector<double> u(image.data().begin(), image.data().end());
+  gaussian_blur(image.grid(), u, sigma);
+  Image<D> out(image.grid());
+  for (size_t l = 0; l < u.size(); ++l) out[l] = static_cast<float>(u[l]);
+  return out;
+}
+
+template <int D>
+double partial_derivative(const Grid<D>& grid, const std::vector<double>& u, int64_t l, int axis) {
+  const int size = grid.size[axis];
+  if (size < 2) return 0.0;
+  const int64_t stride = axis_stride(grid, axis);
+  const int i = static_cast<int>((l / stride) % size);
+  const double h = grid.spacing[axis];
+  if (i == 0) return (u[l + stride] - u[l]) / h;
+  if (i == size - 1) return (u[l] - u[l - stride]) / h;
+  return (u[l + stride] - u[l - stride]) / (2.0 * h);
+}
+
+template <int D>
+VectorField<D> gradient(const Image<D>& image) {
+  const auto& g = image.grid();
+  const std::vector<double> u(image.data().begin(), image.data().end());
+  VectorField<D> out(g);
+  const int64_t n = g.num_voxels();
+#pragma omp parallel for schedule(static)
+  for (int64_t l = 0; l < n; ++l)
+    for (int a = 0; a < D; ++a) out[l][a] = partial_derivative(g, u, l, a);
+  return out;
+}
+
+template void gaussian_blur<2>(const Grid<2>&, std::vector<double>&, double);
+template void gaussian_blur<3>(const Grid<3>&, std::vector<double>&, double);
+template Image<2> gaussian_blur<2>(const Image<2>&, double);
+template Image<3> gaussian_blur<3>(const Image<3>&, double);
+template double partial_derivative<2>(const Grid<2>&, const std::vector<double>&, int64_t, int);
+template double partial_derivative<3>(const Grid<3>&, const std::vector<double>&, int64_t, int);
+template VectorField<2> gradient<2>(const Image<2>&);
+template VectorField<3> gradient<3>(const Image<3>&);
+
+}  // namespace dsnake

@@ -1,0 +1,28 @@
+// Image filters shared by fields and phantoms, on float images or on double buffers laid out
+// on a grid (x fastest). All are spacing-aware and give the same result for any thread count
+// (each output voxel is a fixed-order sum of its inputs).
+#pragma once
+
+#include "framework/core/image.h"
+
+#include <vector>
+
+namespace dsnake {
+
+// Separable Gaussian blur, in place, with standard deviation `sigma` in physical units (per
+// axis sigma / spacing voxels), truncated at 3 sigma, border replicated. sigma <= 0: no-op.
+template <int D>
+void gaussian_blur(const Grid<D>& grid, std::vector<double>& values, double sigma);
+template <int D>
+Image<D> gaussian_blur(const Image<D>& image, double sigma);
+
+// d u / d x_axis at voxel l in physical units: central differences inside, one-sided at the
+// border, 0 along an axis of a single voxel.
+template <int D>
+double partial_derivative(const Grid<D>& grid, const std::vector<double>& u, int64_t l, int axis);
+
+// The gradient of an image, by partial_derivative on every axis.
+template <int D>
+VectorField<D> gradient(const Image<D>& image);
+
+}  // namespace dsnake

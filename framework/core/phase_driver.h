@@ -1,0 +1,135 @@
+// PhaseDriver<D>: runs an experiment's phases (§3, §6) on a snake. It owns what every way of
+// minimising shares: the energies and their phase weights, binding them to the snake (again
+// after every remesh that changes its topology), the remesh schedule and the observers. How a
+// phase moves the snake is a Minimizer: the snake iteration of §3.1 (SnakeStep, evolver.h) or
+// one global Ceres solve per round (GlobalSolve, global_solver.h).
+#pragma once
+
+#include "framework/core/energy.h"
+#include "framework/core/remesher.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace dsnake {
+
+template <int D>
+struct WeightedEnergy {
+  double weight = 1.0;
+  std::unique_ptr<Energy<D>> energy;
+};
+
+// Sets every energy's weight for `phase` (its "weights", or `base`), in place.
+template <int D>
+void apply_phase_weights(std::vector<WeightedEnergy<D>>& energies, const std::vector<double>& base,
+                         const std::vector<double>& phase_weights);
+
+// w_e E_e(q) per term, in the order given (0 for a term switched off, w_e = 0); the energies
+// must be bound to the snake.
+template <int D>
+std::vector<double> weighted_energy_terms(const std::vector<WeightedEnergy<D>>& energies, const Snake<D>& snake);
+
+template <int D>
+struct Phase {
+  int iterations = 100;     // iteration budget
+  double tolerance = 0.0;   // stop when the largest displacement (physical units) is below; 0: never
+  int every = 1;            // run the remesher pipeline every `every` iterations
+  // Per-energy weights for this phase, in the energies' order (empty: their own weights); 0
+  // switches a term off, e.g. §3's first phase with the deformation and external forces only.
+  std::vector<double> weights;
+  // The remeshing run every `every` iterations (null: none); an experiment's stages come as one
+  // RemeshPipeline (remesh/pipeline.h), which reports per stage.
+  std::unique_ptr<Remesher<D>> remesher;
+};
+
+struct IterationInfo {
+  int phase = 0;
+  int iteration = 0;           // counted over all phases, from 1
+  int phase_iteration = 0;     // within the phase, from 1
+  double max_displacement = 0; // largest vertex move of this iteration, physical units
+  int vertices = 0;
+  std::vector<double> energy_terms;  // w_e E_e(q) after the iteration (NaN where undefined)
+  double total_energy = 0;           // sum of the finite terms
+};
+
+enum class EvolveStatus { kConverged, kIterationBudget, kDiverged };
+std::string to_string(EvolveStatus status);
+
+struct PhaseSummary {
+  int iterations = 0;
+  EvolveStatus status = EvolveStatus::kIterationBudget;
+  double last_displacement = 0;
+  std::vector<RemeshReport> remesh_reports;  // the last pass of each stage
+};
+
+struct EvolveSummary {
+  int iterations = 0;
+  EvolveStatus status = EvolveStatus::kIterationBudget;  // of the last phase, or kDiverged
+  std::vector<PhaseSummary> phases;
+};
+
+template <int D>
+class EvolverObserver {
+ public:
+  virtual ~EvolverObserver() = default;
+  virtual void on_iteration(const IterationInfo& info, const Snake<D>& snake) {}
+  virtual void on_remesh(const RemeshReport& report, const Snake<D>& snake) {}
+  virtual void on_phase_end(int phase, const PhaseSummary& summary, const Snake<D>& snake) {}
+};
+
+template <int D>
+class PhaseDriver;
+
+// How a phase moves the snake. run_phase() iterates until the phase's budget, convergence or
+// divergence, asks the driver to remesh on its schedule and reports every iteration through it.
+template <int D>
+class Minimizer {
+ public:
+  virtual ~Minimizer() = default;
+  virtual std::string type() const = 0;
+  virtual PhaseSummary run_phase(PhaseDriver<D>& driver, Snake<D>& snake, const Phase<D>& phase, int phase_index) = 0;
+};
+
+template <int D>
+class PhaseDriver {
+ public:
+  // The energies' weights must be positive; every vertex must be governed by some energy.
+  PhaseDriver(EnergyContext<D> context, std::vector<WeightedEnergy<D>> energies, std::unique_ptr<Minimizer<D>> minimizer);
+  virtual ~PhaseDriver() = default;
+
+  void add_observer(EvolverObserver<D>* observer) { observers_.push_back(observer); }
+  // Whether to evaluate every energy's value after each snake iteration (the energy trace).
+  void set_trace_energy(bool on) { trace_energy_ = on; }
+  bool trace_energy() const { return trace_energy_; }
+
+  // Runs the phases on the snake in place.
+  EvolveSummary run(Snake<D>& snake, std::vector<Phase<D>>& phases);
+
+  // For minimizers. Binds the energies if the snake is not the bound one or its topology changed.
+  void bind(const Snake<D>& snake);
+  std::vector<WeightedEnergy<D>>& energies() { return energies_; }
+  const std::vector<WeightedEnergy<D>>& energies() const { return energies_; }
+  // w_e E_e(q) per term, in the order given (binds first if needed).
+  std::vector<double> energy_terms(const Snake<D>& snake);
+  // Runs the phase's remesher at `phase_iteration` of its schedule, tells the observers, rebinds
+  // the energies; one report per stage.
+  std::vector<RemeshReport> remesh(Snake<D>& snake, const Phase<D>& phase, int phase_iteration);
+  // Numbers the iteration (counted over all phases), sets its vertex count and tells the observers.
+  void report(IterationInfo& info, const Snake<D>& snake);
+  Minimizer<D>& minimizer() { return *minimizer_; }
+
+ private:
+  EnergyContext<D> context_;
+  std::vector<WeightedEnergy<D>> energies_;
+  std::unique_ptr<Minimizer<D>> minimizer_;
+  std::vector<EvolverObserver<D>*> observers_;
+  std::vector<double> base_weights_;  // the energies' own weights (phases may override them)
+  bool trace_energy_ = true;
+  int iterations_ = 0;
+  uint64_t bound_version_ = ~uint64_t(0);
+  int bound_vertices_ = -1;
+  const Snake<D>* bound_snake_ = nullptr;
+};
+
+}  // namespace dsnake

@@ -1,0 +1,310 @@
+// Image and volume I/O: MetaImage (.mha/.mhd, raw or zlib), NIfTI-1 (.nii/.nii.gz) and, for
+// 2D, the OpenCV formats. Every reader decodes into one RawVolume (sizes, spacing, origin,
+// channels, values as doubles), which is then checked and converted to Image<D> or
+// VectorField<D>, so the checks (dimension, spacing, NaN voxels) are written once.
+#include "framework/io/image_io.h"
+
+#include "framework/core/atomic_file.h"
+#include "framework/core/errors.h"
+#include "framework/io/image_io_detail.h"
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <zlib.h>
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace dsnake {
+
+namespace detail {
+
+namespace fs = std::filesystem;
+
+// Bytes per stored value of type s.
+int scalar_bytes(Scalar s) {
+  switch (s) {
+    case Scalar::kU8: case Scalar::kI8: return 1;
+    case Scalar::kU16: case Scalar::kI16: return 2;
+    case Scalar::kU32: case Scalar::kI32: case Scalar::kF32: return 4;
+    case Scalar::kF64: return 8;
+  }
+  return 1;
+}
+
+// Decodes `count` values of type s from raw bytes (the caller checked the length).
+std::vector<double> decode(const char* data, int64_t count, Scalar s, bool swap) {
+  std::vector<double> out(count);
+  const int nb = scalar_bytes(s);
+  for (int64_t i = 0; i < count; ++i) {
+    const char* p = data + i * nb;
+    switch (s) {
+      case Scalar::kU8: out[i] = load<uint8_t>(p, false); break;
+      case Scalar::kI8: out[i] = load<int8_t>(p, false); break;
+      case Scalar::kU16: out[i] = load<uint16_t>(p, swap); break;
+      case Scalar::kI16: out[i] = load<int16_t>(p, swap); break;
+      case Scalar::kU32: out[i] = load<uint32_t>(p, swap); break;
+      case Scalar::kI32: out[i] = load<int32_t>(p, swap); break;
+      case Scalar::kF32: out[i] = load<float>(p, swap); break;
+      case Scalar::kF64: out[i] = load<double>(p, swap); break;
+    }
+  }
+  return out;
+}
+
+// Values as little-endian float32 bytes (the format every writer stores).
+std::string float_bytes(const std::vector<double>& values) {
+  std::string out(values.size() * 4, '\0');
+  for (size_t i = 0; i < values.size(); ++i) {
+    const float f = static_cast<float>(values[i]);
+    std::memcpy(out.data() + 4 * i, &f, 4);
+  }
+  return out;
+}
+
+// Lower-case extension, with ".nii.gz" kept whole.
+std::string extension_of(const std::string& path) {
+  std::string name = fs::path(path).filename().string();
+  std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (name.size() > 7 && name.ends_with(".nii.gz")) return ".nii.gz";
+  const size_t dot = name.rfind('.');
+  return dot == std::string::npos ? "" : name.substr(dot);
+}
+
+// The 2D formats that go through OpenCV.
+bool is_opencv_extension(const std::string& ext) {
+  return ext == ".png" || ext == ".tif" || ext == ".tiff" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp";
+}
+
+[[noreturn]] void unknown_format(const std::string& path) {
+  throw InputError(path, "", "unknown image format (expected .mha, .mhd, .nii, .nii.gz, or for 2D "
+                             ".png, .tif, .tiff, .jpg, .jpeg, .bmp)");
+}
+
+// InputError unless `path` is an existing regular file.
+void require_exists(const std::string& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) throw InputError(path, "", "file not found");
+}
+
+// Whole file (or its first max_bytes) as it is on disk. MetaImage data must not go through
+// gzread, which would inflate raw data that happens to start with the gzip magic bytes.
+std::string read_bytes(const std::string& path, size_t max_bytes) {
+  require_exists(path);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, "", "cannot open file");
+  std::string s;
+  char buf[1 << 16];
+  while (s.size() < max_bytes) {
+    in.read(buf, sizeof(buf));
+    if (in.gcount() <= 0) break;
+    s.append(buf, size_t(in.gcount()));
+  }
+  if (s.size() > max_bytes) s.resize(max_bytes);
+  return s;
+}
+
+// Whole file (or its first max_bytes) through zlib's gz reader, which gunzips .gz files and
+// passes plain files through unchanged (NIfTI).
+std::string read_gz_bytes(const std::string& path, size_t max_bytes) {
+  require_exists(path);
+  gzFile f = gzopen(path.c_str(), "rb");
+  if (!f) throw InputError(path, "", "cannot open file");
+  std::string s;
+  char buf[1 << 16];
+  while (s.size() < max_bytes) {
+    const int n = gzread(f, buf, sizeof(buf));
+    if (n < 0) {
+      gzclose(f);
+      throw InputError(path, "", "corrupt gzip data");
+    }
+    if (n == 0) break;
+    s.append(buf, static_cast<size_t>(n));
+  }
+  gzclose(f);
+  if (s.size() > max_bytes) s.resize(max_bytes);
+  return s;
+}
+
+// Formats a double so that reading it back gives the same double.
+std::string exact(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.17g", v);
+  return buf;
+}
+
+}  // namespace detail
+
+namespace {
+
+using namespace detail;
+namespace fs = std::filesystem;
+
+// ---------------------------------------------------------------- OpenCV (2D)
+
+// A 2D grey image through OpenCV; colour is converted to grey, 8/16-bit and float kept.
+RawVolume read_opencv(const std::string& path) {
+  require_exists(path);
+  const cv::Mat m = cv::imread(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
+  if (m.empty()) throw InputError(path, "", "cannot decode the image");
+  cv::Mat d;
+  m.convertTo(d, CV_64F);
+  RawVolume v;
+  v.ndims = 2;
+  v.size = {d.cols, d.rows, 1};
+  v.values.resize(size_t(d.cols) * d.rows);
+  for (int y = 0; y < d.rows; ++y)
+    for (int x = 0; x < d.cols; ++x) v.values[size_t(y) * d.cols + x] = d.at<double>(y, x);
+  return v;
+}
+
+// Writes 8-bit grey after clamping to [0, 255] (spacing and origin are lost).
+void write_opencv(const RawVolume& v, const std::string& path) {
+  cv::Mat m(int(v.size[1]), int(v.size[0]), CV_8U);
+  for (int y = 0; y < m.rows; ++y)
+    for (int x = 0; x < m.cols; ++x)
+      m.at<uint8_t>(y, x) = uint8_t(std::lround(std::clamp(v.values[size_t(y) * m.cols + x], 0.0, 255.0)));
+  write_via_temporary(path, [&](const std::string& tmp) {
+    if (!cv::imwrite(tmp, m)) throw std::runtime_error(path + ": cannot write image");
+  });
+}
+
+// ---------------------------------------------------------------- dispatch and checks
+
+// Decodes any supported file by its extension.
+RawVolume read_volume(const std::string& path) {
+  const std::string ext = extension_of(path);
+  if (ext == ".mha" || ext == ".mhd") return read_meta(path);
+  if (ext == ".nii" || ext == ".nii.gz") return decode_nifti(read_gz_bytes(path), path, false);
+  if (is_opencv_extension(ext)) return read_opencv(path);
+  unknown_format(path);
+}
+
+// Writes any supported format by its extension.
+void write_volume(const RawVolume& v, const std::string& path, const ImageWriteOptions& options) {
+  const std::string ext = extension_of(path);
+  if (ext == ".mha" || ext == ".mhd") return write_meta(v, path, options.compress);
+  if (ext == ".nii" || ext == ".nii.gz") return write_nifti(v, path);
+  if (is_opencv_extension(ext) && v.ndims == 2 && v.channels == 1) return write_opencv(v, path);
+  if (is_opencv_extension(ext)) throw InputError(path, "", "this format holds only 2D grey images");
+  unknown_format(path);
+}
+
+// The grid of a decoded volume as Grid<D>, after checking dimension, channels and spacing.
+template <int D>
+Grid<D> checked_grid(const RawVolume& v, const std::string& path, int channels) {
+  const int found = v.effective_dimension();
+  if (found != D)
+    throw InputError(path, v.dim_key, "expected a " + std::to_string(D) + "D image, found " + std::to_string(found) + "D");
+  if (v.channels != channels)
+    throw InputError(path, v.channel_key, "expected " + std::to_string(channels) + " component(s) per voxel, found " +
+                                              std::to_string(v.channels));
+  Grid<D> g;
+  for (int a = 0; a < D; ++a) {
+    if (!(v.spacing[a] > 0) || !std::isfinite(v.spacing[a]))
+      throw InputError(path, v.spacing_key, "spacing must be positive, found " + exact(v.spacing[a]));
+    if (!std::isfinite(v.origin[a])) throw InputError(path, "origin", "origin must be finite");
+    g.size[a] = int(v.size[a]);
+    g.spacing[a] = v.spacing[a];
+    g.origin[a] = v.origin[a];
+  }
+  for (size_t i = 0; i < v.values.size(); ++i) {
+    if (std::isfinite(v.values[i])) continue;
+    const GridIndex<D> idx = g.index(int64_t(i) / channels);
+    std::string where = "voxel (";
+    for (int a = 0; a < D; ++a) where += (a ? ", " : "") + std::to_string(idx[a]);
+    throw InputError(path, where + ")", std::isnan(v.values[i]) ? "value is NaN" : "value is infinite");
+  }
+  return g;
+}
+
+// An empty RawVolume with the geometry of a grid.
+template <int D>
+RawVolume raw_of(const Grid<D>& g, int channels) {
+  RawVolume v;
+  v.ndims = D;
+  v.channels = channels;
+  for (int a = 0; a < D; ++a) {
+    v.size[a] = g.size[a];
+    v.spacing[a] = g.spacing[a];
+    v.origin[a] = g.origin[a];
+  }
+  return v;
+}
+
+}  // namespace
+
+// Reads only the header (MetaImage, NIfTI); OpenCV formats are 2D.
+int image_file_dimension(const std::string& path) {
+  const std::string ext = extension_of(path);
+  if (ext == ".mha" || ext == ".mhd") return meta_dimension(path);
+  if (ext == ".nii" || ext == ".nii.gz")
+    return decode_nifti(read_gz_bytes(path, kNiftiHeaderBytes), path, true).effective_dimension();
+  if (is_opencv_extension(ext)) return 2;
+  unknown_format(path);
+}
+
+// Decodes, checks (dimension, one channel, spacing, finite voxels) and converts to float.
+template <int D>
+Image<D> read_image(const std::string& path) {
+  const RawVolume v = read_volume(path);
+  Image<D> image(checked_grid<D>(v, path, 1));
+  for (size_t i = 0; i < v.values.size(); ++i) image[int64_t(i)] = static_cast<float>(v.values[i]);
+  return image;
+}
+
+// Stores the grid and the voxels through the shared RawVolume writer.
+template <int D>
+void write_image(const Image<D>& image, const std::string& path, const ImageWriteOptions& options) {
+  RawVolume v = raw_of<D>(image.grid(), 1);
+  v.values.assign(image.data().begin(), image.data().end());
+  write_volume(v, path, options);
+}
+
+// Default options: uncompressed.
+template <int D>
+void write_image(const Image<D>& image, const std::string& path) {
+  write_image<D>(image, path, ImageWriteOptions{});
+}
+
+// Vector fields go to MetaImage (channels) or NIfTI (intent vector) only.
+template <int D>
+void write_vector_field(const VectorField<D>& field, const std::string& path) {
+  RawVolume v = raw_of<D>(field.grid(), D);
+  v.values.resize(size_t(field.num_voxels()) * D);
+  for (int64_t i = 0; i < field.num_voxels(); ++i)
+    for (int a = 0; a < D; ++a) v.values[size_t(i) * D + a] = field[i][a];
+  const std::string ext = extension_of(path);
+  if (is_opencv_extension(ext)) throw InputError(path, "", "vector fields need .mha, .mhd, .nii or .nii.gz");
+  write_volume(v, path, ImageWriteOptions{});
+}
+
+// As read_image, with D interleaved components per voxel.
+template <int D>
+VectorField<D> read_vector_field(const std::string& path) {
+  const RawVolume v = read_volume(path);
+  VectorField<D> field(checked_grid<D>(v, path, D));
+  for (int64_t i = 0; i < field.num_voxels(); ++i)
+    for (int a = 0; a < D; ++a) field[i][a] = v.values[size_t(i) * D + a];
+  return field;
+}
+
+template Image<2> read_image<2>(const std::string&);
+template Image<3> read_image<3>(const std::string&);
+template void write_image<2>(const Image<2>&, const std::string&);
+template void write_image<3>(const Image<3>&, const std::string&);
+template void write_image<2>(const Image<2>&, const std::string&, const ImageWriteOptions&);
+template void write_image<3>(const Image<3>&, const std::string&, const ImageWriteOptions&);
+template void write_vector_field<2>(const VectorField<2>&, const std::string&);
+template void write_vector_field<3>(const VectorField<3>&, const std::string&);
+template VectorField<2> read_vector_field<2>(const std::string&);
+template VectorField<3> read_vector_field<3>(const std::string&);
+
+}  // namespace dsnake
+

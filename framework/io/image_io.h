@@ -1,0 +1,42 @@
+// Reading and writing images and volumes, keeping spacing and origin:
+//  - 2D: PNG, TIFF, JPEG, BMP through OpenCV (grey levels; colour is converted to grey);
+//    MetaImage and NIfTI with two dimensions (or a third of size 1) also read as 2D.
+//  - 3D: MetaImage .mha/.mhd (raw or zlib-compressed, separate .raw/.zraw data file or LOCAL)
+//    and NIfTI-1 .nii/.nii.gz.
+// Bad files (missing, truncated, wrong dimension, NaN voxels, unsupported type) throw an
+// InputError naming the file and the header key or voxel at fault. Writers write to a
+// temporary file and rename it, so a failed write leaves nothing behind.
+#pragma once
+
+#include "framework/core/image.h"
+
+#include <string>
+
+namespace dsnake {
+
+// Number of dimensions of the image in `path` (2 or 3), from its header or extension.
+int image_file_dimension(const std::string& path);
+
+template <int D>
+Image<D> read_image(const std::string& path);
+
+// Formats by extension: .mha .mhd .nii .nii.gz (float32 voxels), and for D = 2 also .png .tif
+// .tiff (8-bit after clamping to [0, 255]; spacing is lost in PNG/TIFF, so prefer .mha).
+template <int D>
+void write_image(const Image<D>& image, const std::string& path);
+
+// Options for write_image; the two-argument form uses the defaults.
+struct ImageWriteOptions {
+  bool compress = false;  // MetaImage only: zlib-compressed data (CompressedData = True); NIfTI: use .nii.gz
+};
+template <int D>
+void write_image(const Image<D>& image, const std::string& path, const ImageWriteOptions& options);
+
+// Vector fields as multi-component MetaImage (.mha, ElementNumberOfChannels = D) or NIfTI
+// (intent vector, 5th dimension = D).
+template <int D>
+void write_vector_field(const VectorField<D>& field, const std::string& path);
+template <int D>
+VectorField<D> read_vector_field(const std::string& path);
+
+}  // namespace dsnake

@@ -1,0 +1,85 @@
+// Internal to the image I/O (framework/io/image_io.cpp, metaimage.cpp, nifti.cpp): the decoded
+// form every reader produces and the byte helpers the formats share. Not part of the API.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <cstring>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace dsnake::detail {
+
+// A decoded image of any supported format, before the checks for one dimension D.
+struct RawVolume {
+  int ndims = 3;                              // spatial dimensions as stored (2 or 3)
+  std::array<int64_t, 3> size{1, 1, 1};       // voxels per axis (unused axes: 1)
+  std::array<double, 3> spacing{1, 1, 1};     // physical voxel size per axis
+  std::array<double, 3> origin{0, 0, 0};      // physical position of voxel 0
+  int channels = 1;                           // 1 for an image, D for a vector field
+  std::vector<double> values;                 // voxel-major (x fastest), channels interleaved
+  std::string dim_key = "dimension", spacing_key = "spacing", channel_key = "channels";
+
+  int64_t num_voxels() const { return size[0] * size[1] * size[2]; }
+  // A 3D volume with one slice counts as 2D.
+  int effective_dimension() const { return ndims == 3 && size[2] == 1 ? 2 : ndims; }
+};
+
+enum class Scalar { kU8, kI8, kU16, kI16, kU32, kI32, kF32, kF64 };
+
+// Bytes per stored value of type s.
+int scalar_bytes(Scalar s);
+
+// One stored value at p as a double, swapping bytes for a foreign byte order.
+template <class T>
+double load(const char* p, bool swap) {
+  char b[sizeof(T)];
+  std::memcpy(b, p, sizeof(T));
+  if (swap) std::reverse(b, b + sizeof(T));
+  T v;
+  std::memcpy(&v, b, sizeof(T));
+  return static_cast<double>(v);
+}
+
+// Decodes `count` values of type s from raw bytes (the caller checked the length).
+std::vector<double> decode(const char* data, int64_t count, Scalar s, bool swap);
+
+// Values as little-endian float32 bytes (the format every writer stores).
+std::string float_bytes(const std::vector<double>& values);
+
+// Lower-case extension, with ".nii.gz" kept whole.
+std::string extension_of(const std::string& path);
+
+// The 2D formats that go through OpenCV.
+bool is_opencv_extension(const std::string& ext);
+
+// InputError unless `path` is an existing regular file.
+void require_exists(const std::string& path);
+
+// Whole file (or its first max_bytes) as it is on disk. MetaImage data must not go through
+// gzread, which would inflate raw data that happens to start with the gzip magic bytes.
+std::string read_bytes(const std::string& path, size_t max_bytes = std::string::npos);
+
+// Whole file (or its first max_bytes) through zlib's gz reader, which gunzips .gz files and
+// passes plain files through unchanged (NIfTI).
+std::string read_gz_bytes(const std::string& path, size_t max_bytes = std::string::npos);
+
+// Formats a double so that reading it back gives the same double.
+std::string exact(double v);
+
+// MetaImage (metaimage.cpp): read a .mha/.mhd completely, write one, or read only its
+// header's dimension.
+RawVolume read_meta(const std::string& path);
+void write_meta(const RawVolume& v, const std::string& path, bool compress);
+int meta_dimension(const std::string& path);
+
+inline constexpr size_t kNiftiHeaderBytes = 348;
+
+// NIfTI-1 (nifti.cpp): decode a header (and, unless header_only, the data) from the file's
+// bytes; write float32 .nii or .nii.gz.
+RawVolume decode_nifti(const std::string& bytes, const std::string& path, bool header_only);
+void write_nifti(const RawVolume& v, const std::string& path);
+
+}  // namespace dsnake::detail

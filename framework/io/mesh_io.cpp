@@ -1,0 +1,514 @@
+// Template, snake and contour I/O. OFF, OBJ and legacy VTK are parsed here (so that a
+// non-manifold face is reported, not silently dropped as OpenMesh's reader does); PLY and STL
+// go through OpenMesh. Every mesh is checked closed and manifold and turned outward; every
+// writer is atomic (framework/core/atomic_file.h) and prints coordinates with 17 significant digits
+// so that text round trips are exact.
+#include "framework/io/mesh_io.h"
+
+#include "framework/core/atomic_file.h"
+#include "framework/core/errors.h"
+
+#include <OpenMesh/Core/IO/MeshIO.hh>
+#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+namespace dsnake {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct DoublePointTraits : OpenMesh::DefaultTraits {
+  using Point = OpenMesh::Vec3d;
+};
+using OmMesh = OpenMesh::TriMesh_ArrayKernelT<DoublePointTraits>;
+
+// Lower-case extension of a file name.
+std::string extension_of(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext;
+}
+
+// Whole text file, or InputError when it is missing.
+std::string read_text(const std::string& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) throw InputError(path, "", "file not found");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, "", "cannot open file");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// A double printed so that it reads back exactly.
+std::string exact(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.17g", v);
+  return buf;
+}
+
+// Parses a whole token as a number; false if it is not one.
+bool parse_number(const std::string& tok, double& value) {
+  char* end = nullptr;
+  value = std::strtod(tok.c_str(), &end);
+  return !tok.empty() && end != tok.c_str() && *end == '\0';
+}
+
+// Blank-separated words of a line.
+std::vector<std::string> split_words(const std::string& line) {
+  std::istringstream in(line);
+  std::vector<std::string> w;
+  for (std::string t; in >> t;) w.push_back(t);
+  return w;
+}
+
+// Lines of a text file with '#' comments removed, keeping 1-based line numbers.
+std::vector<std::pair<int, std::string>> content_lines(const std::string& text) {
+  std::vector<std::pair<int, std::string>> lines;
+  std::istringstream in(text);
+  int no = 0;
+  for (std::string line; std::getline(in, line);) {
+    ++no;
+    const size_t hash = line.find('#');
+    if (hash != std::string::npos) line.resize(hash);
+    if (line.find_first_not_of(" \t\r") != std::string::npos) lines.emplace_back(no, line);
+  }
+  return lines;
+}
+
+// Appends the fan triangulation of a polygon (v0, v1, v2), (v0, v2, v3), ...
+void add_fan(const std::vector<int>& poly, std::vector<Triangle>& tris) {
+  for (size_t k = 1; k + 1 < poly.size(); ++k) tris.push_back({poly[0], poly[k], poly[k + 1]});
+}
+
+// ---------------------------------------------------------------- mesh readers
+
+// Positions and triangles as read, before the checks.
+struct RawMesh {
+  PointList<3> points;
+  std::vector<Triangle> triangles;
+};
+
+// ASCII OFF: "OFF", counts "nv nf ne", nv vertex lines, nf face lines "k i1 ... ik".
+RawMesh read_off(const std::string& path) {
+  const auto lines = content_lines(read_text(path));
+  RawMesh m;
+  if (lines.empty()) return m;
+  // The keyword, then "nv nf ne" on the same line or the next.
+  auto words = split_words(lines[0].second);
+  if (words[0].size() < 3 || !words[0].ends_with("OFF"))
+    throw InputError(path, "header", "not an ASCII OFF file (expected the keyword OFF)");
+  size_t first = 1;
+  words.erase(words.begin());
+  if (words.empty() && lines.size() > 1) words = split_words(lines[first++].second);
+  double counts[2] = {-1, -1};
+  if (words.size() < 2 || !parse_number(words[0], counts[0]) || !parse_number(words[1], counts[1]) || counts[0] < 0 ||
+      counts[1] < 0)
+    throw InputError(path, "counts", "expected the vertex and face counts");
+  const int nv = int(counts[0]), nf = int(counts[1]);
+  if (lines.size() < first + nv + nf) throw InputError(path, "", "unexpected end of file");
+  const size_t line_of_counts = first - 1;
+  for (int v = 0; v < nv; ++v) {
+    const auto w = split_words(lines[line_of_counts + 1 + v].second);
+    Point<3> p;
+    for (int a = 0; a < 3; ++a)
+      if (a >= int(w.size()) || !parse_number(w[a], p[a]))
+        throw InputError(path, "vertex " + std::to_string(v), "expected three coordinates");
+    m.points.push_back(p);
+  }
+  for (int f = 0; f < nf; ++f) {
+    const auto w = split_words(lines[line_of_counts + 1 + nv + f].second);
+    double k = 0;
+    if (w.empty() || !parse_number(w[0], k) || k < 3 || int(w.size()) < 1 + int(k))
+      throw InputError(path, "face " + std::to_string(f), "expected a vertex count >= 3 and the vertex indices");
+    std::vector<int> poly;
+    for (int i = 1; i <= int(k); ++i) {
+      double id;
+      if (!parse_number(w[i], id) || id < 0 || id >= nv)
+        throw InputError(path, "face " + std::to_string(f), "vertex index '" + w[i] + "' out of range");
+      poly.push_back(int(id));
+    }
+    add_fan(poly, m.triangles);
+  }
+  return m;
+}
+
+// ASCII OBJ: "v x y z" and "f a b c ..." lines (a may be "a/t/n"; negative = relative).
+RawMesh read_obj(const std::string& path) {
+  RawMesh m;
+  for (const auto& [no, line] : content_lines(read_text(path))) {
+    const auto w = split_words(line);
+    const std::string where = "line " + std::to_string(no);
+    if (w[0] == "v") {
+      Point<3> p;
+      for (int a = 0; a < 3; ++a)
+        if (int(w.size()) < 4 || !parse_number(w[a + 1], p[a]))
+          throw InputError(path, where, "expected three vertex coordinates");
+      m.points.push_back(p);
+    } else if (w[0] == "f") {
+      if (w.size() < 4) throw InputError(path, where, "a face needs at least three vertices");
+      std::vector<int> poly;
+      for (size_t i = 1; i < w.size(); ++i) {
+        double id;
+        if (!parse_number(w[i].substr(0, w[i].find('/')), id) || id == 0)
+          throw InputError(path, where, "bad vertex reference '" + w[i] + "'");
+        const int v = id > 0 ? int(id) - 1 : int(m.points.size()) + int(id);
+        if (v < 0 || v >= int(m.points.size())) throw InputError(path, where, "vertex reference '" + w[i] + "' out of range");
+        poly.push_back(v);
+      }
+      add_fan(poly, m.triangles);
+    }
+  }
+  return m;
+}
+
+// Legacy ASCII VTK POLYDATA: POINTS, then POLYGONS and/or LINES (cells as index lists).
+struct VtkPolyData {
+  PointList<3> points;
+  std::vector<std::vector<int>> polygons, lines;
+};
+
+// Reads the geometry part of a legacy ASCII VTK POLYDATA file (attributes are skipped).
+VtkPolyData read_vtk(const std::string& path) {
+  std::istringstream in(read_text(path));
+  std::string line;
+  VtkPolyData d;
+  if (!std::getline(in, line)) return d;
+  if (line.rfind("# vtk DataFile", 0) != 0) throw InputError(path, "header", "not a legacy VTK file");
+  std::getline(in, line);  // title
+  std::string word;
+  if (!(in >> word) || word != "ASCII") throw InputError(path, "header", "only ASCII VTK files are supported");
+  if (!(in >> word >> line) || word != "DATASET" || line != "POLYDATA")
+    throw InputError(path, "DATASET", "expected DATASET POLYDATA");
+  auto count = [&](const std::string& key) {
+    double d;
+    std::string t;
+    if (!(in >> t) || !parse_number(t, d) || d < 0) throw InputError(path, key, "expected a count");
+    return int64_t(d);
+  };
+  while (in >> word) {
+    if (word == "POINTS") {
+      const int64_t n = count("POINTS");
+      in >> word;  // data type; values are read as doubles
+      d.points.resize(n);
+      for (int64_t i = 0; i < n; ++i)
+        for (int a = 0; a < 3; ++a) {
+          std::string t;
+          if (!(in >> t) || !parse_number(t, d.points[i][a]))
+            throw InputError(path, "POINTS", "point " + std::to_string(i) + ": expected three numbers");
+        }
+    } else if (word == "POLYGONS" || word == "LINES" || word == "VERTICES" || word == "TRIANGLE_STRIPS") {
+      const std::string key = word;
+      const int64_t cells = count(key);
+      count(key);
+      auto& out = key == "POLYGONS" ? d.polygons : d.lines;
+      for (int64_t c = 0; c < cells; ++c) {
+        const int64_t k = count(key);
+        std::vector<int> cell;
+        for (int64_t i = 0; i < k; ++i) {
+          const int64_t id = count(key);
+          if (id >= int64_t(d.points.size()))
+            throw InputError(path, key, "cell " + std::to_string(c) + " refers to point " + std::to_string(id));
+          cell.push_back(int(id));
+        }
+        if (key == "TRIANGLE_STRIPS") throw InputError(path, key, "triangle strips are not supported");
+        if (key != "VERTICES") out.push_back(std::move(cell));
+      }
+    } else if (word == "POINT_DATA" || word == "CELL_DATA" || word == "METADATA" || word == "FIELD") {
+      break;  // attributes are not part of the shape
+    } else {
+      throw InputError(path, word, "unexpected keyword in a POLYDATA file");
+    }
+  }
+  return d;
+}
+
+// PLY and STL through OpenMesh (STL vertices shared by several facets are merged on read).
+RawMesh read_openmesh(const std::string& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) throw InputError(path, "", "file not found");
+  OmMesh mesh;
+  OpenMesh::IO::Options opt;
+  if (!OpenMesh::IO::read_mesh(mesh, path, opt)) throw InputError(path, "", "cannot read the mesh (OpenMesh failed)");
+  RawMesh m;
+  for (const auto& v : mesh.vertices()) {
+    const auto& p = mesh.point(v);
+    m.points.emplace_back(p[0], p[1], p[2]);
+  }
+  for (const auto& f : mesh.faces()) {
+    std::vector<int> poly;
+    for (const auto& v : f.vertices()) poly.push_back(v.idx());
+    add_fan(poly, m.triangles);
+  }
+  return m;
+}
+
+// Splits Connectivity's "edge (3, 5) is a boundary edge ..." into element and message.
+InputError mesh_problem(const std::string& path, const std::string& problem) {
+  size_t k = problem.find(" is ");
+  if (k == std::string::npos) k = problem.find(" refers ");
+  if (k == std::string::npos) return InputError(path, "", problem);
+  return InputError(path, problem.substr(0, k), problem.substr(k + 1));
+}
+
+// Checks a read mesh (non-empty, finite, closed, manifold) and turns it outward.
+Template<3> mesh_template(const std::string& path, RawMesh m) {
+  if (m.points.empty() || m.triangles.empty()) throw InputError(path, "", "empty template");
+  for (size_t v = 0; v < m.points.size(); ++v)
+    if (!m.points[v].allFinite()) throw InputError(path, "vertex " + std::to_string(v), "coordinate is NaN or infinite");
+  Template<3> t;
+  t.positions = std::move(m.points);
+  const int n = t.num_vertices();
+  t.connectivity = Connectivity::mesh(n, m.triangles);
+  if (const std::string problem = t.connectivity.closed_manifold_problem(); !problem.empty())
+    throw mesh_problem(path, problem);
+  if (signed_measure<3>(t.positions, t.connectivity) < 0) {
+    for (auto& tri : m.triangles) std::swap(tri[1], tri[2]);
+    t.connectivity = Connectivity::mesh(n, std::move(m.triangles));
+  }
+  return t;
+}
+
+// ---------------------------------------------------------------- contour readers
+
+// Checks a read contour (>= 3 points, finite, no repeated consecutive point).
+Template<2> contour_template(const std::string& path, PointList<2> points, std::map<std::string, int> landmarks) {
+  const int n = int(points.size());
+  if (n < 3) throw InputError(path, "", "a contour needs at least 3 points, found " + std::to_string(n));
+  for (int v = 0; v < n; ++v) {
+    if (!points[v].allFinite()) throw InputError(path, "vertex " + std::to_string(v), "coordinate is NaN or infinite");
+    if (points[v] == points[(v + 1) % n])
+      throw InputError(path, "vertex " + std::to_string(v), "equals the next vertex " + std::to_string((v + 1) % n));
+  }
+  Template<2> t;
+  t.positions = std::move(points);
+  t.connectivity = Connectivity::polygon(n);
+  t.landmarks = std::move(landmarks);
+  return t;
+}
+
+// One "x y" per line; '#' comments and blank lines are skipped, ids count the points.
+Template<2> read_contour_txt(const std::string& path) {
+  PointList<2> pts;
+  for (const auto& [no, line] : content_lines(read_text(path))) {
+    const auto w = split_words(line);
+    Point<2> p;
+    if (w.size() != 2 || !parse_number(w[0], p[0]) || !parse_number(w[1], p[1]))
+      throw InputError(path, "line " + std::to_string(no), "expected two numbers");
+    pts.push_back(p);
+  }
+  return contour_template(path, std::move(pts), {});
+}
+
+// {"points": [[x, y], ...], "landmarks": {"name": id}, "scalars": {...}}; other keys are errors.
+Template<2> read_contour_json(const std::string& path) {
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(read_text(path));
+  } catch (const nlohmann::json::parse_error& e) {
+    throw InputError(path, "", std::string("invalid JSON: ") + e.what());
+  }
+  if (!j.is_object()) throw InputError(path, "", "expected a JSON object");
+  for (const auto& [key, value] : j.items())
+    if (key != "points" && key != "landmarks" && key != "scalars") throw InputError(path, key, "unknown key");
+  if (!j.contains("points") || !j["points"].is_array()) throw InputError(path, "points", "an array of [x, y] is required");
+  PointList<2> pts;
+  for (size_t i = 0; i < j["points"].size(); ++i) {
+    const auto& p = j["points"][i];
+    if (!p.is_array() || p.size() != 2 || !p[0].is_number() || !p[1].is_number())
+      throw InputError(path, "points[" + std::to_string(i) + "]", "expected [x, y]");
+    pts.emplace_back(p[0].get<double>(), p[1].get<double>());
+  }
+  std::map<std::string, int> landmarks;
+  if (j.contains("landmarks")) {
+    if (!j["landmarks"].is_object()) throw InputError(path, "landmarks", "expected an object {\"name\": id}");
+    for (const auto& [name, id] : j["landmarks"].items()) {
+      if (!id.is_number_integer() || id.get<int64_t>() < 0 || id.get<int64_t>() >= int64_t(pts.size()))
+        throw InputError(path, "landmarks." + name, "expected a vertex id in [0, " + std::to_string(pts.size()) + ")");
+      landmarks[name] = id.get<int>();
+    }
+  }
+  if (j.contains("scalars") && !j["scalars"].is_object())
+    throw InputError(path, "scalars", "expected an object {\"name\": [values]}");
+  return contour_template(path, std::move(pts), std::move(landmarks));
+}
+
+// One closed polyline through every point once; the ids follow the line's order.
+Template<2> read_contour_vtk(const std::string& path) {
+  VtkPolyData d = read_vtk(path);
+  if (d.lines.size() != 1) throw InputError(path, "LINES", "expected one polyline, found " + std::to_string(d.lines.size()));
+  std::vector<int> line = d.lines[0];
+  if (line.size() > 1 && line.front() == line.back()) line.pop_back();
+  std::vector<char> seen(d.points.size(), 0);
+  for (int id : line)
+    if (seen[id]++) throw InputError(path, "LINES", "the polyline visits point " + std::to_string(id) + " twice");
+  if (line.size() != d.points.size()) throw InputError(path, "LINES", "the polyline must visit every point");
+  PointList<2> pts;
+  for (int id : line) pts.emplace_back(d.points[id][0], d.points[id][1]);
+  return contour_template(path, std::move(pts), {});
+}
+
+// ---------------------------------------------------------------- writers
+
+// POINT_DATA with one SCALARS block per array (names without spaces, as VTK requires).
+std::string vtk_scalars(const std::vector<VertexScalars>& scalars, size_t n) {
+  if (scalars.empty()) return "";
+  std::string s = "POINT_DATA " + std::to_string(n) + "\n";
+  for (const auto& sc : scalars) {
+    DSNAKE_ASSERT(sc.values.size() == n, "one scalar per vertex: " + sc.name);
+    std::string name = sc.name.empty() ? "scalars" : sc.name;
+    std::replace_if(name.begin(), name.end(), [](unsigned char c) { return std::isspace(c); }, '_');
+    s += "SCALARS " + name + " double 1\nLOOKUP_TABLE default\n";
+    for (double v : sc.values) s += exact(v) + "\n";
+  }
+  return s;
+}
+
+// The four header lines of a legacy ASCII POLYDATA file.
+std::string vtk_header(const std::string& title) {
+  return "# vtk DataFile Version 3.0\n" + title + "\nASCII\nDATASET POLYDATA\n";
+}
+
+// PLY (binary, double coordinates) and STL (binary) through OpenMesh.
+void write_openmesh(const PointList<3>& points, const Connectivity& c, const std::string& path) {
+  OmMesh mesh;
+  std::vector<OmMesh::VertexHandle> vh;
+  for (const auto& p : points) vh.push_back(mesh.add_vertex(OmMesh::Point(p[0], p[1], p[2])));
+  for (const auto& t : c.triangles())
+    if (!mesh.add_face(vh[t[0]], vh[t[1]], vh[t[2]]).is_valid())
+      throw std::runtime_error(path + ": OpenMesh cannot store a non-manifold triangle");
+  OpenMesh::IO::Options opt = OpenMesh::IO::Options::Binary;
+  write_via_temporary(path, [&](const std::string& tmp) {
+    if (!OpenMesh::IO::write_mesh(mesh, tmp, opt, 17)) throw std::runtime_error(path + ": OpenMesh cannot write the mesh");
+  });
+}
+
+}  // namespace
+
+// Dispatches on the extension; every route ends in mesh_template()'s checks.
+Template<3> read_mesh_template(const std::string& path) {
+  const std::string ext = extension_of(path);
+  if (ext == ".off") return mesh_template(path, read_off(path));
+  if (ext == ".obj") return mesh_template(path, read_obj(path));
+  if (ext == ".ply" || ext == ".stl") return mesh_template(path, read_openmesh(path));
+  if (ext == ".vtk") {
+    VtkPolyData d = read_vtk(path);
+    RawMesh m;
+    m.points = std::move(d.points);
+    for (const auto& poly : d.polygons) {
+      if (poly.size() < 3) throw InputError(path, "POLYGONS", "a polygon needs at least three points");
+      add_fan(poly, m.triangles);
+    }
+    return mesh_template(path, std::move(m));
+  }
+  throw InputError(path, "", "unknown mesh format (expected .off, .obj, .ply, .stl or .vtk)");
+}
+
+// Dispatches on the extension; every route ends in contour_template()'s checks.
+Template<2> read_contour_template(const std::string& path) {
+  const std::string ext = extension_of(path);
+  if (ext == ".txt") return read_contour_txt(path);
+  if (ext == ".json") return read_contour_json(path);
+  if (ext == ".vtk") return read_contour_vtk(path);
+  throw InputError(path, "", "unknown contour format (expected .txt, .json or .vtk)");
+}
+
+// 2D: a contour; 3D: a mesh.
+template <int D>
+Template<D> read_shape(const std::string& path) {
+  if constexpr (D == 2) return read_contour_template(path);
+  else return read_mesh_template(path);
+}
+
+// Text formats written here with 17 digits; PLY and STL through OpenMesh. Atomic.
+void write_mesh(const PointList<3>& points, const Connectivity& c, const std::string& path,
+                const std::vector<VertexScalars>& scalars) {
+  const std::string ext = extension_of(path);
+  const auto& tris = c.triangles();
+  std::string s;
+  if (ext == ".off") {
+    s = "OFF\n" + std::to_string(points.size()) + " " + std::to_string(tris.size()) + " 0\n";
+    for (const auto& p : points) s += exact(p[0]) + " " + exact(p[1]) + " " + exact(p[2]) + "\n";
+    for (const auto& t : tris) s += "3 " + std::to_string(t[0]) + " " + std::to_string(t[1]) + " " + std::to_string(t[2]) + "\n";
+  } else if (ext == ".obj") {
+    for (const auto& p : points) s += "v " + exact(p[0]) + " " + exact(p[1]) + " " + exact(p[2]) + "\n";
+    for (const auto& t : tris)
+      s += "f " + std::to_string(t[0] + 1) + " " + std::to_string(t[1] + 1) + " " + std::to_string(t[2] + 1) + "\n";
+  } else if (ext == ".vtk") {
+    s = vtk_header("dsnake mesh") + "POINTS " + std::to_string(points.size()) + " double\n";
+    for (const auto& p : points) s += exact(p[0]) + " " + exact(p[1]) + " " + exact(p[2]) + "\n";
+    s += "POLYGONS " + std::to_string(tris.size()) + " " + std::to_string(4 * tris.size()) + "\n";
+    for (const auto& t : tris) s += "3 " + std::to_string(t[0]) + " " + std::to_string(t[1]) + " " + std::to_string(t[2]) + "\n";
+    s += vtk_scalars(scalars, points.size());
+  } else if (ext == ".ply" || ext == ".stl") {
+    return write_openmesh(points, c, path);
+  } else {
+    throw InputError(path, "", "unknown mesh format (expected .off, .obj, .ply, .stl or .vtk)");
+  }
+  write_file_atomically(path, s);
+}
+
+// Text, JSON (points + named scalar arrays) or VTK polyline (closing index repeated). Atomic.
+void write_contour(const PointList<2>& points, const std::string& path, const std::vector<VertexScalars>& scalars) {
+  const std::string ext = extension_of(path);
+  const size_t n = points.size();
+  std::string s;
+  if (ext == ".txt") {
+    for (const auto& p : points) s += exact(p[0]) + " " + exact(p[1]) + "\n";
+  } else if (ext == ".json") {
+    // Printed by hand so that every coordinate keeps 17 significant digits.
+    s = "{\n  \"points\": [";
+    for (size_t i = 0; i < n; ++i) s += (i ? ",\n    [" : "\n    [") + exact(points[i][0]) + ", " + exact(points[i][1]) + "]";
+    s += "\n  ]";
+    if (!scalars.empty()) {
+      s += ",\n  \"scalars\": {";
+      for (size_t k = 0; k < scalars.size(); ++k) {
+        DSNAKE_ASSERT(scalars[k].values.size() == n, "one scalar per vertex: " + scalars[k].name);
+        s += (k ? ",\n    " : "\n    ") + nlohmann::json(scalars[k].name).dump() + ": [";
+        for (size_t i = 0; i < n; ++i) {
+          const double v = scalars[k].values[i];
+          s += (i ? ", " : "") + (std::isfinite(v) ? exact(v) : std::string("null"));
+        }
+        s += "]";
+      }
+      s += "\n  }";
+    }
+    s += "\n}\n";
+  } else if (ext == ".vtk") {
+    s = vtk_header("dsnake contour") + "POINTS " + std::to_string(n) + " double\n";
+    for (const auto& p : points) s += exact(p[0]) + " " + exact(p[1]) + " 0\n";
+    s += "LINES 1 " + std::to_string(n + 2) + "\n" + std::to_string(n + 1);
+    for (size_t i = 0; i <= n; ++i) s += " " + std::to_string(i % n);
+    s += "\n" + vtk_scalars(scalars, n);
+  } else {
+    throw InputError(path, "", "unknown contour format (expected .txt, .json or .vtk)");
+  }
+  write_file_atomically(path, s);
+}
+
+// 2D: write_contour (connectivity implied); 3D: write_mesh.
+template <int D>
+void write_shape(const PointList<D>& points, const Connectivity& c, const std::string& path,
+                 const std::vector<VertexScalars>& scalars) {
+  if constexpr (D == 2) write_contour(points, path, scalars);
+  else write_mesh(points, c, path, scalars);
+}
+
+template Template<2> read_shape<2>(const std::string&);
+template Template<3> read_shape<3>(const std::string&);
+template void write_shape<2>(const PointList<2>&, const Connectivity&, const std::string&,
+                             const std::vector<VertexScalars>&);
+template void write_shape<3>(const PointList<3>&, const Connectivity&, const std::string&,
+                             const std::vector<VertexScalars>&);
+
+}  // namespace dsnake

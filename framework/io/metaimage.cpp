@@ -1,0 +1,256 @@
+// MetaImage (.mha/.mhd) reading and writing; see image_io.h.
+#include "framework/io/image_io_detail.h"
+
+#include "framework/core/atomic_file.h"
+#include "framework/core/errors.h"
+
+#include <zlib.h>
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace dsnake::detail {
+
+namespace fs = std::filesystem;
+
+
+struct MetaHeader {
+  std::map<std::string, std::string> keys;
+  size_t data_start = 0;  // byte just past the ElementDataFile line
+};
+
+// s without leading and trailing blanks.
+std::string trim(const std::string& s) {
+  const size_t a = s.find_first_not_of(" \t\r");
+  const size_t b = s.find_last_not_of(" \t\r");
+  return a == std::string::npos ? "" : s.substr(a, b - a + 1);
+}
+
+// "Key = Value" lines up to ElementDataFile (which ends a MetaImage header).
+MetaHeader parse_meta_header(const std::string& bytes, const std::string& path) {
+  MetaHeader h;
+  size_t pos = 0;
+  int line_no = 0;
+  while (pos < bytes.size()) {
+    size_t end = bytes.find('\n', pos);
+    const size_t next = end == std::string::npos ? bytes.size() : end + 1;
+    if (end == std::string::npos) end = bytes.size();
+    const std::string line = trim(bytes.substr(pos, end - pos));
+    ++line_no;
+    pos = next;
+    if (line.empty()) continue;
+    const size_t eq = line.find('=');
+    if (eq == std::string::npos || line.size() > 4096)
+      throw InputError(path, "header line " + std::to_string(line_no), "unreadable header: expected 'Key = Value'");
+    const std::string key = trim(line.substr(0, eq));
+    h.keys[key] = trim(line.substr(eq + 1));
+    if (key == "ElementDataFile") {
+      h.data_start = pos;
+      return h;
+    }
+  }
+  throw InputError(path, "ElementDataFile", "missing required key");
+}
+
+// The value of the first of `names` present in the header, or null.
+const std::string* find_key(const MetaHeader& h, std::initializer_list<const char*> names) {
+  for (const char* n : names) {
+    auto it = h.keys.find(n);
+    if (it != h.keys.end()) return &it->second;
+  }
+  return nullptr;
+}
+
+// The numbers of a key's value; exactly `count` of them unless count < 0.
+std::vector<double> meta_numbers(const std::string& value, const std::string& path, const std::string& key,
+                                 int count) {
+  std::istringstream in(value);
+  std::vector<double> v;
+  std::string tok;
+  while (in >> tok) {
+    char* end = nullptr;
+    const double d = std::strtod(tok.c_str(), &end);
+    if (end == tok.c_str() || *end != '\0') throw InputError(path, key, "expected numbers, found '" + value + "'");
+    v.push_back(d);
+  }
+  if (count >= 0 && int(v.size()) != count)
+    throw InputError(path, key, "expected " + std::to_string(count) + " numbers, found " + std::to_string(v.size()));
+  return v;
+}
+
+// A MetaImage boolean ("True"/"False") that may be absent (false).
+bool meta_true(const std::string* value) {
+  if (!value) return false;
+  std::string v = *value;
+  std::transform(v.begin(), v.end(), v.begin(), [](unsigned char c) { return std::tolower(c); });
+  return v == "true" || v == "1";
+}
+
+// zlib- or gzip-wrapped deflate data, inflated up to `expected` bytes.
+std::string inflate_bytes(const std::string& in, size_t expected, const std::string& path) {
+  std::string out(expected, '\0');
+  z_stream zs{};
+  if (inflateInit2(&zs, 15 + 32) != Z_OK) throw std::runtime_error("zlib initialisation failed");
+  zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
+  zs.avail_in = static_cast<uInt>(in.size());
+  zs.next_out = reinterpret_cast<Bytef*>(out.data());
+  zs.avail_out = static_cast<uInt>(expected);
+  const int ret = inflate(&zs, Z_FINISH);
+  out.resize(zs.total_out);
+  inflateEnd(&zs);
+  if (ret != Z_STREAM_END && ret != Z_BUF_ERROR && ret != Z_OK)
+    throw InputError(path, "CompressedData", "corrupt zlib data (" + std::string(zs.msg ? zs.msg : "error") + ")");
+  return out;
+}
+
+// MetaImage ElementType names.
+const std::map<std::string, Scalar>& meta_types() {
+  static const std::map<std::string, Scalar> types = {
+      {"MET_UCHAR", Scalar::kU8},  {"MET_CHAR", Scalar::kI8},  {"MET_USHORT", Scalar::kU16},
+      {"MET_SHORT", Scalar::kI16}, {"MET_UINT", Scalar::kU32}, {"MET_INT", Scalar::kI32},
+      {"MET_FLOAT", Scalar::kF32}, {"MET_DOUBLE", Scalar::kF64}};
+  return types;
+}
+
+// Reads the geometry of a MetaImage header (no data).
+RawVolume meta_geometry(const MetaHeader& h, const std::string& path) {
+  RawVolume v;
+  v.dim_key = "NDims";
+  v.channel_key = "ElementNumberOfChannels";
+  if (const std::string* t = find_key(h, {"ObjectType"}); t && *t != "Image")
+    throw InputError(path, "ObjectType", "expected Image, found '" + *t + "'");
+  const std::string* nd = find_key(h, {"NDims"});
+  if (!nd) throw InputError(path, "NDims", "missing required key");
+  const double ndims = meta_numbers(*nd, path, "NDims", 1)[0];
+  if (ndims != 2 && ndims != 3)
+    throw InputError(path, "NDims", "unsupported dimension " + *nd + " (expected 2 or 3)");
+  v.ndims = int(ndims);
+  const std::string* ds = find_key(h, {"DimSize"});
+  if (!ds) throw InputError(path, "DimSize", "missing required key");
+  const auto sizes = meta_numbers(*ds, path, "DimSize", v.ndims);
+  for (int a = 0; a < v.ndims; ++a) {
+    if (sizes[a] < 1 || sizes[a] != std::floor(sizes[a]) || sizes[a] > 1e9)
+      throw InputError(path, "DimSize", "expected positive integers, found '" + *ds + "'");
+    v.size[a] = int64_t(sizes[a]);
+  }
+  if (const std::string* s = find_key(h, {"ElementSpacing", "ElementSize"})) {
+    v.spacing_key = h.keys.count("ElementSpacing") ? "ElementSpacing" : "ElementSize";
+    const auto sp = meta_numbers(*s, path, v.spacing_key, v.ndims);
+    std::copy(sp.begin(), sp.end(), v.spacing.begin());
+  }
+  for (const char* key : {"Offset", "Origin", "Position"}) {
+    if (const std::string* o = find_key(h, {key})) {
+      const auto org = meta_numbers(*o, path, key, v.ndims);
+      std::copy(org.begin(), org.end(), v.origin.begin());
+      break;
+    }
+  }
+  if (const std::string* c = find_key(h, {"ElementNumberOfChannels"})) {
+    const double ch = meta_numbers(*c, path, "ElementNumberOfChannels", 1)[0];
+    if (ch < 1 || ch > 3 || ch != std::floor(ch))
+      throw InputError(path, "ElementNumberOfChannels", "unsupported number of channels " + *c);
+    v.channels = int(ch);
+  }
+  // TransformMatrix is accepted and ignored: the framework's grids are axis-aligned.
+  return v;
+}
+
+// Reads a .mha or .mhd file completely.
+RawVolume read_meta(const std::string& path) {
+  const std::string bytes = read_bytes(path);
+  const MetaHeader h = parse_meta_header(bytes, path);
+  RawVolume v = meta_geometry(h, path);
+  const std::string* et = find_key(h, {"ElementType"});
+  if (!et) throw InputError(path, "ElementType", "missing required key");
+  auto type_it = meta_types().find(*et);
+  if (type_it == meta_types().end()) throw InputError(path, "ElementType", "unsupported element type " + *et);
+  const Scalar type = type_it->second;
+  const bool msb = meta_true(find_key(h, {"BinaryDataByteOrderMSB", "ElementByteOrderMSB"}));
+  const bool swap = msb != (std::endian::native == std::endian::big);
+  const bool compressed = meta_true(find_key(h, {"CompressedData"}));
+  const int64_t count = v.num_voxels() * v.channels;
+  const size_t expected = size_t(count) * scalar_bytes(type);
+
+  // The data: after the header (LOCAL) or in a file beside the header.
+  const std::string& df = h.keys.at("ElementDataFile");
+  std::string data_path = path, data;
+  if (df == "LOCAL") {
+    data = bytes.substr(h.data_start);
+  } else {
+    if (df.rfind("LIST", 0) == 0 || df.find('%') != std::string::npos)
+      throw InputError(path, "ElementDataFile", "file lists and patterns are not supported");
+    data_path = (fs::path(path).parent_path() / df).string();
+    if (!fs::is_regular_file(data_path))
+      throw InputError(data_path, "", "data file not found (named by ElementDataFile in " + path + ")");
+    data = read_bytes(data_path);
+    if (const std::string* hs = find_key(h, {"HeaderSize"})) {
+      const double skip = meta_numbers(*hs, path, "HeaderSize", 1)[0];
+      if (skip == -1 && !compressed && data.size() >= expected) data = data.substr(data.size() - expected);
+      else if (skip > 0) data = skip < double(data.size()) ? data.substr(size_t(skip)) : std::string();
+    }
+  }
+  if (compressed) {
+    if (const std::string* cs = find_key(h, {"CompressedDataSize"})) {
+      const double n = meta_numbers(*cs, path, "CompressedDataSize", 1)[0];
+      if (n >= 0 && n < double(data.size())) data.resize(size_t(n));
+    }
+    data = inflate_bytes(data, expected, data_path);
+  }
+  if (data.size() < expected)
+    throw InputError(data_path, "ElementDataFile", "data holds " + std::to_string(data.size()) + " bytes, expected " +
+                                                       std::to_string(expected));
+  v.values = decode(data.data(), count, type, swap);
+  return v;
+}
+
+// Writes a MetaImage: .mha with LOCAL data, or .mhd plus a .raw/.zraw data file beside it.
+void write_meta(const RawVolume& v, const std::string& path, bool compress) {
+  std::string data = float_bytes(v.values);
+  if (compress) {
+    uLongf n = compressBound(data.size());
+    std::string z(n, '\0');
+    if (compress2(reinterpret_cast<Bytef*>(z.data()), &n, reinterpret_cast<const Bytef*>(data.data()), data.size(),
+                  Z_DEFAULT_COMPRESSION) != Z_OK)
+      throw std::runtime_error(path + ": zlib compression failed");
+    z.resize(n);
+    data = std::move(z);
+  }
+  auto list = [&](const std::array<double, 3>& a) {
+    std::string s;
+    for (int i = 0; i < v.ndims; ++i) s += (i ? " " : "") + exact(a[i]);
+    return s;
+  };
+  std::string h = "ObjectType = Image\nNDims = " + std::to_string(v.ndims) + "\n";
+  h += "BinaryData = True\nBinaryDataByteOrderMSB = False\n";
+  h += std::string("CompressedData = ") + (compress ? "True\nCompressedDataSize = " + std::to_string(data.size()) : "False") + "\n";
+  h += v.ndims == 2 ? "TransformMatrix = 1 0 0 1\n" : "TransformMatrix = 1 0 0 0 1 0 0 0 1\n";
+  h += "Offset = " + list(v.origin) + "\nElementSpacing = " + list(v.spacing) + "\nDimSize =";
+  for (int i = 0; i < v.ndims; ++i) h += " " + std::to_string(v.size[i]);
+  h += "\n";
+  if (v.channels > 1) h += "ElementNumberOfChannels = " + std::to_string(v.channels) + "\n";
+  h += "ElementType = MET_FLOAT\n";
+  if (extension_of(path) == ".mha") {
+    write_file_atomically(path, h + "ElementDataFile = LOCAL\n" + data);
+    return;
+  }
+  const fs::path p(path);
+  const std::string data_name = p.stem().string() + (compress ? ".zraw" : ".raw");
+  write_file_atomically((p.parent_path() / data_name).string(), data);
+  write_file_atomically(path, h + "ElementDataFile = " + data_name + "\n");
+}
+
+// Geometry of a .mha/.mhd from its header only.
+int meta_dimension(const std::string& path) {
+  std::string head = read_bytes(path, 1 << 16);
+  const size_t pos = head.find("ElementDataFile");
+  if (pos != std::string::npos) head.resize(std::min(head.size(), head.find('\n', pos)));
+  head += "\n";
+  return meta_geometry(parse_meta_header(head, path), path).effective_dimension();
+}
+
+}  // namespace dsnake::detail

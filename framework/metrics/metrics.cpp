@@ -1,0 +1,521 @@
+// Registration metrics (see metrics.h). Surfaces are sampled densely, each sample weighted by
+// its share of length (2D) or area (3D), and the exact distance from every sample to the other
+// surface is found with a uniform grid over that surface's facets (metrics_geometry.h).
+#include "framework/metrics/metrics.h"
+
+#include "framework/core/errors.h"
+#include "framework/metrics/metrics_geometry.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <unordered_map>
+#include <utility>
+
+namespace dsnake {
+
+namespace {
+
+using detail::Facet;
+using detail::FacetGrid;
+using detail::FacetSurface;
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Points on a surface, each with the length (2D) or area (3D) it stands for, in batches of
+// nearby points (one facet's samples, or a single vertex) that are queried together.
+template <int D>
+struct Samples {
+  PointList<D> points;
+  std::vector<double> weights;
+  std::vector<int64_t> batches;  // first sample of each batch
+
+  void begin_batch() { batches.push_back(static_cast<int64_t>(points.size())); }
+
+  void add(const Point<D>& p, double w) {
+    points.push_back(p);
+    weights.push_back(w);
+  }
+};
+
+// The facets of a closed polygon (edges i -> i+1) or of a closed mesh (its triangles).
+template <int D>
+FacetSurface<D> facets_of(SurfaceRef<D> s) {
+  const int n = s.connectivity.num_vertices();
+  DSNAKE_ASSERT(int(s.points.size()) == n, "one position per vertex");
+  FacetSurface<D> out;
+  out.vertices = s.points;
+  if constexpr (D == 2) {
+    DSNAKE_ASSERT(s.connectivity.is_polygon(), "a 2D surface is a closed polygon");
+    for (int i = 0; i < n && n >= 2; ++i) out.facets.push_back({i, (i + 1) % n});
+  } else {
+    DSNAKE_ASSERT(!s.connectivity.is_polygon(), "a 3D surface is a triangle mesh");
+    for (const Triangle& t : s.connectivity.triangles()) out.facets.push_back(t);
+  }
+  return out;
+}
+
+// Samples at the midpoints of ceil(length / h) equal pieces of [a, b], weighted by length.
+template <int D>
+void sample_segment(const Point<D>& a, const Point<D>& b, double h, Samples<D>& out) {
+  const double len = (b - a).norm();
+  const int n = std::max(1, static_cast<int>(std::ceil(len / h)));
+  out.begin_batch();
+  for (int k = 0; k < n; ++k) out.add(a + ((k + 0.5) / n) * (b - a), len / n);
+}
+
+// Splits the triangle into n^2 congruent pieces (n = ceil(longest edge / h)) and samples each
+// piece at its centroid with a weight of area / n^2.
+void sample_triangle(const Point<3>& a, const Point<3>& b, const Point<3>& c, double h, Samples<3>& out) {
+  const Point<3> e0 = b - a, e1 = c - a;
+  const double longest = std::max({e0.norm(), e1.norm(), (c - b).norm()});
+  const int n = std::max(1, static_cast<int>(std::ceil(longest / h)));
+  const double w = 0.5 * e0.cross(e1).norm() / (double(n) * n);
+  out.begin_batch();
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; i + j < n; ++j) {
+      out.add(a + ((i + 1.0 / 3) / n) * e0 + ((j + 1.0 / 3) / n) * e1, w);  // upright piece
+      if (i + j + 1 < n) out.add(a + ((i + 2.0 / 3) / n) * e0 + ((j + 2.0 / 3) / n) * e1, w);
+    }
+}
+
+// Vertices (weight 0: they count for the Hausdorff distance only) and facet samples.
+template <int D>
+Samples<D> sample_surface(const FacetSurface<D>& s, double h) {
+  Samples<D> out;
+  for (const auto& v : s.vertices) {
+    out.begin_batch();
+    out.add(v, 0.0);
+  }
+  for (const auto& f : s.facets) {
+    if constexpr (D == 2) {
+      sample_segment<2>(s.vertices[f[0]], s.vertices[f[1]], h, out);
+    } else {
+      sample_triangle(s.vertices[f[0]], s.vertices[f[1]], s.vertices[f[2]], h, out);
+    }
+  }
+  return out;
+}
+
+// A mask's boundary faces as facets, with samples of those faces.
+template <int D>
+struct MaskBoundary {
+  FacetSurface<D> surface;
+  Samples<D> samples;
+};
+
+// The faces between an inside voxel (non-zero) and an outside one (zero or off the grid), in
+// physical units: segments in 2D, squares split into two triangles in 3D. Face corners sit
+// half a voxel from the centres; each corner becomes one vertex (and a weight-0 sample).
+template <int D>
+MaskBoundary<D> mask_boundary(const Image<D>& mask, double h) {
+  const Grid<D>& g = mask.grid();
+  MaskBoundary<D> out;
+  std::unordered_map<int64_t, int> corner_vertex;
+  auto vertex = [&](const GridIndex<D>& corner) {  // corner lattice index, 0..size per axis
+    int64_t key = corner[D - 1];
+    for (int a = D - 2; a >= 0; --a) key = key * (g.size[a] + 1) + corner[a];
+    auto [it, added] = corner_vertex.try_emplace(key, int(out.surface.vertices.size()));
+    if (added) {
+      const Point<D> x = g.origin + (corner.template cast<double>() - Point<D>::Constant(0.5)).cwiseProduct(g.spacing);
+      out.surface.vertices.push_back(x);
+      out.samples.begin_batch();
+      out.samples.add(x, 0.0);
+    }
+    return it->second;
+  };
+  auto inside = [&](const GridIndex<D>& idx) {
+    for (int a = 0; a < D; ++a)
+      if (idx[a] < 0 || idx[a] >= g.size[a]) return false;
+    return mask.at(idx) != 0.0f;
+  };
+  for (int64_t l = 0; l < g.num_voxels(); ++l) {
+    if (mask[l] == 0.0f) continue;
+    const GridIndex<D> idx = g.index(l);
+    for (int a = 0; a < D; ++a)
+      for (int side = 0; side < 2; ++side) {
+        GridIndex<D> nb = idx;
+        nb[a] += side ? 1 : -1;
+        if (inside(nb)) continue;
+        GridIndex<D> c0 = idx;  // the face's lowest corner
+        c0[a] += side;
+        const int u = (a + 1) % D;
+        GridIndex<D> cu = c0;
+        ++cu[u];
+        if constexpr (D == 2) {
+          const int v0 = vertex(c0), v1 = vertex(cu);
+          out.surface.facets.push_back({v0, v1});
+          sample_segment<2>(out.surface.vertices[v0], out.surface.vertices[v1], h, out.samples);
+        } else {
+          const int v = (a + 2) % 3;
+          GridIndex<3> cv = c0, cuv = cu;
+          ++cv[v];
+          ++cuv[v];
+          const int i00 = vertex(c0), i10 = vertex(cu), i11 = vertex(cuv), i01 = vertex(cv);
+          out.surface.facets.push_back({i00, i10, i11});
+          out.surface.facets.push_back({i00, i11, i01});
+          // Sample the square on a regular grid of ceil(side / h) cells per side.
+          const double su = g.spacing[u], sv = g.spacing[v];
+          const int nu = std::max(1, int(std::ceil(su / h))), nv = std::max(1, int(std::ceil(sv / h)));
+          const Point<3> x0 = out.surface.vertices[i00];
+          out.samples.begin_batch();
+          for (int j = 0; j < nv; ++j)
+            for (int i = 0; i < nu; ++i) {
+              Point<3> x = x0;
+              x[u] += (i + 0.5) / nu * su;
+              x[v] += (j + 0.5) / nv * sv;
+              out.samples.add(x, su * sv / (nu * nv));
+            }
+        }
+      }
+  }
+  return out;
+}
+
+// Exact distance from every sample to the surface behind `grid`, in parallel over batches;
+// each distance is the exact minimum over facets, so it does not depend on the thread count.
+template <int D>
+std::vector<double> nearest_distances(const FacetGrid<D>& grid, const Samples<D>& samples) {
+  std::vector<double> d(samples.points.size());
+  const int64_t nb = static_cast<int64_t>(samples.batches.size());
+#pragma omp parallel
+  {
+    auto scratch = grid.make_scratch();
+#pragma omp for schedule(dynamic, 64)
+    for (int64_t b = 0; b < nb; ++b) {
+      const int64_t begin = samples.batches[b];
+      const int64_t end = b + 1 < nb ? samples.batches[b + 1] : int64_t(samples.points.size());
+      grid.batch_distances(samples.points.data() + begin, end - begin, d.data() + begin, scratch);
+    }
+  }
+  return d;
+}
+
+// Symmetric summary of the two directed distance sets. HD95 is the weighted 95th percentile of
+// the pooled distances, each direction's weights scaled to total 1/2 (as the mean does), so a
+// finely staircased mask boundary does not outweigh the other surface.
+template <int D>
+SurfaceDistances summarize(const Samples<D>& sa, const std::vector<double>& da,
+                           const Samples<D>& sb, const std::vector<double>& db) {
+  if (da.empty() || db.empty()) return {kInfinity, kInfinity, kInfinity};
+  std::vector<std::pair<double, double>> pooled;  // (distance, weight)
+  pooled.reserve(da.size() + db.size());
+  SurfaceDistances r;
+  r.mean = 0;
+  for (int side = 0; side < 2; ++side) {
+    const Samples<D>& s = side ? sb : sa;
+    const std::vector<double>& d = side ? db : da;
+    double total = 0;
+    for (double w : s.weights) total += w;
+    const bool unweighted = !(total > 0);  // degenerate surface: count samples instead
+    if (unweighted) total = double(d.size());
+    double sum = 0;
+    for (size_t i = 0; i < d.size(); ++i) {
+      const double w = (unweighted ? 1.0 : s.weights[i]) / (2 * total);
+      sum += w * d[i];
+      pooled.emplace_back(d[i], w);
+      r.hausdorff = std::max(r.hausdorff, d[i]);
+    }
+    r.mean += sum;
+  }
+  // The smallest distance whose cumulative weight reaches 95%. Partition at the unweighted 90th
+  // percentile first, then sort only the part that holds the answer.
+  double total = 0;
+  for (const auto& p : pooled) total += p.second;
+  const double target = 0.95 * total;
+  auto split = pooled.begin() + static_cast<std::ptrdiff_t>(0.9 * double(pooled.size()));
+  std::nth_element(pooled.begin(), split, pooled.end());
+  double cumulative = 0;
+  for (auto it = pooled.begin(); it != split; ++it) cumulative += it->second;
+  auto first = split;
+  if (cumulative >= target) {
+    first = pooled.begin();
+    cumulative = 0;
+    std::sort(pooled.begin(), split);
+  } else {
+    std::sort(split, pooled.end());
+  }
+  r.hausdorff95 = r.hausdorff;
+  for (auto it = first; it != pooled.end(); ++it) {
+    cumulative += it->second;
+    if (cumulative >= target) {
+      r.hausdorff95 = it->first;
+      break;
+    }
+  }
+  return r;
+}
+
+// Distances between two sampled facet surfaces, both directions.
+template <int D>
+SurfaceDistances distances_between(const FacetSurface<D>& a, const Samples<D>& sa,
+                                   const FacetSurface<D>& b, const Samples<D>& sb) {
+  const FacetGrid<D> grid_a(a), grid_b(b);
+  return summarize<D>(sa, nearest_distances(grid_b, sa), sb, nearest_distances(grid_a, sb));
+}
+
+// Sorted x positions where the row through the voxel centres at `y` (2D) crosses the polygon.
+// Half-open rule: an edge counts when exactly one end lies strictly above y.
+std::vector<double> row_crossings(const PointList<2>& p, double y) {
+  std::vector<double> xs;
+  const size_t n = p.size();
+  for (size_t i = 0; i < n; ++i) {
+    const Point<2>& a = p[i];
+    const Point<2>& b = p[(i + 1) % n];
+    if ((a.y() > y) != (b.y() > y)) xs.push_back(a.x() + (y - a.y()) * (b.x() - a.x()) / (b.y() - a.y()));
+  }
+  std::sort(xs.begin(), xs.end());
+  return xs;
+}
+
+// Even-odd fill of one row of voxels from its sorted crossings: inside when an odd number of
+// crossings lies before the voxel centre.
+void fill_row(const std::vector<double>& xs, double x0, double dx, int nx, float* row) {
+  size_t k = 0;
+  for (int i = 0; i < nx; ++i) {
+    const double x = x0 + i * dx;
+    while (k < xs.size() && xs[k] < x) ++k;
+    row[i] = (k % 2) ? 1.0f : 0.0f;
+  }
+}
+
+// Side of the projected edge u -> v that q = (y, z) lies on: the edge function is evaluated
+// from the lower-indexed vertex, so the two triangles sharing an edge see exactly opposite
+// values, and a zero is broken by the symbolic shift q + (eps, eps^2) (Edelsbrunner and Mücke,
+// "Simulation of Simplicity", 1990), so a ray through an edge or vertex is counted once.
+// Returns the sign (0 only for an edge that projects to a point) and the unshifted value.
+std::pair<int, double> edge_side(const PointList<3>& p, int iu, int iv, double y, double z) {
+  const bool flip = iu > iv;
+  if (flip) std::swap(iu, iv);
+  const Point<3>& u = p[iu];
+  const Point<3>& v = p[iv];
+  const double w = (v.y() - u.y()) * (z - u.z()) - (v.z() - u.z()) * (y - u.y());
+  double tie = w;
+  if (tie == 0) tie = -(v.z() - u.z());
+  if (tie == 0) tie = v.y() - u.y();
+  const int sign = (tie > 0) - (tie < 0);
+  return flip ? std::pair{-sign, -w} : std::pair{sign, w};
+}
+
+// x where the ray along +x through (y, z) crosses triangle t, if it does.
+bool ray_crossing(const PointList<3>& p, const Triangle& t, double y, double z, double& x) {
+  const auto [s0, w0] = edge_side(p, t[1], t[2], y, z);  // w0 ~ barycentric of t[0]
+  const auto [s1, w1] = edge_side(p, t[2], t[0], y, z);
+  const auto [s2, w2] = edge_side(p, t[0], t[1], y, z);
+  if (s0 == 0 || s0 != s1 || s1 != s2) return false;
+  const double sum = w0 + w1 + w2;
+  x = sum != 0 ? (w0 * p[t[0]].x() + w1 * p[t[1]].x() + w2 * p[t[2]].x()) / sum
+               : (p[t[0]].x() + p[t[1]].x() + p[t[2]].x()) / 3;
+  return true;
+}
+
+// Rasterisation, 2D: an even-odd scanline per row of voxel centres.
+Image<2> rasterize(SurfaceRef<2> s, const Grid<2>& grid) {
+  Image<2> out(grid);
+  const int nx = grid.size[0], ny = grid.size[1];
+#pragma omp parallel for schedule(dynamic, 4)
+  for (int j = 0; j < ny; ++j) {
+    const auto xs = row_crossings(s.points, grid.origin.y() + j * grid.spacing.y());
+    fill_row(xs, grid.origin.x(), grid.spacing.x(), nx, &out[int64_t(j) * nx]);
+  }
+  return out;
+}
+
+// Rasterisation, 3D: a ray along x per (y, z) row of voxel centres, counting crossings with
+// the triangles (bucketed by the z slices they span); even-odd fill.
+Image<3> rasterize(SurfaceRef<3> s, const Grid<3>& grid) {
+  Image<3> out(grid);
+  const int nx = grid.size[0], ny = grid.size[1], nz = grid.size[2];
+  const auto& tris = s.connectivity.triangles();
+  const auto& p = s.points;
+  std::vector<std::array<int, 2>> slices(tris.size());  // z slice range of each triangle
+  std::vector<int64_t> offsets(nz + 1, 0);
+  for (size_t t = 0; t < tris.size(); ++t) {
+    double lo = kInfinity, hi = -kInfinity;
+    for (int v : tris[t]) lo = std::min(lo, p[v].z()), hi = std::max(hi, p[v].z());
+    const int k0 = std::max(0, int(std::ceil((lo - grid.origin.z()) / grid.spacing.z())));
+    const int k1 = std::min(nz - 1, int(std::floor((hi - grid.origin.z()) / grid.spacing.z())));
+    slices[t] = {k0, k1};
+    for (int k = k0; k <= k1; ++k) ++offsets[k + 1];
+  }
+  for (int k = 0; k < nz; ++k) offsets[k + 1] += offsets[k];
+  std::vector<int> in_slice(offsets[nz]);
+  std::vector<int64_t> fill(offsets.begin(), offsets.end() - 1);
+  for (size_t t = 0; t < tris.size(); ++t)
+    for (int k = slices[t][0]; k <= slices[t][1]; ++k) in_slice[fill[k]++] = int(t);
+
+#pragma omp parallel for schedule(dynamic, 8)
+  for (int64_t row = 0; row < int64_t(ny) * nz; ++row) {
+    const int j = int(row % ny), k = int(row / ny);
+    const double y = grid.origin.y() + j * grid.spacing.y(), z = grid.origin.z() + k * grid.spacing.z();
+    std::vector<double> xs;
+    for (int64_t q = offsets[k]; q < offsets[k + 1]; ++q) {
+      const Triangle& t = tris[in_slice[q]];
+      if (std::min({p[t[0]].y(), p[t[1]].y(), p[t[2]].y()}) > y ||
+          std::max({p[t[0]].y(), p[t[1]].y(), p[t[2]].y()}) < y)
+        continue;
+      double x;
+      if (ray_crossing(p, t, y, z, x)) xs.push_back(x);
+    }
+    std::sort(xs.begin(), xs.end());
+    fill_row(xs, grid.origin.x(), grid.spacing.x(), nx, &out[row * nx]);
+  }
+  return out;
+}
+
+// Whether facets f and g of a surface share a vertex.
+template <int D>
+bool share_vertex(const Facet<D>& f, const Facet<D>& g) {
+  for (int a : f)
+    for (int b : g)
+      if (a == b) return true;
+  return false;
+}
+
+}  // namespace
+
+template <int D>
+std::vector<double> distances_to_surface(SurfaceRef<D> s, const PointList<D>& points) {
+  Samples<D> batch;  // one point per batch
+  for (const auto& p : points) {
+    batch.begin_batch();
+    batch.add(p, 0.0);
+  }
+  return nearest_distances(FacetGrid<D>(facets_of(s)), batch);
+}
+
+template <int D>
+SurfaceDistances surface_distances(SurfaceRef<D> a, SurfaceRef<D> b, double sample_spacing) {
+  DSNAKE_ASSERT(sample_spacing > 0, "sample spacing is positive");
+  const FacetSurface<D> fa = facets_of(a), fb = facets_of(b);
+  return distances_between(fa, sample_surface(fa, sample_spacing), fb, sample_surface(fb, sample_spacing));
+}
+
+template <int D>
+SurfaceDistances surface_distances_to_mask(SurfaceRef<D> a, const Image<D>& mask, double sample_spacing) {
+  DSNAKE_ASSERT(sample_spacing > 0, "sample spacing is positive");
+  const FacetSurface<D> fa = facets_of(a);
+  const MaskBoundary<D> boundary = mask_boundary(mask, sample_spacing);
+  return distances_between(fa, sample_surface(fa, sample_spacing), boundary.surface, boundary.samples);
+}
+
+template <int D>
+Image<D> rasterize_interior(SurfaceRef<D> s, const Grid<D>& grid) {
+  DSNAKE_ASSERT(int(s.points.size()) == s.connectivity.num_vertices(), "one position per vertex");
+  DSNAKE_ASSERT(s.connectivity.is_polygon() == (D == 2), "polygon in 2D, mesh in 3D");
+  return rasterize(s, grid);
+}
+
+template <int D>
+double dice(const Image<D>& a, const Image<D>& b) {
+  DSNAKE_ASSERT(a.grid().same_geometry(b.grid()), "dice needs two masks on the same grid");
+  int64_t na = 0, nb = 0, both = 0;
+  for (int64_t i = 0; i < a.num_voxels(); ++i) {
+    const bool ia = a[i] != 0.0f, ib = b[i] != 0.0f;
+    na += ia;
+    nb += ib;
+    both += ia && ib;
+  }
+  return na + nb == 0 ? 1.0 : 2.0 * double(both) / double(na + nb);
+}
+
+template <int D>
+CorrespondenceError correspondence_error(const Snake<D>& snake,
+                                         const std::vector<std::optional<Point<D>>>& targets) {
+  CorrespondenceError e;
+  e.per_vertex.assign(targets.size(), kNaN);
+  double sum = 0;
+  for (size_t t = 0; t < targets.size(); ++t) {
+    const int v = snake.vertex_of_template_id(int(t));
+    if (!targets[t] || v < 0) continue;
+    const double d = (snake.positions()[v] - *targets[t]).norm();
+    e.per_vertex[t] = d;
+    sum += d;
+    e.max = std::max(e.max, d);
+    ++e.count;
+  }
+  e.mean = e.count ? sum / e.count : 0.0;
+  return e;
+}
+
+// Only pairs of facets that share no vertex are tested: pairs that share a vertex (or an edge)
+// and overlap elsewhere, e.g. folded neighbours, are not counted.
+template <int D>
+int count_self_intersections(SurfaceRef<D> s) {
+  const FacetSurface<D> fs = facets_of(s);
+  const FacetGrid<D> grid(fs);
+  const int n = grid.num_facets();
+  int count = 0;
+#pragma omp parallel reduction(+ : count)
+  {
+    auto scratch = grid.make_scratch();
+    std::vector<int> candidates;
+#pragma omp for schedule(dynamic, 64)
+    for (int i = 0; i < n; ++i) {
+      grid.overlapping_facets(i, scratch, candidates);
+      for (int j : candidates) {
+        if (share_vertex<D>(fs.facets[i], fs.facets[j])) continue;
+        const auto& p = grid.corners(i);
+        const auto& q = grid.corners(j);
+        bool hit;
+        if constexpr (D == 2) {
+          hit = detail::segments_intersect(p[0], p[1], q[0], q[1]);
+        } else {
+          hit = detail::triangles_intersect(p, q);
+        }
+        count += hit;
+      }
+    }
+  }
+  return count;
+}
+
+template <int D>
+Metrics compute_metrics(const Snake<D>& snake, const GroundTruth<D>& truth, double sample_spacing) {
+  Metrics m;
+  const SurfaceRef<D> shape{snake.positions(), snake.connectivity()};
+  const bool has_inside = truth.mask && std::any_of(truth.mask->data().begin(), truth.mask->data().end(),
+                                                    [](float v) { return v != 0.0f; });
+  double h = sample_spacing;
+  if (!(h > 0)) h = truth.mask ? truth.mask->spacing().minCoeff() / 5.0 : 0.2;
+
+  std::optional<SurfaceDistances> sd;
+  if (truth.surface) {
+    sd = surface_distances<D>(shape, {truth.surface->positions, truth.surface->connectivity}, h);
+  } else if (has_inside) {
+    sd = surface_distances_to_mask<D>(shape, *truth.mask, h);
+  }
+  if (sd && std::isfinite(sd->hausdorff)) {
+    m.mean_surface_distance = sd->mean;
+    m.hausdorff95 = sd->hausdorff95;
+    m.hausdorff = sd->hausdorff;
+  }
+  if (truth.mask) m.dice = dice<D>(rasterize_interior<D>(shape, truth.mask->grid()), *truth.mask);
+  if (std::any_of(truth.targets.begin(), truth.targets.end(), [](const auto& t) { return t.has_value(); })) {
+    const CorrespondenceError ce = correspondence_error<D>(snake, truth.targets);
+    if (ce.count > 0) {
+      m.correspondence_error_mean = ce.mean;
+      m.correspondence_error_max = ce.max;
+    }
+  }
+  m.self_intersections = count_self_intersections<D>(shape);
+  return m;
+}
+
+#define DSNAKE_INSTANTIATE_METRICS(D)                                                            \
+  template std::vector<double> distances_to_surface<D>(SurfaceRef<D>, const PointList<D>&);      \
+  template SurfaceDistances surface_distances<D>(SurfaceRef<D>, SurfaceRef<D>, double);          \
+  template SurfaceDistances surface_distances_to_mask<D>(SurfaceRef<D>, const Image<D>&, double); \
+  template Image<D> rasterize_interior<D>(SurfaceRef<D>, const Grid<D>&);                        \
+  template double dice<D>(const Image<D>&, const Image<D>&);                                     \
+  template CorrespondenceError correspondence_error<D>(const Snake<D>&,                          \
+                                                       const std::vector<std::optional<Point<D>>>&); \
+  template int count_self_intersections<D>(SurfaceRef<D>);                                       \
+  template Metrics compute_metrics<D>(const Snake<D>&, const GroundTruth<D>&, double);
+
+DSNAKE_INSTANTIATE_METRICS(2)
+DSNAKE_INSTANTIATE_METRICS(3)
+
+}  // namespace dsnake

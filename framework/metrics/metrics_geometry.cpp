@@ -1,0 +1,470 @@
+#include "framework/metrics/metrics_geometry.h"
+
+#include "framework/core/errors.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace dsnake::detail {
+
+namespace {
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+// Twice the signed area of (a, b, c): positive when counter-clockwise.
+double orient2d(const Point<2>& a, const Point<2>& b, const Point<2>& c) {
+  return (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());
+}
+
+// Six times the signed volume of the tetrahedron (a, b, c, d).
+double orient3d(const Point<3>& a, const Point<3>& b, const Point<3>& c, const Point<3>& d) {
+  return (b - a).cross(c - a).dot(d - a);
+}
+
+// For p collinear with [a, b]: whether p lies within the segment's bounding box.
+bool within_box(const Point<2>& a, const Point<2>& b, const Point<2>& p) {
+  return p.x() >= std::min(a.x(), b.x()) && p.x() <= std::max(a.x(), b.x()) &&
+         p.y() >= std::min(a.y(), b.y()) && p.y() <= std::max(a.y(), b.y());
+}
+
+// Whether p lies in the closed triangle (a, b, c) of the plane (either orientation).
+bool point_in_triangle_2d(const Point<2>& p, const Point<2>& a, const Point<2>& b, const Point<2>& c) {
+  const double s0 = orient2d(a, b, p), s1 = orient2d(b, c, p), s2 = orient2d(c, a, p);
+  return (s0 >= 0 && s1 >= 0 && s2 >= 0) || (s0 <= 0 && s1 <= 0 && s2 <= 0);
+}
+
+// Segment [p, q] against the closed triangle (a, b, c), for a segment not lying in the
+// triangle's plane (an in-plane segment returns false; the caller covers that case).
+bool segment_crosses_triangle(const Point<3>& p, const Point<3>& q, const Point<3>& a,
+                              const Point<3>& b, const Point<3>& c) {
+  const double dp = orient3d(a, b, c, p), dq = orient3d(a, b, c, q);
+  if ((dp > 0 && dq > 0) || (dp < 0 && dq < 0) || (dp == 0 && dq == 0)) return false;
+  // The segment meets the plane; the meeting point is inside iff the line pq passes on the
+  // same side of (or touches) all three edges.
+  const double s0 = orient3d(p, q, a, b), s1 = orient3d(p, q, b, c), s2 = orient3d(p, q, c, a);
+  return (s0 >= 0 && s1 >= 0 && s2 >= 0) || (s0 <= 0 && s1 <= 0 && s2 <= 0);
+}
+
+// Coplanar triangles: project onto the plane of the normal's dominant axis and test in 2D.
+bool coplanar_triangles_intersect(const std::array<Point<3>, 3>& p, const std::array<Point<3>, 3>& q) {
+  const Point<3> n = (p[1] - p[0]).cross(p[2] - p[0]).cwiseAbs();
+  const int drop = n.x() >= n.y() && n.x() >= n.z() ? 0 : (n.y() >= n.z() ? 1 : 2);
+  const int u = (drop + 1) % 3, v = (drop + 2) % 3;
+  std::array<Point<2>, 3> a, b;
+  for (int k = 0; k < 3; ++k) {
+    a[k] = Point<2>(p[k][u], p[k][v]);
+    b[k] = Point<2>(q[k][u], q[k][v]);
+  }
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (segments_intersect(a[i], a[(i + 1) % 3], b[j], b[(j + 1) % 3])) return true;
+  return point_in_triangle_2d(a[0], b[0], b[1], b[2]) || point_in_triangle_2d(b[0], a[0], a[1], a[2]);
+}
+
+// Squared distance from p to the box [lo, hi] (0 inside).
+template <int D>
+inline double box_distance2(const Point<D>& p, const Point<D>& lo, const Point<D>& hi) {
+  double d2 = 0;
+  for (int a = 0; a < D; ++a) {
+    const double e = std::max(lo[a] - p[a], p[a] - hi[a]);
+    if (e > 0) d2 += e * e;
+  }
+  return d2;
+}
+
+// Squared distance from p to the segment from a along e (inv_len2 = 1 / |e|^2, 0 if e = 0).
+template <int D>
+inline double prepared_segment_distance2(const Point<D>& p, const Point<D>& a, const Point<D>& e,
+                                         double inv_len2) {
+  const Point<D> w = p - a;
+  const double t = std::clamp(w.dot(e) * inv_len2, 0.0, 1.0);
+  return (w - t * e).squaredNorm();
+}
+
+// Squared distance from p to a segment (D = 2) or triangle (D = 3). A triangle's nearest point
+// is inside when p is on the inner side of all three edges (seen along n), else on an edge
+// that p lies beyond (the triangle is convex).
+template <int D>
+inline double prepared_distance2(const Point<D>& p, const PreparedFacet<D>& f) {
+  if constexpr (D == 2) {
+    return prepared_segment_distance2<2>(p, f.v[0], f.e[0], f.inv_len2[0]);
+  } else {
+    double d2 = std::numeric_limits<double>::infinity();
+    const double s0 = f.m[0].dot(p - f.v[0]), s1 = f.m[1].dot(p - f.v[1]), s2 = f.m[2].dot(p - f.v[2]);
+    if (f.inv_nn > 0 && s0 >= 0 && s1 >= 0 && s2 >= 0) {
+      const double h = f.n.dot(p - f.v[0]);
+      return h * h * f.inv_nn;
+    }
+    const bool degenerate = !(f.inv_nn > 0);  // then test every edge
+    if (degenerate || s0 < 0) d2 = prepared_segment_distance2<3>(p, f.v[0], f.e[0], f.inv_len2[0]);
+    if (degenerate || s1 < 0) d2 = std::min(d2, prepared_segment_distance2<3>(p, f.v[1], f.e[1], f.inv_len2[1]));
+    if (degenerate || s2 < 0) d2 = std::min(d2, prepared_segment_distance2<3>(p, f.v[2], f.e[2], f.inv_len2[2]));
+    return d2;
+  }
+}
+
+// Calls f(cell) for each cell of the box of cells [c0, c1].
+template <int D, class F>
+void for_each_cell_in(const GridIndex<D>& c0, const GridIndex<D>& c1, F&& f) {
+  GridIndex<D> c = c0;
+  if constexpr (D == 2) {
+    for (c[1] = c0[1]; c[1] <= c1[1]; ++c[1])
+      for (c[0] = c0[0]; c[0] <= c1[0]; ++c[0]) f(c);
+  } else {
+    for (c[2] = c0[2]; c[2] <= c1[2]; ++c[2])
+      for (c[1] = c0[1]; c[1] <= c1[1]; ++c[1])
+        for (c[0] = c0[0]; c[0] <= c1[0]; ++c[0]) f(c);
+  }
+}
+
+// Calls f(cell) for each cell at Chebyshev distance exactly r from c, clipped to [lo, hi].
+template <int D, class F>
+void for_each_shell_cell(const GridIndex<D>& c, int r, const GridIndex<D>& lo, const GridIndex<D>& hi, F&& f) {
+  auto clip_lo = [&](int a) { return std::max(lo[a], c[a] - r); };
+  auto clip_hi = [&](int a) { return std::min(hi[a], c[a] + r); };
+  // Along x: the whole clipped range on the shell's caps, else only its two ends.
+  auto row = [&](GridIndex<D> cell, bool cap) {
+    if (cap) {
+      for (cell[0] = clip_lo(0); cell[0] <= clip_hi(0); ++cell[0]) f(cell);
+      return;
+    }
+    if (c[0] - r >= lo[0]) { cell[0] = c[0] - r; f(cell); }
+    if (r > 0 && c[0] + r <= hi[0]) { cell[0] = c[0] + r; f(cell); }
+  };
+  GridIndex<D> cell = c;
+  if constexpr (D == 2) {
+    for (cell[1] = clip_lo(1); cell[1] <= clip_hi(1); ++cell[1]) row(cell, std::abs(cell[1] - c[1]) == r);
+  } else {
+    for (cell[2] = clip_lo(2); cell[2] <= clip_hi(2); ++cell[2])
+      for (cell[1] = clip_lo(1); cell[1] <= clip_hi(1); ++cell[1])
+        row(cell, std::abs(cell[2] - c[2]) == r || std::abs(cell[1] - c[1]) == r);
+  }
+}
+
+}  // namespace
+
+bool segments_intersect(const Point<2>& a, const Point<2>& b, const Point<2>& c, const Point<2>& d) {
+  const double o1 = orient2d(a, b, c), o2 = orient2d(a, b, d);
+  const double o3 = orient2d(c, d, a), o4 = orient2d(c, d, b);
+  if (((o1 > 0 && o2 < 0) || (o1 < 0 && o2 > 0)) && ((o3 > 0 && o4 < 0) || (o3 < 0 && o4 > 0)))
+    return true;  // proper crossing
+  return (o1 == 0 && within_box(a, b, c)) || (o2 == 0 && within_box(a, b, d)) ||
+         (o3 == 0 && within_box(c, d, a)) || (o4 == 0 && within_box(c, d, b));
+}
+
+// Each triangle is split by the other's plane or not; if they are not coplanar they meet iff
+// an edge of one meets the other (the ends of their common segment lie on edges).
+bool triangles_intersect(const std::array<Point<3>, 3>& p, const std::array<Point<3>, 3>& q) {
+  std::array<double, 3> dq, dp;
+  // orient3d is a product of three lengths: values within rounding of zero (relative to the
+  // pair's extent cubed) are zero, so that coplanar triangles (a flat subdivided face) take the
+  // coplanar test instead of giving false crossings.
+  Point<3> lo = p[0], hi = p[0];
+  for (int k = 0; k < 3; ++k) lo = lo.cwiseMin(p[k]).cwiseMin(q[k]), hi = hi.cwiseMax(p[k]).cwiseMax(q[k]);
+  const double extent = (hi - lo).maxCoeff(), eps = 1e-12 * extent * extent * extent;
+  for (int k = 0; k < 3; ++k) {
+    dq[k] = orient3d(p[0], p[1], p[2], q[k]);
+    dp[k] = orient3d(q[0], q[1], q[2], p[k]);
+    if (std::abs(dq[k]) <= eps) dq[k] = 0;
+    if (std::abs(dp[k]) <= eps) dp[k] = 0;
+  }
+  auto one_side = [](const std::array<double, 3>& s) {
+    return (s[0] > 0 && s[1] > 0 && s[2] > 0) || (s[0] < 0 && s[1] < 0 && s[2] < 0);
+  };
+  if (one_side(dq) || one_side(dp)) return false;
+  if (dq[0] == 0 && dq[1] == 0 && dq[2] == 0) return coplanar_triangles_intersect(p, q);
+  for (int k = 0; k < 3; ++k) {
+    if (segment_crosses_triangle(p[k], p[(k + 1) % 3], q[0], q[1], q[2])) return true;
+    if (segment_crosses_triangle(q[k], q[(k + 1) % 3], p[0], p[1], p[2])) return true;
+  }
+  return false;
+}
+
+template <int D>
+FacetGrid<D>::FacetGrid(const FacetSurface<D>& surface) {
+  const int n = static_cast<int>(surface.facets.size());
+  prepared_.resize(n);
+  box_lo_.resize(n);
+  box_hi_.resize(n);
+  Point<D> lo = Point<D>::Constant(kInfinity), hi = Point<D>::Constant(-kInfinity);
+  double mean_extent = 0;
+  for (int f = 0; f < n; ++f) {
+    for (int k = 0; k < D; ++k) {
+      const int v = surface.facets[f][k];
+      DSNAKE_ASSERT(v >= 0 && v < int(surface.vertices.size()), "facet vertex in range");
+      prepared_[f].v[k] = surface.vertices[v];
+    }
+    PreparedFacet<D>& pf = prepared_[f];
+    box_lo_[f] = box_hi_[f] = pf.v[0];
+    for (int k = 1; k < D; ++k) {
+      box_lo_[f] = box_lo_[f].cwiseMin(pf.v[k]);
+      box_hi_[f] = box_hi_[f].cwiseMax(pf.v[k]);
+    }
+    for (int k = 0; k < D; ++k) {
+      pf.e[k] = pf.v[(k + 1) % D] - pf.v[k];
+      const double len2 = pf.e[k].squaredNorm();
+      pf.inv_len2[k] = len2 > 0 ? 1.0 / len2 : 0.0;
+    }
+    if constexpr (D == 3) {
+      pf.n = pf.e[0].cross(pf.v[2] - pf.v[0]);
+      const double nn = pf.n.squaredNorm();
+      pf.inv_nn = nn > 0 ? 1.0 / nn : 0.0;
+      for (int k = 0; k < 3; ++k) pf.m[k] = pf.n.cross(pf.e[k]);
+    }
+    lo = lo.cwiseMin(box_lo_[f]);
+    hi = hi.cwiseMax(box_hi_[f]);
+    mean_extent += (box_hi_[f] - box_lo_[f]).maxCoeff() / n;
+  }
+  if (n == 0) {
+    offsets_.assign(2, 0);
+    return;
+  }
+  DSNAKE_ASSERT(lo.allFinite() && hi.allFinite(), "facet positions are finite");
+  const Point<D> extent = hi - lo;
+  if (!(mean_extent > 0)) mean_extent = std::max(extent.maxCoeff(), 1.0);
+  // About one facet per cell, but no more than ~8 cells per facet (empty space is cheap to
+  // cross only when cells are not too small).
+  double volume = 1;
+  for (int a = 0; a < D; ++a) volume *= std::max(extent[a], mean_extent);
+  cell_ = std::max(mean_extent, std::pow(volume / (8.0 * n), 1.0 / D));
+  lo_ = lo;
+  for (int a = 0; a < D; ++a) dims_[a] = static_cast<int>(std::floor(extent[a] / cell_)) + 1;
+  tolerance_ = 1e-10 * (extent.maxCoeff() + lo.cwiseAbs().maxCoeff() + cell_);
+
+  // Bucket each facet into the cells its bounding box overlaps (CSR: count, then fill).
+  int64_t num_cells = 1;
+  for (int a = 0; a < D; ++a) num_cells *= dims_[a];
+  offsets_.assign(num_cells + 1, 0);
+  auto for_each_cell_of = [&](int f, auto&& g) {
+    for_each_cell_in<D>(cell_of(box_lo_[f]), cell_of(box_hi_[f]), [&](const GridIndex<D>& c) { g(linear(c)); });
+  };
+  for (int f = 0; f < n; ++f) for_each_cell_of(f, [&](int64_t l) { ++offsets_[l + 1]; });
+  for (int64_t l = 0; l < num_cells; ++l) offsets_[l + 1] += offsets_[l];
+  cell_facets_.resize(offsets_[num_cells]);
+  std::vector<int64_t> fill(offsets_.begin(), offsets_.end() - 1);
+  for (int f = 0; f < n; ++f) for_each_cell_of(f, [&](int64_t l) { cell_facets_[fill[l]++] = f; });
+}
+
+template <int D>
+typename FacetGrid<D>::Scratch FacetGrid<D>::make_scratch() const {
+  Scratch s;
+  s.stamp.assign(prepared_.size(), 0);
+  return s;
+}
+
+template <int D>
+GridIndex<D> FacetGrid<D>::cell_of(const Point<D>& x) const {
+  GridIndex<D> c;
+  for (int a = 0; a < D; ++a) {
+    const double t = std::floor((x[a] - lo_[a]) / cell_);
+    c[a] = t <= 0 ? 0 : (t >= dims_[a] - 1 ? dims_[a] - 1 : static_cast<int>(t));
+  }
+  return c;
+}
+
+template <int D>
+int64_t FacetGrid<D>::linear(const GridIndex<D>& c) const {
+  int64_t l = c[D - 1];
+  for (int a = D - 2; a >= 0; --a) l = l * dims_[a] + c[a];
+  return l;
+}
+
+template <int D>
+double FacetGrid<D>::cell_box_distance2(const Point<D>& p, const GridIndex<D>& c) const {
+  const Point<D> lo = lo_ + c.template cast<double>() * cell_;
+  return box_distance2<D>(p, lo, lo + Point<D>::Constant(cell_));
+}
+
+template <int D>
+double FacetGrid<D>::facet_distance2(const Point<D>& p, int f) const {
+  return prepared_distance2<D>(p, prepared_[f]);
+}
+
+template <int D>
+double FacetGrid<D>::facet_distance(const Point<D>& p, int f) const {
+  return std::sqrt(facet_distance2(p, f));
+}
+
+// Tests the facets of cell c not yet seen by this query, skipping any whose box is farther
+// than the best distance (with a rounding slack, so that pruning never changes the result).
+template <int D>
+void FacetGrid<D>::visit_cell(const Point<D>& p, const GridIndex<D>& c, Scratch& s, double& best) const {
+  double reach = best + tolerance_;
+  if (cell_box_distance2(p, c) > reach * reach) return;
+  const int64_t l = linear(c);
+  for (int64_t k = offsets_[l]; k < offsets_[l + 1]; ++k) {
+    const int f = cell_facets_[k];
+    if (s.stamp[f] == s.query) continue;
+    s.stamp[f] = s.query;
+    if (box_distance2<D>(p, box_lo_[f], box_hi_[f]) > reach * reach) continue;
+    const double d = facet_distance(p, f);
+    if (d < best) {
+      best = d;
+      reach = best + tolerance_;
+      s.hint = f;
+    }
+  }
+}
+
+template <int D>
+uint32_t FacetGrid<D>::next_query(Scratch& s) const {
+  if (++s.query == 0) {
+    std::fill(s.stamp.begin(), s.stamp.end(), 0);
+    s.query = 1;
+  }
+  return s.query;
+}
+
+template <int D>
+double FacetGrid<D>::distance(const Point<D>& p, Scratch& s) const {
+  if (prepared_.empty()) return kInfinity;
+  next_query(s);
+  double best = kInfinity;
+  if (s.hint >= 0 && s.hint < num_facets()) {
+    best = facet_distance(p, s.hint);
+    s.stamp[s.hint] = s.query;
+  }
+  // A point farther from the grid's box than the box is large (a collapsed or distant surface)
+  // has every cell within the nearest facet's reach: when the facets are fewer than the cells,
+  // testing every facet (with box culling) finds the same minimum with less work.
+  double gap2 = 0;
+  for (int a = 0; a < D; ++a) {
+    const double g = std::max({0.0, lo_[a] - p[a], p[a] - (lo_[a] + dims_[a] * cell_)});
+    gap2 += g * g;
+  }
+  const double size = dims_.maxCoeff() * cell_;
+  if (gap2 > size * size && int64_t(num_facets()) < dims_.template cast<int64_t>().prod()) {
+    for (int f = 0; f < num_facets(); ++f) {
+      const double reach = best + tolerance_;
+      if (box_distance2<D>(p, box_lo_[f], box_hi_[f]) > reach * reach) continue;
+      const double d = facet_distance(p, f);
+      if (d < best) best = d, s.hint = f;
+    }
+    return best;
+  }
+  const GridIndex<D> c = cell_of(p);
+  for (int r = 0;; ++r) {
+    // Only cells that overlap the box of half-width `best` around p can hold a nearer facet.
+    GridIndex<D> lo = GridIndex<D>::Zero(), hi = dims_ - GridIndex<D>::Ones();
+    if (best < kInfinity) {
+      const Point<D> reach = Point<D>::Constant(best + tolerance_);
+      lo = cell_of(p - reach);
+      hi = cell_of(p + reach);
+    }
+    for_each_shell_cell<D>(c, r, lo, hi, [&](const GridIndex<D>& cell) { visit_cell(p, cell, s, best); });
+    // Every unvisited facet lies in the grid's box, outside the cube of cells [c - r, c + r]:
+    // beyond a face of that cube that is not on the grid's border. Its distance is at least the
+    // distance along that face's axis, combined with the gaps between p and the box on the other
+    // axes (p may lie outside the box, e.g. a collapsed snake far from the surface; without the
+    // gaps the search would walk every cell of the grid).
+    double gap2 = 0;
+    Point<D> gap;
+    for (int a = 0; a < D; ++a) {
+      gap[a] = std::max({0.0, lo_[a] - p[a], p[a] - (lo_[a] + dims_[a] * cell_)});
+      gap2 += gap[a] * gap[a];
+    }
+    double bound = kInfinity;
+    for (int a = 0; a < D; ++a) {
+      const double others = gap2 - gap[a] * gap[a];
+      if (c[a] - r > 0) {
+        const double d = p[a] - (lo_[a] + (c[a] - r) * cell_);
+        bound = std::min(bound, std::sqrt(d * d + others));
+      }
+      if (c[a] + r < dims_[a] - 1) {
+        const double d = lo_[a] + (c[a] + r + 1) * cell_ - p[a];
+        bound = std::min(bound, std::sqrt(d * d + others));
+      }
+    }
+    if (bound == kInfinity || bound - tolerance_ > best) break;
+  }
+  return best;
+}
+
+template <int D>
+void FacetGrid<D>::batch_distances(const Point<D>* points, int64_t count, double* out, Scratch& s) const {
+  Point<D> lo = points[0], hi = points[0];
+  for (int64_t i = 1; i < count; ++i) {
+    lo = lo.cwiseMin(points[i]);
+    hi = hi.cwiseMax(points[i]);
+  }
+  if (count <= 2 || prepared_.empty() || (hi - lo).maxCoeff() > 4 * cell_) {
+    for (int64_t i = 0; i < count; ++i) out[i] = distance(points[i], s);
+    return;
+  }
+  // Upper bounds from the facet nearest to the centre (kept squared in out for now).
+  distance(0.5 * (lo + hi), s);
+  const int first = s.hint;
+  double bound2 = 0;
+  for (int64_t i = 0; i < count; ++i) {
+    out[i] = facet_distance2(points[i], first);
+    bound2 = std::max(bound2, out[i]);
+  }
+  // Every point's nearest facet has a box within `bound` of the batch's box.
+  const double bound = std::sqrt(bound2) + 2 * tolerance_;
+  const Point<D> lo_reach = lo - Point<D>::Constant(bound), hi_reach = hi + Point<D>::Constant(bound);
+  next_query(s);
+  s.stamp[first] = s.query;
+  s.candidates.clear();
+  const GridIndex<D> c0 = cell_of(lo_reach), c1 = cell_of(hi_reach);
+  auto gather = [&](const GridIndex<D>& c) {
+    const int64_t l = linear(c);
+    for (int64_t k = offsets_[l]; k < offsets_[l + 1]; ++k) {
+      const int f = cell_facets_[k];
+      if (s.stamp[f] == s.query) continue;
+      s.stamp[f] = s.query;
+      double gap2 = 0;  // squared distance between the batch's box and the facet's box
+      for (int a = 0; a < D; ++a) {
+        const double e = std::max(box_lo_[f][a] - hi[a], lo[a] - box_hi_[f][a]);
+        if (e > 0) gap2 += e * e;
+      }
+      if (gap2 <= bound * bound) s.candidates.emplace_back(std::sqrt(gap2), f);
+    }
+  };
+  for_each_cell_in<D>(c0, c1, gather);
+  std::sort(s.candidates.begin(), s.candidates.end());
+  // A point's distance to a facet is at least the gap between their boxes: stop at the first
+  // candidate whose gap exceeds the point's best distance.
+  for (int64_t i = 0; i < count; ++i) {
+    const Point<D>& p = points[i];
+    double best2 = out[i];
+    double reach = std::sqrt(best2) + tolerance_;
+    for (const auto& [gap, f] : s.candidates) {
+      if (gap > reach) break;
+      if (box_distance2<D>(p, box_lo_[f], box_hi_[f]) > reach * reach) continue;
+      const double d2 = facet_distance2(p, f);
+      if (d2 < best2) {
+        best2 = d2;
+        reach = std::sqrt(best2) + tolerance_;
+      }
+    }
+    out[i] = std::sqrt(best2);
+  }
+}
+
+template <int D>
+void FacetGrid<D>::overlapping_facets(int i, Scratch& s, std::vector<int>& out) const {
+  out.clear();
+  next_query(s);
+  const Point<D> lo = box_lo_[i] - Point<D>::Constant(tolerance_);
+  const Point<D> hi = box_hi_[i] + Point<D>::Constant(tolerance_);
+  const GridIndex<D> c0 = cell_of(lo), c1 = cell_of(hi);
+  auto visit = [&](const GridIndex<D>& c) {
+    const int64_t l = linear(c);
+    for (int64_t k = offsets_[l]; k < offsets_[l + 1]; ++k) {
+      const int f = cell_facets_[k];
+      if (f <= i || s.stamp[f] == s.query) continue;
+      s.stamp[f] = s.query;
+      if ((box_lo_[f].array() <= hi.array()).all() && (lo.array() <= box_hi_[f].array()).all())
+        out.push_back(f);
+    }
+  };
+  for_each_cell_in<D>(c0, c1, visit);
+  std::sort(out.begin(), out.end());
+}
+
+template class FacetGrid<2>;
+template class FacetGrid<3>;
+
+}  // namespace dsnake::detail
