@@ -308,7 +308,9 @@ void write_outputs(const Experiment<D>& ex, const RunRecord<D>& rec, const fs::p
   VertexScalars displacement{"displacement", {}};
   for (int v = 0; v < snake.num_vertices(); ++v) {
     const int id = snake.template_id(v);
-    displacement.values.push_back(id >= 0 ? (snake.positions()[v] - ex.initial[id]).norm() : NAN);
+    // A free vertex (template_id -1) has no start to be displaced from: 0, so that VTK's legacy
+    // reader (and ParaView) accept the file, which refuses "nan".
+    displacement.values.push_back(id >= 0 ? (snake.positions()[v] - ex.initial[id]).norm() : 0.0);
   }
   scalars.push_back(displacement);
   write_shape<D>(snake.positions(), snake.connectivity(), (staging / "final.vtk").string(), scalars);
