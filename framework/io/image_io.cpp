@@ -177,13 +177,69 @@ void write_opencv(const RawVolume& v, const std::string& path) {
 
 // ---------------------------------------------------------------- dispatch and checks
 
-// Decodes any supported file by its extension.
+// For each index axis a, the world axis it runs along and its sign; false if some axis is
+// oblique (no world axis within 1e-4 of it) or two index axes share a world axis.
+bool signed_permutation(const RawVolume& v, std::array<int, 3>& world_axis, std::array<int, 3>& sign) {
+  std::array<bool, 3> used{false, false, false};
+  for (int a = 0; a < v.ndims; ++a) {
+    int k = 0;
+    for (int b = 1; b < v.ndims; ++b)
+      if (std::abs(v.axes[a][b]) > std::abs(v.axes[a][k])) k = b;
+    double off = 0;
+    for (int b = 0; b < v.ndims; ++b)
+      if (b != k) off = std::max(off, std::abs(v.axes[a][b]));
+    if (!(std::abs(std::abs(v.axes[a][k]) - 1) <= 1e-4 && off <= 1e-4) || used[k]) return false;
+    used[k] = true;
+    world_axis[a] = k;
+    sign[a] = v.axes[a][k] > 0 ? 1 : -1;
+  }
+  return true;
+}
+
+// Reorders a volume whose index axes are a signed permutation of the world axes (flipped or
+// permuted axes, the common case) so that index axis a runs along +world axis a: the same voxel
+// lands at the same world position, and the grid is axis-aligned as the framework's are. An
+// oblique direction (a true rotation) cannot be reordered: it keeps the former behaviour (the
+// rotation is ignored) and says so on stderr, naming the file.
+void align_axes(RawVolume& v, const std::string& path) {
+  std::array<int, 3> to{0, 1, 2}, sign{1, 1, 1};
+  if (!signed_permutation(v, to, sign)) {
+    std::fprintf(stderr, "dsnake: warning: %s: oblique direction cosines; the image is read as axis-aligned "
+                         "(its rotation is ignored)\n", path.c_str());
+    return;
+  }
+  bool identity = true;
+  for (int a = 0; a < v.ndims; ++a) identity &= to[a] == a && sign[a] == 1;
+  if (identity) return;
+  RawVolume out = v;
+  for (int a = 0; a < v.ndims; ++a) {
+    out.size[to[a]] = v.size[a];
+    out.spacing[to[a]] = v.spacing[a];
+    // world coordinate of the voxel that becomes index 0 along world axis to[a]
+    out.origin[to[a]] = v.origin[to[a]] + (sign[a] < 0 ? -v.spacing[a] * double(v.size[a] - 1) : 0.0);
+  }
+  for (int a = 0; a < 3; ++a) out.axes[a] = {a == 0 ? 1.0 : 0.0, a == 1 ? 1.0 : 0.0, a == 2 ? 1.0 : 0.0};
+  const int c = v.channels;
+  for (int64_t l = 0; l < v.num_voxels(); ++l) {
+    const int64_t idx[3] = {l % v.size[0], (l / v.size[0]) % v.size[1], l / (v.size[0] * v.size[1])};
+    int64_t j[3] = {0, 0, 0};
+    for (int a = 0; a < v.ndims; ++a) j[to[a]] = sign[a] > 0 ? idx[a] : v.size[a] - 1 - idx[a];
+    const int64_t m = j[0] + out.size[0] * (j[1] + out.size[1] * j[2]);
+    for (int k = 0; k < c; ++k) out.values[m * c + k] = v.values[l * c + k];
+  }
+  v = std::move(out);
+}
+
+// Decodes any supported file by its extension, its axes aligned with the world's.
 RawVolume read_volume(const std::string& path) {
   const std::string ext = extension_of(path);
-  if (ext == ".mha" || ext == ".mhd") return read_meta(path);
-  if (ext == ".nii" || ext == ".nii.gz") return decode_nifti(read_gz_bytes(path), path, false);
-  if (is_opencv_extension(ext)) return read_opencv(path);
-  unknown_format(path);
+  RawVolume v;
+  if (ext == ".mha" || ext == ".mhd") v = read_meta(path);
+  else if (ext == ".nii" || ext == ".nii.gz") v = decode_nifti(read_gz_bytes(path), path, false);
+  else if (is_opencv_extension(ext)) return read_opencv(path);
+  else unknown_format(path);
+  align_axes(v, path);
+  return v;
 }
 
 // Writes any supported format by its extension.

@@ -18,6 +18,9 @@ struct RawVolume {
   std::array<int64_t, 3> size{1, 1, 1};       // voxels per axis (unused axes: 1)
   std::array<double, 3> spacing{1, 1, 1};     // physical voxel size per axis
   std::array<double, 3> origin{0, 0, 0};      // physical position of voxel 0
+  // axes[a]: the unit world direction of index axis a as the file stores it (MetaImage
+  // TransformMatrix, NIfTI qform/sform); image_io.cpp's align_axes() reorders the voxels so that it is +e_a.
+  std::array<std::array<double, 3>, 3> axes{{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
   int channels = 1;                           // 1 for an image, D for a vector field
   std::vector<double> values;                 // voxel-major (x fastest), channels interleaved
   std::string dim_key = "dimension", spacing_key = "spacing", channel_key = "channels";

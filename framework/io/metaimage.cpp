@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -156,7 +157,18 @@ RawVolume meta_geometry(const MetaHeader& h, const std::string& path) {
       throw InputError(path, "ElementNumberOfChannels", "unsupported number of channels " + *c);
     v.channels = int(ch);
   }
-  // TransformMatrix is accepted and ignored: the framework's grids are axis-aligned.
+  // TransformMatrix: ITK's MetaIO convention, value [a * n + k] is world component k of index
+  // axis a (read_volume aligns the axes with the world's: image_io_detail.h).
+  if (const std::string* t = find_key(h, {"TransformMatrix", "Rotation", "Orientation"})) {
+    const auto m = meta_numbers(*t, path, "TransformMatrix", -1);
+    if (int(m.size()) == v.ndims * v.ndims) {
+      for (int a = 0; a < v.ndims; ++a)
+        for (int k = 0; k < v.ndims; ++k) v.axes[a][k] = m[a * v.ndims + k];
+    } else {
+      std::fprintf(stderr, "dsnake: warning: %s: TransformMatrix holds %zu numbers, not %d; ignored\n", path.c_str(),
+                   m.size(), v.ndims * v.ndims);
+    }
+  }
   return v;
 }
 

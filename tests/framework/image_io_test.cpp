@@ -144,7 +144,8 @@ TEST(ImageIo, CompressedMetaImageRoundTrip) {
 }
 
 // A MetaImage as another program writes it: big-endian MET_SHORT, zlib-compressed by the test,
-// ElementSize and Position instead of ElementSpacing and Offset, a rotation matrix (ignored).
+// ElementSize and Position instead of ElementSpacing and Offset, and a TransformMatrix that swaps
+// two axes.
 TEST(ImageIo, ReadsForeignCompressedBigEndianMetaImage) {
   const std::string dir = fresh_dir(), path = dir + "/f.mha";
   const int nx = 4, ny = 3, nz = 2;
@@ -164,11 +165,16 @@ TEST(ImageIo, ReadsForeignCompressedBigEndianMetaImage) {
                    "CompressedData = True\nCompressedDataSize = " + std::to_string(n) +
                    "\nTransformMatrix = 0 1 0 1 0 0 0 0 1\nPosition = 1 2 3\nElementSize = 0.5 0.25 2\n"
                    "DimSize = 4 3 2\nElementType = MET_SHORT\nElementDataFile = LOCAL\n" + z);
+  // The matrix swaps the file's index axes 0 and 1 (index axis 0 runs along world y): the image
+  // reads with its axes aligned to the world's, each voxel at the same world position.
   const Image<3> im = read_image<3>(path);
-  EXPECT_EQ(im.size(), GridIndex<3>(nx, ny, nz));
-  EXPECT_EQ(im.spacing(), Point<3>(0.5, 0.25, 2));
+  EXPECT_EQ(im.size(), GridIndex<3>(ny, nx, nz));
+  EXPECT_EQ(im.spacing(), Point<3>(0.25, 0.5, 2));
   EXPECT_EQ(im.origin(), Point<3>(1, 2, 3));
-  for (int i = 0; i < nx * ny * nz; ++i) EXPECT_EQ(im[i], float(values[i])) << i;
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i)  // file voxel (i, j, k) is world voxel (j, i, k)
+        EXPECT_EQ(im.at(GridIndex<3>(j, i, k)), float(values[i + nx * (j + ny * k)])) << i << " " << j << " " << k;
 }
 
 TEST(ImageIo, Mha2dRoundTripAndSingleSliceVolumeReadsAs2d) {

@@ -1,0 +1,165 @@
+// Images stored with flipped or permuted axes (MetaImage TransformMatrix, NIfTI qform and sform)
+// read as the same axis-aligned image: every voxel lands at the same world position and holds
+// the same value as when the data are stored axis-aligned (framework/io/image_io_detail.h's
+// align_axes), in 2D and 3D. An oblique rotation keeps being read as axis-aligned.
+#include "framework/io/image_io.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <unistd.h>
+
+namespace dsnake {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string fresh_dir() {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const fs::path dir = fs::temp_directory_path() / ("dsnake_orientation_" + std::to_string(::getpid())) / info->name();
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir.string();
+}
+
+// The expected image: 4 x 3 x 2 voxels, spacing (1, 2, 3), origin (5, 6, 7), value i + 10 j + 100 k.
+Image<3> expected_volume() {
+  Image<3> e(Grid<3>{GridIndex<3>(4, 3, 2), Point<3>(1, 2, 3), Point<3>(5, 6, 7)});
+  for (int64_t l = 0; l < e.num_voxels(); ++l) {
+    const GridIndex<3> i = e.grid().index(l);
+    e[l] = float(i[0] + 10 * i[1] + 100 * i[2]);
+  }
+  return e;
+}
+
+// A MetaImage as another program would store `e` with index axis a running along world axis
+// to[a] with sign sign[a]; the file's own origin is the world position of its voxel 0.
+void write_reoriented_mha(const Image<3>& e, const std::array<int, 3>& to, const std::array<int, 3>& sign,
+                          const std::string& path) {
+  GridIndex<3> size;
+  Point<3> spacing, origin = e.origin();
+  for (int a = 0; a < 3; ++a) {
+    size[a] = e.size()[to[a]];
+    spacing[a] = e.spacing()[to[a]];
+    if (sign[a] < 0) origin[to[a]] += e.spacing()[to[a]] * (e.size()[to[a]] - 1);
+  }
+  std::vector<float> data;
+  for (int k = 0; k < size[2]; ++k)
+    for (int j = 0; j < size[1]; ++j)
+      for (int i = 0; i < size[0]; ++i) {
+        const int idx[3] = {i, j, k};
+        GridIndex<3> w;
+        for (int a = 0; a < 3; ++a) w[to[a]] = sign[a] > 0 ? idx[a] : size[a] - 1 - idx[a];
+        data.push_back(e.at(w));
+      }
+  std::ostringstream h;
+  h << "ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = False\nTransformMatrix =";
+  for (int a = 0; a < 3; ++a)
+    for (int k = 0; k < 3; ++k) h << " " << (to[a] == k ? sign[a] : 0);
+  h << "\nOffset = " << origin[0] << " " << origin[1] << " " << origin[2] << "\nElementSpacing = " << spacing[0] << " "
+    << spacing[1] << " " << spacing[2] << "\nDimSize = " << size[0] << " " << size[1] << " " << size[2]
+    << "\nElementType = MET_FLOAT\nElementDataFile = LOCAL\n";
+  std::ofstream out(path, std::ios::binary);
+  out << h.str();
+  out.write(reinterpret_cast<const char*>(data.data()), std::streamsize(data.size() * sizeof(float)));
+}
+
+void expect_same_image(const Image<3>& got, const Image<3>& want, const std::string& label) {
+  SCOPED_TRACE(label);
+  ASSERT_EQ(got.size(), want.size());
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_NEAR(got.spacing()[a], want.spacing()[a], 1e-9);
+    EXPECT_NEAR(got.origin()[a], want.origin()[a], 1e-6);
+  }
+  for (int64_t l = 0; l < want.num_voxels(); ++l) ASSERT_EQ(got[l], want[l]) << "voxel " << l;
+}
+
+TEST(ImageOrientation, FlippedAndPermutedMetaImageAxesReadAsTheAlignedImage) {
+  const std::string dir = fresh_dir();
+  const Image<3> e = expected_volume();
+  const std::vector<std::pair<std::array<int, 3>, std::array<int, 3>>> cases = {
+      {{0, 1, 2}, {1, 1, 1}},    {{0, 1, 2}, {-1, 1, 1}}, {{0, 1, 2}, {1, -1, -1}},
+      {{1, 0, 2}, {1, 1, 1}},    {{2, 0, 1}, {1, -1, 1}}, {{1, 2, 0}, {-1, -1, -1}}};
+  for (size_t c = 0; c < cases.size(); ++c) {
+    const std::string path = dir + "/case" + std::to_string(c) + ".mha";
+    write_reoriented_mha(e, cases[c].first, cases[c].second, path);
+    expect_same_image(read_image<3>(path), e, path);
+  }
+}
+
+// The NIfTI sform of the issue: a y axis stored reversed (srow_y = [0, -2, 0, y0]), and a qform
+// rotated by 180 degrees about z (x and y reversed).
+TEST(ImageOrientation, NiftiSformAndQformFlipsReadAsTheAlignedImage) {
+  const std::string dir = fresh_dir();
+  const Image<3> e = expected_volume();
+  // Stored data: y reversed, and for the qform case x reversed too.
+  for (int variant = 0; variant < 2; ++variant) {
+    const bool flip_x = variant == 1;
+    Image<3> stored(e.grid());
+    for (int64_t l = 0; l < e.num_voxels(); ++l) {
+      GridIndex<3> i = e.grid().index(l);
+      GridIndex<3> w = i;
+      w[1] = e.size()[1] - 1 - i[1];
+      if (flip_x) w[0] = e.size()[0] - 1 - i[0];
+      stored[l] = e.at(w);
+    }
+    const std::string path = dir + "/v" + std::to_string(variant) + ".nii";
+    write_image<3>(stored, path);
+    std::string bytes;
+    {
+      std::ifstream in(path, std::ios::binary);
+      std::ostringstream ss;
+      ss << in.rdbuf();
+      bytes = ss.str();
+    }
+    auto put_f = [&](size_t at, float x) { std::memcpy(&bytes[at], &x, 4); };
+    auto put_s = [&](size_t at, int16_t x) { std::memcpy(&bytes[at], &x, 2); };
+    const double y0 = e.origin()[1] + e.spacing()[1] * (e.size()[1] - 1);
+    const double x0 = e.origin()[0] + e.spacing()[0] * (e.size()[0] - 1);
+    if (!flip_x) {  // sform only
+      put_s(252, 0);
+      put_s(254, 1);
+      const float srow[3][4] = {{1, 0, 0, 5}, {0, -2, 0, float(y0)}, {0, 0, 3, 7}};
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 4; ++c) put_f(280 + 16 * r + 4 * c, srow[r][c]);
+    } else {  // qform: quaternion (0, 0, 0, 1) = 180 degrees about z
+      put_s(252, 1);
+      put_f(256, 0), put_f(260, 0), put_f(264, 1);
+      put_f(268, float(x0)), put_f(272, float(y0)), put_f(276, 7);
+    }
+    std::ofstream(path, std::ios::binary) << bytes;
+    expect_same_image(read_image<3>(path), e, path);
+  }
+}
+
+TEST(ImageOrientation, A2dFlipReadsAsTheAlignedImage) {
+  const std::string dir = fresh_dir();
+  Image<2> e(Grid<2>{GridIndex<2>(5, 3), Point<2>(0.5, 2), Point<2>(-1, 4)});
+  for (int64_t l = 0; l < e.num_voxels(); ++l) e[l] = float(l);
+  // x reversed, then x and y swapped: index axis 0 runs along -world x... stored transposed
+  std::ostringstream h;
+  h << "ObjectType = Image\nNDims = 2\nBinaryData = True\nBinaryDataByteOrderMSB = False\nTransformMatrix = 0 1 -1 0\nOffset = " << (-1 + 0.5 * 4) << " 4\n"
+    << "ElementSpacing = 2 0.5\nDimSize = 3 5\nElementType = MET_FLOAT\nElementDataFile = LOCAL\n";
+  // file index (i, j): i along +world y, j along -world x
+  std::vector<float> data;
+  for (int j = 0; j < 5; ++j)
+    for (int i = 0; i < 3; ++i) data.push_back(e.at(GridIndex<2>(4 - j, i)));
+  const std::string path = dir + "/flip.mha";
+  {
+    std::ofstream out(path, std::ios::binary);
+    out << h.str();
+    out.write(reinterpret_cast<const char*>(data.data()), std::streamsize(data.size() * sizeof(float)));
+  }
+  const Image<2> got = read_image<2>(path);
+  ASSERT_EQ(got.size(), e.size());
+  EXPECT_NEAR(got.origin()[0], -1, 1e-9);
+  EXPECT_NEAR(got.origin()[1], 4, 1e-9);
+  EXPECT_NEAR(got.spacing()[0], 0.5, 1e-12);
+  for (int64_t l = 0; l < e.num_voxels(); ++l) ASSERT_EQ(got[l], e[l]) << l;
+}
+
+}  // namespace
+}  // namespace dsnake
