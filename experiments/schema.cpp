@@ -37,18 +37,32 @@ void merge(json& into, const json& from) {
   for (auto it = from.begin(); it != from.end(); ++it) into[it.key()] = it.value();
 }
 
-// One variant per registered name of the 2D and 3D registries (the 3D entry where both have it):
-// {"type": const name, common keys, the options' keys}.
+// A registered name of the 2D or 3D registry (the 3D entry where both have it), with the
+// dimensions that offer it: what the schema and the key tables both list.
+struct PluginEntry {
+  std::string summary, dims;
+  json schema;
+  std::vector<KeyRow> rows;
+};
+template <class R2, class R3>
+std::map<std::string, PluginEntry> entries_by_name(const R2& r2, const R3& r3) {
+  std::map<std::string, PluginEntry> by_name;
+  for (const auto& n : r2.names()) by_name[n] = {r2.entry(n).summary, "2D", r2.entry(n).schema_properties, r2.entry(n).rows};
+  for (const auto& n : r3.names()) {
+    const std::string dims = by_name.count(n) ? "2D and 3D" : "3D";
+    by_name[n] = {r3.entry(n).summary, dims, r3.entry(n).schema_properties, r3.entry(n).rows};
+  }
+  return by_name;
+}
+
+// One variant per registered name: {"type": const name, common keys, the options' keys}.
 template <class R2, class R3>
 json plugin_variants(const R2& r2, const R3& r3, const json& common) {
-  std::map<std::string, std::pair<std::string, json>> by_name;
-  for (const auto& n : r2.names()) by_name[n] = {r2.entry(n).summary, r2.entry(n).schema_properties};
-  for (const auto& n : r3.names()) by_name[n] = {r3.entry(n).summary, r3.entry(n).schema_properties};
   json variants = json::array();
-  for (const auto& [name, entry] : by_name) {
-    json props = {{"type", {{"const", name}, {"description", entry.first}}}};
+  for (const auto& [name, entry] : entries_by_name(r2, r3)) {
+    json props = {{"type", {{"const", name}, {"description", entry.summary}}}};
     merge(props, common);
-    merge(props, entry.second);
+    merge(props, entry.schema);
     variants.push_back(closed_object(props, {"type"}));
   }
   return {{"oneOf", variants}};
@@ -209,17 +223,10 @@ json sweep_definition() {
 // Markdown: a heading, a summary line and the key table of each variant of a registry.
 template <class R2, class R3>
 std::string plugin_tables(const char* section, const R2& r2, const R3& r3) {
-  std::map<std::string, std::pair<std::string, std::vector<KeyRow>>> by_name;
-  std::map<std::string, std::string> dims;
-  for (const auto& n : r2.names()) by_name[n] = {r2.entry(n).summary, r2.entry(n).rows}, dims[n] = "2D";
-  for (const auto& n : r3.names()) {
-    by_name[n] = {r3.entry(n).summary, r3.entry(n).rows};
-    dims[n] = dims.count(n) ? "2D and 3D" : "3D";
-  }
   std::string s;
-  for (const auto& [name, entry] : by_name)
-    s += "#### `" + std::string(section) + "` type `" + name + "` (" + dims[name] + ")\n\n" + entry.first + ".\n\n" +
-         key_table_markdown(entry.second) + "\n";
+  for (const auto& [name, entry] : entries_by_name(r2, r3))
+    s += "#### `" + std::string(section) + "` type `" + name + "` (" + entry.dims + ")\n\n" + entry.summary + ".\n\n" +
+         key_table_markdown(entry.rows) + "\n";
   return s;
 }
 

@@ -74,17 +74,6 @@ class Registry {
     e.rows = options_rows<Options>();
     entries_[e.name] = std::move(e);
   }
-  // Transitional: a factory that reads and builds at once (no schema, no defaults).
-  using Factory = std::function<std::unique_ptr<Product>(JsonReader& reader)>;
-  void add(const std::string& name, Factory factory) {
-    Entry e;
-    e.name = name;
-    e.read = [factory, name](JsonReader& reader) {
-      auto built = std::make_shared<std::unique_ptr<Product>>(factory(reader));
-      return PluginSpec<Product>{name, nlohmann::ordered_json::object(), [built] { return std::move(*built); }};
-    };
-    entries_[name] = std::move(e);
-  }
   // A name that is refused with a message (e.g. a 3D remeshing stage in a 2D experiment).
   void add_refusal(const std::string& name, const std::string& message) {
     Entry e;
