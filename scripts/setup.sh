@@ -19,5 +19,8 @@ fi
 # The Stanford bunny for experiments/paper/bunny_*.json (npm registry; not committed; no test
 # needs it, so a failed download only warns).
 scripts/fetch_bunny.sh || echo "setup: warning: the bunny was not fetched; only experiments/paper/bunny_*.json need it" >&2
+# Real scans for the reader, template and real-scan tests (Debian archive and npm; not
+# committed; sources and licences in the script). The tests need them, so a failure stops here.
+scripts/fetch_scans.sh
 cmake --preset release >/dev/null
 cmake --build --preset release
