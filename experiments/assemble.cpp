@@ -157,6 +157,32 @@ std::vector<Phase<D>> assemble_phases(const ExperimentSpec<D>& spec) {
   return phases;
 }
 
+// An oblique image (a rotated direction, image.h) is registered in its grid's frame: the placed
+// template, the ground-truth surface and targets are mapped from world into it here, and the
+// runner maps results back (runner.cpp). A ground-truth mask must share the image's direction
+// (it is re-expressed in the image's frame); any other mask is refused, naming its file.
+template <int D>
+void express_in_image_frame(Experiment<D>& ex, const GroundTruthSpec& files) {
+  const Grid<D>& g = ex.image.grid();
+  if (g.axis_aligned() && (!ex.truth.mask || ex.truth.mask->grid().axis_aligned())) return;
+  if (ex.truth.mask) {
+    if ((ex.truth.mask->grid().direction - g.direction).cwiseAbs().maxCoeff() > 1e-6)
+      throw InputError(files.mask, "direction",
+                       "the mask's axis directions differ from the image's: resample it onto the image's grid");
+    Grid<D> m = ex.truth.mask->grid();
+    m.origin = g.to_frame(m.origin);
+    m.direction.setIdentity();
+    Image<D> in_frame(m);
+    in_frame.data() = std::move(ex.truth.mask->data());
+    ex.truth.mask = std::move(in_frame);
+  }
+  for (auto& p : ex.initial) p = g.to_frame(p);
+  if (ex.truth.surface)
+    for (auto& p : ex.truth.surface->positions) p = g.to_frame(p);
+  for (auto& t : ex.truth.targets)
+    if (t) *t = g.to_frame(*t);
+}
+
 }  // namespace
 
 template <int D>
@@ -169,10 +195,12 @@ Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   ex.global = spec.global;
   ex.potential = spec.potential;
   const std::optional<Phantom<D>> phantom = assemble_image(spec, ex.image);
+  ex.image_is_file_as_read = !spec.image.phantom && spec.image.corruptions.empty();
   ex.tmpl = assemble_template(spec);
   const PlacementSpec<D>& t = spec.tmpl.transform;
   ex.initial = place<D>(ex.tmpl.positions, t.scale, t.rotation_deg, t.translation);
   ex.truth = assemble_truth(spec, phantom, ex.tmpl);
+  express_in_image_frame(ex, spec.truth);
   ex.field = build_field(spec.field);
   ex.energies = assemble_energies(spec, ex.tmpl);
   ex.phases = assemble_phases(spec);

@@ -59,14 +59,27 @@ struct SuccessCriteria {
   }
 };
 
+// When a run writes the image it registered as image.nii.gz: "auto" when it is not a file read
+// as it is (a phantom, or an image after corruptions), so that a user's own scan is not copied.
+enum class ImageOutput { kAuto, kAlways, kNever };
+template <>
+struct EnumNames<ImageOutput> {
+  static constexpr std::array<std::pair<ImageOutput, const char*>, 3> table{
+      {{ImageOutput::kAuto, "auto"}, {ImageOutput::kAlways, "always"}, {ImageOutput::kNever, "never"}}};
+};
+
 struct OutputOptions {
   int snapshot_every = 0;   // write the snake every n iterations (0: never)
   bool figures = true;
+  bool result_mask = true;  // result_mask.nii.gz: the result's interior on the image grid
+  ImageOutput image = ImageOutput::kAuto;
 
   template <class V>
   void visit(V& v) {
     v(snapshot_every, Key{"snapshot_every", "iterations", "write the snake every n iterations into snapshots/ (0: never)", Range::at_least(0)});
     v(figures, Key{"figures", "", "write the PNG figures"});
+    v(result_mask, Key{"result_mask", "", "write result_mask.nii.gz: the result's interior as a uint8 label map on the image's grid, with its orientation"});
+    v(image, Key{"image", "", "write image.nii.gz, the image that was registered: auto (when it is a phantom or was corrupted), always or never"});
   }
 };
 
@@ -87,6 +100,7 @@ struct Experiment {
   GlobalSolverOptions global;               // "global": Ceres' options
   std::optional<PotentialOptions> potential;  // the external term's potential (global view)
   Image<D> image;
+  bool image_is_file_as_read = false;  // a file without corruptions (so image.nii.gz would be a copy)
   Template<D> tmpl;
   PointList<D> initial;  // the placed template: the snake's start
   GroundTruth<D> truth;

@@ -6,7 +6,9 @@
 #include "framework/core/evolver.h"
 #include "framework/global/global_solver.h"
 #include "framework/core/potential.h"
+#include "framework/io/image_io.h"
 #include "framework/io/mesh_io.h"
+#include "framework/metrics/metrics.h"
 #include "remesh/quality.h"
 
 #include <chrono>
@@ -65,19 +67,30 @@ class ProgressObserver : public EvolverObserver<D> {
   Clock::time_point last_print_{};
 };
 
+// Positions in the image's frame (image.h; where the snake runs) as world positions, for every
+// file the run writes. The identity for an axis-aligned image.
+template <int D>
+PointList<D> world_positions(const Grid<D>& frame, const PointList<D>& points) {
+  if (frame.axis_aligned()) return points;
+  PointList<D> world(points.size());
+  for (size_t i = 0; i < points.size(); ++i) world[i] = frame.to_world(points[i]);
+  return world;
+}
+
 // Keeps the energy trace in memory and writes snapshots.
 template <int D>
 class RecordingObserver : public EvolverObserver<D> {
  public:
-  RecordingObserver(std::string snapshot_dir, int snapshot_every)
-      : snapshot_dir_(std::move(snapshot_dir)), every_(snapshot_every) {}
+  RecordingObserver(std::string snapshot_dir, int snapshot_every, const Grid<D>& frame)
+      : snapshot_dir_(std::move(snapshot_dir)), every_(snapshot_every), frame_(frame) {}
   void on_iteration(const IterationInfo& info, const Snake<D>& snake) override {
     trace.push_back(info);
     if (every_ > 0 && info.iteration % every_ == 0) {
       fs::create_directories(snapshot_dir_);
       std::ostringstream name;
       name << snapshot_dir_ << "/iteration_" << std::setw(6) << std::setfill('0') << info.iteration << ".vtk";
-      write_shape<D>(snake.positions(), snake.connectivity(), name.str(), template_id_scalars(snake));
+      write_shape<D>(world_positions(frame_, snake.positions()), snake.connectivity(), name.str(),
+                     template_id_scalars(snake));
     }
   }
   static std::vector<VertexScalars> template_id_scalars(const Snake<D>& snake) {
@@ -100,6 +113,7 @@ class RecordingObserver : public EvolverObserver<D> {
  private:
   std::string snapshot_dir_;
   int every_;
+  Grid<D> frame_;  // the image's grid: its frame is where the snake lives
 };
 
 nlohmann::ordered_json optional_number(const std::optional<double>& v) {
@@ -141,9 +155,12 @@ std::string trace_csv(const std::vector<IterationInfo>& trace, const std::vector
   return s.str();
 }
 
+// correspondence.csv: per template vertex its start, end, displacement, target and error; positions
+// in world coordinates, "nan" where a value does not exist (a CSV reader's missing value).
 template <int D>
 std::string correspondence_csv(const Experiment<D>& ex, const Snake<D>& snake, const CorrespondenceError& err) {
   static const char* axis[3] = {"x", "y", "z"};
+  const Grid<D>& frame = ex.image.grid();
   std::map<int, std::string> landmark_of;
   for (const auto& [name, id] : ex.tmpl.landmarks) landmark_of[id] = name;
   std::ostringstream s;
@@ -156,11 +173,14 @@ std::string correspondence_csv(const Experiment<D>& ex, const Snake<D>& snake, c
   for (int t = 0; t < ex.tmpl.num_vertices(); ++t) {
     const int v = snake.vertex_of_template_id(t);
     s << t << "," << (landmark_of.count(t) ? landmark_of[t] : "");
-    for (int a = 0; a < D; ++a) s << "," << csv_number(ex.initial[t][a]);
-    for (int a = 0; a < D; ++a) s << "," << csv_number(v >= 0 ? snake.positions()[v][a] : NAN);
-    s << "," << csv_number(v >= 0 ? (snake.positions()[v] - ex.initial[t]).norm() : NAN);
+    const Point<D> start = frame.to_world(ex.initial[t]);
+    const Point<D> end = v >= 0 ? frame.to_world(snake.positions()[v]) : Point<D>::Constant(NAN);
+    for (int a = 0; a < D; ++a) s << "," << csv_number(start[a]);
+    for (int a = 0; a < D; ++a) s << "," << csv_number(end[a]);
+    s << "," << csv_number(v >= 0 ? (end - start).norm() : NAN);
     const bool has_target = t < int(ex.truth.targets.size()) && ex.truth.targets[t];
-    for (int a = 0; a < D; ++a) s << "," << csv_number(has_target ? (*ex.truth.targets[t])[a] : NAN);
+    const Point<D> target = has_target ? frame.to_world(*ex.truth.targets[t]) : Point<D>::Constant(NAN);
+    for (int a = 0; a < D; ++a) s << "," << csv_number(target[a]);
     s << "," << csv_number(t < int(err.per_vertex.size()) ? err.per_vertex[t] : NAN) << "\n";
   }
   return s.str();
@@ -237,7 +257,8 @@ namespace {
 // What a run produced, for the output files and result.json.
 template <int D>
 struct RunRecord {
-  RunRecord(const fs::path& staging, int snapshot_every) : recorder((staging / "snapshots").string(), snapshot_every) {}
+  RunRecord(const fs::path& staging, int snapshot_every, const Grid<D>& frame)
+      : recorder((staging / "snapshots").string(), snapshot_every, frame) {}
   Snake<D> snake;
   int initial_vertices = 0;
   RecordingObserver<D> recorder;
@@ -299,26 +320,64 @@ void measure(const Experiment<D>& ex, RunRecord<D>& rec) {
   rec.correspondence = correspondence_error(rec.snake, ex.truth.targets);
 }
 
-// final.* and initial.* (VTK with template_id and displacement scalars), the CSV tables, figures.
+// final.vtk's per-vertex arrays (docs/experiment-file.md, "Outputs"): template_id (-1 for a
+// free vertex, inserted by refinement), has_target (1 where the ground truth gives this
+// vertex's counterpart), error (distance to it; the sentinel -1 where has_target is 0),
+// displacement (distance from the template vertex's start; 0 for a free vertex) and
+// displacement_vector (end - start in world coordinates; 3 components, z = 0 in 2D). All
+// finite, as VTK's legacy reader needs.
+template <int D>
+std::vector<VertexScalars> final_arrays(const Experiment<D>& ex, const Snake<D>& snake, const CorrespondenceError& err) {
+  auto arrays = RecordingObserver<D>::template_id_scalars(snake);
+  VertexScalars has_target{"has_target", {}}, error{"error", {}}, displacement{"displacement", {}};
+  VertexScalars vector{"displacement_vector", {}, 3};
+  const Grid<D>& frame = ex.image.grid();
+  for (int v = 0; v < snake.num_vertices(); ++v) {
+    const int id = snake.template_id(v);
+    const bool target = id >= 0 && id < int(err.per_vertex.size()) && std::isfinite(err.per_vertex[id]);
+    has_target.values.push_back(target ? 1 : 0);
+    error.values.push_back(target ? err.per_vertex[id] : -1.0);
+    const Point<D> move = id >= 0 ? Point<D>(frame.direction * (snake.positions()[v] - ex.initial[id])) : Point<D>::Zero();
+    displacement.values.push_back(move.norm());
+    for (int a = 0; a < 3; ++a) vector.values.push_back(a < D ? move[a] : 0.0);
+  }
+  arrays.insert(arrays.end(), {has_target, error, displacement, vector});
+  return arrays;
+}
+
+// Whether the run writes image.nii.gz (OutputOptions::image).
+template <int D>
+bool writes_image(const Experiment<D>& ex) {
+  return ex.output.image == ImageOutput::kAlways || (ex.output.image == ImageOutput::kAuto && !ex.image_is_file_as_read);
+}
+
+// result_mask.nii.gz: the result's interior (1) on the image's grid, with the image's geometry,
+// as a label map that 3D Slicer and ITK-SNAP overlay on the image.
+template <int D>
+void write_result_mask(const Experiment<D>& ex, const Snake<D>& snake, const fs::path& staging) {
+  Image<D> mask = rasterize_interior<D>({snake.positions(), snake.connectivity()}, ex.image.grid());
+  write_image<D>(mask, (staging / "result_mask.nii.gz").string(), ImageWriteOptions{.compress = true, .label = true});
+}
+
+// final.* and initial.* (positions in world coordinates; final.vtk with final_arrays), the CSV
+// tables, the label map of the result and the registered image (unless it is a file read as it
+// is), and the figures (drawn in the image's frame: world orientation unless the scan is oblique).
 template <int D>
 void write_outputs(const Experiment<D>& ex, const RunRecord<D>& rec, const fs::path& staging) {
   const Snake<D>& snake = rec.snake;
+  const Grid<D>& frame = ex.image.grid();
   const std::string mesh_ext = D == 2 ? ".txt" : ".ply";
-  auto scalars = RecordingObserver<D>::template_id_scalars(snake);
-  VertexScalars displacement{"displacement", {}};
-  for (int v = 0; v < snake.num_vertices(); ++v) {
-    const int id = snake.template_id(v);
-    // A free vertex (template_id -1) has no start to be displaced from: 0, so that VTK's legacy
-    // reader (and ParaView) accept the file, which refuses "nan".
-    displacement.values.push_back(id >= 0 ? (snake.positions()[v] - ex.initial[id]).norm() : 0.0);
-  }
-  scalars.push_back(displacement);
-  write_shape<D>(snake.positions(), snake.connectivity(), (staging / "final.vtk").string(), scalars);
-  write_shape<D>(snake.positions(), snake.connectivity(), (staging / ("final" + mesh_ext)).string());
-  write_shape<D>(ex.initial, ex.tmpl.connectivity, (staging / "initial.vtk").string());
-  write_shape<D>(ex.initial, ex.tmpl.connectivity, (staging / ("initial" + mesh_ext)).string());
+  const PointList<D> final_world = world_positions(frame, snake.positions());
+  const PointList<D> initial_world = world_positions(frame, ex.initial);
+  write_shape<D>(final_world, snake.connectivity(), (staging / "final.vtk").string(),
+                 final_arrays(ex, snake, rec.correspondence));
+  write_shape<D>(final_world, snake.connectivity(), (staging / ("final" + mesh_ext)).string());
+  write_shape<D>(initial_world, ex.tmpl.connectivity, (staging / "initial.vtk").string());
+  write_shape<D>(initial_world, ex.tmpl.connectivity, (staging / ("initial" + mesh_ext)).string());
   write_file_atomically((staging / "correspondence.csv").string(), correspondence_csv(ex, snake, rec.correspondence));
   write_file_atomically((staging / "energy_trace.csv").string(), trace_csv<D>(rec.recorder.trace, rec.names));
+  if (rec.finite && ex.output.result_mask) write_result_mask(ex, snake, staging);
+  if (writes_image(ex)) write_image<D>(ex.image, (staging / "image.nii.gz").string(), ImageWriteOptions{.compress = true});
   if (ex.output.figures && rec.finite) write_figures(ex, snake, staging, rec.recorder.trace, rec.names);
 }
 
@@ -393,7 +452,7 @@ nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& optio
   fs::remove_all(staging);
   fs::create_directories(staging);
   try {
-    RunRecord<D> rec(staging, ex.output.snapshot_every);
+    RunRecord<D> rec(staging, ex.output.snapshot_every, ex.image.grid());
     evolve(ex, options, rec);
     measure(ex, rec);
     write_outputs(ex, rec, staging);

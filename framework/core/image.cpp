@@ -50,7 +50,7 @@ bool Grid<D>::inside(const Point<D>& x) const {
 template <int D>
 bool Grid<D>::same_geometry(const Grid& o, double tol) const {
   return size == o.size && (spacing - o.spacing).cwiseAbs().maxCoeff() <= tol &&
-         (origin - o.origin).cwiseAbs().maxCoeff() <= tol;
+         (origin - o.origin).cwiseAbs().maxCoeff() <= tol && (direction - o.direction).cwiseAbs().maxCoeff() <= tol;
 }
 
 namespace {

@@ -1,6 +1,15 @@
-// Regular grids in physical space: Grid<D> (size, spacing, origin), Image<D> (one float per
-// voxel) and VectorField<D> (one D-vector per voxel). Voxel centres sit at
-// origin + index * spacing; the axes are the world axes (no direction cosines).
+// Regular grids in physical space: Grid<D> (size, spacing, origin, direction), Image<D> (one
+// float per voxel) and VectorField<D> (one D-vector per voxel).
+//
+// World coordinates are LPS millimetres (ITK's, MetaImage's and DICOM's convention; the NIfTI
+// reader converts from RAS). Every computation of the framework runs in the grid's *frame*:
+// voxel centres sit at origin + index * spacing, axis-aligned. `direction` is the rotation that
+// takes the frame to world about the origin, world = origin + direction * (frame - origin)
+// (to_world / to_frame). It is the identity for every image whose axes run along the world's,
+// which the readers make of any image stored with flipped or permuted axes (they reorder the
+// voxels); only an oblique scan keeps a rotation, and the experiment runner maps templates into
+// its frame and results back to world (assemble.cpp, runner.cpp). Distances, the energies
+// (similarity-invariant, §2) and fields computed on the index grid are unchanged by that map.
 // Sampling is (bi/tri)linear. Outside the grid, a sample takes the value at the nearest point
 // of the grid's bounding box (border replication), so forces stay defined everywhere.
 #pragma once
@@ -17,6 +26,7 @@ struct Grid {
   GridIndex<D> size = GridIndex<D>::Zero();      // voxels per axis
   Point<D> spacing = Point<D>::Ones();           // physical size of a voxel per axis
   Point<D> origin = Point<D>::Zero();            // physical position of voxel 0
+  Eigen::Matrix<double, D, D> direction = Eigen::Matrix<double, D, D>::Identity();  // frame -> world rotation
 
   int64_t num_voxels() const;
   int64_t linear(const GridIndex<D>& idx) const;  // x fastest
@@ -24,7 +34,12 @@ struct Grid {
   Point<D> to_physical(const GridIndex<D>& idx) const;
   Point<D> to_continuous_index(const Point<D>& x) const;  // (x - origin) / spacing
   bool inside(const Point<D>& x) const;  // within the box spanned by the voxel centres
-  bool same_geometry(const Grid& other, double tol = 1e-9) const;
+  bool same_geometry(const Grid& other, double tol = 1e-9) const;  // size, spacing, origin, direction
+  bool axis_aligned() const { return direction.isIdentity(0.0); }  // frame == world
+  Point<D> to_world(const Point<D>& frame_point) const { return origin + direction * (frame_point - origin); }
+  Point<D> to_frame(const Point<D>& world_point) const {
+    return origin + direction.transpose() * (world_point - origin);
+  }
 
   // Linear interpolation stencil: the 2^D voxels around x (clamped) and their weights.
   struct Stencil {

@@ -8,6 +8,8 @@
 #include "framework/core/errors.h"
 #include "framework/io/image_io_detail.h"
 
+#include <Eigen/LU>
+#include <Eigen/SVD>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <zlib.h>
@@ -65,6 +67,13 @@ std::string float_bytes(const std::vector<double>& values) {
     const float f = static_cast<float>(values[i]);
     std::memcpy(out.data() + 4 * i, &f, 4);
   }
+  return out;
+}
+
+// Values rounded and clamped to [0, 255], one byte each (label maps).
+std::string label_bytes(const std::vector<double>& values) {
+  std::string out(values.size(), '\0');
+  for (size_t i = 0; i < values.size(); ++i) out[i] = char(uint8_t(std::lround(std::clamp(values[i], 0.0, 255.0))));
   return out;
 }
 
@@ -196,16 +205,61 @@ bool signed_permutation(const RawVolume& v, std::array<int, 3>& world_axis, std:
   return true;
 }
 
+// Reverses index axis a in place: the voxel order along a, and the origin moves to what was
+// the last voxel, so every voxel keeps its world position and the axis direction is negated.
+void reverse_axis(RawVolume& v, int a) {
+  const int64_t n = v.size[a];
+  for (int k = 0; k < 3; ++k) v.origin[k] += v.axes[a][k] * v.spacing[a] * double(n - 1);
+  for (int k = 0; k < 3; ++k) v.axes[a][k] = -v.axes[a][k];
+  const int64_t stride = a == 0 ? 1 : a == 1 ? v.size[0] : v.size[0] * v.size[1];
+  const int c = v.channels;
+  for (int64_t l = 0; l < v.num_voxels(); ++l) {
+    const int64_t i = (l / stride) % n;
+    if (i >= n - 1 - i) continue;  // each pair once
+    const int64_t m = l + (n - 1 - 2 * i) * stride;
+    for (int k = 0; k < c; ++k) std::swap(v.values[l * c + k], v.values[m * c + k]);
+  }
+}
+
+// The direction cosines as a rotation: checks that they are orthonormal (to 1e-3; a sheared
+// grid, as from a CT gantry tilt, is refused), and snaps them to the nearest orthonormal matrix.
+void orthonormalize_axes(RawVolume& v, const std::string& path) {
+  const int n = v.ndims;
+  Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
+  for (int a = 0; a < n; ++a)
+    for (int k = 0; k < n; ++k) m(k, a) = v.axes[a][k];
+  const Eigen::Matrix3d gram = m.transpose() * m;
+  if (!m.allFinite() || (gram - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-3)
+    throw InputError(path, "direction", "the axis directions are not orthonormal (a sheared grid, e.g. a CT "
+                                        "gantry tilt): resample the image onto an orthogonal grid first");
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(m, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::Matrix3d r = svd.matrixU() * svd.matrixV().transpose();
+  for (int a = 0; a < n; ++a)
+    for (int k = 0; k < n; ++k) v.axes[a][k] = r(k, a);
+}
+
 // Reorders a volume whose index axes are a signed permutation of the world axes (flipped or
 // permuted axes, the common case) so that index axis a runs along +world axis a: the same voxel
-// lands at the same world position, and the grid is axis-aligned as the framework's are. An
-// oblique direction (a true rotation) cannot be reordered: it keeps the former behaviour (the
-// rotation is ignored) and says so on stderr, naming the file.
+// lands at the same world position, and the grid is axis-aligned. An oblique direction (a true
+// rotation) is kept as the grid's direction (image.h: the framework works in the grid's frame);
+// if it is a reflection (determinant -1), the last index axis is reversed so that it becomes a
+// rotation, which keeps the frame's orientation and so the templates' outward normals.
+// A 2D image taken from a 3D file must lie in the x-y plane; an oblique one is refused.
 void align_axes(RawVolume& v, const std::string& path) {
+  if (v.effective_dimension() == 2 && v.ndims == 3) {
+    if (std::abs(std::abs(v.axes[2][2]) - 1) > 1e-4 || std::abs(v.axes[0][2]) > 1e-4 || std::abs(v.axes[1][2]) > 1e-4)
+      throw InputError(path, "direction", "a single-slice image whose plane is not the world's x-y plane cannot be "
+                                          "read as 2D; read it as a 3D volume");
+    v.ndims = 2;
+    v.axes[2] = {0, 0, 1};
+  }
+  orthonormalize_axes(v, path);
   std::array<int, 3> to{0, 1, 2}, sign{1, 1, 1};
   if (!signed_permutation(v, to, sign)) {
-    std::fprintf(stderr, "dsnake: warning: %s: oblique direction cosines; the image is read as axis-aligned "
-                         "(its rotation is ignored)\n", path.c_str());
+    Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
+    for (int a = 0; a < v.ndims; ++a)
+      for (int k = 0; k < v.ndims; ++k) m(k, a) = v.axes[a][k];
+    if (m.determinant() < 0) reverse_axis(v, v.ndims - 1);
     return;
   }
   bool identity = true;
@@ -269,6 +323,7 @@ Grid<D> checked_grid(const RawVolume& v, const std::string& path, int channels) 
     g.size[a] = int(v.size[a]);
     g.spacing[a] = v.spacing[a];
     g.origin[a] = v.origin[a];
+    for (int k = 0; k < D; ++k) g.direction(k, a) = v.axes[a][k];
   }
   for (size_t i = 0; i < v.values.size(); ++i) {
     if (std::isfinite(v.values[i])) continue;
@@ -290,6 +345,7 @@ RawVolume raw_of(const Grid<D>& g, int channels) {
     v.size[a] = g.size[a];
     v.spacing[a] = g.spacing[a];
     v.origin[a] = g.origin[a];
+    for (int k = 0; k < D; ++k) v.axes[a][k] = g.direction(k, a);
   }
   return v;
 }
@@ -320,6 +376,7 @@ template <int D>
 void write_image(const Image<D>& image, const std::string& path, const ImageWriteOptions& options) {
   RawVolume v = raw_of<D>(image.grid(), 1);
   v.values.assign(image.data().begin(), image.data().end());
+  v.label = options.label;
   write_volume(v, path, options);
 }
 

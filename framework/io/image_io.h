@@ -28,6 +28,7 @@ void write_image(const Image<D>& image, const std::string& path);
 // Options for write_image; the two-argument form uses the defaults.
 struct ImageWriteOptions {
   bool compress = false;  // MetaImage only: zlib-compressed data (CompressedData = True); NIfTI: use .nii.gz
+  bool label = false;     // a label map: stored as uint8 (values rounded and clamped to [0, 255])
 };
 template <int D>
 void write_image(const Image<D>& image, const std::string& path, const ImageWriteOptions& options);

@@ -22,6 +22,7 @@ struct RawVolume {
   // TransformMatrix, NIfTI qform/sform); image_io.cpp's align_axes() reorders the voxels so that it is +e_a.
   std::array<std::array<double, 3>, 3> axes{{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
   int channels = 1;                           // 1 for an image, D for a vector field
+  bool label = false;                         // writers: store as uint8 (a label map), else float32
   std::vector<double> values;                 // voxel-major (x fastest), channels interleaved
   std::string dim_key = "dimension", spacing_key = "spacing", channel_key = "channels";
 
@@ -51,6 +52,12 @@ std::vector<double> decode(const char* data, int64_t count, Scalar s, bool swap)
 
 // Values as little-endian float32 bytes (the format every writer stores).
 std::string float_bytes(const std::vector<double>& values);
+
+// Values rounded and clamped to [0, 255], one byte each (label maps).
+std::string label_bytes(const std::vector<double>& values);
+
+// What writers store: label_bytes for a label map, else float_bytes.
+inline std::string stored_bytes(const std::vector<double>& values, bool label);
 
 // Lower-case extension, with ".nii.gz" kept whole.
 std::string extension_of(const std::string& path);
@@ -84,5 +91,9 @@ inline constexpr size_t kNiftiHeaderBytes = 348;
 // bytes; write float32 .nii or .nii.gz.
 RawVolume decode_nifti(const std::string& bytes, const std::string& path, bool header_only);
 void write_nifti(const RawVolume& v, const std::string& path);
+
+inline std::string stored_bytes(const std::vector<double>& values, bool label) {
+  return label ? label_bytes(values) : float_bytes(values);
+}
 
 }  // namespace dsnake::detail

@@ -360,16 +360,24 @@ Template<2> read_contour_vtk(const std::string& path) {
 
 // ---------------------------------------------------------------- writers
 
-// POINT_DATA with one SCALARS block per array (names without spaces, as VTK requires).
+// POINT_DATA with one SCALARS block per array, or VECTORS for 3 components (names without
+// spaces, as VTK requires; every value finite, which VTK's reader needs).
 std::string vtk_scalars(const std::vector<VertexScalars>& scalars, size_t n) {
   if (scalars.empty()) return "";
   std::string s = "POINT_DATA " + std::to_string(n) + "\n";
   for (const auto& sc : scalars) {
-    DSNAKE_ASSERT(sc.values.size() == n, "one scalar per vertex: " + sc.name);
+    const size_t c = size_t(sc.components);
+    DSNAKE_ASSERT(c >= 1 && c <= 4 && sc.values.size() == n * c, "components per vertex: " + sc.name);
+    DSNAKE_ASSERT(std::all_of(sc.values.begin(), sc.values.end(), [](double v) { return std::isfinite(v); }),
+                  "VTK arrays must be finite: " + sc.name);
     std::string name = sc.name.empty() ? "scalars" : sc.name;
-    std::replace_if(name.begin(), name.end(), [](unsigned char c) { return std::isspace(c); }, '_');
-    s += "SCALARS " + name + " double 1\nLOOKUP_TABLE default\n";
-    for (double v : sc.values) s += exact(v) + "\n";
+    std::replace_if(name.begin(), name.end(), [](unsigned char ch) { return std::isspace(ch); }, '_');
+    if (c == 3) s += "VECTORS " + name + " double\n";
+    else s += "SCALARS " + name + " double " + std::to_string(c) + "\nLOOKUP_TABLE default\n";
+    for (size_t i = 0; i < n; ++i) {
+      for (size_t k = 0; k < c; ++k) s += (k ? " " : "") + exact(sc.values[i * c + k]);
+      s += "\n";
+    }
   }
   return s;
 }
@@ -473,11 +481,19 @@ void write_contour(const PointList<2>& points, const std::string& path, const st
     if (!scalars.empty()) {
       s += ",\n  \"scalars\": {";
       for (size_t k = 0; k < scalars.size(); ++k) {
-        DSNAKE_ASSERT(scalars[k].values.size() == n, "one scalar per vertex: " + scalars[k].name);
+        const size_t c = size_t(scalars[k].components);
+        DSNAKE_ASSERT(scalars[k].values.size() == n * c, "components per vertex: " + scalars[k].name);
         s += (k ? ",\n    " : "\n    ") + nlohmann::json(scalars[k].name).dump() + ": [";
+        auto number = [](double v) { return std::isfinite(v) ? exact(v) : std::string("null"); };
         for (size_t i = 0; i < n; ++i) {
-          const double v = scalars[k].values[i];
-          s += (i ? ", " : "") + (std::isfinite(v) ? exact(v) : std::string("null"));
+          s += i ? ", " : "";
+          if (c == 1) {
+            s += number(scalars[k].values[i]);
+            continue;
+          }
+          s += "[";
+          for (size_t j = 0; j < c; ++j) s += (j ? ", " : "") + number(scalars[k].values[i * c + j]);
+          s += "]";
         }
         s += "]";
       }

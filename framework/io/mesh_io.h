@@ -16,9 +16,14 @@
 
 namespace dsnake {
 
+// A per-vertex array: `components` numbers per vertex (1: a scalar; 3: a vector, written as
+// VTK VECTORS, which ParaView draws as arrows), vertex-major. Values must be finite: VTK's
+// legacy reader refuses "nan", so a missing value is a documented sentinel beside a 0/1 array
+// that says where it is missing (runner.cpp: "has_target").
 struct VertexScalars {
   std::string name;            // e.g. "template_id", "displacement"
-  std::vector<double> values;  // one per vertex
+  std::vector<double> values;  // components per vertex, vertex-major
+  int components = 1;
 };
 
 Template<3> read_mesh_template(const std::string& path);

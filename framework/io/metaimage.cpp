@@ -220,9 +220,9 @@ RawVolume read_meta(const std::string& path) {
   return v;
 }
 
-// Writes a MetaImage: .mha with LOCAL data, or .mhd plus a .raw/.zraw data file beside it.
+// Writes a MetaImage (LPS world, as MetaImage's own convention): .mha with LOCAL data, or .mhd plus a .raw/.zraw data file beside it.
 void write_meta(const RawVolume& v, const std::string& path, bool compress) {
-  std::string data = float_bytes(v.values);
+  std::string data = stored_bytes(v.values, v.label);
   if (compress) {
     uLongf n = compressBound(data.size());
     std::string z(n, '\0');
@@ -240,12 +240,15 @@ void write_meta(const RawVolume& v, const std::string& path, bool compress) {
   std::string h = "ObjectType = Image\nNDims = " + std::to_string(v.ndims) + "\n";
   h += "BinaryData = True\nBinaryDataByteOrderMSB = False\n";
   h += std::string("CompressedData = ") + (compress ? "True\nCompressedDataSize = " + std::to_string(data.size()) : "False") + "\n";
-  h += v.ndims == 2 ? "TransformMatrix = 1 0 0 1\n" : "TransformMatrix = 1 0 0 0 1 0 0 0 1\n";
+  h += "TransformMatrix =";  // ITK's MetaIO order: index axis a's world direction, a = 0, 1(, 2)
+  for (int a = 0; a < v.ndims; ++a)
+    for (int k = 0; k < v.ndims; ++k) h += " " + exact(v.axes[a][k]);
+  h += "\n";
   h += "Offset = " + list(v.origin) + "\nElementSpacing = " + list(v.spacing) + "\nDimSize =";
   for (int i = 0; i < v.ndims; ++i) h += " " + std::to_string(v.size[i]);
   h += "\n";
   if (v.channels > 1) h += "ElementNumberOfChannels = " + std::to_string(v.channels) + "\n";
-  h += "ElementType = MET_FLOAT\n";
+  h += v.label ? "ElementType = MET_UCHAR\n" : "ElementType = MET_FLOAT\n";
   if (extension_of(path) == ".mha") {
     write_file_atomically(path, h + "ElementDataFile = LOCAL\n" + data);
     return;

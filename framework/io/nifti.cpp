@@ -33,6 +33,56 @@ void put(std::string& h, size_t offset, T value) {
   std::memcpy(h.data() + offset, &value, sizeof(T));
 }
 
+// NIfTI's world is RAS (x to the right, y anterior); dsnake's is LPS: negates the x and y
+// components of the origin and of every axis direction (its own inverse, so writing uses it too).
+void ras_to_lps(RawVolume& v) {
+  v.origin[0] = -v.origin[0];
+  v.origin[1] = -v.origin[1];
+  for (auto& axis : v.axes) {
+    axis[0] = -axis[0];
+    axis[1] = -axis[1];
+  }
+}
+
+// The NIfTI quaternion (b, c, d) and qfac of a 3x3 direction matrix whose columns are the
+// axes (NIfTI-1 header comments, "method 2"): a proper rotation has qfac 1; a reflection is
+// stored as qfac -1 with the third column negated. Uses the largest of the four squared
+// components for a stable division.
+std::array<double, 4> quaternion_of(std::array<std::array<double, 3>, 3> axes) {
+  const double det = axes[0][0] * (axes[1][1] * axes[2][2] - axes[2][1] * axes[1][2]) -
+                     axes[1][0] * (axes[0][1] * axes[2][2] - axes[2][1] * axes[0][2]) +
+                     axes[2][0] * (axes[0][1] * axes[1][2] - axes[1][1] * axes[0][2]);
+  const double qfac = det < 0 ? -1.0 : 1.0;
+  if (qfac < 0)
+    for (double& c : axes[2]) c = -c;
+  auto r = [&](int row, int col) { return axes[col][row]; };  // r(k, a): world k of axis a
+  const double trace = r(0, 0) + r(1, 1) + r(2, 2);
+  double a, b, c, d;
+  if (trace > 0) {
+    a = 0.5 * std::sqrt(1 + trace);
+    b = (r(2, 1) - r(1, 2)) / (4 * a);
+    c = (r(0, 2) - r(2, 0)) / (4 * a);
+    d = (r(1, 0) - r(0, 1)) / (4 * a);
+  } else if (r(0, 0) >= r(1, 1) && r(0, 0) >= r(2, 2)) {
+    b = 0.5 * std::sqrt(std::max(0.0, 1 + r(0, 0) - r(1, 1) - r(2, 2)));
+    a = (r(2, 1) - r(1, 2)) / (4 * b);
+    c = (r(0, 1) + r(1, 0)) / (4 * b);
+    d = (r(0, 2) + r(2, 0)) / (4 * b);
+  } else if (r(1, 1) >= r(2, 2)) {
+    c = 0.5 * std::sqrt(std::max(0.0, 1 + r(1, 1) - r(0, 0) - r(2, 2)));
+    a = (r(0, 2) - r(2, 0)) / (4 * c);
+    b = (r(0, 1) + r(1, 0)) / (4 * c);
+    d = (r(1, 2) + r(2, 1)) / (4 * c);
+  } else {
+    d = 0.5 * std::sqrt(std::max(0.0, 1 + r(2, 2) - r(0, 0) - r(1, 1)));
+    a = (r(1, 0) - r(0, 1)) / (4 * d);
+    b = (r(0, 2) + r(2, 0)) / (4 * d);
+    c = (r(1, 2) + r(2, 1)) / (4 * d);
+  }
+  if (a < 0) b = -b, c = -c, d = -d;  // NIfTI stores a >= 0 implicitly
+  return {b, c, d, qfac};
+}
+
 // Decodes a NIfTI-1 header (and, unless header_only, the data) from its bytes.
 RawVolume decode_nifti(const std::string& bytes, const std::string& path, bool header_only) {
   if (bytes.size() < kNiftiHeaderBytes)
@@ -62,8 +112,8 @@ RawVolume decode_nifti(const std::string& bytes, const std::string& path, bool h
   for (int a = 0; a < v.ndims; ++a) v.size[a] = dim[a + 1];
   v.channels = dim[0] == 5 ? dim[5] : 1;
   for (int a = 0; a < 3; ++a) v.spacing[a] = nifti_field<float>(bytes, 76 + 4 * (a + 1), swap);
-  // Origin and axis directions from the qform (preferred, as before) or the sform; the numbers
-  // are the file's own (NIfTI's RAS). read_volume aligns the axes with the world's.
+  // Origin and axis directions from the qform (preferred, as before) or the sform, in NIfTI's
+  // RAS; converted to dsnake's LPS world below. read_volume aligns the axes with the world's.
   if (nifti_field<int16_t>(bytes, 252, swap) > 0) {
     for (int a = 0; a < 3; ++a) v.origin[a] = nifti_field<float>(bytes, 268 + 4 * a, swap);
     const double b = nifti_field<float>(bytes, 256, swap), c = nifti_field<float>(bytes, 260, swap),
@@ -88,6 +138,7 @@ RawVolume decode_nifti(const std::string& bytes, const std::string& path, bool h
         for (int k = 0; k < 3; ++k) v.axes[axis][k] = column[k] / norm;
     }
   }
+  ras_to_lps(v);
   if (header_only) return v;
 
   const int16_t datatype = nifti_field<int16_t>(bytes, 70, swap);
@@ -119,8 +170,18 @@ RawVolume decode_nifti(const std::string& bytes, const std::string& path, bool h
   return v;
 }
 
-// Writes a float32 NIfTI-1 (.nii, or gzipped .nii.gz), origin in qoffset with qform_code 1.
-void write_nifti(const RawVolume& v, const std::string& path) {
+// Writes a float32 (or, for a label map, uint8) NIfTI-1 (.nii, or gzipped .nii.gz). The LPS origin and directions are
+// converted to NIfTI's RAS and stored twice, as ITK and nibabel write them: as the qform
+// (quaternion, qform_code 1) and as the sform's rows (spacing times direction, sform_code 1).
+void write_nifti(const RawVolume& lps, const std::string& path) {
+  RawVolume v;  // the geometry in RAS; the values stay in `lps`
+  v.ndims = lps.ndims;
+  v.size = lps.size;
+  v.spacing = lps.spacing;
+  v.origin = lps.origin;
+  v.axes = lps.axes;
+  v.channels = lps.channels;
+  ras_to_lps(v);
   std::string h(kNiftiVoxOffset, '\0');
   put<int32_t>(h, 0, 348);
   std::array<int16_t, 8> dim{};
@@ -130,22 +191,30 @@ void write_nifti(const RawVolume& v, const std::string& path) {
   dim[5] = int16_t(v.channels);
   for (int i = 0; i < 8; ++i) put<int16_t>(h, 40 + 2 * i, dim[i]);
   if (v.channels > 1) put<int16_t>(h, 68, 1007);  // NIFTI_INTENT_VECTOR
-  put<int16_t>(h, 70, 16);                         // float32
-  put<int16_t>(h, 72, 32);
-  put<float>(h, 76, 1.0f);  // qfac
+  put<int16_t>(h, 70, lps.label ? 2 : 16);  // uint8 or float32
+  put<int16_t>(h, 72, lps.label ? 8 : 32);
+  const std::array<double, 4> q = quaternion_of(v.axes);
+  put<float>(h, 76, float(q[3]));  // qfac
   for (int a = 0; a < 3; ++a) put<float>(h, 80 + 4 * a, float(a < v.ndims ? v.spacing[a] : 1.0));
   for (int i = 4; i < 8; ++i) put<float>(h, 76 + 4 * i, 1.0f);
   put<float>(h, 108, float(kNiftiVoxOffset));
   put<float>(h, 112, 1.0f);  // scl_slope
   put<int8_t>(h, 123, 2);    // xyzt_units: mm
-  put<int16_t>(h, 252, 1);   // qform_code; quaternion b = c = d = 0 is the identity
+  put<int16_t>(h, 252, 1);   // qform_code: scanner
+  put<int16_t>(h, 254, 1);   // sform_code: scanner
+  for (int k = 0; k < 3; ++k) put<float>(h, 256 + 4 * k, float(q[k]));
   for (int a = 0; a < 3; ++a) put<float>(h, 268 + 4 * a, float(v.origin[a]));
+  for (int k = 0; k < 3; ++k) {  // srow_x, srow_y, srow_z
+    for (int a = 0; a < 3; ++a)
+      put<float>(h, 280 + 16 * k + 4 * a, float(v.axes[a][k] * (a < v.ndims ? v.spacing[a] : 1.0)));
+    put<float>(h, 280 + 16 * k + 12, float(v.origin[k]));
+  }
   std::memcpy(h.data() + 344, "n+1", 4);
   const int64_t n = v.num_voxels();
-  std::vector<double> planar(v.values.size());
+  std::vector<double> planar(lps.values.size());
   for (int c = 0; c < v.channels; ++c)
-    for (int64_t i = 0; i < n; ++i) planar[c * n + i] = v.values[i * v.channels + c];
-  const std::string bytes = h + float_bytes(planar);
+    for (int64_t i = 0; i < n; ++i) planar[c * n + i] = lps.values[i * v.channels + c];
+  const std::string bytes = h + stored_bytes(planar, lps.label);
   if (extension_of(path) == ".nii") {
     write_file_atomically(path, bytes);
     return;

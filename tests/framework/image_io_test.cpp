@@ -241,8 +241,11 @@ std::string nifti_by_hand(int16_t datatype, int16_t bitpix, float slope, float i
   put(116, inter);
   put(252, qform_code);
   put(254, sform_code);
-  put(268, 9.0f);  // qoffset_x, used only when qform_code > 0
-  const float srow[3][4] = {{0.5f, 0, 0, -4}, {0, 0.75f, 0, 5.5f}, {0, 0, 2, 6}};
+  // NIfTI's world is RAS: both transforms below are dsnake's (LPS) axis-aligned grid, the qform
+  // as a half turn about z (quatern_d = 1), the sform as diag(-0.5, -0.75, 2).
+  put(264, 1.0f);   // quatern_d
+  put(268, -9.0f);  // qoffset_x, used only when qform_code > 0: LPS x = 9
+  const float srow[3][4] = {{-0.5f, 0, 0, 4}, {0, -0.75f, 0, -5.5f}, {0, 0, 2, 6}};
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 4; ++c) put(280 + 16 * r + 4 * c, srow[r][c]);
   std::memcpy(h.data() + 344, "n+1", 4);
@@ -262,7 +265,7 @@ TEST(ImageIo, NiftiAppliesSlopeAndInterceptToUint8AndInt16) {
   const Image<3> a = read_image<3>(dir + "/u8.nii"), b = read_image<3>(dir + "/i16.nii");
   ASSERT_EQ(a.size(), GridIndex<3>(3, 2, 2));
   EXPECT_EQ(a.spacing(), Point<3>(0.5, 0.75, 2));
-  EXPECT_EQ(a.origin(), Point<3>(-4, 5.5, 6));  // from srow_*[3], since qform_code = 0
+  EXPECT_EQ(a.origin(), Point<3>(-4, 5.5, 6));  // from srow_*[3] in LPS, since qform_code = 0
   for (int i = 0; i < 12; ++i) {
     EXPECT_EQ(a[i], float(2 * (i * 20) + 1)) << i;
     EXPECT_EQ(b[i], float(2 * (i * 1000 - 6000) + 1)) << i;

@@ -1,11 +1,15 @@
 // Images stored with flipped or permuted axes (MetaImage TransformMatrix, NIfTI qform and sform)
 // read as the same axis-aligned image: every voxel lands at the same world position and holds
 // the same value as when the data are stored axis-aligned (framework/io/image_io_detail.h's
-// align_axes), in 2D and 3D. An oblique rotation keeps being read as axis-aligned.
+// align_axes), in 2D and 3D. An oblique rotation is kept as the grid's direction; written and
+// read again through every writer, the geometry comes back.
 #include "framework/io/image_io.h"
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
+
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -90,8 +94,9 @@ TEST(ImageOrientation, FlippedAndPermutedMetaImageAxesReadAsTheAlignedImage) {
   }
 }
 
-// The NIfTI sform of the issue: a y axis stored reversed (srow_y = [0, -2, 0, y0]), and a qform
-// rotated by 180 degrees about z (x and y reversed).
+// The NIfTI sform of the issue, in NIfTI's RAS world (x_RAS = -x_LPS, y_RAS = -y_LPS): a y axis
+// stored reversed (in LPS; srow_y = [0, 2, 0, -y0] in RAS), and the qform identity in RAS, which
+// is x and y reversed in LPS.
 TEST(ImageOrientation, NiftiSformAndQformFlipsReadAsTheAlignedImage) {
   const std::string dir = fresh_dir();
   const Image<3> e = expected_volume();
@@ -122,13 +127,14 @@ TEST(ImageOrientation, NiftiSformAndQformFlipsReadAsTheAlignedImage) {
     if (!flip_x) {  // sform only
       put_s(252, 0);
       put_s(254, 1);
-      const float srow[3][4] = {{1, 0, 0, 5}, {0, -2, 0, float(y0)}, {0, 0, 3, 7}};
+      const float srow[3][4] = {{-1, 0, 0, -5}, {0, 2, 0, float(-y0)}, {0, 0, 3, 7}};
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 4; ++c) put_f(280 + 16 * r + 4 * c, srow[r][c]);
-    } else {  // qform: quaternion (0, 0, 0, 1) = 180 degrees about z
+    } else {  // qform: quaternion (0, 0, 0): the identity in RAS
       put_s(252, 1);
-      put_f(256, 0), put_f(260, 0), put_f(264, 1);
-      put_f(268, float(x0)), put_f(272, float(y0)), put_f(276, 7);
+      put_s(254, 0);
+      put_f(256, 0), put_f(260, 0), put_f(264, 0);
+      put_f(268, float(-x0)), put_f(272, float(-y0)), put_f(276, 7);
     }
     std::ofstream(path, std::ios::binary) << bytes;
     expect_same_image(read_image<3>(path), e, path);
@@ -160,6 +166,151 @@ TEST(ImageOrientation, A2dFlipReadsAsTheAlignedImage) {
   EXPECT_NEAR(got.spacing()[0], 0.5, 1e-12);
   for (int64_t l = 0; l < e.num_voxels(); ++l) ASSERT_EQ(got[l], e[l]) << l;
 }
+
+
+// A rotation about the unit axis u by `deg` degrees (Rodrigues).
+Eigen::Matrix3d rotation(Eigen::Vector3d u, double deg) {
+  u.normalize();
+  const double t = deg * M_PI / 180;
+  Eigen::Matrix3d k;
+  k << 0, -u[2], u[1], u[2], 0, -u[0], -u[1], u[0], 0;
+  return Eigen::Matrix3d::Identity() + std::sin(t) * k + (1 - std::cos(t)) * k * k;
+}
+
+// A MetaImage with index axis a along columns[a] (any orthonormal matrix, a reflection too),
+// voxel (i, j, k) holding i + 10 j + 100 k.
+void write_oblique_mha(const Eigen::Matrix3d& columns, const Point<3>& origin, const Point<3>& spacing,
+                       const GridIndex<3>& size, const std::string& path) {
+  std::ostringstream h;
+  h.precision(17);
+  h << "ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = False\nTransformMatrix =";
+  for (int a = 0; a < 3; ++a)
+    for (int k = 0; k < 3; ++k) h << " " << columns(k, a);
+  h << "\nOffset = " << origin[0] << " " << origin[1] << " " << origin[2] << "\nElementSpacing = " << spacing[0] << " "
+    << spacing[1] << " " << spacing[2] << "\nDimSize = " << size[0] << " " << size[1] << " " << size[2]
+    << "\nElementType = MET_FLOAT\nElementDataFile = LOCAL\n";
+  std::vector<float> data;
+  for (int k = 0; k < size[2]; ++k)
+    for (int j = 0; j < size[1]; ++j)
+      for (int i = 0; i < size[0]; ++i) data.push_back(float(i + 10 * j + 100 * k));
+  std::ofstream out(path, std::ios::binary);
+  out << h.str();
+  out.write(reinterpret_cast<const char*>(data.data()), std::streamsize(data.size() * sizeof(float)));
+}
+
+// Every voxel the file stores (write_oblique_mha's layout) is found at its world position in
+// the image read: the grid frame's voxel there holds its value.
+void expect_voxels_at_their_world_positions(const Image<3>& got, const Eigen::Matrix3d& columns, const Point<3>& origin,
+                                            const Point<3>& spacing, const GridIndex<3>& size, double tol) {
+  ASSERT_EQ(got.num_voxels(), int64_t(size[0]) * size[1] * size[2]);
+  for (int k = 0; k < size[2]; ++k)
+    for (int j = 0; j < size[1]; ++j)
+      for (int i = 0; i < size[0]; ++i) {
+        const Point<3> world = origin + columns * Point<3>(i * spacing[0], j * spacing[1], k * spacing[2]);
+        const Point<3> c = got.grid().to_continuous_index(got.grid().to_frame(world));
+        GridIndex<3> idx;
+        for (int a = 0; a < 3; ++a) {
+          idx[a] = int(std::lround(c[a]));
+          ASSERT_NEAR(c[a], idx[a], tol) << "voxel (" << i << ", " << j << ", " << k << ") axis " << a;
+          ASSERT_TRUE(idx[a] >= 0 && idx[a] < got.size()[a]);
+        }
+        ASSERT_EQ(got.at(idx), float(i + 10 * j + 100 * k));
+      }
+}
+
+TEST(ImageOrientation, AnObliqueRotationIsKeptAsTheGridDirection) {
+  const std::string dir = fresh_dir();
+  const Eigen::Matrix3d r = rotation({1, 2, 3}, 23);
+  const Point<3> origin(-12.5, 40, 3), spacing(0.8, 1.1, 2.5);
+  const GridIndex<3> size(5, 4, 3);
+  write_oblique_mha(r, origin, spacing, size, dir + "/oblique.mha");
+  const Image<3> got = read_image<3>(dir + "/oblique.mha");
+  EXPECT_LT((got.grid().direction - r).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_EQ(got.size(), size);  // a rotation needs no reordering
+  expect_voxels_at_their_world_positions(got, r, origin, spacing, size, 1e-9);
+}
+
+// A reflection (determinant -1, as a NIfTI qfac of -1 gives) becomes a rotation by reversing
+// the last index axis: same world positions, and the frame keeps its orientation.
+TEST(ImageOrientation, AnObliqueReflectionBecomesARotationWithTheSameWorldVoxels) {
+  const std::string dir = fresh_dir();
+  Eigen::Matrix3d m = rotation({-2, 1, 0.5}, 40);
+  m.col(2) = -m.col(2);
+  const Point<3> origin(7, -3, 11), spacing(1, 0.5, 3);
+  const GridIndex<3> size(4, 6, 3);
+  write_oblique_mha(m, origin, spacing, size, dir + "/reflected.mha");
+  const Image<3> got = read_image<3>(dir + "/reflected.mha");
+  EXPECT_NEAR(got.grid().direction.determinant(), 1.0, 1e-12);
+  expect_voxels_at_their_world_positions(got, m, origin, spacing, size, 1e-9);
+}
+
+// The direction survives MetaImage and NIfTI (RAS on disk, converted both ways; float32 there).
+TEST(ImageOrientation, ObliqueGeometryRoundTripsThroughEveryWriter) {
+  const std::string dir = fresh_dir();
+  Grid<3> g{GridIndex<3>(5, 4, 3), Point<3>(0.8, 1.1, 2.5), Point<3>(-12.5, 40, 3)};
+  g.direction = rotation({1, -1, 2}, 67);
+  Image<3> oriented(g);
+  for (int64_t l = 0; l < oriented.num_voxels(); ++l) oriented[l] = float(l);
+  for (const std::string ext : {".mha", ".nii", ".nii.gz"}) {
+    SCOPED_TRACE(ext);
+    write_image<3>(oriented, dir + "/o" + ext);
+    const Image<3> back = read_image<3>(dir + "/o" + ext);
+    const double tol = ext == ".mha" ? 1e-12 : 1e-6;
+    EXPECT_LT((back.grid().direction - g.direction).cwiseAbs().maxCoeff(), tol);
+    EXPECT_LT((back.origin() - g.origin).cwiseAbs().maxCoeff(), 1e-5);
+    EXPECT_LT((back.spacing() - g.spacing).cwiseAbs().maxCoeff(), 1e-6);
+    ASSERT_EQ(back.size(), g.size);
+    for (int64_t l = 0; l < oriented.num_voxels(); ++l) ASSERT_EQ(back[l], oriented[l]);
+  }
+}
+
+// NIfTI's RAS origin and axes are dsnake's LPS with x and y negated: an axis-aligned LPS image
+// is stored as a half turn about z (quatern_d = 1) and srow_x = -spacing_x, srow_y = -spacing_y.
+TEST(ImageOrientation, NiftiIsWrittenInRasAndReadBackInLps) {
+  const std::string dir = fresh_dir();
+  const Image<3> e = expected_volume();  // origin (5, 6, 7)
+  write_image<3>(e, dir + "/e.nii");
+  std::ifstream in(dir + "/e.nii", std::ios::binary);
+  std::string h(348, '\0');
+  in.read(h.data(), 348);
+  auto f = [&](size_t at) {
+    float x;
+    std::memcpy(&x, &h[at], 4);
+    return double(x);
+  };
+  EXPECT_EQ(f(256), 0);  // quatern_b
+  EXPECT_EQ(f(260), 0);
+  EXPECT_EQ(f(264), 1);  // quatern_d
+  EXPECT_EQ(f(268), -5);
+  EXPECT_EQ(f(272), -6);
+  EXPECT_EQ(f(276), 7);
+  EXPECT_EQ(f(280), -1);  // srow_x[0] = -spacing_x
+  EXPECT_EQ(f(280 + 16 + 4), -2);
+  EXPECT_EQ(f(280 + 32 + 8), 3);
+  EXPECT_EQ(f(280 + 12), -5);
+  expect_same_image(read_image<3>(dir + "/e.nii"), e, "e.nii");
+}
+
+#ifdef DSNAKE_SCANS_DIR
+// ITK's example data: the same slice stored axis-aligned and with a +30 degree direction.
+TEST(ImageOrientation, ItkSliceStoredRotatedKeepsItsVoxelsAndGetsItsDirection) {
+  const std::string itk = std::string(DSNAKE_SCANS_DIR) + "/itk/";
+  const Image<2> plain = read_image<2>(itk + "BrainProtonDensitySliceBorder20.mhd");
+  const Image<2> rotated = read_image<2>(itk + "BrainProtonDensitySliceBorder20DirectionPlus30.mhd");
+  ASSERT_EQ(plain.size(), GridIndex<2>(221, 257));
+  ASSERT_EQ(rotated.size(), plain.size());
+  EXPECT_TRUE(plain.grid().axis_aligned());
+  const double c = std::cos(M_PI / 6), s = std::sin(M_PI / 6);
+  Eigen::Matrix2d r;
+  r << c, -s, s, c;
+  EXPECT_LT((rotated.grid().direction - r).cwiseAbs().maxCoeff(), 1e-7);
+  EXPECT_EQ(rotated.data(), plain.data());
+  // voxel (100, 50): world = R (100, 50)
+  const Point<2> w = rotated.grid().to_world(rotated.grid().to_physical(GridIndex<2>(100, 50)));
+  EXPECT_NEAR(w[0], c * 100 - s * 50, 1e-6);
+  EXPECT_NEAR(w[1], s * 100 + c * 50, 1e-6);
+}
+#endif
 
 }  // namespace
 }  // namespace dsnake
