@@ -240,6 +240,42 @@ TEST(Nrrd, SpacingsAndAxisMinsWithoutSpace) {
   EXPECT_EQ(im.data(), (std::vector<float>{1, 2, 3, 4}));
 }
 
+// A 2D slice in 3D space (dimension 2, space LPS): a one-slice volume whose third axis is the
+// slice normal; here the slice is the y-z plane (x axis of the file along world y, y along z).
+TEST(Nrrd, SliceIn3DSpaceAndSkips) {
+  const std::string dir = fresh_dir();
+  write_file(dir + "/slice.nrrd",
+             "NRRD0004\ntype: uchar\ndimension: 2\nspace: LPS\nsizes: 3 2\n"
+             "space directions: (0,0.5,0) (0,0,2)\nspace origin: (7,1,2)\nencoding: raw\n\n" +
+             std::string("\x01\x02\x03\x04\x05\x06", 6));
+  const detail::RawVolume v = detail::read_nrrd(dir + "/slice.nrrd");
+  EXPECT_EQ(v.ndims, 3);
+  EXPECT_EQ(v.effective_dimension(), 2);
+  EXPECT_EQ(v.size, (std::array<int64_t, 3>{3, 2, 1}));
+  EXPECT_EQ(v.axes[0], (std::array<double, 3>{0, 1, 0}));
+  EXPECT_EQ(v.axes[1], (std::array<double, 3>{0, 0, 1}));
+  EXPECT_EQ(v.axes[2], (std::array<double, 3>{1, 0, 0}));  // normal: x cross y
+  EXPECT_EQ(v.spacing[0], 0.5);
+  EXPECT_EQ(v.origin, (std::array<double, 3>{7, 1, 2}));
+  EXPECT_EQ(image_file_dimension(dir + "/slice.nrrd"), 2);
+  // byte skip -1: the data are the last bytes of the data file; line skip: lines before them
+  write_file(dir + "/tail.nhdr", "NRRD0004\ntype: uint16\nendian: little\ndimension: 2\nsizes: 2 1\n"
+                                 "encoding: raw\nbyte skip: -1\ndata file: tail.bin\n");
+  write_file(dir + "/tail.bin", "some preamble" + little_endian<uint16_t>({300, 7}));
+  EXPECT_EQ(read_image<2>(dir + "/tail.nhdr").data(), (std::vector<float>{300, 7}));
+  write_file(dir + "/lines.nhdr", "NRRD0004\ntype: uint8\ndimension: 2\nsizes: 2 1\nencoding: raw\n"
+                                  "line skip: 2\nbyte skip: 1\ndata file: lines.bin\n");
+  write_file(dir + "/lines.bin", "first\nsecond\nx\x09\x0a");
+  EXPECT_EQ(read_image<2>(dir + "/lines.nhdr").data(), (std::vector<float>{9, 10}));
+  // left-anterior-superior: y negated
+  write_file(dir + "/las.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nspace: left-anterior-superior\n"
+                                "sizes: 1 1 1\nspace directions: (1,0,0) (0,1,0) (0,0,1)\nspace origin: (1,2,3)\n"
+                                "encoding: raw\n\n\x05");
+  const detail::RawVolume las = detail::read_nrrd(dir + "/las.nrrd");
+  EXPECT_EQ(las.axes[1], (std::array<double, 3>{0, -1, 0}));
+  EXPECT_EQ(las.origin, (std::array<double, 3>{1, -2, 3}));
+}
+
 // ---------------------------------------------------------------- round trips
 
 TEST(Nrrd, RoundTrips3DRawGzipAttachedAndDetached) {
