@@ -49,6 +49,7 @@ Kind vtk_content(const std::string& path) {
   return Kind::kContour;
 }
 
+// What a kind is called in messages.
 const char* name_of(Kind k) {
   return k == Kind::kVolume ? "an image or volume" : k == Kind::kMesh ? "a mesh" : "a contour";
 }

@@ -133,7 +133,7 @@ void add_field(CLI::App& app, CommandLine& c) {
       ->allow_extra_args(false)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   c.field_cmd->add_option("--field-cache", f.cache, "Field cache folder");
-  c.field_cmd->add_option("--out,-o", f.out, "Output vector image (.mha, .mhd, .nii, .nii.gz)")->required();
+  c.field_cmd->add_option("--out,-o", f.out, "Output vector image (.mha, .mhd, .nii, .nii.gz, .nrrd, .nhdr, .inr, .inr.gz)")->required();
   c.field_cmd->add_option("--png", f.png, "2D figure (default: --out with .png)");
   c.field_cmd->add_flag("--no-png", f.no_png, "No 2D figure");
   c.field_cmd->add_option("--threads,-j", c.threads, "OpenMP threads (default: all cores)")->check(CLI::Range(1, 1024));
