@@ -60,7 +60,8 @@ const char* name_of(Kind k) {
 int run_convert_command(const ConvertCommandOptions& o) {
   Kind in = kind_of(o.in);
   if (in == Kind::kUnknown)
-    throw InputError(o.in, "", "unknown format (expected an image/volume, mesh or contour extension; see dsnake convert --help)");
+    throw InputError(o.in, "",
+                     "unknown format (expected an image/volume, mesh or contour extension; see dsnake convert --help)");
   Kind out = kind_of(o.out);
   if (out == Kind::kUnknown)
     throw InputError(o.out, "", "unknown output format (see dsnake convert --help)");

@@ -190,7 +190,9 @@ NrrdSpace nrrd_space(const NrrdHeader& h, const std::string& path) {
     else if (n == "left-anterior-superior" || n == "las") s = {3, false, true};
     else if (n.find("time") != std::string::npos)
       throw InputError(path, "space", "time series ('" + *name + "') are not supported");
-    else throw InputError(path, "space", "unsupported space '" + *name + "' (expected LPS, RAS, LAS or 3D-right-handed)");
+    else
+      throw InputError(path, "space",
+                       "unsupported space '" + *name + "' (expected LPS, RAS, LAS or 3D-right-handed)");
     if (const std::string* d = nrrd_field(h, "space dimension"))
       if (nrrd_integer(*d, path, "space dimension", 1, 16) != 3)
         throw InputError(path, "space dimension", "must be 3 for space '" + *name + "'");
@@ -273,10 +275,12 @@ RawVolume nrrd_geometry(const NrrdHeader& h, const std::string& path) {
   const int lead = dim > 2 && is_vector_axis(kinds, directions, 0) ? 1 : 0;
   for (int a = lead; a < dim; ++a)
     if (is_vector_axis(kinds, directions, a))
-      throw InputError(path, "kinds", "only the first axis may be a vector axis (axis " + std::to_string(a) + " is not spatial)");
+      throw InputError(path, "kinds",
+                       "only the first axis may be a vector axis (axis " + std::to_string(a) + " is not spatial)");
   const int spatial = dim - lead;
   if (spatial != 2 && spatial != 3)
-    throw InputError(path, "dimension", "unsupported dimension " + std::to_string(dim) + " (expected 2 or 3 spatial axes)");
+    throw InputError(path, "dimension",
+                     "unsupported dimension " + std::to_string(dim) + " (expected 2 or 3 spatial axes)");
   if (space.dims > 0 && spatial > space.dims)
     throw InputError(path, "space dimension", "the image has " + std::to_string(spatial) + " spatial axes, its space " +
                                                   std::to_string(space.dims));
@@ -356,7 +360,8 @@ std::string nrrd_data(const NrrdHeader& h, const std::string& bytes, const std::
   if (!gz && encoding != "raw")
     throw InputError(path, "encoding", "unsupported encoding '" + encoding + "' (expected raw or gzip)");
   int64_t skip = 0;
-  if (const std::string* bs = nrrd_field(h, "byte skip")) skip = nrrd_integer(*bs, path, "byte skip", gz ? 0 : -1, int64_t(1) << 40);
+  if (const std::string* bs = nrrd_field(h, "byte skip"))
+    skip = nrrd_integer(*bs, path, "byte skip", gz ? 0 : -1, int64_t(1) << 40);
   std::string where;
   std::string data = nrrd_stored_bytes(h, bytes, path, where);
   const std::string in_file = where == path ? "" : " in " + where;
