@@ -42,7 +42,7 @@ nlohmann::json field_spec(const FieldCommandOptions& o) {
 std::string png_path(const FieldCommandOptions& o) {
   if (!o.png.empty()) return o.png;
   std::string base = o.out;
-  for (const char* ext : {".nii.gz", ".mha", ".mhd", ".nii"})
+  for (const char* ext : {".nii.gz", ".mha", ".mhd", ".nii", ".nrrd", ".nhdr", ".inr.gz", ".inr"})
     if (base.size() > std::string(ext).size() && base.ends_with(ext)) {
       base.resize(base.size() - std::string(ext).size());
       break;

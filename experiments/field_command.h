@@ -17,7 +17,7 @@ struct FieldCommandOptions {
   std::vector<std::string> params;  // --param key=value (repeatable): the field's JSON keys;
                                     // the value is read as JSON (number, bool) or else a string
   std::string cache;                // --field-cache DIR: inserted as "cache" ("" = none)
-  std::string out;                  // --out: .mha / .mhd / .nii / .nii.gz
+  std::string out;                  // --out: .mha / .mhd / .nii / .nii.gz / .nrrd / .nhdr / .inr / .inr.gz
   std::string png;                  // --png: 2D figure; "" = --out with its extension -> .png
   bool no_png = false;              // --no-png: skip the figure
 };

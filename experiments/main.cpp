@@ -4,11 +4,13 @@
 //              [--field-cache DIR] [--threads N] [--quiet]
 //   dsnake validate CONFIG.json [--set ...]
 //   dsnake field --image X --type gvf [--param key=value ...] [--field-cache DIR] --out field.mha
+//   dsnake convert IN OUT [--compress]   image/volume, mesh or contour to another format
 //   dsnake sweep SWEEP.json [--out DIR] [-j N] [--threads T] [--manifest parallel|slurm]
 //                [--aggregate-only] [--quiet]                    (experiments/sweep.h)
 //   dsnake schema [--markdown]       the experiment file's JSON Schema, or its key tables
 // Exit codes: 0 done, 2 bad input (one line on stderr naming the file and the JSON path or
 // element), 1 anything else (for a sweep: a run failed), 130 a sweep stopped by a signal.
+#include "experiments/convert_command.h"
 #include "experiments/experiment.h"
 #include "experiments/field_command.h"
 #include "experiments/runner.h"
@@ -90,11 +92,12 @@ struct CommandLine {
   std::string validate_config;
   std::vector<std::string> validate_overrides;
   FieldCommandOptions field;
+  ConvertCommandOptions convert;
   std::string sweep_file;
   SweepOptions sweep;
   bool schema_markdown = false;
   CLI::App *run_cmd = nullptr, *validate_cmd = nullptr, *field_cmd = nullptr, *sweep_cmd = nullptr,
-           *schema_cmd = nullptr;
+           *schema_cmd = nullptr, *convert_cmd = nullptr;
 };
 
 // "--set key.path=value", repeatable.
@@ -130,10 +133,23 @@ void add_field(CLI::App& app, CommandLine& c) {
       ->allow_extra_args(false)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   c.field_cmd->add_option("--field-cache", f.cache, "Field cache folder");
-  c.field_cmd->add_option("--out,-o", f.out, "Output vector image (.mha, .mhd, .nii, .nii.gz)")->required();
+  c.field_cmd->add_option("--out,-o", f.out, "Output vector image (.mha, .mhd, .nii, .nii.gz, .nrrd, .nhdr, .inr, .inr.gz)")->required();
   c.field_cmd->add_option("--png", f.png, "2D figure (default: --out with .png)");
   c.field_cmd->add_flag("--no-png", f.no_png, "No 2D figure");
   c.field_cmd->add_option("--threads,-j", c.threads, "OpenMP threads (default: all cores)")->check(CLI::Range(1, 1024));
+}
+
+void add_convert(CLI::App& app, CommandLine& c) {
+  c.convert_cmd = app.add_subcommand(
+      "convert",
+      "Copy an image/volume, mesh or contour to another format (by extension). Images and volumes "
+      "(2D, 3D, vector fields): .mha .mhd .nii .nii.gz .nrrd .nhdr .inr .inr.gz, 2D also .png .tif "
+      ".tiff .jpg .jpeg .bmp; spacing, origin and direction are kept, the voxel values go through as "
+      "float32 (8-bit grey for the 2D raster formats). Meshes: .off .obj .ply .stl .vtk; contours: "
+      ".txt .json .vtk; vertex order kept. Nothing is written on an error (exit code 2)");
+  c.convert_cmd->add_option("in", c.convert.in, "Input file")->required();
+  c.convert_cmd->add_option("out", c.convert.out, "Output file")->required();
+  c.convert_cmd->add_flag("--compress", c.convert.compress, "zlib-compressed MetaImage data, gzip-encoded NRRD");
 }
 
 void add_sweep_and_schema(CLI::App& app, CommandLine& c) {
@@ -170,6 +186,7 @@ int dispatch(const CommandLine& c) {
   if (*c.field_cmd) return run_field_command(c.field);
   if (*c.sweep_cmd) return sweep(c.sweep_file, c.sweep);
   if (*c.schema_cmd) return schema(c.schema_markdown);
+  if (*c.convert_cmd) return run_convert_command(c.convert);
   return validate(c.validate_config, c.validate_overrides);
 }
 
@@ -183,6 +200,7 @@ int main(int argc, char** argv) {
   CommandLine c;
   add_run_and_validate(app, c);
   add_field(app, c);
+  add_convert(app, c);
   add_sweep_and_schema(app, c);
   try {
     app.parse(argc, argv);

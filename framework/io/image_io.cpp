@@ -77,11 +77,12 @@ std::string label_bytes(const std::vector<double>& values) {
   return out;
 }
 
-// Lower-case extension, with ".nii.gz" kept whole.
+// Lower-case extension, with ".nii.gz" and ".inr.gz" kept whole.
 std::string extension_of(const std::string& path) {
   std::string name = fs::path(path).filename().string();
   std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return std::tolower(c); });
   if (name.size() > 7 && name.ends_with(".nii.gz")) return ".nii.gz";
+  if (name.size() > 7 && name.ends_with(".inr.gz")) return ".inr.gz";
   const size_t dot = name.rfind('.');
   return dot == std::string::npos ? "" : name.substr(dot);
 }
@@ -92,7 +93,7 @@ bool is_opencv_extension(const std::string& ext) {
 }
 
 [[noreturn]] void unknown_format(const std::string& path) {
-  throw InputError(path, "", "unknown image format (expected .mha, .mhd, .nii, .nii.gz, or for 2D "
+  throw InputError(path, "", "unknown image format (expected .mha, .mhd, .nii, .nii.gz, .nrrd, .nhdr, .inr, .inr.gz, or for 2D "
                              ".png, .tif, .tiff, .jpg, .jpeg, .bmp)");
 }
 
@@ -290,6 +291,8 @@ RawVolume read_volume(const std::string& path) {
   RawVolume v;
   if (ext == ".mha" || ext == ".mhd") v = read_meta(path);
   else if (ext == ".nii" || ext == ".nii.gz") v = decode_nifti(read_gz_bytes(path), path, false);
+  else if (ext == ".nrrd" || ext == ".nhdr") v = read_nrrd(path);
+  else if (ext == ".inr" || ext == ".inr.gz") v = read_inr(path);
   else if (is_opencv_extension(ext)) return read_opencv(path);
   else unknown_format(path);
   align_axes(v, path);
@@ -301,6 +304,8 @@ void write_volume(const RawVolume& v, const std::string& path, const ImageWriteO
   const std::string ext = extension_of(path);
   if (ext == ".mha" || ext == ".mhd") return write_meta(v, path, options.compress);
   if (ext == ".nii" || ext == ".nii.gz") return write_nifti(v, path);
+  if (ext == ".nrrd" || ext == ".nhdr") return write_nrrd(v, path, options.compress);
+  if (ext == ".inr" || ext == ".inr.gz") return write_inr(v, path);
   if (is_opencv_extension(ext) && v.ndims == 2 && v.channels == 1) return write_opencv(v, path);
   if (is_opencv_extension(ext)) throw InputError(path, "", "this format holds only 2D grey images");
   unknown_format(path);
@@ -352,12 +357,14 @@ RawVolume raw_of(const Grid<D>& g, int channels) {
 
 }  // namespace
 
-// Reads only the header (MetaImage, NIfTI); OpenCV formats are 2D.
+// Reads only the header (MetaImage, NIfTI, NRRD, INRIMAGE); OpenCV formats are 2D.
 int image_file_dimension(const std::string& path) {
   const std::string ext = extension_of(path);
   if (ext == ".mha" || ext == ".mhd") return meta_dimension(path);
   if (ext == ".nii" || ext == ".nii.gz")
     return decode_nifti(read_gz_bytes(path, kNiftiHeaderBytes), path, true).effective_dimension();
+  if (ext == ".nrrd" || ext == ".nhdr") return nrrd_dimension(path);
+  if (ext == ".inr" || ext == ".inr.gz") return inr_dimension(path);
   if (is_opencv_extension(ext)) return 2;
   unknown_format(path);
 }
@@ -386,7 +393,8 @@ void write_image(const Image<D>& image, const std::string& path) {
   write_image<D>(image, path, ImageWriteOptions{});
 }
 
-// Vector fields go to MetaImage (channels) or NIfTI (intent vector) only.
+// Vector fields go to MetaImage (channels), NIfTI (intent vector), NRRD (vector axis) or
+// INRIMAGE (VDIM) only.
 template <int D>
 void write_vector_field(const VectorField<D>& field, const std::string& path) {
   RawVolume v = raw_of<D>(field.grid(), D);
@@ -394,7 +402,7 @@ void write_vector_field(const VectorField<D>& field, const std::string& path) {
   for (int64_t i = 0; i < field.num_voxels(); ++i)
     for (int a = 0; a < D; ++a) v.values[size_t(i) * D + a] = field[i][a];
   const std::string ext = extension_of(path);
-  if (is_opencv_extension(ext)) throw InputError(path, "", "vector fields need .mha, .mhd, .nii or .nii.gz");
+  if (is_opencv_extension(ext)) throw InputError(path, "", "vector fields need .mha, .mhd, .nii, .nii.gz, .nrrd, .nhdr, .inr or .inr.gz");
   write_volume(v, path, ImageWriteOptions{});
 }
 
@@ -406,6 +414,17 @@ VectorField<D> read_vector_field(const std::string& path) {
   for (int64_t i = 0; i < field.num_voxels(); ++i)
     for (int a = 0; a < D; ++a) field[i][a] = v.values[size_t(i) * D + a];
   return field;
+}
+
+// Decodes `in` as read_volume does, checks it as read_image/read_vector_field would, and
+// writes it to `out` with its geometry (spacing, origin, axes) as float32 voxels.
+void convert_image_file(const std::string& in, const std::string& out, const ImageWriteOptions& options) {
+  RawVolume v = read_volume(in);
+  const int d = v.effective_dimension();
+  if (d == 2) checked_grid<2>(v, in, v.channels == 2 ? 2 : 1);
+  else checked_grid<3>(v, in, v.channels == 3 ? 3 : 1);
+  if (d == 2 && is_opencv_extension(extension_of(out))) v.ndims = 2;  // a one-slice volume to PNG
+  write_volume(v, out, options);
 }
 
 template Image<2> read_image<2>(const std::string&);

@@ -1,8 +1,10 @@
 // Reading and writing images and volumes, keeping spacing and origin:
 //  - 2D: PNG, TIFF, JPEG, BMP through OpenCV (grey levels; colour is converted to grey);
-//    MetaImage and NIfTI with two dimensions (or a third of size 1) also read as 2D.
-//  - 3D: MetaImage .mha/.mhd (raw or zlib-compressed, separate .raw/.zraw data file or LOCAL)
-//    and NIfTI-1 .nii/.nii.gz.
+//    MetaImage, NIfTI, NRRD and INRIMAGE with two dimensions (or a third of size 1) also read as 2D.
+//  - 3D: MetaImage .mha/.mhd (raw or zlib-compressed, separate .raw/.zraw data file or LOCAL),
+//    NIfTI-1 .nii/.nii.gz, NRRD .nrrd/.nhdr (raw or gzip, attached or detached data, LPS/RAS
+//    space directions; framework/io/nrrd.cpp) and INRIMAGE-4 .inr/.inr.gz (framework/io/inr.cpp).
+//    World coordinates are LPS; a format storing RAS is converted on reading and writing.
 // Bad files (missing, truncated, wrong dimension, NaN voxels, unsupported type) throw an
 // InputError naming the file and the header key or voxel at fault. Writers write to a
 // temporary file and rename it, so a failed write leaves nothing behind.
@@ -20,24 +22,30 @@ int image_file_dimension(const std::string& path);
 template <int D>
 Image<D> read_image(const std::string& path);
 
-// Formats by extension: .mha .mhd .nii .nii.gz (float32 voxels), and for D = 2 also .png .tif
+// Formats by extension: .mha .mhd .nii .nii.gz .nrrd .nhdr .inr .inr.gz (float32 voxels), and for D = 2 also .png .tif
 // .tiff (8-bit after clamping to [0, 255]; spacing is lost in PNG/TIFF, so prefer .mha).
 template <int D>
 void write_image(const Image<D>& image, const std::string& path);
 
 // Options for write_image; the two-argument form uses the defaults.
 struct ImageWriteOptions {
-  bool compress = false;  // MetaImage only: zlib-compressed data (CompressedData = True); NIfTI: use .nii.gz
-  bool label = false;     // a label map: stored as uint8 (values rounded and clamped to [0, 255])
+  bool compress = false;  // MetaImage: zlib-compressed data (CompressedData = True); NRRD: gzip encoding;
+                          // NIfTI, INRIMAGE: use .nii.gz, .inr.gz
+  bool label = false;     // a label map: stored as uint8 (values rounded and clamped to [0, 255]; MetaImage, NIfTI, NRRD)
 };
 template <int D>
 void write_image(const Image<D>& image, const std::string& path, const ImageWriteOptions& options);
 
-// Vector fields as multi-component MetaImage (.mha, ElementNumberOfChannels = D) or NIfTI
-// (intent vector, 5th dimension = D).
+// Vector fields as multi-component MetaImage (.mha, ElementNumberOfChannels = D), NIfTI
+// (intent vector, 5th dimension = D), NRRD (a leading axis of kind vector) or INRIMAGE (VDIM = D).
 template <int D>
 void write_vector_field(const VectorField<D>& field, const std::string& path);
 template <int D>
 VectorField<D> read_vector_field(const std::string& path);
+
+// Copies an image, volume or vector field from `in` to `out` (formats by extension) keeping
+// spacing, origin and direction; the voxels go through as float32 (8-bit for .png/.tif/...).
+// Bad input throws InputError as read_image does; nothing is written then.
+void convert_image_file(const std::string& in, const std::string& out, const ImageWriteOptions& options = {});
 
 }  // namespace dsnake

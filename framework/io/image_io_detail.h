@@ -1,5 +1,5 @@
-// Internal to the image I/O (framework/io/image_io.cpp, metaimage.cpp, nifti.cpp): the decoded
-// form every reader produces and the byte helpers the formats share. Not part of the API.
+// Internal to the image I/O (framework/io/image_io.cpp, metaimage.cpp, nifti.cpp, nrrd.cpp,
+// inr.cpp): the decoded form every reader produces and the byte helpers the formats share. Not part of the API.
 #pragma once
 
 #include <algorithm>
@@ -91,6 +91,22 @@ inline constexpr size_t kNiftiHeaderBytes = 348;
 // bytes; write float32 .nii or .nii.gz.
 RawVolume decode_nifti(const std::string& bytes, const std::string& path, bool header_only);
 void write_nifti(const RawVolume& v, const std::string& path);
+
+// NRRD (nrrd.cpp): read a .nrrd (attached data) or .nhdr (detached data file) completely, or
+// only its header's dimension; write float32 little-endian LPS NRRD, gzip-encoded when
+// `compress` (.nrrd: data attached; .nhdr: data in <stem>.raw or <stem>.raw.gz beside it).
+RawVolume read_nrrd(const std::string& path);
+int nrrd_dimension(const std::string& path);
+void write_nrrd(const RawVolume& v, const std::string& path, bool compress);
+
+// gzip-wrapped deflate of `data` (nrrd.cpp; NRRD's gzip encoding and .inr.gz).
+std::string gzip_bytes(const std::string& data, const std::string& path);
+
+// INRIMAGE-4 (inr.cpp): read a .inr or .inr.gz completely, or only its header's dimension;
+// write float32 little-endian (CPU=decm) .inr, or gzipped .inr.gz.
+RawVolume read_inr(const std::string& path);
+int inr_dimension(const std::string& path);
+void write_inr(const RawVolume& v, const std::string& path);
 
 inline std::string stored_bytes(const std::vector<double>& values, bool label) {
   return label ? label_bytes(values) : float_bytes(values);

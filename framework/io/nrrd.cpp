@@ -1,0 +1,469 @@
+// NRRD (.nrrd with attached data, .nhdr with a detached data file) reading and writing; see
+// image_io.h. Read: encodings raw and gzip, either byte order, the 8- to 32-bit integer types,
+// float and double, 2 or 3 spatial axes plus an optional leading vector axis, and the geometry
+// from `space directions`/`space origin` (or the older `spacings`/`axis mins`). Worlds are
+// converted to LPS (image_io_detail.h): `right-anterior-superior` negates x and y,
+// `left-anterior-superior` negates y; `3D-right-handed` and a bare `space dimension` are read
+// as LPS (they name no patient axes, and the framework does not flip what it cannot name).
+// Every number of the header is checked against the data before anything is allocated.
+#include "framework/io/image_io_detail.h"
+
+#include "framework/core/atomic_file.h"
+#include "framework/core/errors.h"
+
+#include <zlib.h>
+
+#include <bit>
+#include <cerrno>
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+
+namespace dsnake::detail {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// Each size at most this (Grid<D> holds int sizes), and a whole data block at most 2^62 bytes.
+constexpr int64_t kMaxAxisSize = 2147483647;
+constexpr double kMaxDataBytes = 4.6e18;
+// Deflate inflates at most ~1032-fold: more claimed bytes than that cannot be in the file.
+constexpr double kMaxInflateRatio = 1100;
+
+// s without leading and trailing blanks.
+std::string strip(const std::string& s) {
+  const size_t a = s.find_first_not_of(" \t\r");
+  const size_t b = s.find_last_not_of(" \t\r");
+  return a == std::string::npos ? "" : s.substr(a, b - a + 1);
+}
+
+// s in lower case (NRRD field names and values are matched case-insensitively).
+std::string lower(std::string s) {
+  for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+// Blank-separated words of a field's value.
+std::vector<std::string> words_of(const std::string& value) {
+  std::istringstream in(value);
+  std::vector<std::string> out;
+  for (std::string w; in >> w;) out.push_back(w);
+  return out;
+}
+
+struct NrrdHeader {
+  std::map<std::string, std::string> fields;  // lower-case field name -> value
+  size_t data_start = std::string::npos;      // byte past the blank line that ends the header
+};
+
+// The magic line, then "field: value" lines up to a blank line (attached data follows it) or
+// the end of the bytes (a detached header). Comments (#) and "key:=value" pairs are skipped.
+NrrdHeader parse_nrrd_header(const std::string& bytes, const std::string& path) {
+  if (bytes.size() < 8 || bytes.compare(0, 7, "NRRD000") != 0 || bytes[7] < '1' || bytes[7] > '5')
+    throw InputError(path, "magic", "not a NRRD file (the first line must be NRRD0001 .. NRRD0005)");
+  NrrdHeader h;
+  size_t pos = bytes.find('\n');
+  int line_no = 1;
+  while (pos != std::string::npos && pos + 1 < bytes.size()) {
+    const size_t start = pos + 1;
+    pos = bytes.find('\n', start);
+    const std::string line = strip(bytes.substr(start, (pos == std::string::npos ? bytes.size() : pos) - start));
+    ++line_no;
+    if (line.empty()) {
+      h.data_start = pos == std::string::npos ? bytes.size() : pos + 1;
+      return h;
+    }
+    if (line[0] == '#' || line.find(":=") != std::string::npos) continue;
+    const size_t colon = line.find(": ");
+    if (colon == std::string::npos || line.size() > 65536)
+      throw InputError(path, "header line " + std::to_string(line_no), "unreadable header: expected 'field: value'");
+    h.fields[lower(strip(line.substr(0, colon)))] = strip(line.substr(colon + 2));
+  }
+  return h;
+}
+
+// The value of field `name` ("datafile" and "data file" are one field), or null.
+const std::string* nrrd_field(const NrrdHeader& h, const std::string& name) {
+  auto it = h.fields.find(name);
+  if (it == h.fields.end() && name.find(' ') != std::string::npos) {
+    std::string joined = name;
+    joined.erase(std::remove(joined.begin(), joined.end(), ' '), joined.end());
+    it = h.fields.find(joined);
+  }
+  return it == h.fields.end() ? nullptr : &it->second;
+}
+
+// The value of a field the file must have.
+const std::string& required_field(const NrrdHeader& h, const std::string& name, const std::string& path) {
+  const std::string* v = nrrd_field(h, name);
+  if (!v) throw InputError(path, name, "missing required field");
+  return *v;
+}
+
+// A whole number in [lo, hi] from one word of a field.
+int64_t nrrd_integer(const std::string& word, const std::string& path, const std::string& field, int64_t lo,
+                     int64_t hi) {
+  char* end = nullptr;
+  errno = 0;
+  const long long n = std::strtoll(word.c_str(), &end, 10);
+  if (end == word.c_str() || *end != '\0' || errno == ERANGE || n < lo || n > hi)
+    throw InputError(path, field, "expected a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) +
+                                      "], found '" + word + "'");
+  return n;
+}
+
+// A number from one word of a field ("nan" allowed where the caller allows it).
+double nrrd_number(const std::string& word, const std::string& path, const std::string& field) {
+  char* end = nullptr;
+  const double d = std::strtod(word.c_str(), &end);
+  if (end == word.c_str() || *end != '\0') throw InputError(path, field, "expected a number, found '" + word + "'");
+  return d;
+}
+
+// A "(x,y[,z])" vector of n numbers, as in `space directions` and `space origin`.
+std::vector<double> nrrd_vector(const std::string& token, const std::string& path, const std::string& field, int n) {
+  if (token.size() < 2 || token.front() != '(' || token.back() != ')')
+    throw InputError(path, field, "expected a vector '(x,y,z)', found '" + token + "'");
+  std::vector<double> out;
+  std::stringstream in(token.substr(1, token.size() - 2));
+  for (std::string part; std::getline(in, part, ',');) out.push_back(nrrd_number(strip(part), path, field));
+  if (int(out.size()) != n)
+    throw InputError(path, field, "expected " + std::to_string(n) + " components, found '" + token + "'");
+  return out;
+}
+
+// A field's value as vectors; "(1, 0)" with blanks inside is one vector.
+std::vector<std::string> vector_tokens(const std::string& value) {
+  std::vector<std::string> out;
+  std::string cur;
+  int depth = 0;
+  for (char c : value) {
+    if (c == '(') ++depth;
+    if (c == ')') --depth;
+    if ((c == ' ' || c == '\t') && depth == 0) {
+      if (!cur.empty()) out.push_back(cur);
+      cur.clear();
+    } else if (c != ' ' && c != '\t') {
+      cur += c;
+    }
+  }
+  if (!cur.empty()) out.push_back(cur);
+  return out;
+}
+
+// NRRD's type names; 64-bit integers and "block" are refused (no exact double for them).
+Scalar nrrd_type(const std::string& value, const std::string& path) {
+  static const std::map<std::string, Scalar> types = {
+      {"signed char", Scalar::kI8},         {"int8", Scalar::kI8},           {"int8_t", Scalar::kI8},
+      {"uchar", Scalar::kU8},               {"unsigned char", Scalar::kU8},  {"uint8", Scalar::kU8},
+      {"uint8_t", Scalar::kU8},             {"short", Scalar::kI16},         {"short int", Scalar::kI16},
+      {"signed short", Scalar::kI16},       {"signed short int", Scalar::kI16}, {"int16", Scalar::kI16},
+      {"int16_t", Scalar::kI16},            {"ushort", Scalar::kU16},        {"unsigned short", Scalar::kU16},
+      {"unsigned short int", Scalar::kU16}, {"uint16", Scalar::kU16},        {"uint16_t", Scalar::kU16},
+      {"int", Scalar::kI32},                {"signed int", Scalar::kI32},    {"int32", Scalar::kI32},
+      {"int32_t", Scalar::kI32},            {"uint", Scalar::kU32},          {"unsigned int", Scalar::kU32},
+      {"uint32", Scalar::kU32},             {"uint32_t", Scalar::kU32},      {"float", Scalar::kF32},
+      {"double", Scalar::kF64}};
+  const std::string t = lower(value);
+  auto it = types.find(t);
+  if (it != types.end()) return it->second;
+  if (t.find("long") != std::string::npos || t.find("64") != std::string::npos)
+    throw InputError(path, "type", "64-bit integer voxels ('" + value + "') are not supported");
+  throw InputError(path, "type", "unsupported type '" + value + "'");
+}
+
+// The world frame of `space`/`space dimension`: its dimension, and which of x, y to negate
+// to reach LPS.
+struct NrrdSpace {
+  int dims = 0;  // 0: no world space given
+  bool negate_x = false, negate_y = false;
+};
+
+// Reads `space` (named frames) or `space dimension` (a bare frame, read as LPS).
+NrrdSpace nrrd_space(const NrrdHeader& h, const std::string& path) {
+  NrrdSpace s;
+  if (const std::string* name = nrrd_field(h, "space")) {
+    const std::string n = lower(*name);
+    if (n == "left-posterior-superior" || n == "lps" || n == "3d-right-handed") s.dims = 3;
+    else if (n == "right-anterior-superior" || n == "ras") s = {3, true, true};
+    else if (n == "left-anterior-superior" || n == "las") s = {3, false, true};
+    else if (n.find("time") != std::string::npos)
+      throw InputError(path, "space", "time series ('" + *name + "') are not supported");
+    else
+      throw InputError(path, "space",
+                       "unsupported space '" + *name + "' (expected LPS, RAS, LAS or 3D-right-handed)");
+    if (const std::string* d = nrrd_field(h, "space dimension"))
+      if (nrrd_integer(*d, path, "space dimension", 1, 16) != 3)
+        throw InputError(path, "space dimension", "must be 3 for space '" + *name + "'");
+  } else if (const std::string* d = nrrd_field(h, "space dimension")) {
+    s.dims = int(nrrd_integer(*d, path, "space dimension", 2, 3));
+  }
+  return s;
+}
+
+// True if axis `a` holds the components of a vector, not a position: its kind says so or its
+// space direction is "none".
+bool is_vector_axis(const std::vector<std::string>& kinds, const std::vector<std::string>& directions, int a) {
+  static const char* vector_kinds[] = {"vector", "covariant-vector", "normal", "2-vector", "3-vector", "list"};
+  if (a < int(kinds.size()))
+    for (const char* k : vector_kinds)
+      if (lower(kinds[a]) == k) return true;
+  return a < int(directions.size()) && lower(directions[a]) == "none";
+}
+
+// Spacing, origin and axes of the spatial axes from `space directions` and `space origin`
+// (converted to LPS), or from `spacings` and `axis mins` when no world space is given.
+void nrrd_placement(const NrrdHeader& h, const std::string& path, const NrrdSpace& space, int lead, int n,
+                    const std::vector<std::string>& directions, RawVolume& v) {
+  const double flip[3] = {space.negate_x ? -1.0 : 1.0, space.negate_y ? -1.0 : 1.0, 1.0};
+  if (space.dims > 0 && !directions.empty()) {
+    v.spacing_key = "space directions";
+    for (int a = 0; a < n; ++a) {
+      const auto d = nrrd_vector(directions[lead + a], path, "space directions", space.dims);
+      double norm = 0;
+      for (double x : d) norm += x * x;
+      norm = std::sqrt(norm);
+      if (!(norm > 0) || !std::isfinite(norm))
+        throw InputError(path, "space directions", "axis " + std::to_string(lead + a) + " has no length");
+      v.spacing[a] = norm;
+      for (int k = 0; k < space.dims; ++k) v.axes[a][k] = flip[k] * d[k] / norm;
+    }
+  } else if (const std::string* sp = nrrd_field(h, "spacings")) {
+    v.spacing_key = "spacings";
+    const auto w = words_of(*sp);
+    if (int(w.size()) != lead + n) throw InputError(path, "spacings", "expected one number per axis");
+    for (int a = 0; a < n; ++a) v.spacing[a] = nrrd_number(w[lead + a], path, "spacings");
+  }
+  if (space.dims > 0) {
+    if (const std::string* o = nrrd_field(h, "space origin")) {
+      const auto org = nrrd_vector(strip(*o), path, "space origin", space.dims);
+      for (int k = 0; k < space.dims; ++k) v.origin[k] = flip[k] * org[k];
+    }
+  } else if (const std::string* m = nrrd_field(h, "axis mins")) {
+    const auto w = words_of(*m);
+    if (int(w.size()) != lead + n) throw InputError(path, "axis mins", "expected one number per axis");
+    for (int a = 0; a < n; ++a) v.origin[a] = nrrd_number(w[lead + a], path, "axis mins");
+  }
+  if (n == 2 && v.ndims == 3) {  // a slice in 3D space: its normal is the third axis
+    const auto& x = v.axes[0];
+    const auto& y = v.axes[1];
+    std::array<double, 3> z{x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0]};
+    const double len = std::sqrt(z[0] * z[0] + z[1] * z[1] + z[2] * z[2]);
+    if (!(len > 0)) throw InputError(path, "space directions", "the two axes are parallel");
+    for (double& c : z) c /= len;
+    v.axes[2] = z;
+  }
+}
+
+// The geometry of a NRRD header: dimension, sizes, channels (a leading vector axis), spacing,
+// origin and axes, all checked.
+RawVolume nrrd_geometry(const NrrdHeader& h, const std::string& path) {
+  RawVolume v;
+  v.channel_key = "kinds";
+  const int dim = int(nrrd_integer(required_field(h, "dimension", path), path, "dimension", 1, 16));
+  const auto sizes = words_of(required_field(h, "sizes", path));
+  if (int(sizes.size()) != dim)
+    throw InputError(path, "sizes", "expected " + std::to_string(dim) + " sizes (dimension), found " +
+                                        std::to_string(sizes.size()));
+  const auto kinds = nrrd_field(h, "kinds") ? words_of(*nrrd_field(h, "kinds")) : std::vector<std::string>{};
+  const NrrdSpace space = nrrd_space(h, path);
+  const auto directions = nrrd_field(h, "space directions") ? vector_tokens(*nrrd_field(h, "space directions"))
+                                                            : std::vector<std::string>{};
+  if (!directions.empty() && int(directions.size()) != dim)
+    throw InputError(path, "space directions", "expected one entry per axis (" + std::to_string(dim) + ")");
+  const int lead = dim > 2 && is_vector_axis(kinds, directions, 0) ? 1 : 0;
+  for (int a = lead; a < dim; ++a)
+    if (is_vector_axis(kinds, directions, a))
+      throw InputError(path, "kinds",
+                       "only the first axis may be a vector axis (axis " + std::to_string(a) + " is not spatial)");
+  const int spatial = dim - lead;
+  if (spatial != 2 && spatial != 3)
+    throw InputError(path, "dimension",
+                     "unsupported dimension " + std::to_string(dim) + " (expected 2 or 3 spatial axes)");
+  if (space.dims > 0 && spatial > space.dims)
+    throw InputError(path, "space dimension", "the image has " + std::to_string(spatial) + " spatial axes, its space " +
+                                                  std::to_string(space.dims));
+  v.ndims = std::max(spatial, space.dims);
+  if (lead) v.channels = int(nrrd_integer(sizes[0], path, "sizes", 1, 3));
+  for (int a = 0; a < spatial; ++a) v.size[a] = nrrd_integer(sizes[lead + a], path, "sizes", 1, kMaxAxisSize);
+  nrrd_placement(h, path, space, lead, spatial, directions, v);
+  return v;
+}
+
+// deflate data (gzip or zlib wrapper) inflated chunk by chunk up to `limit` bytes, so that
+// memory grows with the real data, never with what a header claims.
+std::string gunzip_up_to(const std::string& in, size_t limit, const std::string& path) {
+  z_stream zs{};
+  if (inflateInit2(&zs, 15 + 32) != Z_OK) throw std::runtime_error("zlib initialisation failed");
+  zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
+  zs.avail_in = static_cast<uInt>(in.size());
+  std::string out;
+  int ret = Z_OK;
+  while (out.size() < limit && ret != Z_STREAM_END) {
+    const size_t chunk = std::min<size_t>(limit - out.size(), size_t(1) << 22);
+    const size_t old = out.size();
+    out.resize(old + chunk);
+    zs.next_out = reinterpret_cast<Bytef*>(out.data() + old);
+    zs.avail_out = static_cast<uInt>(chunk);
+    ret = inflate(&zs, Z_NO_FLUSH);
+    out.resize(old + chunk - zs.avail_out);
+    if (ret == Z_BUF_ERROR || ret == Z_NEED_DICT || ret == Z_DATA_ERROR || ret == Z_MEM_ERROR) break;
+  }
+  const std::string msg = zs.msg ? zs.msg : "";
+  inflateEnd(&zs);
+  if (ret == Z_DATA_ERROR || ret == Z_NEED_DICT || ret == Z_MEM_ERROR)
+    throw InputError(path, "encoding", "corrupt gzip data (" + (msg.empty() ? std::string("error") : msg) + ")");
+  return out;
+}
+
+// The bytes of `path`'s data: attached after the header or in the `data file`, past `line skip`
+// lines (and for raw data `byte skip` bytes); `where` is set to the file they came from.
+std::string nrrd_stored_bytes(const NrrdHeader& h, const std::string& bytes, const std::string& path,
+                              std::string& where) {
+  const std::string* df = nrrd_field(h, "data file");
+  std::string data;
+  where = path;
+  if (df) {
+    const auto w = words_of(*df);
+    if (w.size() != 1 || w[0] == "LIST")
+      throw InputError(path, "data file", "lists and patterns of data files are not supported");
+    const fs::path p(w[0]);
+    where = (p.is_absolute() ? p : fs::path(path).parent_path() / p).string();
+    std::error_code ec;
+    if (!fs::is_regular_file(where, ec))
+      throw InputError(path, "data file", "data file '" + where + "' not found");
+    data = read_bytes(where);
+  } else {
+    if (h.data_start == std::string::npos)
+      throw InputError(path, "data file", "missing: no 'data file' field and no data after the header");
+    data = bytes.substr(h.data_start);
+  }
+  if (const std::string* ls = nrrd_field(h, "line skip")) {
+    const int64_t n = nrrd_integer(*ls, path, "line skip", 0, 1 << 20);
+    size_t pos = 0;
+    for (int64_t i = 0; i < n; ++i) {
+      pos = data.find('\n', pos);
+      if (pos == std::string::npos) throw InputError(path, "line skip", "the data has fewer lines than skipped");
+      ++pos;
+    }
+    data.erase(0, pos);
+  }
+  return data;
+}
+
+// The data block of exactly `expected` bytes (decoded from the encoding, `byte skip` applied),
+// or an InputError naming the field whose numbers the data does not hold.
+std::string nrrd_data(const NrrdHeader& h, const std::string& bytes, const std::string& path, double expected) {
+  const std::string encoding = lower(required_field(h, "encoding", path));
+  const bool gz = encoding == "gzip" || encoding == "gz";
+  if (!gz && encoding != "raw")
+    throw InputError(path, "encoding", "unsupported encoding '" + encoding + "' (expected raw or gzip)");
+  int64_t skip = 0;
+  if (const std::string* bs = nrrd_field(h, "byte skip"))
+    skip = nrrd_integer(*bs, path, "byte skip", gz ? 0 : -1, int64_t(1) << 40);
+  std::string where;
+  std::string data = nrrd_stored_bytes(h, bytes, path, where);
+  const std::string in_file = where == path ? "" : " in " + where;
+  if (gz) {
+    if (expected + double(skip) > kMaxInflateRatio * double(data.size()) + 1024)
+      throw InputError(path, "sizes", "sizes and type need " + exact(expected) + " bytes, more than the " +
+                                          std::to_string(data.size()) + " gzip bytes" + in_file + " can hold");
+    data = gunzip_up_to(data, size_t(expected) + size_t(skip), where);
+  }
+  if (skip == -1) skip = std::max<int64_t>(0, int64_t(data.size()) - int64_t(expected));
+  if (double(data.size()) < expected + double(skip))
+    throw InputError(path, "sizes", "sizes and type need " + exact(expected) + " bytes of data, found " +
+                                        std::to_string(std::max<int64_t>(0, int64_t(data.size()) - skip)) + in_file +
+                                        " (truncated data or wrong sizes)");
+  return data.substr(size_t(skip), size_t(expected));
+}
+
+}  // namespace
+
+// gzip-wrapped deflate of `data` (NRRD's gzip encoding, .inr.gz).
+std::string gzip_bytes(const std::string& data, const std::string& path) {
+  z_stream zs{};
+  if (deflateInit2(&zs, Z_DEFAULT_COMPRESSION, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK)
+    throw std::runtime_error(path + ": zlib initialisation failed");
+  std::string out(deflateBound(&zs, uLong(data.size())), '\0');
+  zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data.data()));
+  zs.avail_in = uInt(data.size());
+  zs.next_out = reinterpret_cast<Bytef*>(out.data());
+  zs.avail_out = uInt(out.size());
+  const int ret = deflate(&zs, Z_FINISH);
+  out.resize(zs.total_out);
+  deflateEnd(&zs);
+  if (ret != Z_STREAM_END) throw std::runtime_error(path + ": gzip compression failed");
+  return out;
+}
+
+namespace {
+
+// "(a,b[,c])" of the first n numbers.
+std::string vector_text(const std::array<double, 3>& a, int n) {
+  std::string s = "(";
+  for (int i = 0; i < n; ++i) s += (i ? "," : "") + exact(a[i]);
+  return s + ")";
+}
+
+}  // namespace
+
+// Reads a .nrrd or .nhdr file completely.
+RawVolume read_nrrd(const std::string& path) {
+  const std::string bytes = read_bytes(path);
+  const NrrdHeader h = parse_nrrd_header(bytes, path);
+  RawVolume v = nrrd_geometry(h, path);
+  const Scalar type = nrrd_type(required_field(h, "type", path), path);
+  bool swap = false;
+  if (scalar_bytes(type) > 1) {
+    const std::string endian = lower(required_field(h, "endian", path));
+    if (endian != "little" && endian != "big")
+      throw InputError(path, "endian", "expected little or big, found '" + endian + "'");
+    swap = (endian == "big") != (std::endian::native == std::endian::big);
+  }
+  const double count = double(v.size[0]) * double(v.size[1]) * double(v.size[2]) * v.channels;
+  const double expected = count * scalar_bytes(type);
+  if (expected > kMaxDataBytes) throw InputError(path, "sizes", "absurd sizes (" + exact(count) + " values)");
+  const std::string data = nrrd_data(h, bytes, path, expected);
+  v.values = decode(data.data(), int64_t(count), type, swap);
+  return v;
+}
+
+// The number of dimensions of a NRRD image from its header (the first MiB of the file).
+int nrrd_dimension(const std::string& path) {
+  const std::string head = read_bytes(path, 1 << 20);
+  return nrrd_geometry(parse_nrrd_header(head, path), path).effective_dimension();
+}
+
+// Writes float32 (uint8 for a label map) little-endian NRRD in LPS: .nrrd with the data attached, .nhdr with the data
+// in <stem>.raw (or <stem>.raw.gz) beside it; gzip encoding when `compress`.
+void write_nrrd(const RawVolume& v, const std::string& path, bool compress) {
+  const int n = v.ndims;
+  const bool vec = v.channels > 1;
+  std::string h = std::string("NRRD0004\n# written by dsnake\ntype: ") + (v.label ? "uint8" : "float") + "\ndimension: " + std::to_string(n + (vec ? 1 : 0)) + "\n";
+  h += n == 3 ? "space: left-posterior-superior\n" : "space dimension: 2\n";
+  h += "sizes:" + (vec ? " " + std::to_string(v.channels) : std::string());
+  for (int a = 0; a < n; ++a) h += " " + std::to_string(v.size[a]);
+  h += std::string("\nspace directions:") + (vec ? " none" : "");
+  for (int a = 0; a < n; ++a) {
+    std::array<double, 3> d{};
+    for (int k = 0; k < n; ++k) d[k] = v.axes[a][k] * v.spacing[a];
+    h += " " + vector_text(d, n);
+  }
+  h += std::string("\nkinds:") + (vec ? " vector" : "") + (n == 3 ? " domain domain domain" : " domain domain");
+  h += "\nendian: little\nencoding: " + std::string(compress ? "gzip" : "raw") + "\n";
+  h += "space origin: " + vector_text(v.origin, n) + "\n";
+  std::string data = stored_bytes(v.values, v.label);
+  if (compress) data = gzip_bytes(data, path);
+  if (extension_of(path) != ".nhdr") {
+    write_file_atomically(path, h + "\n" + data);
+    return;
+  }
+  const fs::path p(path);
+  const std::string data_name = p.stem().string() + (compress ? ".raw.gz" : ".raw");
+  write_file_atomically((p.parent_path() / data_name).string(), data);
+  write_file_atomically(path, h + "data file: " + data_name + "\n");
+}
+
+}  // namespace dsnake::detail

@@ -1,0 +1,136 @@
+// `dsnake convert IN OUT`: volumes between every format (geometry kept, values as float32),
+// meshes and contours between theirs (vertex order kept), and bad input: exit code 2, one line
+// on stderr naming the file and the field, and no output file.
+#include "framework/io/image_io.h"
+#include "framework/io/image_io_detail.h"
+#include "framework/io/mesh_io.h"
+
+#include "tests/experiments/temp_dir_test.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+namespace dsnake {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kScans = DSNAKE_SCANS_DIR;
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string err;
+};
+
+class ConvertTest : public test_support::TempDirTest {
+ protected:
+  CommandResult convert(const std::string& in, const std::string& out, const std::string& extra = "") {
+    const std::string err = (dir_ / "stderr.txt").string();
+    const std::string cmd = std::string(DSNAKE_EXE) + " convert " + in + " " + out + " " + extra + " >/dev/null 2>" + err;
+    const int status = std::system(cmd.c_str());
+    CommandResult r;
+    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.err = slurp(err);
+    return r;
+  }
+  std::string at(const std::string& name) const { return (dir_ / name).string(); }
+  // The bad-input contract: exit 2, one line naming every fragment, `out` not written.
+  void expect_refused(const std::string& in, const std::string& out, const std::vector<std::string>& fragments) {
+    SCOPED_TRACE(in + " -> " + out);
+    const CommandResult r = convert(in, out);
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    for (const auto& f : fragments) EXPECT_NE(r.err.find(f), std::string::npos) << "missing \"" << f << "\" in: " << r.err;
+    EXPECT_FALSE(fs::exists(out)) << "the output was written";
+  }
+};
+
+// ITK's .nhdr through every 2D-capable volume format and back gives the same grid and voxels.
+TEST_F(ConvertTest, ImageThroughEveryFormatKeepsGeometryAndVoxels) {
+  const std::string src = kScans + "/itk/BrainProtonDensitySliceBorder20.nhdr";
+  const Image<2> want = read_image<2>(src);
+  std::string prev = src;
+  for (const char* name : {"a.mha", "b.nii.gz", "c.nrrd", "d.inr", "e.mhd", "f.nhdr", "g.nii", "h.inr.gz", "i.png"}) {
+    SCOPED_TRACE(name);
+    const CommandResult r = convert(prev, at(name), "--compress");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const Image<2> got = read_image<2>(at(name));
+    ASSERT_EQ(got.size(), want.size());
+    EXPECT_EQ(got.data(), want.data());  // 8-bit values survive float32 and PNG
+    if (std::string(name) != "i.png") {
+      EXPECT_TRUE(got.grid().same_geometry(want.grid(), 0));
+    }
+    prev = at(name);
+  }
+}
+
+// A 3D float volume with anisotropic spacing (CGAL's skull_2.9.inr) through NRRD, NIfTI and
+// MetaImage; an oblique 2D direction (ITK's +30 degree .nhdr) is kept by the NRRD writer.
+TEST_F(ConvertTest, VolumeKeepsSpacingOriginAndDirection) {
+  const std::string src = kScans + "/cgal/images/skull_2.9.inr";
+  const Image<3> skull = read_image<3>(src);
+  ASSERT_EQ(convert(src, at("s.nrrd"), "--compress").exit_code, 0);
+  ASSERT_EQ(convert(at("s.nrrd"), at("s.nii")).exit_code, 0);
+  ASSERT_EQ(convert(at("s.nii"), at("s.mha")).exit_code, 0);
+  const Image<3> back = read_image<3>(at("s.mha"));
+  EXPECT_NEAR(back.spacing()[0], 3.943050, 1e-6);  // NIfTI stores float32 spacing
+  EXPECT_NEAR(back.spacing()[2], 3.650790, 1e-6);
+  EXPECT_TRUE(back.grid().same_geometry(skull.grid(), 1e-6));
+  EXPECT_EQ(back.data(), skull.data());
+  EXPECT_TRUE(read_image<3>(at("s.nrrd")).grid().same_geometry(skull.grid(), 0));
+
+  ASSERT_EQ(convert(kScans + "/itk/BrainProtonDensitySliceBorder20DirectionPlus30.nhdr", at("r.nrrd")).exit_code, 0);
+  const detail::RawVolume r = detail::read_nrrd(at("r.nrrd"));
+  EXPECT_NEAR(r.axes[0][0], 0.8660254, 1e-6);
+  EXPECT_NEAR(r.axes[0][1], 0.5, 1e-6);
+  EXPECT_NEAR(r.axes[1][0], -0.5, 1e-6);
+  EXPECT_NEAR(r.axes[1][1], 0.8660254, 1e-6);
+}
+
+TEST_F(ConvertTest, MeshAndContourKeepVertexOrder) {
+  const std::string femur = kScans + "/cgal/meshes/femur.off";
+  const Template<3> want = read_mesh_template(femur);
+  std::string prev = femur;
+  for (const char* name : {"f.ply", "f.vtk", "f.obj", "g.off"}) {
+    SCOPED_TRACE(name);
+    const CommandResult r = convert(prev, at(name));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    prev = at(name);
+    const Template<3> got = read_mesh_template(at(name));
+    ASSERT_EQ(got.num_vertices(), want.num_vertices());
+    for (int v = 0; v < want.num_vertices(); ++v) ASSERT_LT((got.positions[v] - want.positions[v]).norm(), 1e-5) << v;
+  }
+  // STL stores triangles, not a vertex list: only the vertex count is kept
+  ASSERT_EQ(convert(femur, at("f.stl")).exit_code, 0);
+  EXPECT_EQ(read_mesh_template(at("f.stl")).num_vertices(), want.num_vertices());
+  PointList<2> square = {{0, 0}, {2, 0}, {2, 1.5}, {0.25, 1}};
+  write_contour(square, at("c.txt"));
+  ASSERT_EQ(convert(at("c.txt"), at("c.json")).exit_code, 0);
+  ASSERT_EQ(convert(at("c.json"), at("c.vtk")).exit_code, 0);
+  ASSERT_EQ(convert(at("c.vtk"), at("d.txt")).exit_code, 0);
+  const Template<2> c = read_contour_template(at("d.txt"));
+  ASSERT_EQ(c.num_vertices(), 4);
+  for (int v = 0; v < 4; ++v) EXPECT_EQ(c.positions[v], square[v]) << v;
+}
+
+TEST_F(ConvertTest, BadInputExitsTwoWithOneLineAndNoOutput) {
+  std::ofstream(at("bad.nrrd"), std::ios::binary) << "NRRD0004\ntype: float\ndimension: 3\nsizes: 100 100 100\n"
+                                                     "endian: little\nencoding: raw\n\n0123456789";
+  expect_refused(at("bad.nrrd"), at("out.mha"), {"bad.nrrd", "sizes"});
+  std::ofstream(at("huge.inr"), std::ios::binary) << "#INRIMAGE-4#{\nXDIM=1000000\nYDIM=1000000\nZDIM=1000000\n"
+                                                     "TYPE=float\nPIXSIZE=32 bits\n##}\n";
+  expect_refused(at("huge.inr"), at("out.nrrd"), {"huge.inr", "XDIM"});
+  std::ofstream(at("nodata.nhdr")) << "NRRD0004\ntype: uchar\ndimension: 2\nsizes: 2 2\nencoding: raw\ndata file: gone.raw\n";
+  expect_refused(at("nodata.nhdr"), at("out.nii"), {"nodata.nhdr", "data file", "gone.raw"});
+  expect_refused(kScans + "/cgal/meshes/femur.off", at("out.mha"), {"out.mha", "mesh"});
+  expect_refused(kScans + "/cgal/images/liver.inr.gz", at("out.ply"), {"out.ply", "mesh"});
+  expect_refused(kScans + "/cgal/images/liver.inr.gz", at("out.xyz"), {"out.xyz", "unknown"});
+  expect_refused(at("in.abc"), at("out.mha"), {"in.abc", "unknown"});
+  expect_refused(at("missing.nrrd"), at("out.mha"), {"missing.nrrd", "not found"});
+}
+
+}  // namespace
+}  // namespace dsnake
