@@ -6,6 +6,7 @@
 
 #include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
+#include "framework/io/dicom.h"
 #include "framework/io/image_io_detail.h"
 
 #include <opencv2/core.hpp>
@@ -83,8 +84,8 @@ bool is_opencv_extension(const std::string& ext) {
 }
 
 [[noreturn]] void unknown_format(const std::string& path) {
-  throw InputError(path, "", "unknown image format (expected .mha, .mhd, .nii, .nii.gz, or for 2D "
-                             ".png, .tif, .tiff, .jpg, .jpeg, .bmp)");
+  throw InputError(path, "", "unknown image format (expected .mha, .mhd, .nii, .nii.gz, DICOM (.dcm, .dicom, "
+                             "a series folder), or for 2D .png, .tif, .tiff, .jpg, .jpeg, .bmp)");
 }
 
 // InputError unless `path` is an existing regular file.
@@ -237,6 +238,7 @@ RawVolume read_volume(const std::string& path) {
   if (ext == ".mha" || ext == ".mhd") v = read_meta(path);
   else if (ext == ".nii" || ext == ".nii.gz") v = decode_nifti(read_gz_bytes(path), path, false);
   else if (is_opencv_extension(ext)) return read_opencv(path);
+  else if (is_dicom_path(path)) v = read_dicom(path);
   else unknown_format(path);
   align_axes(v, path);
   return v;
@@ -296,13 +298,14 @@ RawVolume raw_of(const Grid<D>& g, int channels) {
 
 }  // namespace
 
-// Reads only the header (MetaImage, NIfTI); OpenCV formats are 2D.
+// Reads only the header (MetaImage, NIfTI, DICOM); OpenCV formats are 2D.
 int image_file_dimension(const std::string& path) {
   const std::string ext = extension_of(path);
   if (ext == ".mha" || ext == ".mhd") return meta_dimension(path);
   if (ext == ".nii" || ext == ".nii.gz")
     return decode_nifti(read_gz_bytes(path, kNiftiHeaderBytes), path, true).effective_dimension();
   if (is_opencv_extension(ext)) return 2;
+  if (is_dicom_path(path)) return dicom_dimension(path);
   unknown_format(path);
 }
 
