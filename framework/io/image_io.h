@@ -3,6 +3,17 @@
 //    MetaImage and NIfTI with two dimensions (or a third of size 1) also read as 2D.
 //  - 3D: MetaImage .mha/.mhd (raw or zlib-compressed, separate .raw/.zraw data file or LOCAL)
 //    and NIfTI-1 .nii/.nii.gz.
+//  - DICOM, read only, through GDCM (framework/io/dicom.cpp; any transfer syntax GDCM decodes:
+//    uncompressed, deflated, RLE, JPEG, JPEG-LS, JPEG 2000), values after RescaleSlope/Intercept:
+//    a .dcm/.dicom file or any file with "DICM" at byte 128 (one slice: 2D in its own plane, x
+//    along the rows, origin = ImagePositionPatient projected on the row and column directions;
+//    multi-frame: 3D with GDCM's geometry), or a folder holding one series (3D: slices sorted
+//    along row x column, the slice spacing from their positions, origin = the first slice's
+//    ImagePositionPatient, LPS). Files in the folder count when named .dcm/.dicom or carrying
+//    the magic; others are ignored. A folder with several SeriesInstanceUIDs is refused with a
+//    line listing them; "folder#UID" reads one. Slices of different size, orientation or pixel
+//    spacing, two at one position or a missing one (a slice off its evenly spaced place by more
+//    than 10 % of the spacing) are refused naming the file; colour DICOM is not supported.
 // Bad files (missing, truncated, wrong dimension, NaN voxels, unsupported type) throw an
 // InputError naming the file and the header key or voxel at fault. Writers write to a
 // temporary file and rename it, so a failed write leaves nothing behind.
