@@ -108,9 +108,11 @@ std::string us(uint16_t v) {
 
 // A synthetic 16-bit CT slice: `columns` x `rows` pixels of value x + 10 y + 100 z at
 // ImagePositionPatient (0, 0, z), PixelSpacing "0.5\0.25" (rows 0.5 apart, columns 0.25),
-// in series `series`. With an encapsulated transfer syntax the pixels go as one fragment.
+// in series `series`, axial unless `orientation` (ImageOrientationPatient) says otherwise. With
+// an encapsulated transfer syntax the pixels go as one fragment.
 std::string synthetic_slice(int columns, int rows, double z, const std::string& series,
-                            const std::string& transfer_syntax = "1.2.840.10008.1.2.1") {
+                            const std::string& transfer_syntax = "1.2.840.10008.1.2.1",
+                            const std::string& orientation = "1\\0\\0\\0\\1\\0") {
   const std::string sop_class = "1.2.840.10008.5.1.4.1.1.2", instance = series + "." + std::to_string(int(z * 10 + 1000));
   std::string meta = element(0x0002, 0x0001, "OB", std::string("\0\1", 2)) + element(0x0002, 0x0002, "UI", sop_class) +
                      element(0x0002, 0x0003, "UI", instance) + element(0x0002, 0x0010, "UI", transfer_syntax);
@@ -124,7 +126,7 @@ std::string synthetic_slice(int columns, int rows, double z, const std::string& 
   std::string ds = element(0x0008, 0x0016, "UI", sop_class) + element(0x0008, 0x0018, "UI", instance) +
                    element(0x0008, 0x0060, "CS", "CT") + element(0x0020, 0x000d, "UI", "1.2.3.4") +
                    element(0x0020, 0x000e, "UI", series) + element(0x0020, 0x0032, "DS", ipp.str()) +
-                   element(0x0020, 0x0037, "DS", "1\\0\\0\\0\\1\\0") + element(0x0028, 0x0002, "US", us(1)) +
+                   element(0x0020, 0x0037, "DS", orientation) + element(0x0028, 0x0002, "US", us(1)) +
                    element(0x0028, 0x0004, "CS", "MONOCHROME2") + element(0x0028, 0x0010, "US", us(uint16_t(rows))) +
                    element(0x0028, 0x0011, "US", us(uint16_t(columns))) + element(0x0028, 0x0030, "DS", "0.5\\0.25") +
                    element(0x0028, 0x0100, "US", us(16)) + element(0x0028, 0x0101, "US", us(16)) +
@@ -400,6 +402,24 @@ TEST(Dicom, SlicesOfDifferentSizesAreRefusedNamingTheFile) {
   EXPECT_EQ(e.file(), (dir / "c.dcm").string());
   EXPECT_TRUE(contains(e.message(), "4x2 pixels")) << e.what();
   EXPECT_TRUE(contains(e.message(), "3x2")) << e.what();
+}
+
+TEST(Dicom, SliceWithAnotherOrientationIsRefusedNamingTheFile) {
+  const fs::path dir = fresh_dir();
+  write_file(dir / "a.dcm", synthetic_slice(3, 2, 0, "1.2.3.5"));
+  write_file(dir / "b.dcm", synthetic_slice(3, 2, 1, "1.2.3.5"));
+  write_file(dir / "c.dcm", synthetic_slice(3, 2, 2, "1.2.3.5", "1.2.840.10008.1.2.1", "0\\1\\0\\1\\0\\0"));
+  const InputError e = expect_input_error([&] { read_image<3>(dir.string()); });
+  EXPECT_EQ(e.file(), (dir / "c.dcm").string());
+  EXPECT_EQ(e.where(), "ImageOrientationPatient");
+  EXPECT_TRUE(contains(e.message(), "differs")) << e.what();
+}
+
+TEST(Dicom, FolderWithOneSliceReadsAs2D) {
+  const fs::path dir = fresh_dir();
+  write_file(dir / "only.dcm", synthetic_slice(3, 2, 7, "1.2.3.4"));
+  EXPECT_EQ(image_file_dimension(dir.string()), 2);
+  EXPECT_EQ(read_image<2>(dir.string()).at({2, 1}), 712.0f);  // x + 10 y + 100 z
 }
 
 TEST(Dicom, MissingSliceAndDuplicatePositionAreRefused) {
