@@ -21,6 +21,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <map>
@@ -44,6 +45,7 @@ struct DicomSource {
 struct SliceHeader {
   std::string path, series_uid;
   int64_t frames = 1;
+  bool timed_frames = false;  // FrameTime or FrameTimeVector: the frames are time points (cine)
   bool has_position = false, has_orientation = false;
   Vec3 position{0, 0, 0};                        // ImagePositionPatient
   std::array<double, 6> orientation{1, 0, 0, 0, 1, 0};  // ImageOrientationPatient: row, column
@@ -144,6 +146,7 @@ SliceHeader header_of(const gdcm::DataSet& ds, const std::string& path) {
   h.series_uid = tag_text(ds, 0x0020, 0x000e);
   const std::vector<double> frames = tag_numbers(ds, 0x0028, 0x0008, 1, path, "NumberOfFrames");
   if (!frames.empty()) h.frames = std::max<int64_t>(1, int64_t(frames[0]));
+  h.timed_frames = ds.FindDataElement(gdcm::Tag(0x0018, 0x1063)) || ds.FindDataElement(gdcm::Tag(0x0018, 0x1065));
   const std::vector<double> ipp = tag_numbers(ds, 0x0020, 0x0032, 3, path, "ImagePositionPatient");
   if ((h.has_position = !ipp.empty())) std::copy(ipp.begin(), ipp.end(), h.position.begin());
   const std::vector<double> iop = tag_numbers(ds, 0x0020, 0x0037, 6, path, "ImageOrientationPatient");
@@ -156,6 +159,8 @@ SliceHeader header_of(const gdcm::DataSet& ds, const std::string& path) {
   if (!intercept.empty()) h.intercept = intercept[0];
   return h;
 }
+
+const gdcm::Tag kPixelData(0x7fe0, 0x0010);
 
 // InputError if a Part 10 file ends inside its file meta information (group 0002, always
 // explicit VR little endian): GDCM's parser asserts there, which would abort the process.
@@ -185,15 +190,13 @@ void check_meta_group(const std::string& path) {
 class PixelDataReader : public gdcm::ImageReader {
  public:
   bool ReadThroughPixelData() {
-    if (!ReadUpToTag(gdcm::Tag(0x7fe0, 0x0010))) return false;
+    if (!ReadUpToTag(kPixelData)) return false;
     GetPixmap().SetTransferSyntax(GetFile().GetHeader().GetDataSetTransferSyntax());
     gdcm::MediaStorage ms = GetFile().GetHeader().GetMediaStorage();
     if (!gdcm::MediaStorage::IsImage(ms)) ms.SetFromFile(GetFile());
     return gdcm::MediaStorage::IsImage(ms) && ReadImage(ms);
   }
 };
-
-const gdcm::Tag kPixelData(0x7fe0, 0x0010);
 
 // Parses the header into `reader`, stopping at the pixel data, whose value is skipped: the
 // stream position is then where that value begins.
@@ -403,11 +406,17 @@ RawVolume volume_of_slice(Slice&& s) {
 }
 
 // A multi-frame file as 3D, with the geometry GDCM reports (it reads the per-frame groups of
-// enhanced files; spacing 1 where the file has none).
+// enhanced files; spacing 1 where the file has none). Frames that are time points (a cine:
+// FrameTime, which GDCM would take as the z spacing in ms) are stacked 1 apart, with a warning.
 RawVolume volume_of_frames(Slice&& s) {
   RawVolume v;
   v.size = {s.columns, s.rows, s.header.frames};
   v.spacing = s.frame_spacing;
+  if (s.header.timed_frames) {
+    v.spacing[2] = 1;
+    std::fprintf(stderr, "dsnake: warning: %s: its %lld frames are time points (FrameTime); they are stacked "
+                         "along z, 1 apart\n", s.header.path.c_str(), static_cast<long long>(s.header.frames));
+  }
   v.origin = s.frame_origin;
   v.axes = s.frame_axes;
   v.values = std::move(s.values);

@@ -7,9 +7,9 @@
 //    uncompressed, deflated, RLE, JPEG, JPEG-LS, JPEG 2000), values after RescaleSlope/Intercept:
 //    a .dcm/.dicom file or any file with "DICM" at byte 128 (one slice: 2D in its own plane, x
 //    along the rows, origin = ImagePositionPatient projected on the row and column directions;
-//    multi-frame: 3D with GDCM's geometry), or a folder holding one series (3D: slices sorted
-//    along row x column, the slice spacing from their positions, origin = the first slice's
-//    ImagePositionPatient, LPS). Files in the folder count when named .dcm/.dicom or carrying
+//    multi-frame: 3D with GDCM's geometry; a cine's frames (FrameTime) 1 apart, with a warning),
+//    or a folder holding one series (3D: slices sorted along row x column, the slice spacing
+//    from their positions, origin = the first slice's ImagePositionPatient, LPS). Files in the folder count when named .dcm/.dicom or carrying
 //    the magic; others are ignored. A folder with several SeriesInstanceUIDs is refused with a
 //    line listing them; "folder#UID" reads one. Slices of different size, orientation or pixel
 //    spacing, two at one position or a missing one (a slice off its evenly spaced place by more

