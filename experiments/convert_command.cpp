@@ -33,7 +33,8 @@ Kind kind_of(const std::string& path) {
     if (e == v) return Kind::kVolume;
   if (e == ".off" || e == ".obj" || e == ".ply" || e == ".stl") return Kind::kMesh;
   if (e == ".txt" || e == ".json") return Kind::kContour;
-  return e == ".vtk" ? Kind::kVtk : Kind::kUnknown;
+  if (e == ".vtk") return Kind::kVtk;
+  return is_dicom_input(path) ? Kind::kVolume : Kind::kUnknown;  // read only: a DICOM output is refused below
 }
 
 // A legacy VTK file's content: a mesh if it has POLYGONS, else a contour if it has LINES.

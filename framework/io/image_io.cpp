@@ -359,6 +359,8 @@ RawVolume raw_of(const Grid<D>& g, int channels) {
 
 }  // namespace
 
+bool is_dicom_input(const std::string& path) { return is_dicom_path(path); }
+
 // Reads only the header (MetaImage, NIfTI, NRRD, INRIMAGE, DICOM); OpenCV formats are 2D.
 int image_file_dimension(const std::string& path) {
   const std::string ext = extension_of(path);

@@ -33,6 +33,10 @@
 
 namespace dsnake {
 
+// True if `path` names DICOM: a folder (a series), "folder#SeriesInstanceUID", a .dcm or .dicom
+// file, or a file with the "DICM" magic at byte 128.
+bool is_dicom_input(const std::string& path);
+
 // Number of dimensions of the image in `path` (2 or 3), from its header or extension.
 int image_file_dimension(const std::string& path);
 
