@@ -1,8 +1,9 @@
 // Helpers of the meshing tests: synthetic label images from a predicate in world coordinates,
-// and the checks every template from a label map must pass (so that a test on a real label
-// file, e.g. the liver, is one more TEST: read the file, template_from_labels, check_template).
+// and the checks every template from a label map must pass (a test on a real label file, e.g.
+// the liver, is one more TEST calling expect_valid_template_of_file with its path).
 #pragma once
 
+#include "framework/io/image_io.h"
 #include "framework/metrics/metrics.h"
 #include "meshing/label_mask.h"
 #include "meshing/template_from_labels.h"
@@ -95,6 +96,19 @@ inline void expect_valid_template(const LabelTemplate<3>& t, const Image<3>& lab
   EXPECT_GE(c.dice, min_dice) << what;
   EXPECT_NEAR(t.report.dice, c.dice, 1e-12) << what;
   EXPECT_GT(c.signed_volume, 0) << what << ": outward";
+}
+
+// The template of `label` in the label file at `path` (any 3D format read_image reads), checked
+// as expect_valid_template does: a test on a real label volume is one call.
+inline LabelTemplate<3> expect_valid_template_of_file(const std::string& path, int label, int target, int genus,
+                                                      double min_dice) {
+  const Image<3> labels = read_image<3>(path);
+  LabelTemplateOptions o;
+  o.label = label;
+  o.vertices = target;
+  LabelTemplate<3> t = template_from_labels<3>(labels, o, path);
+  expect_valid_template(t, labels, label, target, genus, min_dice, path);
+  return t;
 }
 
 }  // namespace dsnake::test_support

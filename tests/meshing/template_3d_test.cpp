@@ -1,9 +1,14 @@
 // 3D templates from label maps: synthetic labels of genus 0, 1 and 2 in an anisotropic grid
 // with a non-zero origin, and a voxelised femur (genus 2 as a mesh, 1 voxelised); mirroring.
+#include "framework/core/errors.h"
+#include "framework/io/image_io.h"
 #include "framework/io/mesh_io.h"
 #include "tests/meshing/label_test_helpers.h"
 
 #include <gtest/gtest.h>
+
+#include <filesystem>
+#include <unistd.h>
 
 namespace dsnake {
 namespace {
@@ -64,6 +69,30 @@ TEST(Template3d, TwoHoledSlabIsGenusTwo) {
   const Image<3> labels = two_holed_labels();
   EXPECT_EQ(test_support::label_genus(extract_label_mask(labels, 3)), 2);
   expect_valid_template(make(labels, 2000), labels, 3, 2000, 2, 0.99, "two-holed slab 2000");
+}
+
+// The same checks on a label file (the path a real volume would have): the torus written as a
+// MetaImage with label 3 among other labels.
+TEST(Template3d, LabelFile) {
+  Image<3> labels = torus_labels();
+  labels.at(GridIndex<3>(1, 1, 1)) = 7;
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("dsnake_template_label_file_" + std::to_string(::getpid()) + ".mha")).string();
+  write_image<3>(labels, path);
+  test_support::expect_valid_template_of_file(path, 3, 1000, 1, 0.99);
+  std::filesystem::remove(path);
+}
+
+// A torus cannot have 4 vertices: every attempt misses the count, and the label is refused
+// with the reason.
+TEST(Template3d, RefusesWhenNoDecimationPassesTheChecks) {
+  try {
+    make(torus_labels(), 4);
+    FAIL() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no decimation to 4 vertices passed the checks"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("not within 10% of 4"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Template3d, MirrorReflectsAboutTheGridMidPlane) {
