@@ -49,15 +49,16 @@ OMesh to_openmesh(const PointList<3>& p, const Connectivity& c) {
   return m;
 }
 
-// The surviving vertices (old order) and faces of a decimated OpenMesh mesh.
-DecimatedMesh from_openmesh(const OMesh& m) {
+// The surviving vertices (old order) and faces of a decimated OpenMesh mesh. Positions come from
+// p, the mesh it was built from: half-edge collapses move no vertex, and OpenMesh's default
+// kernel stores single-precision points, so p keeps the double positions exact.
+DecimatedMesh from_openmesh(const OMesh& m, const PointList<3>& p) {
   DecimatedMesh out;
   std::vector<int> new_id(m.n_vertices(), -1);
   for (auto v : m.vertices()) {
     if (m.status(v).deleted()) continue;
     new_id[v.idx()] = int(out.points.size());
-    const auto& x = m.point(v);
-    out.points.emplace_back(x[0], x[1], x[2]);
+    out.points.push_back(p[size_t(v.idx())]);
   }
   std::vector<Triangle> tris;
   for (auto f : m.faces()) {
@@ -107,8 +108,7 @@ DecimatedMesh decimate_mesh(const PointList<3>& p, const Connectivity& c, int ta
     DSNAKE_ASSERT(dec.initialize(), "the decimater accepts its modules");
     dec.decimate_to(size_t(std::max(target_vertices, 4)));
   }
-  m.garbage_collection();
-  return from_openmesh(m);
+  return from_openmesh(m, p);  // before any garbage collection: handles are still p's indices
 }
 
 PointList<2> resample_closed_polygon(const PointList<2>& p, int n) {
