@@ -55,14 +55,17 @@ LabelMask<D> checked_mask(const Image<D>& labels, const LabelTemplateOptions& o,
   return mask;
 }
 
-// The checks of a decimated mesh; "" when it passes, else what failed.
-std::string decimation_problem(const DecimatedMesh& m, int euler, int target, int& self_intersections) {
+// The checks of a decimated mesh; "" when it passes, else what failed (count_missed: the vertex
+// count, which stricter limits cannot bring nearer).
+std::string decimation_problem(const DecimatedMesh& m, int euler, int target, int& self_intersections,
+                               bool& count_missed) {
   if (std::string p = m.connectivity.closed_manifold_problem(); !p.empty()) return p;
   if (m.connectivity.euler_characteristic() != euler)
     return "Euler characteristic " + std::to_string(m.connectivity.euler_characteristic()) + " instead of " +
            std::to_string(euler);
   const int n = int(m.points.size());
-  if (std::abs(n - target) > 0.1 * target)
+  count_missed = std::abs(n - target) > 0.1 * target;
+  if (count_missed)
     return std::to_string(n) + " vertices, not within 10% of " + std::to_string(target);
   self_intersections = count_self_intersections<3>({m.points, m.connectivity});
   if (self_intersections > 0) return std::to_string(self_intersections) + " self-intersecting triangle pairs";
@@ -87,11 +90,13 @@ DecimatedMesh decimate_checked(const ExtractedSurface& s, const LabelTemplateOpt
   for (size_t a = 0; a < attempts.size(); ++a) {
     DecimatedMesh m = decimate_mesh(smooth, c, o.vertices, attempts[a]);
     report.self_intersections = 0;
-    last = decimation_problem(m, report.euler_characteristic, o.vertices, report.self_intersections);
+    bool count_missed = false;
+    last = decimation_problem(m, report.euler_characteristic, o.vertices, report.self_intersections, count_missed);
     if (last.empty()) {
       report.attempt = int(a) + 1;
       return m;
     }
+    if (count_missed) break;  // stricter limits forbid more collapses, never fewer
   }
   throw InputError(file, label_where(o.label),
                    "no decimation to " + std::to_string(o.vertices) + " vertices passed the checks (last attempt: " +

@@ -5,8 +5,8 @@
 //      marching cubes (surface_extraction.h) -> Taubin smoothing -> OpenMesh decimation ->
 //      checks: closed, manifold, Euler characteristic as extracted, no self-intersection,
 //      vertex count within 10% of the target. A result failing a check is redone with the next,
-//      stricter decimation limits (decimation_attempts()); when all fail, the label is refused
-//      (InputError: no template written).
+//      stricter decimation limits (decimation_attempts()); when all fail, or the vertex count is
+//      missed (stricter limits cannot help), the label is refused (InputError: nothing written).
 //  2D: label mask (largest 4-connected component, holes filled) -> marching squares -> Taubin
 //      smoothing -> uniform arc-length resampling to exactly the asked count -> checks: no
 //      self-intersection (else refused), counter-clockwise.
