@@ -111,6 +111,21 @@ DecimatedMesh decimate_mesh(const PointList<3>& p, const Connectivity& c, int ta
   return from_openmesh(m, p);  // before any garbage collection: handles are still p's indices
 }
 
+DecimatedMesh simplify_quadric(const PointList<3>& p, const Connectivity& c, int target_vertices) {
+  OMesh m = to_openmesh(p, c);
+  {
+    OpenMesh::Decimater::DecimaterT<OMesh> dec(m);
+    OpenMesh::Decimater::ModQuadricT<OMesh>::Handle quadric;
+    OpenMesh::Decimater::ModNormalFlippingT<OMesh>::Handle flipping;
+    dec.add(quadric);
+    dec.add(flipping);
+    dec.module(flipping).set_max_normal_deviation(60.0);  // no collapse turns a face by more
+    dec.initialize();
+    dec.decimate_to(size_t(std::max(target_vertices, 4)));
+  }
+  return from_openmesh(m, p);
+}
+
 PointList<2> resample_closed_polygon(const PointList<2>& p, int n) {
   const int m = int(p.size());
   std::vector<double> s(m + 1, 0.0);  // arc length at each vertex, s[m] = perimeter

@@ -36,6 +36,11 @@ struct DecimatedMesh {
 DecimatedMesh decimate_mesh(const PointList<3>& p, const Connectivity& c, int target_vertices,
                             const DecimationLimits& limits);
 
+// Quadric-error half-edge collapses with no limit but ModNormalFlipping (60°) down to about
+// `target_vertices`: the simplification of the bunny phantom (experiments/bunny.h), whose
+// template vertices must stay on the true surface (a subset of p, exact positions, old order).
+DecimatedMesh simplify_quadric(const PointList<3>& p, const Connectivity& c, int target_vertices);
+
 // n points at equal arc-length steps along the closed polygon p, the first at p[0].
 PointList<2> resample_closed_polygon(const PointList<2>& p, int n);
 
