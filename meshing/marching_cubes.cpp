@@ -99,13 +99,16 @@ std::vector<std::vector<int>> cube_loops(const std::vector<Segment>& segs, Verte
 // triangles around them): a band of six triangles joining the triangles a and b, so that the two
 // corners are joined through the cube (background 26-connectivity; the six inside corners then
 // form a ring around the tunnel, as in the object's 6-connected cubical complex). The band keeps
-// each loop edge's direction; b is walked backwards, starting at the rotation nearest to a.
+// each loop edge's direction; b is walked backwards. Seen along the cube's diagonal the six
+// crossings alternate (an antiprism), so the rotation is the one that puts each b vertex nearest
+// to the midpoint of its a edge (nearest to the a vertices would tie with the twisted band).
 void tunnel(const std::vector<int>& a, const std::vector<int>& b, ExtractedSurface& s) {
   int best = 0;
   double best_len = 1e300;
   for (int r = 0; r < 3; ++r) {
     double len = 0;
-    for (int i = 0; i < 3; ++i) len += (s.points[a[i]] - s.points[b[((r - i) % 3 + 3) % 3]]).squaredNorm();
+    for (int i = 0; i < 3; ++i)
+      len += (s.points[a[i]] + s.points[a[(i + 1) % 3]] - 2 * s.points[b[((r - i) % 3 + 3) % 3]]).squaredNorm();
     if (len < best_len) best_len = len, best = r;
   }
   for (int i = 0; i < 3; ++i) {

@@ -19,7 +19,8 @@
 //    vertex at the loop's centroid. No case table: the loops are found per cube, so both cubes
 //    sharing a face use the same segments, and the surface is closed and edge-manifold; each
 //    crossing belongs to one loop per cube, so it is vertex-manifold too.
-// Vertices are in world coordinates (the mask grid's origin + index * spacing, anisotropic
+// No two triangles intersect (random masks of every density are tested for it, and for the
+// Euler characteristic). Vertices are in world coordinates (the mask grid's origin + index * spacing, anisotropic
 // spacing allowed); the surface is oriented outward (positive signed volume). With vertices at
 // edge midpoints, every inside voxel centre is inside the surface and every outside one outside
 // (Dice 1 on the voxel grid before smoothing).

@@ -43,6 +43,7 @@ TEST(MarchingCubes, RandomMasksGiveTheTopologyOfThe6ConnectedObject) {
     for (int64_t i = 0; i < truth.num_voxels(); ++i) truth[i] = m.inside[size_t(i)];
     EXPECT_EQ(dice<3>(raster, truth), 1.0) << "seed " << seed;
     EXPECT_GT(signed_measure<3>(s.points, c), 0) << "seed " << seed;
+    EXPECT_EQ(count_self_intersections<3>({s.points, c}), 0) << "seed " << seed;
     ++checked;
   }
   EXPECT_EQ(checked, 60);
@@ -61,6 +62,22 @@ TEST(MarchingCubes, DiagonalVoxelsAreApart) {
     EXPECT_EQ(c.closed_manifold_problem(), "");
     EXPECT_EQ(c.euler_characteristic(), 4);
   }
+}
+
+// The six voxels of a 2x2x2 block without two opposite corners form a ring (6-connected, no
+// square): a torus. The cube between them is the tunnel case of marching cubes.
+TEST(MarchingCubes, SixVoxelRingAroundADiagonalIsATorus) {
+  LabelMask<3> m;
+  m.grid.size = GridIndex<3>::Constant(4);
+  m.inside.assign(64, 0);
+  for (int c = 1; c < 7; ++c) m.inside[size_t(m.grid.linear(GridIndex<3>(1 + (c & 1), 1 + ((c >> 1) & 1), 1 + (c >> 2))))] = 1;
+  EXPECT_EQ(test_support::object_euler(m), 0);
+  const ExtractedSurface s = marching_cubes(m);
+  const Connectivity c = Connectivity::mesh(int(s.points.size()), s.triangles);
+  EXPECT_EQ(c.closed_manifold_problem(), "");
+  EXPECT_EQ(c.euler_characteristic(), 0);
+  EXPECT_EQ(count_self_intersections<3>({s.points, c}), 0);
+  EXPECT_GT(signed_measure<3>(s.points, c), 0);
 }
 
 // A 2D mask's contours: counter-clockwise around the inside, clockwise around holes, so the
