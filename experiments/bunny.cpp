@@ -3,11 +3,7 @@
 #include "experiments/phantoms.h"
 #include "framework/core/errors.h"
 #include "framework/io/mesh_io.h"
-
-#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
-#include <OpenMesh/Tools/Decimater/DecimaterT.hh>
-#include <OpenMesh/Tools/Decimater/ModNormalFlippingT.hh>
-#include <OpenMesh/Tools/Decimater/ModQuadricT.hh>
+#include "meshing/mesh_processing.h"
 
 #include <algorithm>
 #include <cmath>
@@ -22,8 +18,6 @@ namespace {
 namespace fs = std::filesystem;
 constexpr double kPi = 3.14159265358979323846;
 constexpr int kUp = 1;  // the Stanford bunny's up axis (y)
-
-using OMesh = OpenMesh::TriMesh_ArrayKernelT<>;
 
 // A relative "mesh" path is relative to the experiment file's folder (as image and template
 // files are, experiments/experiment.cpp); a missing file names the key and the fetch script.
@@ -147,44 +141,10 @@ std::optional<Template<3>> make_mesh_image_surface(JsonReader& r, const std::str
 }
 
 Template<3> simplify_mesh_quadric(const Template<3>& t, int vertices) {
-  OMesh m;
-  std::vector<OMesh::VertexHandle> vh;
-  for (const auto& p : t.positions) vh.push_back(m.add_vertex(OMesh::Point(p.x(), p.y(), p.z())));
-  for (const Triangle& tri : t.connectivity.triangles())
-    m.add_face(vh[tri[0]], vh[tri[1]], vh[tri[2]]);
-  m.request_vertex_status();  // the decimater marks collapsed elements as deleted
-  m.request_edge_status();
-  m.request_halfedge_status();
-  m.request_face_status();
-  m.request_face_normals();
-  m.update_face_normals();
-  {
-    OpenMesh::Decimater::DecimaterT<OMesh> dec(m);
-    OpenMesh::Decimater::ModQuadricT<OMesh>::Handle quadric;
-    OpenMesh::Decimater::ModNormalFlippingT<OMesh>::Handle flipping;
-    dec.add(quadric);
-    dec.add(flipping);
-    dec.module(flipping).set_max_normal_deviation(60.0);  // no collapse turns a face by more
-    dec.initialize();
-    dec.decimate_to(static_cast<size_t>(std::max(vertices, 4)));
-  }
-  // Collect the surviving vertices in their old order (the positions are the originals').
-  std::vector<int> new_id(t.num_vertices(), -1);
+  DecimatedMesh m = simplify_quadric(t.positions, t.connectivity, vertices);
   Template<3> out;
-  for (int v = 0; v < t.num_vertices(); ++v)
-    if (!m.status(vh[v]).deleted()) {
-      new_id[v] = out.num_vertices();
-      out.positions.push_back(t.positions[v]);
-    }
-  std::vector<Triangle> tris;
-  for (auto f : m.faces()) {
-    if (m.status(f).deleted()) continue;
-    Triangle tri;
-    int k = 0;
-    for (auto v : m.fv_range(f)) tri[k++] = new_id[v.idx()];
-    tris.push_back(tri);
-  }
-  out.connectivity = Connectivity::mesh(out.num_vertices(), std::move(tris));
+  out.positions = std::move(m.points);
+  out.connectivity = std::move(m.connectivity);
   return out;
 }
 

@@ -5,6 +5,8 @@
 //   dsnake validate CONFIG.json [--set ...]
 //   dsnake field --image X --type gvf [--param key=value ...] [--field-cache DIR] --out field.mha
 //   dsnake convert IN OUT [--compress]   image/volume, mesh or contour to another format
+//   dsnake template --mask LABELS --label N [--mirror x|y|z] [--vertices 400] --out T.off
+//                   a template from a label map (experiments/template_command.h)
 //   dsnake sweep SWEEP.json [--out DIR] [-j N] [--threads T] [--manifest parallel|slurm]
 //                [--aggregate-only] [--quiet]                    (experiments/sweep.h)
 //   dsnake schema [--markdown]       the experiment file's JSON Schema, or its key tables
@@ -16,6 +18,7 @@
 #include "experiments/runner.h"
 #include "experiments/schema.h"
 #include "experiments/sweep.h"
+#include "experiments/template_command.h"
 #include "framework/core/errors.h"
 
 #include <fstream>
@@ -93,11 +96,12 @@ struct CommandLine {
   std::vector<std::string> validate_overrides;
   FieldCommandOptions field;
   ConvertCommandOptions convert;
+  TemplateCommandOptions templ;
   std::string sweep_file;
   SweepOptions sweep;
   bool schema_markdown = false;
   CLI::App *run_cmd = nullptr, *validate_cmd = nullptr, *field_cmd = nullptr, *sweep_cmd = nullptr,
-           *schema_cmd = nullptr, *convert_cmd = nullptr;
+           *schema_cmd = nullptr, *convert_cmd = nullptr, *template_cmd = nullptr;
 };
 
 // "--set key.path=value", repeatable.
@@ -152,6 +156,19 @@ void add_convert(CLI::App& app, CommandLine& c) {
   c.convert_cmd->add_flag("--compress", c.convert.compress, "zlib-compressed MetaImage data, gzip-encoded NRRD");
 }
 
+void add_template(CLI::App& app, CommandLine& c) {
+  c.template_cmd = app.add_subcommand("template", "Make a template (3D mesh, 2D contour) from one label of a label image");
+  TemplateCommandOptions& t = c.templ;
+  c.template_cmd->add_option("--mask", t.mask, "Label image or volume file")->required();
+  c.template_cmd->add_option("--label", t.label, "The label value N (voxels == N)")->required();
+  c.template_cmd->add_option("--mirror", t.mirror, "Reflect about the grid's mid-plane normal to x, y or z");
+  c.template_cmd->add_option("--vertices", t.vertices, "Vertex count (3D: within 10%; default 400)");
+  c.template_cmd->add_option("--smoothing", t.smoothing, "Taubin smoothing steps before decimation (default 10)");
+  c.template_cmd->add_flag("--allow-border", t.allow_border, "Accept a label touching the image border (flat cap)");
+  c.template_cmd->add_option("--out,-o", t.out, "3D: .off .obj .ply .stl .vtk; 2D: .txt .json .vtk")->required();
+  c.template_cmd->add_option("--threads,-j", c.threads, "OpenMP threads (default: all cores)")->check(CLI::Range(1, 1024));
+}
+
 void add_sweep_and_schema(CLI::App& app, CommandLine& c) {
   c.sweep_cmd = app.add_subcommand(
       "sweep", "Run an experiment over methods x parameter grid x corruption levels x seeds (resumable)");
@@ -184,6 +201,7 @@ int dispatch(const CommandLine& c) {
   if (c.threads > 0) omp_set_num_threads(c.threads);
   if (*c.run_cmd) return run(c.config, c.overrides, c.field_cache, c.run);
   if (*c.field_cmd) return run_field_command(c.field);
+  if (*c.template_cmd) return run_template_command(c.templ);
   if (*c.sweep_cmd) return sweep(c.sweep_file, c.sweep);
   if (*c.schema_cmd) return schema(c.schema_markdown);
   if (*c.convert_cmd) return run_convert_command(c.convert);
@@ -201,6 +219,7 @@ int main(int argc, char** argv) {
   add_run_and_validate(app, c);
   add_field(app, c);
   add_convert(app, c);
+  add_template(app, c);
   add_sweep_and_schema(app, c);
   try {
     app.parse(argc, argv);

@@ -1,0 +1,27 @@
+// `dsnake template`: a template from one label of a label image (meshing/template_from_labels.h):
+//   dsnake template --mask LABELS --label N [--mirror x|y|z] [--vertices 400] [--smoothing 10]
+//                   [--allow-border] --out T.off
+// 3D label volumes give a closed, outward triangle mesh (.off .obj .ply .stl .vtk), 2D label
+// images a counter-clockwise closed contour (.txt .json .vtk). Prints one summary line (vertices,
+// faces, genus, self-intersections, Dice against the label, what the mask clean-up changed).
+#pragma once
+
+#include <string>
+
+namespace dsnake {
+
+struct TemplateCommandOptions {
+  std::string mask;          // --mask: the label image (2D or 3D; framework/io/image_io.h)
+  int label = 1;             // --label N: the voxels == N
+  std::string mirror;        // --mirror x|y|z: reflect about the grid's mid-plane ("" = none)
+  int vertices = 400;        // --vertices: target count (3D within 10%, 2D exact)
+  int smoothing = 10;        // --smoothing: Taubin λ|μ steps before decimation
+  bool allow_border = false; // --allow-border: accept a label touching the image border
+  std::string out;           // --out: mesh or contour file, by extension
+};
+
+// Runs the command; returns 0. Bad input throws InputError naming the file or option (exit 2);
+// nothing is written then.
+int run_template_command(const TemplateCommandOptions& options);
+
+}  // namespace dsnake
