@@ -7,6 +7,8 @@
 //   dsnake convert IN OUT [--compress]   image/volume, mesh or contour to another format
 //   dsnake template --mask LABELS --label N [--mirror x|y|z] [--vertices 400] --out T.off
 //                   a template from a label map (experiments/template_command.h)
+//   dsnake init --image SCAN --template T [--mask GT] > exp.json
+//                   an experiment file for your own scan (experiments/init_command.h)
 //   dsnake sweep SWEEP.json [--out DIR] [-j N] [--threads T] [--manifest parallel|slurm]
 //                [--aggregate-only] [--quiet]                    (experiments/sweep.h)
 //   dsnake schema [--markdown]       the experiment file's JSON Schema, or its key tables
@@ -15,6 +17,7 @@
 #include "experiments/convert_command.h"
 #include "experiments/experiment.h"
 #include "experiments/field_command.h"
+#include "experiments/init_command.h"
 #include "experiments/runner.h"
 #include "experiments/schema.h"
 #include "experiments/sweep.h"
@@ -97,11 +100,13 @@ struct CommandLine {
   FieldCommandOptions field;
   ConvertCommandOptions convert;
   TemplateCommandOptions templ;
+  InitCommandOptions init;
   std::string sweep_file;
   SweepOptions sweep;
   bool schema_markdown = false;
   CLI::App *run_cmd = nullptr, *validate_cmd = nullptr, *field_cmd = nullptr, *sweep_cmd = nullptr,
-           *schema_cmd = nullptr, *convert_cmd = nullptr, *template_cmd = nullptr;
+           *schema_cmd = nullptr, *convert_cmd = nullptr, *template_cmd = nullptr,
+           *init_cmd = nullptr;
 };
 
 // "--set key.path=value", repeatable.
@@ -156,6 +161,17 @@ void add_convert(CLI::App& app, CommandLine& c) {
   c.convert_cmd->add_flag("--compress", c.convert.compress, "zlib-compressed MetaImage data, gzip-encoded NRRD");
 }
 
+void add_init(CLI::App& app, CommandLine& c) {
+  c.init_cmd = app.add_subcommand("init",
+                                  "Print a complete experiment file for your own scan with the recommended settings "
+                                  "(dsnake init --image SCAN --template T [--mask GT] > exp.json)");
+  InitCommandOptions& i = c.init;
+  c.init_cmd->add_option("--image", i.image, "Image or volume file (or DICOM folder)")->required();
+  c.init_cmd->add_option("--template", i.tmpl, "Template: 3D mesh (.off .obj .ply .stl .vtk) or 2D contour (.txt .json .vtk)")->required();
+  c.init_cmd->add_option("--mask", i.mask, "Ground truth: a label image (non-zero inside) or a surface file");
+  c.init_cmd->add_option("--name", i.name, "Experiment name (default: the image's file name)");
+}
+
 void add_template(CLI::App& app, CommandLine& c) {
   c.template_cmd = app.add_subcommand("template", "Make a template (3D mesh, 2D contour) from one label of a label image");
   TemplateCommandOptions& t = c.templ;
@@ -202,6 +218,7 @@ int dispatch(const CommandLine& c) {
   if (*c.run_cmd) return run(c.config, c.overrides, c.field_cache, c.run);
   if (*c.field_cmd) return run_field_command(c.field);
   if (*c.template_cmd) return run_template_command(c.templ);
+  if (*c.init_cmd) return run_init_command(c.init);
   if (*c.sweep_cmd) return sweep(c.sweep_file, c.sweep);
   if (*c.schema_cmd) return schema(c.schema_markdown);
   if (*c.convert_cmd) return run_convert_command(c.convert);
@@ -220,6 +237,7 @@ int main(int argc, char** argv) {
   add_field(app, c);
   add_convert(app, c);
   add_template(app, c);
+  add_init(app, c);
   add_sweep_and_schema(app, c);
   try {
     app.parse(argc, argv);
