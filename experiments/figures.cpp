@@ -110,17 +110,20 @@ struct Panel {
   Eigen::Vector2d origin, spacing;    // physical position of voxel (0, 0) and spacing along u, v
   int width_px = 0, height_px = 0;    // on screen
   std::string label;                  // drawn above the panel ("" = none)
+  bool v_up = false;                  // the v axis runs upwards (z up in coronal and sagittal views)
 
   // Physical (u, v) to pixel coordinates: voxel i covers pixels [i, i + 1) * (pixels / voxels).
   Eigen::Vector2d to_pixel(const Eigen::Vector2d& x) const {
-    const Eigen::Vector2d c = (x - origin).cwiseQuotient(spacing);
+    Eigen::Vector2d c = (x - origin).cwiseQuotient(spacing);
+    if (v_up) c.y() = nv - 1 - c.y();
     return {(c.x() + 0.5) * width_px / nu - 0.5, (c.y() + 0.5) * height_px / nv - 0.5};
   }
 
   // Draws the grey values, nearest neighbour, into `target` (width_px x height_px, BGR).
   void render(cv::Mat& target) const {
     for (int y = 0; y < height_px; ++y) {
-      const int v = std::min(nv - 1, static_cast<int>((y + 0.5) * nv / height_px));
+      const int row_v = std::min(nv - 1, static_cast<int>((y + 0.5) * nv / height_px));
+      const int v = v_up ? nv - 1 - row_v : row_v;
       auto* row = target.ptr<cv::Vec3b>(y);
       for (int x = 0; x < width_px; ++x) {
         const int u = std::min(nu - 1, static_cast<int>((x + 0.5) * nu / width_px));
@@ -306,9 +309,14 @@ void write_slice_figure(const Image<3>& volume, const std::vector<ShapeLayer3>& 
   GridIndex<3> slice;
   for (int a = 0; a < 3; ++a) slice[a] = std::clamp(static_cast<int>(std::lround(c[a])), 0, grid.size[a] - 1);
 
-  // (normal axis, horizontal axis, vertical axis, name) of axial, coronal, sagittal.
-  struct View { int normal, u, v; const char* name; };
-  const std::array<View, 3> views{{{2, 0, 1, "axial"}, {1, 0, 2, "coronal"}, {0, 1, 2, "sagittal"}}};
+  // (normal axis, horizontal axis, vertical axis, name, v upwards, orientation) of axial, coronal
+  // and sagittal views in the radiological convention of LPS world coordinates (image.h): axial
+  // with the patient's left (+x) on the right and posterior (+y) down, coronal and sagittal with
+  // superior (+z) up. The frame of an oblique scan is shown as if it were the world's.
+  struct View { int normal, u, v; const char* name; bool v_up; const char* orientation; };
+  const std::array<View, 3> views{{{2, 0, 1, "axial", false, "x right = L, y down = P"},
+                                   {1, 0, 2, "coronal", true, "x right = L, z up = S"},
+                                   {0, 1, 2, "sagittal", true, "y right = P, z up = S"}}};
   static const char* kAxis = "xyz";
   std::vector<Panel> panels;
   for (const auto& view : views) {
@@ -328,8 +336,9 @@ void write_slice_figure(const Image<3>& volume, const std::vector<ShapeLayer3>& 
         p.grey[static_cast<size_t>(j) * p.nu + i] = window.map(volume.at(idx));
       }
     const double level = grid.origin[view.normal] + slice[view.normal] * grid.spacing[view.normal];
-    p.label = std::string(view.name) + "  " + kAxis[view.normal] + " = " + tick_text(level) + "  (" + kAxis[view.u] +
-              " right, " + kAxis[view.v] + " down)";
+    p.v_up = view.v_up;
+    p.label = std::string(view.name) + "  " + kAxis[view.normal] + " = " + tick_text(level) + " mm  (" + view.orientation +
+              ")";
     panels.push_back(std::move(p));
   }
 

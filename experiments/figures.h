@@ -5,8 +5,12 @@
 //
 // Display conventions: grey values are windowed from the image's min..max to black..white and
 // shown nearest-neighbour, so voxels stay visible; each axis is scaled by its spacing, so the
-// figure has the physical aspect ratio; the image's first axis runs to the right and its second
-// axis runs DOWNWARDS (row = y index, as image files store it). Every PNG is written atomically.
+// figure has the physical aspect ratio. 2D: the image's first axis runs to the right and its
+// second axis runs DOWNWARDS (row = y index, as image files store it; in LPS world coordinates
+// this is the radiological view, patient's left on the right, posterior down). 3D slices follow
+// the radiological convention of LPS: axial x right (L), y down (P); coronal x right (L), z up
+// (S); sagittal y right (P), z up (S); each panel's label names the slice's position in mm and
+// its orientation. Every PNG is written atomically.
 #pragma once
 
 #include "framework/core/image.h"

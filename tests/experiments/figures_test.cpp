@@ -225,9 +225,10 @@ TEST_P(SliceFigure, ShowsMeshCrossSectionsAtTheRightRadius) {
       ++sectors[std::min(15, static_cast<int>(t / (2.0 * std::numbers::pi) * 16))];
     }
     for (int s = 0; s < 16; ++s) EXPECT_GT(sectors[s], 10) << "panel " << k << " sector " << s;
-    // Panels share their top row. The centre's row in the panel: axial (v = y) voxel 32 of
-    // 8 px, (32 + 0.5) * 8 - 0.5; coronal and sagittal (v = z) the same, or voxel 16 of 16 px.
-    const double row_in_panel = (k == 0 || !anisotropic) ? 259.5 : 263.5;
+    // Panels share their top row. The centre's row in the panel: axial (v = y, down) voxel 32
+    // of 8 px, (32 + 0.5) * 8 - 0.5; coronal and sagittal (v = z, up: row from the top = last
+    // voxel - index) voxel 63 - 32 = 31 of 8 px, or 31 - 16 = 15 of 16 px.
+    const double row_in_panel = k == 0 ? 259.5 : !anisotropic ? (31 + 0.5) * 8 - 0.5 : (15 + 0.5) * 16 - 0.5;
     EXPECT_NEAR(c.y() - box_centre(panels[0]).y(), row_in_panel - 259.5, 1.0) << "panel " << k;
   }
 }
