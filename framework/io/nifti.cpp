@@ -83,6 +83,35 @@ std::array<double, 4> quaternion_of(std::array<std::array<double, 3>, 3> axes) {
   return {b, c, d, qfac};
 }
 
+// Origin and axis directions from the qform (preferred, as before) or the sform, in NIfTI's
+// RAS (decode_nifti converts them to dsnake's LPS world). Neither: the identity at 0.
+void read_nifti_orientation(const std::string& bytes, bool swap, RawVolume& v) {
+  if (nifti_field<int16_t>(bytes, 252, swap) > 0) {
+    for (int a = 0; a < 3; ++a) v.origin[a] = nifti_field<float>(bytes, 268 + 4 * a, swap);
+    const double b = nifti_field<float>(bytes, 256, swap), c = nifti_field<float>(bytes, 260, swap),
+                 d = nifti_field<float>(bytes, 264, swap);
+    const double a = std::sqrt(std::max(0.0, 1.0 - (b * b + c * c + d * d)));
+    const double qfac = nifti_field<float>(bytes, 76, swap) < 0 ? -1.0 : 1.0;
+    const double r[3][3] = {{a * a + b * b - c * c - d * d, 2 * (b * c - a * d), 2 * (b * d + a * c)},
+                            {2 * (b * c + a * d), a * a + c * c - b * b - d * d, 2 * (c * d - a * b)},
+                            {2 * (b * d - a * c), 2 * (c * d + a * b), a * a + d * d - b * b - c * c}};
+    for (int axis = 0; axis < 3; ++axis)
+      for (int k = 0; k < 3; ++k) v.axes[axis][k] = r[k][axis] * (axis == 2 ? qfac : 1.0);
+  } else if (nifti_field<int16_t>(bytes, 254, swap) > 0) {
+    for (int a = 0; a < 3; ++a) v.origin[a] = nifti_field<float>(bytes, 280 + 16 * a + 12, swap);
+    for (int axis = 0; axis < 3; ++axis) {
+      double column[3], norm = 0;
+      for (int k = 0; k < 3; ++k) {
+        column[k] = nifti_field<float>(bytes, 280 + 16 * k + 4 * axis, swap);
+        norm += column[k] * column[k];
+      }
+      norm = std::sqrt(norm);
+      if (norm > 0)
+        for (int k = 0; k < 3; ++k) v.axes[axis][k] = column[k] / norm;
+    }
+  }
+}
+
 // Decodes a NIfTI-1 header (and, unless header_only, the data) from its bytes.
 RawVolume decode_nifti(const std::string& bytes, const std::string& path, bool header_only) {
   if (bytes.size() < kNiftiHeaderBytes)
@@ -112,32 +141,7 @@ RawVolume decode_nifti(const std::string& bytes, const std::string& path, bool h
   for (int a = 0; a < v.ndims; ++a) v.size[a] = dim[a + 1];
   v.channels = dim[0] == 5 ? dim[5] : 1;
   for (int a = 0; a < 3; ++a) v.spacing[a] = nifti_field<float>(bytes, 76 + 4 * (a + 1), swap);
-  // Origin and axis directions from the qform (preferred, as before) or the sform, in NIfTI's
-  // RAS; converted to dsnake's LPS world below. read_volume aligns the axes with the world's.
-  if (nifti_field<int16_t>(bytes, 252, swap) > 0) {
-    for (int a = 0; a < 3; ++a) v.origin[a] = nifti_field<float>(bytes, 268 + 4 * a, swap);
-    const double b = nifti_field<float>(bytes, 256, swap), c = nifti_field<float>(bytes, 260, swap),
-                 d = nifti_field<float>(bytes, 264, swap);
-    const double a = std::sqrt(std::max(0.0, 1.0 - (b * b + c * c + d * d)));
-    const double qfac = nifti_field<float>(bytes, 76, swap) < 0 ? -1.0 : 1.0;
-    const double r[3][3] = {{a * a + b * b - c * c - d * d, 2 * (b * c - a * d), 2 * (b * d + a * c)},
-                            {2 * (b * c + a * d), a * a + c * c - b * b - d * d, 2 * (c * d - a * b)},
-                            {2 * (b * d - a * c), 2 * (c * d + a * b), a * a + d * d - b * b - c * c}};
-    for (int axis = 0; axis < 3; ++axis)
-      for (int k = 0; k < 3; ++k) v.axes[axis][k] = r[k][axis] * (axis == 2 ? qfac : 1.0);
-  } else if (nifti_field<int16_t>(bytes, 254, swap) > 0) {
-    for (int a = 0; a < 3; ++a) v.origin[a] = nifti_field<float>(bytes, 280 + 16 * a + 12, swap);
-    for (int axis = 0; axis < 3; ++axis) {
-      double column[3], norm = 0;
-      for (int k = 0; k < 3; ++k) {
-        column[k] = nifti_field<float>(bytes, 280 + 16 * k + 4 * axis, swap);
-        norm += column[k] * column[k];
-      }
-      norm = std::sqrt(norm);
-      if (norm > 0)
-        for (int k = 0; k < 3; ++k) v.axes[axis][k] = column[k] / norm;
-    }
-  }
+  read_nifti_orientation(bytes, swap, v);
   ras_to_lps(v);
   if (header_only) return v;
 
