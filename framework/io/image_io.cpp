@@ -404,20 +404,30 @@ template <int D>
 void write_vector_field(const VectorField<D>& field, const std::string& path) {
   RawVolume v = raw_of<D>(field.grid(), D);
   v.values.resize(size_t(field.num_voxels()) * D);
-  for (int64_t i = 0; i < field.num_voxels(); ++i)
-    for (int a = 0; a < D; ++a) v.values[size_t(i) * D + a] = field[i][a];
+  const auto& r = field.grid().direction;  // frame components -> world components (as ITK stores them)
+  const bool rotate = !field.grid().axis_aligned();
+  for (int64_t i = 0; i < field.num_voxels(); ++i) {
+    const Point<D> w = rotate ? Point<D>(r * field[i]) : field[i];
+    for (int a = 0; a < D; ++a) v.values[size_t(i) * D + a] = w[a];
+  }
   const std::string ext = extension_of(path);
   if (is_opencv_extension(ext)) throw InputError(path, "", "vector fields need .mha, .mhd, .nii, .nii.gz, .nrrd, .nhdr, .inr or .inr.gz");
   write_volume(v, path, ImageWriteOptions{});
 }
 
-// As read_image, with D interleaved components per voxel.
+// As read_image, with D interleaved components per voxel (world components; rotated into the
+// grid's frame for an oblique grid).
 template <int D>
 VectorField<D> read_vector_field(const std::string& path) {
   const RawVolume v = read_volume(path);
   VectorField<D> field(checked_grid<D>(v, path, D));
-  for (int64_t i = 0; i < field.num_voxels(); ++i)
-    for (int a = 0; a < D; ++a) field[i][a] = v.values[size_t(i) * D + a];
+  const auto& r = field.grid().direction;  // world components -> the grid frame's
+  const bool rotate = !field.grid().axis_aligned();
+  for (int64_t i = 0; i < field.num_voxels(); ++i) {
+    Point<D> w;
+    for (int a = 0; a < D; ++a) w[a] = v.values[size_t(i) * D + a];
+    field[i] = rotate ? Point<D>(r.transpose() * w) : w;
+  }
   return field;
 }
 

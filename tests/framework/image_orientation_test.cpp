@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <iterator>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -262,6 +263,29 @@ TEST(ImageOrientation, ObliqueGeometryRoundTripsThroughEveryWriter) {
     ASSERT_EQ(back.size(), g.size);
     for (int64_t l = 0; l < oriented.num_voxels(); ++l) ASSERT_EQ(back[l], oriented[l]);
   }
+}
+
+// A vector field of an oblique grid holds frame components (image.h); files hold world
+// components, as ITK's vector images: written, the vectors are rotated by the direction, and read
+// back they are rotated into the frame again.
+TEST(ImageOrientation, VectorFieldsOfAnObliqueGridAreStoredInWorldComponents) {
+  const std::string dir = fresh_dir();
+  Grid<3> g{GridIndex<3>(3, 2, 2), Point<3>(1, 1, 2), Point<3>(4, 5, 6)};
+  g.direction = rotation({1, 1, 1}, 30);  // oblique: kept as the direction on reading
+  VectorField<3> f(g);
+  for (int64_t i = 0; i < f.num_voxels(); ++i) f[i] = Point<3>(1.0 + double(i), 0, 0.5);
+  write_vector_field<3>(f, dir + "/f.mha");
+  // The stored components, read as they are on disk: the world's.
+  std::ifstream in(dir + "/f.mha", std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t data = bytes.size() - size_t(f.num_voxels()) * 3 * sizeof(float);
+  float first[3];
+  std::memcpy(first, bytes.data() + data, sizeof(first));
+  const Point<3> world = g.direction * f[0];
+  ASSERT_GT((world - f[0]).norm(), 0.3);  // the rotation changes the components
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(first[k], world[k], 1e-6) << k;
+  const VectorField<3> back = read_vector_field<3>(dir + "/f.mha");
+  for (int64_t i = 0; i < f.num_voxels(); ++i) EXPECT_LT((back[i] - f[i]).norm(), 1e-6) << i;
 }
 
 // NIfTI's RAS origin and axes are dsnake's LPS with x and y negated: an axis-aligned LPS image
