@@ -269,6 +269,11 @@ void write_overlay_figure(const Image<2>& image, const std::vector<ShapeLayer2>&
   panel.grey.resize(image.data().size());
   std::transform(image.data().begin(), image.data().end(), panel.grey.begin(),
                  [&](float v) { return window.map(v); });
+  if (!title.empty()) {  // a framed figure (as runs write) says where it is, in mm
+    const Point<2> end = image.origin() + (image.size().cast<double>() - Point<2>::Ones()).cwiseProduct(image.spacing());
+    panel.label = "x " + tick_text(image.origin()[0]) + " to " + tick_text(end[0]) + " mm right (L), y " +
+                  tick_text(image.origin()[1]) + " to " + tick_text(end[1]) + " mm down (P)";
+  }
 
   std::vector<cv::Rect> rois;
   cv::Mat canvas = compose(std::vector<Panel>{panel}, title, layers, rois);
