@@ -6,11 +6,14 @@
 //      as ground-truth surface and targets, the label as ground-truth mask. Stored (a)
 //      axis-aligned, (b) with x flipped and the axes permuted (MetaImage TransformMatrix, and a
 //      second signed permutation as NIfTI sform/qform), (c) with the voxels unchanged and an
-//      oblique direction R, the template and truth rotated by R about the image origin.
+//      oblique direction R, the template and truth rotated by R about the image origin, (d) (c)
+//      with its last axis reversed (an oblique reflection, NRRD), which the reader makes (c).
 //  2D: ITK's BrainProtonDensitySliceBorder20 (the head's outline as template and truth), stored
 //      with x and y flips, a transpose (a reflection), a transpose with a flip (a rotation by
 //      90 degrees), and ITK's own BrainProtonDensitySliceBorder20DirectionPlus30.mhd (the same
-//      voxels with a +30 degree direction).
+//      voxels with a +30 degree direction), and that file with y reversed (an oblique reflection, NRRD).
+// The GVF runs also guard the blur's support against a spacing a rounding error off 1 mm (NRRD's
+// spacing is |space direction|): before image_filters.cpp's margin, (d) in 2D differed by 2.6e-4 mm.
 // Asserted: the metrics of every storage equal (a)'s to 1e-6; final and initial positions
 // (final.vtk, initial.vtk, world coordinates) equal (a)'s, or R (a)'s about the origin, to 1e-6;
 // result_mask.nii.gz has the voxels of (a)'s, and the oblique one has the direction R.
