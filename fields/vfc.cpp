@@ -181,7 +181,9 @@ VfcField<D>::~VfcField() = default;
 template <int D>
 Point<D> VfcField<D>::kernel(const Point<D>& d) const {
   const double r = d.norm();
-  if (r == 0.0 || r > options_.radius) return Point<D>::Zero();
+  // (the cut at the radius has a 1e-9 relative margin: an offset on the circle r = R, e.g. 6
+  // voxels of 1 mm for R = 6, stays in for a spacing a rounding error above 1 mm)
+  if (r == 0.0 || r > options_.radius * (1 + 1e-9)) return Point<D>::Zero();
   double m;
   if (options_.kernel == VfcKernel::kPower) {
     m = std::pow(r + options_.epsilon, -options_.gamma);
@@ -209,7 +211,8 @@ void VfcField<D>::compute(const Image<D>& image) {
   // Plans and kernel spectra, made once per grid geometry and thread count.
   const int threads = omp_get_max_threads();
   std::array<int, D> half{};  // kernel half-width in voxels per axis
-  for (int a = 0; a < D; ++a) half[a] = int(std::floor(options_.radius / grid.spacing[a]));
+  // (the kernel's 1e-9 margin: a spacing a rounding error above a round value keeps the half-width)
+  for (int a = 0; a < D; ++a) half[a] = int(std::floor(options_.radius * (1 + 1e-9) / grid.spacing[a]));
   if (!fft_ || !fft_->grid.same_geometry(grid, 0.0) || fft_->threads != threads) {
     auto t0 = std::chrono::steady_clock::now();
     init_fftw_threads();

@@ -91,6 +91,26 @@ TEST(VfcField, KernelPointsToItsCentre) {
   EXPECT_EQ(field.kernel(Point<2>(0, 0)), Point<2>::Zero());
 }
 
+// The kernel's half-width floor(radius / spacing) keeps its value for a spacing a rounding
+// error above a round one (radius 6, spacing 1 + 2.2e-16: 6 voxels, not 5).
+TEST(VfcField, HalfWidthDoesNotDropAtARoundingErrorOfTheSpacing) {
+  VfcFieldOptions o;
+  o.radius = 6;
+  const Image<2> a = blobs<2>(GridIndex<2>(24, 20), Point<2>(1, 1));
+  Image<2> b = blobs<2>(GridIndex<2>(24, 20), Point<2>(1.0000000000000002, 1.0000000000000002));
+  b.data() = a.data();
+  VfcField<2> fa(o), fb(o);
+  fa.compute(a);
+  fb.compute(b);
+  double worst = 0, scale = 0;
+  for (int64_t l = 0; l < a.num_voxels(); ++l) {
+    worst = std::max(worst, (fa.vectors()[l] - fb.vectors()[l]).norm());
+    scale = std::max(scale, fa.vectors()[l].norm());
+  }
+  ASSERT_GT(scale, 0.0);
+  EXPECT_LE(worst, 1e-9 * scale) << "worst " << worst << " scale " << scale;
+}
+
 TEST(VfcField, PointsToDiskEdge) {
   Grid<2> grid;
   grid.size = GridIndex<2>(64, 64);

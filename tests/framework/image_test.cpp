@@ -82,6 +82,27 @@ TEST(ImageFilters, BlurKeepsConstantsAndMassAndIsThreadIndependent) {
   for (int64_t l = 0; l < g.num_voxels(); ++l) EXPECT_NEAR(c[l], 7.0f, 1e-5);
 }
 
+// A spacing a rounding error off 1 (as a NRRD reader computes it, the norm of a rotated space
+// direction: 1 - 2.2e-16) gives the blur of spacing 1: the 3-sigma support does not jump from 3
+// to 4 voxels (which changed the blur by ~1e-4 and an oblique scan's registration by 2.6e-4 mm).
+TEST(ImageFilters, BlurSupportDoesNotJumpAtARoundingErrorOfTheSpacing) {
+  Grid<2> g;
+  g.size = {15, 1};
+  Image<2> img(g, 0.0f);
+  img.at({7, 0}) = 1.0f;
+  const Image<2> b1 = gaussian_blur(img, 1.0);
+  for (const double h : {0.99999999999999978, 1.0000000000000002}) {
+    Grid<2> gh = g;
+    gh.spacing = {h, h};
+    Image<2> imgh(gh, 0.0f);
+    imgh.data() = img.data();
+    const Image<2> bh = gaussian_blur(imgh, 1.0);
+    for (int64_t l = 0; l < g.num_voxels(); ++l) EXPECT_NEAR(bh[l], b1[l], 1e-12) << h << " voxel " << l;
+  }
+  EXPECT_EQ(b1.at({3, 0}), 0.0f);  // support 3 voxels at spacing 1
+  EXPECT_GT(b1.at({4, 0}), 0.0f);
+}
+
 TEST(ImageFilters, GradientOfALinearImageIsItsSlope) {
   Grid<3> g;
   g.size = {6, 7, 8};
