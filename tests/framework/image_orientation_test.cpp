@@ -5,6 +5,8 @@
 // read again through every writer, the geometry comes back.
 #include "framework/io/image_io.h"
 
+#include "tests/framework/io_test_support.h"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -21,14 +23,12 @@ namespace dsnake {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string fresh_dir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const fs::path dir = fs::temp_directory_path() / ("dsnake_orientation_" + std::to_string(::getpid())) / info->name();
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir.string();
-}
+using test_support::contains;
+using test_support::expect_input_error;
+using test_support::fresh_dir;
+using test_support::fresh_path;
+using test_support::read_file;
+using test_support::write_file;
 
 // The expected image: 4 x 3 x 2 voxels, spacing (1, 2, 3), origin (5, 6, 7), value i + 10 j + 100 k.
 Image<3> expected_volume() {

@@ -6,6 +6,8 @@
 
 #include "framework/core/errors.h"
 
+#include "tests/framework/io_test_support.h"
+
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -21,34 +23,14 @@ namespace dsnake {
 namespace {
 
 namespace fs = std::filesystem;
+using test_support::contains;
+using test_support::expect_input_error;
+using test_support::fresh_dir;
+using test_support::fresh_path;
+using test_support::read_file;
+using test_support::write_file;
 
 const std::string kCgal = std::string(DSNAKE_SCANS_DIR) + "/cgal/images/";
-
-std::string fresh_dir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const fs::path dir = fs::temp_directory_path() / ("dsnake_inr_" + std::to_string(::getpid())) /
-                       (std::string(info->test_suite_name()) + "_" + info->name());
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir.string();
-}
-
-void write_file(const std::string& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary);
-  out.write(bytes.data(), std::streamsize(bytes.size()));
-}
-
-InputError expect_input_error(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e;
-  }
-  ADD_FAILURE() << "expected an InputError";
-  return InputError("", "", "");
-}
-
-bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
 
 // An INRIMAGE header of the given KEY=value lines, padded to 256 bytes.
 std::string inr_header(const std::string& lines) {

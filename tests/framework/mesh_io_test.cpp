@@ -5,6 +5,8 @@
 #include "framework/core/errors.h"
 
 #include <Eigen/Geometry>
+#include "tests/framework/io_test_support.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -19,37 +21,12 @@ namespace dsnake {
 namespace {
 
 namespace fs = std::filesystem;
-
-// A fresh empty folder for the running test.
-std::string fresh_dir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const fs::path dir = fs::temp_directory_path() / ("dsnake_mesh_io_" + std::to_string(::getpid())) /
-                       (std::string(info->test_suite_name()) + "_" + info->name());
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir.string();
-}
-
-std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-void write_file(const std::string& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
-
-InputError expect_input_error(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e;
-  }
-  ADD_FAILURE() << "expected an InputError";
-  return InputError("", "", "");
-}
-
-bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+using test_support::contains;
+using test_support::expect_input_error;
+using test_support::fresh_dir;
+using test_support::fresh_path;
+using test_support::read_file;
+using test_support::write_file;
 
 struct TestMesh {
   PointList<3> points;
