@@ -220,7 +220,8 @@ RawVolume read_meta(const std::string& path) {
   return v;
 }
 
-// Writes a MetaImage (LPS world, as MetaImage's own convention): .mha with LOCAL data, or .mhd plus a .raw/.zraw data file beside it.
+// Writes a MetaImage (LPS world, as MetaImage's own convention): .mha with LOCAL data, or .mhd
+// plus a .raw/.zraw data file beside it.
 void write_meta(const RawVolume& v, const std::string& path, bool compress) {
   std::string data = stored_bytes(v.values, v.label);
   if (compress) {

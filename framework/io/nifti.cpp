@@ -4,7 +4,6 @@
 #include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
 
-#include <zlib.h>
 
 #include <algorithm>
 #include <bit>
@@ -214,21 +213,17 @@ void write_nifti(const RawVolume& lps, const std::string& path) {
     put<float>(h, 280 + 16 * k + 12, float(v.origin[k]));
   }
   std::memcpy(h.data() + 344, "n+1", 4);
-  const int64_t n = v.num_voxels();
-  std::vector<double> planar(lps.values.size());
-  for (int c = 0; c < v.channels; ++c)
-    for (int64_t i = 0; i < n; ++i) planar[c * n + i] = lps.values[i * v.channels + c];
-  const std::string bytes = h + stored_bytes(planar, lps.label);
-  if (extension_of(path) == ".nii") {
-    write_file_atomically(path, bytes);
-    return;
+  std::string bytes;
+  if (v.channels == 1) {
+    bytes = h + stored_bytes(lps.values, lps.label);
+  } else {  // NIfTI keeps components slowest (one volume per component); RawVolume interleaves them
+    const int64_t n = v.num_voxels();
+    std::vector<double> planar(lps.values.size());
+    for (int c = 0; c < v.channels; ++c)
+      for (int64_t i = 0; i < n; ++i) planar[c * n + i] = lps.values[i * v.channels + c];
+    bytes = h + stored_bytes(planar, lps.label);
   }
-  write_via_temporary(path, [&](const std::string& tmp) {
-    gzFile f = gzopen(tmp.c_str(), "wb");
-    if (!f) throw std::runtime_error(path + ": cannot open for writing");
-    const int written = gzwrite(f, bytes.data(), static_cast<unsigned>(bytes.size()));
-    if (gzclose(f) != Z_OK || written != int(bytes.size())) throw std::runtime_error(path + ": write failed");
-  });
+  write_file_atomically(path, extension_of(path) == ".nii" ? bytes : gzip_bytes(bytes, path));
 }
 
 }  // namespace dsnake::detail

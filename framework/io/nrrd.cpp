@@ -387,14 +387,25 @@ std::string gzip_bytes(const std::string& data, const std::string& path) {
   if (deflateInit2(&zs, Z_DEFAULT_COMPRESSION, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK)
     throw std::runtime_error(path + ": zlib initialisation failed");
   std::string out(deflateBound(&zs, uLong(data.size())), '\0');
-  zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data.data()));
-  zs.avail_in = uInt(data.size());
-  zs.next_out = reinterpret_cast<Bytef*>(out.data());
-  zs.avail_out = uInt(out.size());
-  const int ret = deflate(&zs, Z_FINISH);
-  out.resize(zs.total_out);
+  // zlib counts in 32-bit uInt: feed and drain at most 1 GiB at a time, so that volumes larger
+  // than 4 GiB compress too (total_in/total_out are uLong, 64-bit here).
+  constexpr size_t kChunk = size_t(1) << 30;
+  int ret = Z_OK;
+  while (ret != Z_STREAM_END) {
+    const size_t in_pos = size_t(zs.total_in), out_pos = size_t(zs.total_out);
+    const size_t in_n = std::min(kChunk, data.size() - in_pos);
+    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data.data() + in_pos));
+    zs.avail_in = uInt(in_n);
+    zs.next_out = reinterpret_cast<Bytef*>(out.data() + out_pos);
+    zs.avail_out = uInt(std::min(kChunk, out.size() - out_pos));
+    ret = deflate(&zs, in_pos + in_n == data.size() ? Z_FINISH : Z_NO_FLUSH);
+    if (ret == Z_STREAM_ERROR || (ret == Z_BUF_ERROR && size_t(zs.total_out) == out.size())) {
+      deflateEnd(&zs);
+      throw std::runtime_error(path + ": gzip compression failed");
+    }
+  }
+  out.resize(size_t(zs.total_out));
   deflateEnd(&zs);
-  if (ret != Z_STREAM_END) throw std::runtime_error(path + ": gzip compression failed");
   return out;
 }
 

@@ -28,12 +28,7 @@ namespace dsnake {
 namespace {
 
 namespace fs = std::filesystem;
-using test_support::contains;
-using test_support::expect_input_error;
-using test_support::fresh_dir;
-using test_support::fresh_path;
-using test_support::read_file;
-using test_support::write_file;
+using namespace test_support;  // tests/framework/io_test_support.h
 
 const std::string kDicom = std::string(DSNAKE_SCANS_DIR) + "/dicom";
 

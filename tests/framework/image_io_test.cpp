@@ -23,12 +23,7 @@ namespace dsnake {
 namespace {
 
 namespace fs = std::filesystem;
-using test_support::contains;
-using test_support::expect_input_error;
-using test_support::fresh_dir;
-using test_support::fresh_path;
-using test_support::read_file;
-using test_support::write_file;
+using namespace test_support;  // tests/framework/io_test_support.h
 
 // A 3D test volume with anisotropic spacing, an offset origin and non-round values.
 Image<3> test_volume() {

@@ -23,12 +23,7 @@ namespace dsnake {
 namespace {
 
 namespace fs = std::filesystem;
-using test_support::contains;
-using test_support::expect_input_error;
-using test_support::fresh_dir;
-using test_support::fresh_path;
-using test_support::read_file;
-using test_support::write_file;
+using namespace test_support;  // tests/framework/io_test_support.h
 
 // The expected image: 4 x 3 x 2 voxels, spacing (1, 2, 3), origin (5, 6, 7), value i + 10 j + 100 k.
 Image<3> expected_volume() {

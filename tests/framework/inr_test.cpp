@@ -23,12 +23,7 @@ namespace dsnake {
 namespace {
 
 namespace fs = std::filesystem;
-using test_support::contains;
-using test_support::expect_input_error;
-using test_support::fresh_dir;
-using test_support::fresh_path;
-using test_support::read_file;
-using test_support::write_file;
+using namespace test_support;  // tests/framework/io_test_support.h
 
 const std::string kCgal = std::string(DSNAKE_SCANS_DIR) + "/cgal/images/";
 
@@ -145,13 +140,7 @@ TEST(Inr, RoundTrips) {
 }
 
 void expect_bad(const std::string& path, const std::string& field, const std::string& words = "") {
-  SCOPED_TRACE(path);
-  const InputError e = expect_input_error([&] { read_image<3>(path); });
-  EXPECT_EQ(e.file(), path);
-  EXPECT_EQ(e.where(), field) << e.what();
-  if (!words.empty()) {
-    EXPECT_TRUE(contains(e.what(), words)) << e.what();
-  }
+  expect_bad_file([](const std::string& p) { read_image<3>(p); }, path, field, words);
 }
 
 TEST(Inr, BadFilesNameTheFileAndTheKey) {
