@@ -180,9 +180,11 @@ cv::Mat compose(const std::vector<Panel>& panels, const std::string& title,
   const int margin = framed ? kMarginPx : 0;
   const int title_h = title.empty() ? 0 : text_height() + kMarginPx;
   const int label_h = labels ? text_height() + kMarginPx / 2 : 0;
+  // A panel's slot is as wide as the panel or its label, whichever is wider.
+  auto slot = [](const Panel& p) { return std::max(p.width_px, p.label.empty() ? 0 : text_width(p.label)); };
   int width = margin, panel_h = 0;
   for (const auto& p : panels) {
-    width += p.width_px + margin;
+    width += slot(p) + margin;
     panel_h = std::max(panel_h, p.height_px);
   }
   const int panel_top = margin + title_h + label_h;
@@ -198,7 +200,7 @@ cv::Mat compose(const std::vector<Panel>& panels, const std::string& title,
     cv::Mat roi = canvas(rois.back());
     p.render(roi);
     if (!p.label.empty()) put_text(canvas, p.label, x, margin + title_h);
-    x += p.width_px + margin;
+    x += slot(p) + margin;
   }
   legend(layers, &canvas, panel_top + panel_h + margin);
   return canvas;

@@ -87,9 +87,20 @@ std::array<double, 4> quaternion_of(std::array<std::array<double, 3>, 3> axes) {
 void read_nifti_orientation(const std::string& bytes, bool swap, RawVolume& v) {
   if (nifti_field<int16_t>(bytes, 252, swap) > 0) {
     for (int a = 0; a < 3; ++a) v.origin[a] = nifti_field<float>(bytes, 268 + 4 * a, swap);
-    const double b = nifti_field<float>(bytes, 256, swap), c = nifti_field<float>(bytes, 260, swap),
-                 d = nifti_field<float>(bytes, 264, swap);
-    const double a = std::sqrt(std::max(0.0, 1.0 - (b * b + c * c + d * d)));
+    double b = nifti_field<float>(bytes, 256, swap), c = nifti_field<float>(bytes, 260, swap),
+           d = nifti_field<float>(bytes, 264, swap);
+    // As NIfTI's reference code does: when a^2 = 1 - (b^2 + c^2 + d^2) is below 1e-7 (a half
+    // turn, whose float32 (b, c, d) leave a tiny positive rest), a is 0 and (b, c, d) is
+    // renormalised; else the rest would tilt the axes by ~0.015 degrees and make a plain axis
+    // permutation look oblique.
+    double a = 1.0 - (b * b + c * c + d * d);
+    if (a < 1e-7) {
+      const double norm = std::sqrt(b * b + c * c + d * d);
+      if (norm > 0) b /= norm, c /= norm, d /= norm;
+      a = 0;
+    } else {
+      a = std::sqrt(a);
+    }
     const double qfac = nifti_field<float>(bytes, 76, swap) < 0 ? -1.0 : 1.0;
     const double r[3][3] = {{a * a + b * b - c * c - d * d, 2 * (b * c - a * d), 2 * (b * d + a * c)},
                             {2 * (b * c + a * d), a * a + c * c - b * b - d * d, 2 * (c * d - a * b)},

@@ -310,6 +310,23 @@ TEST(ImageOrientation, NiftiIsWrittenInRasAndReadBackInLps) {
   expect_same_image(read_image<3>(dir + "/e.nii"), e, "e.nii");
 }
 
+
+// ITK's KmeansTest_T1UCharRaw.nii.gz stores a half turn about (0, 1, 1) / sqrt(2) as the float32
+// quaternion (0, 0.70710677, 0.70710677): read as NIfTI's reference code reads it (a = 0), it is a
+// signed permutation (x_LPS = i, z = j, -y_LPS = k; 2 x 2 x 3 mm), so the volume is reordered
+// axis-aligned, not read as oblique by 0.015 degrees.
+TEST(ImageOrientation, ItkNiftiHalfTurnQuaternionIsAPermutation) {
+  const Image<3> t1 = read_image<3>(std::string(DSNAKE_SCANS_DIR) + "/itk/KmeansTest_T1UCharRaw.nii.gz");
+  EXPECT_TRUE(t1.grid().axis_aligned());
+  EXPECT_EQ(t1.size(), GridIndex<3>(128, 62, 128));
+  EXPECT_EQ(t1.spacing(), Point<3>(2, 3, 2));
+  // qoffset (-0, -254, 0) in RAS is voxel 0 at LPS (0, 254, 0); the file's k axis (62 slices of
+  // 3 mm) runs along -y_LPS, so after reordering the first voxel is at y = 254 - 3 * 61 = 71.
+  EXPECT_NEAR(t1.origin()[0], 0, 1e-9);
+  EXPECT_NEAR(t1.origin()[1], 254 - 3.0 * 61, 1e-9);
+  EXPECT_NEAR(t1.origin()[2], 0, 1e-9);
+}
+
 #ifdef DSNAKE_SCANS_DIR
 // ITK's example data: the same slice stored axis-aligned and with a +30 degree direction.
 TEST(ImageOrientation, ItkSliceStoredRotatedKeepsItsVoxelsAndGetsItsDirection) {
