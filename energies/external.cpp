@@ -4,6 +4,7 @@
 #include "framework/core/errors.h"
 #include "energies/residual_blocks.h"
 #include "framework/core/external_field.h"
+#include "framework/core/force_strength.h"
 #include "framework/core/potential.h"
 
 #include <limits>
@@ -18,10 +19,15 @@ void ExternalEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& sn
   DSNAKE_ASSERT(context.field != nullptr, "the external energy is bound to a computed field");
   field_ = context.field;
   potential_ = context.potential;
+  if (options_.normalize == ForceNormalization::kMax && scaled_field_ != field_) {
+    const double m = max_force_magnitude(*field_);
+    force_scale_ = m > 0 ? 1.0 / m : 1.0;
+    scaled_field_ = field_;
+  }
   normals_.reserve(snake.num_vertices());
 }
 
-// §3.1: q_i^ext(t+1) = q_i(t) + tau F_ext(q_i(t)).
+// §3.1: q_i^ext(t+1) = q_i(t) + tau F_ext(q_i(t)), the force scaled by force_scale_.
 // How many vertices ahead the sampling loop prefetches a field's voxels (a latency-hiding hint).
 constexpr int kPrefetchAhead = 8;
 constexpr int64_t kPrefetchMinBytes = int64_t(32) << 20;
@@ -35,7 +41,7 @@ void ExternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   const bool with_normals = field_->uses_normal();
   if (with_normals) snake.vertex_normals(normals_);
   const ExternalField<D>& field = *field_;
-  const double tau = options_.tau;
+  const double tau = options_.tau * force_scale_;
   const PointList<D>& normals = normals_;
   // only a field larger than the caches gains from prefetching; a small one pays for the hint
   const bool prefetch = field.vectors().num_voxels() * int64_t(sizeof(Point<D>)) > kPrefetchMinBytes;

@@ -10,12 +10,33 @@
 
 namespace dsnake {
 
+// What tau multiplies:
+//  - kNone ("none", default, the paper's form): the field's force as computed, so tau is in mm
+//    per unit of force (for the edge-map fields, whose force is in 1/mm, tau is in mm^2). Already
+//    independent of the image's spacing and intensity range (the edge map is normalised and
+//    differentiated in mm), but the force's scale depends on the field and on its sigma.
+//  - kMax ("max"): the force divided by the field's largest magnitude |F|_max over the grid, so
+//    tau is a distance in mm: the step of a vertex where the force is strongest, whatever the
+//    field type, sigma, spacing or intensity range. The recipes of `dsnake init` use it.
+enum class ForceNormalization { kNone, kMax };
+template <>
+struct EnumNames<ForceNormalization> {
+  static constexpr std::array<std::pair<ForceNormalization, const char*>, 2> table{
+      {{ForceNormalization::kNone, "none"}, {ForceNormalization::kMax, "max"}}};
+};
+
 struct ExternalOptions {
-  double tau = 1.0;  // step: physical displacement per unit force
+  double tau = 1.0;  // step: physical displacement per unit force (or in mm with normalize "max")
+  ForceNormalization normalize = ForceNormalization::kNone;
 
   template <class V>
   void visit(V& v) {
-    v(tau, Key{"tau", "mm per unit force", "step: physical displacement per unit of the field's force", Range::greater_than(0)});
+    v(tau, Key{"tau", "mm per unit force (normalize none); mm (normalize max)",
+               "step: displacement per unit of the field's force, or, with normalize max, the step in mm where the "
+               "force is strongest",
+               Range::greater_than(0)});
+    v(normalize, Key{"normalize", "", "what tau multiplies: the field's force as computed (none) or the force divided "
+                                      "by the field's largest magnitude (max, tau in mm)"});
   }
 };
 
@@ -31,10 +52,11 @@ class ExternalEnergy final : public Energy<D> {
   std::string type() const override { return kType; }
   const ExternalOptions& options() const { return options_; }
 
-  // Keeps the field; context.field must be set (a programmer error otherwise).
+  // Keeps the field; context.field must be set (a programmer error otherwise). With normalize
+  // "max", finds the field's largest force once per field.
   void bind(const EnergyContext<D>& context, const Snake<D>& snake) override;
 
-  // out[v] = q_v + tau F(q_v, n_v) for every vertex, n_v the outward unit vertex normal
+  // out[v] = q_v + tau s F(q_v, n_v) for every vertex (s = 1, or 1 / |F|_max with normalize max), n_v the outward unit vertex normal
   // (computed only when the field uses it). Parallel over vertices.
   void propose(const Snake<D>& snake, PointList<D>& out) override;
 
@@ -46,9 +68,13 @@ class ExternalEnergy final : public Energy<D> {
   // false without one.
   bool add_residuals(const Snake<D>& snake, double weight, GlobalProblem<D>& problem) const override;
   bool has_least_squares_form() const override { return true; }
+  // The factor s applied to the force (1, or 1 / |F|_max with normalize max; 1 for a zero field).
+  double force_scale() const { return force_scale_; }
 
  private:
   ExternalOptions options_;
+  double force_scale_ = 1.0;
+  const ExternalField<D>* scaled_field_ = nullptr;  // the field force_scale_ was found for
   const ExternalField<D>* field_ = nullptr;
   const Potential<D>* potential_ = nullptr;
   PointList<D> normals_;  // scratch, n entries

@@ -4,6 +4,7 @@
 #include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
 #include "framework/core/evolver.h"
+#include "framework/core/force_strength.h"
 #include "framework/global/global_solver.h"
 #include "framework/core/potential.h"
 #include "framework/io/image_io.h"
@@ -269,6 +270,9 @@ struct RunRecord {
   CorrespondenceError correspondence;
   bool finite = false;  // a diverged snake (non-finite positions) has no meaningful metrics
   double field_s = 0, potential_s = 0, evolve_s = 0, metrics_s = 0;
+  // |F| of the field: its largest over the grid, and the median at the vertices at the start
+  // and the end of the run (result.json's "external_force").
+  double force_max = 0, force_median_start = 0, force_median_end = 0;
 };
 
 // Computes the field (and the potential of the global view, when the file asks for one), then
@@ -283,6 +287,8 @@ void evolve(Experiment<D>& ex, const RunOptions& options, RunRecord<D>& rec) {
   rec.field_s = seconds_since(t);
   rec.snake = Snake<D>::from_template(ex.tmpl, ex.initial);
   rec.initial_vertices = rec.snake.num_vertices();
+  rec.force_max = max_force_magnitude(*ex.field);
+  rec.force_median_start = median_force_magnitude(*ex.field, rec.snake);
   std::unique_ptr<SmoothPotential<D>> potential;
   if (ex.potential) {
     t = Clock::now();
@@ -306,6 +312,7 @@ void evolve(Experiment<D>& ex, const RunOptions& options, RunRecord<D>& rec) {
   driver.add_observer(&rec.recorder);
   if (!options.quiet) driver.add_observer(&progress);
   rec.summary = driver.run(rec.snake, ex.phases);
+  rec.force_median_end = median_force_magnitude(*ex.field, rec.snake);
   if (global) rec.global_report = global_json(ex, global->solves());
   rec.evolve_s = seconds_since(t);
 }
@@ -409,6 +416,19 @@ nlohmann::ordered_json phases_json(const Experiment<D>& ex, const RunRecord<D>& 
   return phases;
 }
 
+// result.json's "external_force": how strong the field is at the template (docs/experiment-file.md):
+// |F| in the field's units (1/mm for the edge-map fields), and relative to the field's largest.
+template <int D>
+nlohmann::ordered_json external_force_json(const RunRecord<D>& rec) {
+  auto relative = [&](double m) { return optional_number(rec.force_max > 0 && std::isfinite(m) ? std::optional<double>(m / rec.force_max) : std::nullopt); };
+  auto finite = [](double m) { return optional_number(std::isfinite(m) ? std::optional<double>(m) : std::nullopt); };
+  return {{"max", rec.force_max},
+          {"median_start", finite(rec.force_median_start)},
+          {"median_end", finite(rec.force_median_end)},
+          {"median_start_relative", relative(rec.force_median_start)},
+          {"median_end_relative", relative(rec.force_median_end)}};
+}
+
 template <int D>
 nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& rec, Clock::time_point start) {
   nlohmann::ordered_json result;
@@ -430,6 +450,7 @@ nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& 
                                                                       : std::optional<double>(last.energy_terms[i]));
     result["energy"] = {{"terms", terms}, {"total", last.total_energy}};
   }
+  result["external_force"] = external_force_json(rec);
   if (ex.potential)
     result["potential"] = {{"type", enum_name(ex.potential->type)}, {"interpolation", enum_name(ex.potential->interpolation)}};
   if (!rec.global_report.is_null()) result["global"] = rec.global_report;

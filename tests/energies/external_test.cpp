@@ -69,6 +69,54 @@ TEST(ExternalEnergy, StepIsPositionPlusTauForce) {
   for (int v = 0; v < 9; ++v) EXPECT_EQ(out[v], Point<2>(snake.positions()[v] + 0.3 * c));
 }
 
+// F sampled from a 4 x 3 grid of vectors (linear interpolation), all (1, 0) but one of (3, -4).
+class GridField final : public ExternalField<2> {
+ public:
+  GridField() : vectors_(Grid<2>{GridIndex<2>(4, 3), Point<2>(0.5, 2.0), Point<2>(-1, 1)}) {
+    for (int64_t l = 0; l < vectors_.num_voxels(); ++l) vectors_[l] = Point<2>(1, 0);
+    vectors_[5] = Point<2>(3, -4);
+  }
+  std::string type() const override { return "grid"; }
+  void compute(const Image<2>&) override {}
+  Point<2> force(const Point<2>& x, const Point<2>&) const override { return vectors_.sample(x); }
+  const VectorField<2>& vectors() const override { return vectors_; }
+
+ private:
+  VectorField<2> vectors_;
+};
+
+// normalize "max": tau is the step in mm where the force is strongest (|F|_max = 5 here), so the
+// same tau moves a vertex as far whatever the field's scale; "none" keeps tau * F.
+TEST(ExternalEnergy, NormalizeMaxMakesTauTheStepAtTheStrongestForce) {
+  GridField field;
+  Snake<2> snake = circle(5, 0.4, Point<2>(0.0, 3.0), true);  // inside the grid
+  EnergyContext<2> context;
+  context.field = &field;
+  ExternalOptions o;
+  o.tau = 0.3;
+  o.normalize = ForceNormalization::kMax;
+  ExternalEnergy<2> normalized(o), raw({0.3});
+  normalized.bind(context, snake);
+  raw.bind(context, snake);
+  EXPECT_DOUBLE_EQ(normalized.force_scale(), 0.2);
+  EXPECT_DOUBLE_EQ(raw.force_scale(), 1.0);
+  PointList<2> a(5), b(5);
+  normalized.propose(snake, a);
+  raw.propose(snake, b);
+  for (int v = 0; v < 5; ++v) {
+    const Point<2> q = snake.positions()[v], f = field.force(q, Point<2>::Zero());
+    EXPECT_NEAR((a[v] - (q + 0.3 * f / 5.0)).norm(), 0.0, 1e-15);
+    EXPECT_NEAR((b[v] - (q + 0.3 * f)).norm(), 0.0, 1e-15);
+  }
+  // At the strongest voxel's centre the normalized step is exactly tau.
+  Snake<2> at_max(PointList<2>{field.vectors().grid().to_physical(GridIndex<2>(1, 1)), Point<2>(0, 2), Point<2>(0.2, 3)},
+                  Connectivity::polygon(3), std::vector<int>{0, 1, 2});
+  PointList<2> c(3);
+  normalized.bind(context, at_max);
+  normalized.propose(at_max, c);
+  EXPECT_NEAR((c[0] - at_max.positions()[0]).norm(), 0.3, 1e-12);
+}
+
 TEST(ExternalEnergy, ValueIsSumOfPotential) {
   ConstantField<2> with_potential(Point<2>(1, 0));
   NormalField<2> without_potential;
