@@ -117,9 +117,28 @@ void triangle_edges(const PointList<3>& q, const int* t, double floor, Point<3> 
   area = std::max(0.5 * e[1].cross(e[2]).norm(), floor);
 }
 
+// The mixed Voronoi area of each vertex of triangle t (Meyer, Desbrun, Schroeder, Barr, "Discrete
+// differential-geometry operators for triangulated 2-manifolds", 2003, fig. 4): the Voronoi
+// region's part 1/8 (|e_l|^2 cot(angle l) + |e_j|^2 cot(angle j)) in a non-obtuse triangle,
+// area / 2 at an obtuse angle and area / 4 at the other two. `area` floored; the parts sum to
+// the area (of a non-degenerate triangle).
+void mixed_voronoi(const Point<3> (&e)[3], double area, double (&part)[3]) {
+  // dot[i] = (q_j - q_i) . (q_l - q_i), twice the area times cot(angle i)
+  const double dot[3] = {-e[1].dot(e[2]), -e[2].dot(e[0]), -e[0].dot(e[1])};
+  const bool obtuse = dot[0] < 0 || dot[1] < 0 || dot[2] < 0;
+  for (int i = 0; i < 3; ++i) {
+    const int j = (i + 1) % 3, l = (i + 2) % 3;
+    if (obtuse)
+      part[i] = dot[i] < 0 ? 0.5 * area : 0.25 * area;
+    else
+      part[i] = (e[l].squaredNorm() * dot[l] + e[j].squaredNorm() * dot[j]) / (16.0 * area);
+  }
+}
+
 // Each element's local stiffness (D x D, row-major; 2D (1 / l) [1 -1; -1 1], 3D e_i . e_j / (4 A))
-// and the lumped mass (2D l / 2, 3D A / 3 to each of its vertices), lengths and areas floored.
-// `local` and `mass` are resized (no allocation once they have their size).
+// and the lumped mass (2D l / 2 to each end, 3D the mixed Voronoi areas), lengths and areas
+// floored, and every vertex mass at least the floor. `local` and `mass` are resized (no
+// allocation once they have their size).
 template <int D>
 void element_operators(const PointList<D>& q, const std::vector<int>& elements, std::vector<double>& local,
                        std::vector<double>& mass) {
@@ -138,17 +157,17 @@ void element_operators(const PointList<D>& q, const std::vector<int>& elements, 
       mass[v[1]] += 0.5 * length;
     } else {
       Point<3> edge[3];
-      double area = 0;
+      double area = 0, part[3];
       triangle_edges(q, v, floor, edge, area);
+      mixed_voronoi(edge, area, part);
       const double scale = 1.0 / (4.0 * area);
       for (int i = 0; i < 3; ++i) {
-        mass[v[i]] += area / 3.0;
+        mass[v[i]] += part[i];
         for (int j = 0; j < 3; ++j) k[3 * i + j] = scale * edge[i].dot(edge[j]);
       }
     }
   }
-  for (double& m : mass)  // a vertex in no element (its row of K is zero): the step keeps it
-    if (!(m > 0)) m = floor;
+  for (double& m : mass) m = std::max(m, floor);  // NaN-free M^-1, also for a vertex in no element
 }
 
 // K (n x n, symmetric) and M of the current positions, for the residuals.

@@ -422,6 +422,9 @@ TEST(EnergyRegistry, CreatesWithOptions) {
   EXPECT_EQ(internal->options().alpha, 0.7);
   EXPECT_EQ(internal->options().beta, 0.2);
   EXPECT_EQ(internal->options().gamma, 3.0);
+  EXPECT_EQ(internal->options().discretization, InternalDiscretization::kPhysical);  // the default
+  auto kass = create_energy(R"({"type": "internal", "discretization": "umbrella"})");
+  EXPECT_EQ(dynamic_cast<InternalEnergy<2>*>(kass.get())->options().discretization, InternalDiscretization::kUmbrella);
   const nlohmann::json j = nlohmann::json::parse(R"({"type": "external", "tau": 0.5})");
   JsonReader reader(j, "", "energies[1]");
   EXPECT_EQ(energy_registry<3>().create(reader)->type(), "external");
@@ -441,6 +444,13 @@ TEST(EnergyRegistry, BadInternalSolverNamesPath) {
   EXPECT_NE(msg.find("energies[0].solver"), std::string::npos) << msg;
   msg = error_of(R"({"type": "internal", "solver": "chebyshev", "tolerance": 0})");
   EXPECT_NE(msg.find("energies[0].tolerance"), std::string::npos) << msg;
+  // the Chebyshev bound is the umbrella form's: refused with the physical one
+  msg = error_of(R"({"type": "internal", "solver": "chebyshev"})");
+  EXPECT_NE(msg.find("energies[0].solver"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("umbrella"), std::string::npos) << msg;
+  EXPECT_EQ(error_of(R"({"type": "internal", "solver": "chebyshev", "discretization": "umbrella"})"), "(no error)");
+  msg = error_of(R"({"type": "internal", "discretization": "arc"})");
+  EXPECT_NE(msg.find("energies[0].discretization"), std::string::npos) << msg;
 }
 
 TEST(EnergyRegistry, UnknownKeyNamesPath) {
