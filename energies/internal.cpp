@@ -75,7 +75,6 @@ SparseMatrix mesh_system(const Connectivity& c, const InternalOptions& o, Eigen:
   return m;
 }
 
-
 // --- physical discretisation (internal.h) ---------------------------------------------------
 
 // Floors of degenerate elements, relative to the mean edge length l (lengths) and l^2 (areas).
@@ -194,9 +193,6 @@ int value_index(const SparseMatrix& m, int row, int col) {
   DSNAKE_ASSERT(it != end && *it == row, "the entry is in the system's pattern");
   return int(it - m.innerIndexPtr());
 }
-}  // namespace
-
-namespace {
 
 // Eigen's LDL^T of a matrix given in its fill-reducing order (upper triangle stored, so that
 // factorize() reads it in place), with D read in place (vectorD() returns a copy).

@@ -8,13 +8,13 @@
 //    "Implicit fairing of irregular meshes using diffusion and curvature flow", SIGGRAPH 1999):
 //      (gamma M + alpha K + beta K M^-1 K) x = gamma M q,
 //    M the lumped mass and K the stiffness of piecewise-linear elements at the current positions:
-//      2D: M_i = half the two adjacent edge lengths, K = sum over edges of (1 / l_ij)(e_i - e_j)(e_i - e_j)^T;
+//      2D: M_i = half the two adjacent edge lengths, K_ij = -1 / l_ij for the edges, K_ii = sum_j 1 / l_ij;
 //      3D: M_i = the mixed Voronoi area of i (Meyer, Desbrun, Schroeder and Barr 2003: Voronoi
-//          parts in non-obtuse triangles, A/2 at an obtuse angle and A/4 at the others; measured on
-//          icospheres of radius 10 it moves every vertex within 0.04% of the sphere's flow, where
-//          one third of the adjacent areas is 10% off at the valence-5 vertices of 162), K the
-//          cotangent Laplacian, K_ij = -1/2 (cot a_ij + cot b_ij), written per triangle as
-//          K_T,ij = e_i . e_j / (4 A_T) (e_i the edge opposite vertex i).
+//          parts in non-obtuse triangles, A/2 at an obtuse angle and A/4 at the others; on
+//          icospheres of radius 10 mm every vertex's radial move is within 0.03% of the sphere's
+//          flow, where one third of the adjacent areas is 10% off at the valence-5 vertices of the
+//          162-vertex one), K the cotangent Laplacian, K_ij = -1/2 (cot a_ij + cot b_ij), written
+//          per triangle as K_T,ij = e_i . e_j / (4 A_T) (e_i the edge opposite vertex i).
 //    On a circle (sphere) of radius R mm one step moves a vertex inward by R a / (gamma + a) with
 //    a = alpha / R^2 + beta / R^4 (2D; exact on a regular polygon) or a = 2 alpha / R^2 + 4 beta / R^4
 //    (3D, mean curvature H = 1/R), about alpha / (gamma R) mm (2 alpha / (gamma R) on a sphere):
@@ -78,7 +78,7 @@ struct InternalOptions {
   // physical: mm^2 per unit gamma (one step moves a circle of radius R mm in by ~ alpha / (gamma R) mm,
   // a sphere by ~ 2 alpha / (gamma R)); umbrella: per vertex, dimensionless.
   double alpha = 0.5;  // tension: weight of |X'|^2
-  double beta = 0.0;   // rigidity: weight of |X''|^2; physical: mm^4 per unit gamma
+  double beta = 0.0;   // rigidity: weight of the squared second derivative X''(s); physical: mm^4 per unit gamma
   double gamma = 1.0;  // Kass's step viscosity (inverse step size), 1 per step
   InternalSolver solver = InternalSolver::kAuto;
   double tolerance = 1e-10;  // chebyshev: error bound relative to the largest displacement
@@ -87,8 +87,8 @@ struct InternalOptions {
   template <class V>
   void visit(V& v) {
     v(discretization, Key{"discretization", "", "physical: by arc length / area, the same flow at every resolution; umbrella: per vertex with unit steps (Kass's matrix, the paper's MATLAB-style snakes)"});
-    v(alpha, Key{"alpha", "mm^2 per unit gamma (physical); 1 per vertex (umbrella)", "tension: weight of |X'|^2; physical: one step moves a circle of radius R mm in by ~ alpha / (gamma R) mm (a sphere: 2 alpha / (gamma R)); useful ~0.01-10 R^2", Range::at_least(0)});
-    v(beta, Key{"beta", "mm^4 per unit gamma (physical); 1 per vertex (umbrella)", "rigidity: weight of |X''|^2; physical: a circle of radius R mm moves in by ~ beta / (gamma R^3) mm per step", Range::at_least(0)});
+    v(alpha, Key{"alpha", "mm^2 per unit gamma (physical); 1 per vertex (umbrella)", "tension: weight of the squared first derivative X'(s); physical: one step moves a circle of radius R mm in by ~ alpha / (gamma R) mm, a sphere by ~ 2 alpha / (gamma R) mm (a small step: alpha << gamma R^2)", Range::at_least(0)});
+    v(beta, Key{"beta", "mm^4 per unit gamma (physical); 1 per vertex (umbrella)", "rigidity: weight of the squared second derivative X''(s); physical: one step moves a circle of radius R mm in by ~ beta / (gamma R^3) mm, a sphere by ~ 4 beta / (gamma R^3) mm", Range::at_least(0)});
     v(gamma, Key{"gamma", "1 (per step)", "Kass's step viscosity (inverse step size)", Range::greater_than(0)});
     v(solver, Key{"solver", "", "how the step's linear system is solved (physical: direct; auto picks it)"});
     v(tolerance, Key{"tolerance", "1 (relative)", "chebyshev: error bound relative to the step's largest displacement", Range::open(0, 1)});
@@ -104,7 +104,8 @@ class InternalEnergy final : public Energy<D> {
  public:
   using Options = InternalOptions;
   static constexpr const char* kType = "internal";
-  static constexpr const char* kSummary = "Kass's tension and rigidity, semi-implicit step (q^int of §3.1)";
+  static constexpr const char* kSummary =
+      "Kass's tension and rigidity by arc length / area (or per vertex), semi-implicit step (q^int of §3.1)";
 
   explicit InternalEnergy(const InternalOptions& options = {});
   ~InternalEnergy() override;
