@@ -224,10 +224,12 @@ struct InternalEnergy<D>::Solver {
   uint64_t topology_version = 0;
   int num_vertices = -1;
   // Physical: the elements (D vertices each); K's rows (row v: k_cols[k_offsets[v]...], v first);
-  // each element entry's slot in K; where each K slot, each diagonal and each product K_kp K_kr
-  // (p, r slots of row k: K M^-1 K) adds into the permuted upper system's values (-1: lower half).
+  // each element entry's slot in K; where each K slot adds into the permuted upper system's values
+  // (top-left block, -1: in the lower half; with beta, the coupling block K of row v, column n + w),
+  // and where each diagonal does (top-left; with beta, the bottom-right -M / beta).
   bool physical = false;
-  std::vector<int> elements, k_offsets, k_cols, element_slots, k_to_system, system_diagonal, pair_to_system;
+  std::vector<int> elements, k_offsets, k_cols, element_slots, k_to_system, k_to_coupling, system_diagonal,
+      auxiliary_diagonal;
   std::vector<double> local, mass, k_values;
   SparseMatrix system;
   PreorderedLdlt physical_ldlt;
@@ -322,10 +324,14 @@ void InternalEnergy<D>::bind_umbrella(const Snake<D>& snake) {
   for (int v = 0; v < n; ++v) s.order[v] = perm.size() == n ? perm[v] : v;
 }
 
-// The physical system's structure (internal.h): K's one-ring rows, the pattern of
-// gamma M + alpha K + beta K M^-1 K (K's, and with beta > 0 every pair of a row of K: the two-ring),
-// its AMD ordering, the upper triangle in that order, the slots every assembly step adds into,
-// and the symbolic factorisation.
+// The physical system's structure (internal.h). Without rigidity, gamma M + alpha K on K's
+// pattern. With beta > 0 the step is solved in the mixed form of 2n unknowns (x, y = beta M^-1 K x)
+//   [gamma M + alpha K   K        ] [x]   [gamma M q]
+//   [K                  -M / beta ] [y] = [0        ],
+// symmetric quasi-definite (Vanderbei 1995: an LDL^T exists in every symmetric order), whose
+// pattern is two copies of the one-ring instead of the two-ring of K M^-1 K (3-5x less fill).
+// Then the AMD ordering, the upper triangle in that order, the slots every step adds into, and
+// the symbolic factorisation.
 template <int D>
 void InternalEnergy<D>::bind_physical(const Snake<D>& snake) {
   const Connectivity& c = snake.connectivity();
@@ -350,68 +356,74 @@ void InternalEnergy<D>::bind_physical(const Snake<D>& snake) {
   for (size_t e = 0; e < s.elements.size(); e += D)
     for (int i = 0; i < D; ++i)
       for (int j = 0; j < D; ++j) s.element_slots.push_back(slot(s.elements[e + i], s.elements[e + j]));
-  const bool bilaplacian = options_.beta > 0;
+  const bool mixed = options_.beta > 0;
+  const int rows = mixed ? 2 * n : n;
   std::vector<Eigen::Triplet<double>> pattern;
-  for (int k = 0; k < n; ++k)
+  for (int k = 0; k < n; ++k) {
+    if (mixed) pattern.emplace_back(n + k, n + k, 1.0);
     for (int p = s.k_offsets[k]; p < s.k_offsets[k + 1]; ++p) {
       pattern.emplace_back(k, s.k_cols[p], 1.0);
-      if (bilaplacian)
-        for (int r = s.k_offsets[k]; r < s.k_offsets[k + 1]; ++r) pattern.emplace_back(s.k_cols[p], s.k_cols[r], 1.0);
+      if (mixed) pattern.emplace_back(k, n + s.k_cols[p], 1.0), pattern.emplace_back(n + s.k_cols[p], k, 1.0);
     }
-  SparseMatrix full(n, n);
+  }
+  SparseMatrix full(rows, rows);
   full.setFromTriplets(pattern.begin(), pattern.end());
   Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> inverse;
   Eigen::AMDOrdering<int>()(full, inverse);
   const Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> permutation = inverse.inverse();
-  s.order.assign(permutation.indices().data(), permutation.indices().data() + n);
+  s.order.assign(permutation.indices().data(), permutation.indices().data() + rows);
   std::vector<Eigen::Triplet<double>> upper;
   for (const auto& t : pattern)
     if (s.order[t.row()] <= s.order[t.col()]) upper.emplace_back(s.order[t.row()], s.order[t.col()], 1.0);
-  s.system.resize(n, n);
+  s.system.resize(rows, rows);
   s.system.setFromTriplets(upper.begin(), upper.end());
   s.system.makeCompressed();
-  auto system_index = [&](int v, int w) {
+  auto system_index = [&](int v, int w) {  // the upper entry of the pair {v, w}: -1 from its lower half
     const int a = s.order[v], b = s.order[w];
     return a <= b ? value_index(s.system, a, b) : -1;
   };
+  auto pair_index = [&](int v, int w) { return std::max(system_index(v, w), system_index(w, v)); };
   s.k_to_system.resize(s.k_cols.size());
+  s.k_to_coupling.assign(mixed ? s.k_cols.size() : 0, -1);
   s.system_diagonal.resize(n);
-  s.pair_to_system.clear();
+  s.auxiliary_diagonal.assign(mixed ? n : 0, -1);
   for (int k = 0; k < n; ++k) {
     s.system_diagonal[k] = system_index(k, k);
+    if (mixed) s.auxiliary_diagonal[k] = system_index(n + k, n + k);
     for (int p = s.k_offsets[k]; p < s.k_offsets[k + 1]; ++p) {
       s.k_to_system[p] = system_index(k, s.k_cols[p]);
-      if (bilaplacian)
-        for (int r = s.k_offsets[k]; r < s.k_offsets[k + 1]; ++r) s.pair_to_system.push_back(system_index(s.k_cols[p], s.k_cols[r]));
+      if (mixed) s.k_to_coupling[p] = pair_index(k, n + s.k_cols[p]);
     }
   }
   s.physical_ldlt.analyzePattern(s.system);
   s.k_values.assign(s.k_cols.size(), 0.0);
   s.local.assign(s.elements.size() * D, 0.0);
   s.mass.assign(n, 0.0);
-  s.points.assign(n, Point<D>::Zero());
-  s.inverse_d.resize(n);
+  s.points.assign(rows, Point<D>::Zero());
+  s.inverse_d.resize(rows);
 }
 
 namespace {
 
 // x = P^T L^-T D^-1 L^-1 P (gamma S q) for a factorisation L D L^T of P (S (gamma I + A)) P^T
-// (order[v] = row of vertex v in the permuted system, S = row_scale), spelled out over L's
+// (order[v] = row of vertex v in the permuted system, S = row_scale; rows past q's are the mixed
+// form's auxiliary unknowns, right-hand side 0, not returned), spelled out over L's
 // compressed columns with a D-vector per row, so that L is read once for all coordinates (Eigen's
 // triangular solves take one right-hand column at a time, three passes over L) and nothing is
 // allocated. y: n scratch points.
 template <int D>
 void ldlt_solve(const SparseMatrix& L, const Eigen::VectorXd& inverse_d, const std::vector<int>& order,
                 const double* row_scale, double gamma, const PointList<D>& q, PointList<D>& y, PointList<D>& out) {
-  const int n = int(q.size());
-  for (int v = 0; v < n; ++v) y[order[v]] = gamma * row_scale[v] * q[v];
+  const int n = int(L.rows());  // q.size(), or 2 q.size() for the physical mixed form (rhs 0 below)
+  for (int v = 0; v < int(q.size()); ++v) y[order[v]] = gamma * row_scale[v] * q[v];
+  for (int v = int(q.size()); v < n; ++v) y[order[v]] = Point<D>::Zero();
   // L is unit lower triangular, stored by columns without its diagonal (Eigen's LDL^T layout).
   for (int i = 0; i < n; ++i)  // forward: L y = b
     for (typename SparseMatrix::InnerIterator it(L, i); it; ++it) y[it.row()] -= it.value() * y[i];
   for (int i = 0; i < n; ++i) y[i] *= inverse_d[i];
   for (int i = n - 1; i >= 0; --i)  // backward: L^T x = y
     for (typename SparseMatrix::InnerIterator it(L, i); it; ++it) y[i] -= it.value() * y[it.row()];
-  for (int v = 0; v < n; ++v) out[v] = y[order[v]];
+  for (int v = 0; v < int(q.size()); ++v) out[v] = y[order[v]];
 }
 
 }  // namespace
@@ -439,8 +451,8 @@ void InternalEnergy<D>::propose_direct(const Snake<D>& snake, PointList<D>& out)
 }
 
 // The physical step (internal.h): M and K of the current positions, then
-// (gamma M + alpha K + beta K M^-1 K) x = gamma M q assembled into the bound pattern (serially,
-// in a fixed order), refactorised numerically and solved.
+// (gamma M + alpha K + beta K M^-1 K) x = gamma M q (with beta, in its mixed form; bind_physical)
+// assembled into the bound pattern (serially, in a fixed order), refactorised numerically and solved.
 template <int D>
 void InternalEnergy<D>::propose_physical(const Snake<D>& snake, PointList<D>& out) {
   Solver& s = *solver_;
@@ -454,21 +466,12 @@ void InternalEnergy<D>::propose_physical(const Snake<D>& snake, PointList<D>& ou
   for (int v = 0; v < n; ++v) a[s.system_diagonal[v]] += gamma * s.mass[v];
   for (size_t p = 0; p < s.k_values.size(); ++p)
     if (s.k_to_system[p] >= 0) a[s.k_to_system[p]] += alpha * s.k_values[p];
-  if (!s.pair_to_system.empty()) {  // beta K M^-1 K: row k of K gives K_pk K_kr / M_k for every pair
-    const int* target = s.pair_to_system.data();
-    for (int k = 0; k < n; ++k) {
-      const double scale = beta / s.mass[k];
-      for (int p = s.k_offsets[k]; p < s.k_offsets[k + 1]; ++p) {
-        const double kp = scale * s.k_values[p];
-        for (int r = s.k_offsets[k]; r < s.k_offsets[k + 1]; ++r, ++target)
-          if (*target >= 0) a[*target] += kp * s.k_values[r];
-      }
-    }
-  }
+  for (size_t p = 0; p < s.k_to_coupling.size(); ++p) a[s.k_to_coupling[p]] += s.k_values[p];
+  for (size_t v = 0; v < s.auxiliary_diagonal.size(); ++v) a[s.auxiliary_diagonal[v]] -= s.mass[v] / beta;
   s.physical_ldlt.factorize(s.system);
-  DSNAKE_ASSERT(s.physical_ldlt.info() == Eigen::Success, "gamma M + alpha K + beta K M^-1 K is positive definite");
+  DSNAKE_ASSERT(s.physical_ldlt.info() == Eigen::Success, "the (mixed) step's system is (quasi-)definite");
   const Eigen::VectorXd& d = s.physical_ldlt.diagonal();
-  for (int i = 0; i < n; ++i) s.inverse_d[i] = 1.0 / d[i];
+  for (int i = 0; i < int(d.size()); ++i) s.inverse_d[i] = 1.0 / d[i];
   ldlt_solve<D>(s.physical_ldlt.matrixL().nestedExpression(), s.inverse_d, s.order, s.mass.data(), gamma,
                 snake.positions(), s.points, out);
 }

@@ -23,6 +23,9 @@
 //    Refresh: M and K are recomputed from the snake's positions at every propose(); the system's
 //    pattern, its fill-reducing (AMD) ordering and the symbolic factorisation are kept per
 //    topology, the numeric LDL^T is redone every step (serial: the same bits on any thread count).
+//    With beta > 0 the step is solved in the mixed form [gamma M + alpha K, K; K, -M / beta]
+//    [x; y] = [gamma M q; 0] (y = beta M^-1 K x; symmetric quasi-definite), whose one-ring
+//    pattern factorises several times faster than the two-ring K M^-1 K.
 //    Degenerate elements: an edge length is floored at 1e-3 times the mean edge length, a triangle
 //    area at 1e-3 times the mean squared edge length (1 mm / 1 mm^2 when every edge has zero
 //    length), in both M and K, and so is every vertex mass. A floored triangle's K_T is its true
