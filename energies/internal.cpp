@@ -1,10 +1,13 @@
 // Classical snake internal energy; see internal.h. Kass, Witkin, Terzopoulos, "Snakes: Active
-// contour models" (1988), appendix; Levi & Gotsman, D-Snake, §1 (E_int) and §3.1 (q^int).
+// contour models" (1988), appendix; Levi & Gotsman, D-Snake, §1 (E_int) and §3.1 (q^int); the
+// physical form's step as in Desbrun, Meyer, Schroeder, Barr, "Implicit fairing" (1999).
 #include "energies/internal.h"
 
 #include "framework/core/errors.h"
 #include "framework/global/global_problem.h"
 
+#include <Eigen/Geometry>
+#include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <algorithm>
@@ -72,10 +75,138 @@ SparseMatrix mesh_system(const Connectivity& c, const InternalOptions& o, Eigen:
   return m;
 }
 
+// --- physical discretisation (internal.h) ---------------------------------------------------
+
+// Floors of degenerate elements, relative to the mean edge length l (lengths) and l^2 (areas).
+constexpr double kRelativeFloor = 1e-3;
+
+// The elements of the piecewise-linear discretisation, D vertices each: 2D the polygon's edges
+// (v, v + 1 mod n), 3D the triangles.
+template <int D>
+std::vector<int> element_vertices(const Connectivity& c) {
+  std::vector<int> vertices;
+  if constexpr (D == 2) {
+    const int n = c.num_vertices();
+    for (int v = 0; v < n; ++v) vertices.insert(vertices.end(), {v, (v + 1) % n});
+  } else {
+    for (const Triangle& t : c.triangles()) vertices.insert(vertices.end(), {t[0], t[1], t[2]});
+  }
+  return vertices;
+}
+
+// The floor of an element's measure (2D length, 3D area): kRelativeFloor times the mean edge
+// length (squared in 3D), or 1 when every edge has zero length.
+template <int D>
+double measure_floor(const PointList<D>& q, const std::vector<int>& elements) {
+  double sum = 0;
+  const size_t count = elements.size();
+  for (size_t e = 0; e < count; e += D)
+    for (int a = 0; a < D; ++a) sum += (q[elements[e + (a + 1) % D]] - q[elements[e + a]]).norm();
+  const double mean = count > 0 ? sum / double(count) : 0.0;
+  const double floor = D == 2 ? kRelativeFloor * mean : kRelativeFloor * mean * mean;
+  return floor > 0 && std::isfinite(floor) ? floor : 1.0;
+}
+
+// Triangle (a, b, c): e[i] the edge opposite vertex i (e0 = c - b, e1 = a - c, e2 = b - a) and
+// the area, floored.
+void triangle_edges(const PointList<3>& q, const int* t, double floor, Point<3> (&e)[3], double& area) {
+  e[0] = q[t[2]] - q[t[1]];
+  e[1] = q[t[0]] - q[t[2]];
+  e[2] = q[t[1]] - q[t[0]];
+  area = std::max(0.5 * e[1].cross(e[2]).norm(), floor);
+}
+
+// The mixed Voronoi area of each vertex of triangle t (Meyer, Desbrun, Schroeder, Barr, "Discrete
+// differential-geometry operators for triangulated 2-manifolds", 2003, fig. 4): the Voronoi
+// region's part 1/8 (|e_l|^2 cot(angle l) + |e_j|^2 cot(angle j)) in a non-obtuse triangle,
+// area / 2 at an obtuse angle and area / 4 at the other two. `area` floored; the parts sum to
+// the area (of a non-degenerate triangle).
+void mixed_voronoi(const Point<3> (&e)[3], double area, double (&part)[3]) {
+  // dot[i] = (q_j - q_i) . (q_l - q_i), twice the area times cot(angle i)
+  const double dot[3] = {-e[1].dot(e[2]), -e[2].dot(e[0]), -e[0].dot(e[1])};
+  const bool obtuse = dot[0] < 0 || dot[1] < 0 || dot[2] < 0;
+  for (int i = 0; i < 3; ++i) {
+    const int j = (i + 1) % 3, l = (i + 2) % 3;
+    if (obtuse)
+      part[i] = dot[i] < 0 ? 0.5 * area : 0.25 * area;
+    else
+      part[i] = (e[l].squaredNorm() * dot[l] + e[j].squaredNorm() * dot[j]) / (16.0 * area);
+  }
+}
+
+// Each element's local stiffness (D x D, row-major; 2D (1 / l) [1 -1; -1 1], 3D e_i . e_j / (4 A))
+// and the lumped mass (2D l / 2 to each end, 3D the mixed Voronoi areas), lengths and areas
+// floored, and every vertex mass at least the floor. `local` and `mass` are resized (no
+// allocation once they have their size).
+template <int D>
+void element_operators(const PointList<D>& q, const std::vector<int>& elements, std::vector<double>& local,
+                       std::vector<double>& mass) {
+  const double floor = measure_floor<D>(q, elements);
+  const size_t count = elements.size() / D;
+  local.resize(count * D * D);
+  mass.assign(q.size(), 0.0);
+  for (size_t e = 0; e < count; ++e) {
+    const int* v = elements.data() + e * D;
+    double* k = local.data() + e * D * D;
+    if constexpr (D == 2) {
+      const double length = std::max((q[v[1]] - q[v[0]]).norm(), floor), w = 1.0 / length;
+      k[0] = k[3] = w;
+      k[1] = k[2] = -w;
+      mass[v[0]] += 0.5 * length;
+      mass[v[1]] += 0.5 * length;
+    } else {
+      Point<3> edge[3];
+      double area = 0, part[3];
+      triangle_edges(q, v, floor, edge, area);
+      mixed_voronoi(edge, area, part);
+      const double scale = 1.0 / (4.0 * area);
+      for (int i = 0; i < 3; ++i) {
+        mass[v[i]] += part[i];
+        for (int j = 0; j < 3; ++j) k[3 * i + j] = scale * edge[i].dot(edge[j]);
+      }
+    }
+  }
+  for (double& m : mass) m = std::max(m, floor);  // NaN-free M^-1, also for a vertex in no element
+}
+
+// K (n x n, symmetric) and M of the current positions, for the residuals.
+template <int D>
+SparseMatrix stiffness_matrix(const Snake<D>& snake, const std::vector<int>& elements, std::vector<double>& mass) {
+  std::vector<double> local;
+  element_operators<D>(snake.positions(), elements, local, mass);
+  std::vector<Eigen::Triplet<double>> entries;
+  entries.reserve(local.size());
+  for (size_t e = 0; e < elements.size() / D; ++e)
+    for (int i = 0; i < D; ++i)
+      for (int j = 0; j < D; ++j) entries.emplace_back(elements[e * D + i], elements[e * D + j], local[e * D * D + D * i + j]);
+  const int n = snake.num_vertices();
+  SparseMatrix k(n, n);
+  k.setFromTriplets(entries.begin(), entries.end());
+  return k;
+}
+
+// Index of entry (row, col) in a compressed column-major matrix's value array (asserted present).
+int value_index(const SparseMatrix& m, int row, int col) {
+  const int* begin = m.innerIndexPtr() + m.outerIndexPtr()[col];
+  const int* end = m.innerIndexPtr() + m.outerIndexPtr()[col + 1];
+  const int* it = std::lower_bound(begin, end, row);
+  DSNAKE_ASSERT(it != end && *it == row, "the entry is in the system's pattern");
+  return int(it - m.innerIndexPtr());
+}
+
+// Eigen's LDL^T of a matrix given in its fill-reducing order (upper triangle stored, so that
+// factorize() reads it in place), with D read in place (vectorD() returns a copy).
+class PreorderedLdlt : public Eigen::SimplicialLDLT<SparseMatrix, Eigen::Upper, Eigen::NaturalOrdering<int>> {
+ public:
+  const Eigen::VectorXd& diagonal() const { return m_diag; }
+};
+
 }  // namespace
 
-// K x = gamma S q with K = S (gamma I + A) symmetric positive definite (S = I in 2D, W in 3D),
-// factorised once per topology, plus n x D scratch so that propose() allocates nothing.
+// Umbrella: K x = gamma S q with K = S (gamma I + A) symmetric positive definite (S = I in 2D, W
+// in 3D), factorised once per topology, plus n x D scratch so that propose() allocates nothing.
+// Physical: the system's pattern, ordering and symbolic factorisation per topology, its values
+// refilled and refactorised every step.
 template <int D>
 struct InternalEnergy<D>::Solver {
   // Chebyshev: A as one-ring stencils (mesh: neighbours and 1 / valence; polygon: Kass's band),
@@ -92,6 +223,16 @@ struct InternalEnergy<D>::Solver {
   std::vector<int> order;     // order[v] = row of vertex v in the permuted system
   uint64_t topology_version = 0;
   int num_vertices = -1;
+  // Physical: the elements (D vertices each); K's rows (row v: k_cols[k_offsets[v]...], v first);
+  // each element entry's slot in K; where each K slot adds into the permuted upper system's values
+  // (top-left block, -1: in the lower half; with beta, the coupling block K of row v, column n + w),
+  // and where each diagonal does (top-left; with beta, the bottom-right -M / beta).
+  bool physical = false;
+  std::vector<int> elements, k_offsets, k_cols, element_slots, k_to_system, k_to_coupling, system_diagonal,
+      auxiliary_diagonal;
+  std::vector<double> local, mass, k_values;
+  SparseMatrix system;
+  PreorderedLdlt physical_ldlt;
 };
 
 template <int D>
@@ -126,6 +267,18 @@ void InternalEnergy<D>::bind(const EnergyContext<D>&, const Snake<D>& snake) {
   Solver& s = *solver_;
   s.topology_version = snake.topology_version();
   s.num_vertices = n;
+  s.physical = options_.discretization == InternalDiscretization::kPhysical;
+  if (s.physical)
+    bind_physical(snake);
+  else
+    bind_umbrella(snake);
+}
+
+template <int D>
+void InternalEnergy<D>::bind_umbrella(const Snake<D>& snake) {
+  const Connectivity& c = snake.connectivity();
+  const int n = snake.num_vertices();
+  Solver& s = *solver_;
   // Chebyshev: the error in the valence-weighted norm ||e||_W (A is self-adjoint in it) shrinks by
   // 1 / T_k(sigma); ||e||_inf <= ||e||_W / sqrt(w_min) and ||e_0||_W <= sqrt(sum w) ||e_0||_inf turn
   // the tolerance on the largest vertex error into eps.
@@ -171,17 +324,120 @@ void InternalEnergy<D>::bind(const EnergyContext<D>&, const Snake<D>& snake) {
   for (int v = 0; v < n; ++v) s.order[v] = perm.size() == n ? perm[v] : v;
 }
 
+// The physical system's structure (internal.h). Without rigidity, gamma M + alpha K on K's
+// pattern. With beta > 0 the step is solved in the mixed form of 2n unknowns (x, y = beta M^-1 K x)
+//   [gamma M + alpha K   K        ] [x]   [gamma M q]
+//   [K                  -M / beta ] [y] = [0        ],
+// symmetric quasi-definite (Vanderbei 1995: an LDL^T exists in every symmetric order), whose
+// pattern is two copies of the one-ring instead of the two-ring of K M^-1 K (3-5x less fill).
+// Then the AMD ordering, the upper triangle in that order, the slots every step adds into, and
+// the symbolic factorisation.
+template <int D>
+void InternalEnergy<D>::bind_physical(const Snake<D>& snake) {
+  const Connectivity& c = snake.connectivity();
+  const int n = snake.num_vertices();
+  Solver& s = *solver_;
+  s.iterations = 0;
+  s.elements = element_vertices<D>(c);
+  s.k_offsets.assign(1, 0);
+  s.k_cols.clear();
+  for (int v = 0; v < n; ++v) {
+    s.k_cols.push_back(v);
+    for (int w : c.neighbors(v)) s.k_cols.push_back(w);
+    s.k_offsets.push_back(int(s.k_cols.size()));
+  }
+  auto slot = [&](int v, int w) {
+    const auto begin = s.k_cols.begin() + s.k_offsets[v], end = s.k_cols.begin() + s.k_offsets[v + 1];
+    const auto it = std::find(begin, end, w);
+    DSNAKE_ASSERT(it != end, "an element's vertices are one-ring neighbours");
+    return int(it - s.k_cols.begin());
+  };
+  s.element_slots.clear();
+  for (size_t e = 0; e < s.elements.size(); e += D)
+    for (int i = 0; i < D; ++i)
+      for (int j = 0; j < D; ++j) s.element_slots.push_back(slot(s.elements[e + i], s.elements[e + j]));
+  const bool mixed = options_.beta > 0;
+  const int rows = mixed ? 2 * n : n;
+  std::vector<Eigen::Triplet<double>> pattern;
+  for (int k = 0; k < n; ++k) {
+    if (mixed) pattern.emplace_back(n + k, n + k, 1.0);
+    for (int p = s.k_offsets[k]; p < s.k_offsets[k + 1]; ++p) {
+      pattern.emplace_back(k, s.k_cols[p], 1.0);
+      if (mixed) pattern.emplace_back(k, n + s.k_cols[p], 1.0), pattern.emplace_back(n + s.k_cols[p], k, 1.0);
+    }
+  }
+  SparseMatrix full(rows, rows);
+  full.setFromTriplets(pattern.begin(), pattern.end());
+  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> inverse;
+  Eigen::AMDOrdering<int>()(full, inverse);
+  const Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> permutation = inverse.inverse();
+  s.order.assign(permutation.indices().data(), permutation.indices().data() + rows);
+  std::vector<Eigen::Triplet<double>> upper;
+  for (const auto& t : pattern)
+    if (s.order[t.row()] <= s.order[t.col()]) upper.emplace_back(s.order[t.row()], s.order[t.col()], 1.0);
+  s.system.resize(rows, rows);
+  s.system.setFromTriplets(upper.begin(), upper.end());
+  s.system.makeCompressed();
+  auto system_index = [&](int v, int w) {  // the upper entry of the pair {v, w}: -1 from its lower half
+    const int a = s.order[v], b = s.order[w];
+    return a <= b ? value_index(s.system, a, b) : -1;
+  };
+  auto pair_index = [&](int v, int w) { return std::max(system_index(v, w), system_index(w, v)); };
+  s.k_to_system.resize(s.k_cols.size());
+  s.k_to_coupling.assign(mixed ? s.k_cols.size() : 0, -1);
+  s.system_diagonal.resize(n);
+  s.auxiliary_diagonal.assign(mixed ? n : 0, -1);
+  for (int k = 0; k < n; ++k) {
+    s.system_diagonal[k] = system_index(k, k);
+    if (mixed) s.auxiliary_diagonal[k] = system_index(n + k, n + k);
+    for (int p = s.k_offsets[k]; p < s.k_offsets[k + 1]; ++p) {
+      s.k_to_system[p] = system_index(k, s.k_cols[p]);
+      if (mixed) s.k_to_coupling[p] = pair_index(k, n + s.k_cols[p]);
+    }
+  }
+  s.physical_ldlt.analyzePattern(s.system);
+  s.k_values.assign(s.k_cols.size(), 0.0);
+  s.local.assign(s.elements.size() * D, 0.0);
+  s.mass.assign(n, 0.0);
+  s.points.assign(rows, Point<D>::Zero());
+  s.inverse_d.resize(rows);
+}
+
+namespace {
+
+// x = P^T L^-T D^-1 L^-1 P (gamma S q) for a factorisation L D L^T of P (S (gamma I + A)) P^T
+// (order[v] = row of vertex v in the permuted system, S = row_scale; rows past q's are the mixed
+// form's auxiliary unknowns, right-hand side 0, not returned), spelled out over L's
+// compressed columns with a D-vector per row, so that L is read once for all coordinates (Eigen's
+// triangular solves take one right-hand column at a time, three passes over L) and nothing is
+// allocated. y: n scratch points.
+template <int D>
+void ldlt_solve(const SparseMatrix& L, const Eigen::VectorXd& inverse_d, const std::vector<int>& order,
+                const double* row_scale, double gamma, const PointList<D>& q, PointList<D>& y, PointList<D>& out) {
+  const int n = int(L.rows());  // q.size(), or 2 q.size() for the physical mixed form (rhs 0 below)
+  for (int v = 0; v < int(q.size()); ++v) y[order[v]] = gamma * row_scale[v] * q[v];
+  for (int v = int(q.size()); v < n; ++v) y[order[v]] = Point<D>::Zero();
+  // L is unit lower triangular, stored by columns without its diagonal (Eigen's LDL^T layout).
+  for (int i = 0; i < n; ++i)  // forward: L y = b
+    for (typename SparseMatrix::InnerIterator it(L, i); it; ++it) y[it.row()] -= it.value() * y[i];
+  for (int i = 0; i < n; ++i) y[i] *= inverse_d[i];
+  for (int i = n - 1; i >= 0; --i)  // backward: L^T x = y
+    for (typename SparseMatrix::InnerIterator it(L, i); it; ++it) y[i] -= it.value() * y[it.row()];
+  for (int v = 0; v < int(q.size()); ++v) out[v] = y[order[v]];
+}
+
+}  // namespace
+
 // Kass 1988, eqs. (19)-(20) without the external term: x_t = (A + gamma I)^{-1} (gamma x_{t-1}).
-// The solve P^T L^{-T} D^{-1} L^{-1} P is spelled out over L's compressed columns with a D-vector
-// per row, so that L is read once for all coordinates (Eigen's triangular solves take one
-// right-hand column at a time, three passes over L) and nothing is allocated.
 template <int D>
 void InternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   Solver& s = *solver_;
   DSNAKE_ASSERT(s.num_vertices == snake.num_vertices() && s.topology_version == snake.topology_version(),
                 "bound to the snake's topology (the phase driver rebinds after a remesh)");
   DSNAKE_ASSERT(int(out.size()) == snake.num_vertices(), "out has one entry per vertex");
-  if (s.iterations > 0)
+  if (s.physical)
+    propose_physical(snake, out);
+  else if (s.iterations > 0)
     propose_chebyshev(snake, out);
   else
     propose_direct(snake, out);
@@ -190,18 +446,34 @@ void InternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
 template <int D>
 void InternalEnergy<D>::propose_direct(const Snake<D>& snake, PointList<D>& out) {
   Solver& s = *solver_;
+  ldlt_solve<D>(s.ldlt.matrixL().nestedExpression(), s.inverse_d, s.order, s.row_scale.data(), options_.gamma,
+                snake.positions(), s.points, out);
+}
+
+// The physical step (internal.h): M and K of the current positions, then
+// (gamma M + alpha K + beta K M^-1 K) x = gamma M q (with beta, in its mixed form; bind_physical)
+// assembled into the bound pattern (serially, in a fixed order), refactorised numerically and solved.
+template <int D>
+void InternalEnergy<D>::propose_physical(const Snake<D>& snake, PointList<D>& out) {
+  Solver& s = *solver_;
   const int n = snake.num_vertices();
-  const PointList<D>& q = snake.positions();
-  PointList<D>& y = s.points;
-  for (int v = 0; v < n; ++v) y[s.order[v]] = options_.gamma * s.row_scale[v] * q[v];
-  // L is unit lower triangular, stored by columns without its diagonal (Eigen's LDL^T layout).
-  const SparseMatrix& L = s.ldlt.matrixL().nestedExpression();
-  for (int i = 0; i < n; ++i)  // forward: L y = b
-    for (typename SparseMatrix::InnerIterator it(L, i); it; ++it) y[it.row()] -= it.value() * y[i];
-  for (int i = 0; i < n; ++i) y[i] *= s.inverse_d[i];
-  for (int i = n - 1; i >= 0; --i)  // backward: L^T x = y
-    for (typename SparseMatrix::InnerIterator it(L, i); it; ++it) y[i] -= it.value() * y[it.row()];
-  for (int v = 0; v < n; ++v) out[v] = y[s.order[v]];
+  const double alpha = options_.alpha, beta = options_.beta, gamma = options_.gamma;
+  element_operators<D>(snake.positions(), s.elements, s.local, s.mass);
+  std::fill(s.k_values.begin(), s.k_values.end(), 0.0);
+  for (size_t k = 0; k < s.local.size(); ++k) s.k_values[s.element_slots[k]] += s.local[k];
+  double* a = s.system.valuePtr();
+  std::fill(a, a + s.system.nonZeros(), 0.0);
+  for (int v = 0; v < n; ++v) a[s.system_diagonal[v]] += gamma * s.mass[v];
+  for (size_t p = 0; p < s.k_values.size(); ++p)
+    if (s.k_to_system[p] >= 0) a[s.k_to_system[p]] += alpha * s.k_values[p];
+  for (size_t p = 0; p < s.k_to_coupling.size(); ++p) a[s.k_to_coupling[p]] += s.k_values[p];
+  for (size_t v = 0; v < s.auxiliary_diagonal.size(); ++v) a[s.auxiliary_diagonal[v]] -= s.mass[v] / beta;
+  s.physical_ldlt.factorize(s.system);
+  DSNAKE_ASSERT(s.physical_ldlt.info() == Eigen::Success, "the (mixed) step's system is (quasi-)definite");
+  const Eigen::VectorXd& d = s.physical_ldlt.diagonal();
+  for (int i = 0; i < int(d.size()); ++i) s.inverse_d[i] = 1.0 / d[i];
+  ldlt_solve<D>(s.physical_ldlt.matrixL().nestedExpression(), s.inverse_d, s.order, s.mass.data(), gamma,
+                snake.positions(), s.points, out);
 }
 
 // The same step by Chebyshev semi-iteration (Saad, Iterative Methods, Alg. 12.1) on
@@ -279,6 +551,7 @@ void InternalEnergy<D>::propose_chebyshev(const Snake<D>& snake, PointList<D>& o
 // Kass 1988 eq. (1)'s E_int, discretised with unit parameter steps (see internal.h).
 template <int D>
 double InternalEnergy<D>::value(const Snake<D>& snake) const {
+  if (options_.discretization == InternalDiscretization::kPhysical) return physical_value(snake);
   const PointList<D>& q = snake.positions();
   const Connectivity& c = snake.connectivity();
   const int n = snake.num_vertices();
@@ -307,6 +580,10 @@ double InternalEnergy<D>::value(const Snake<D>& snake) const {
 
 template <int D>
 bool InternalEnergy<D>::add_residuals(const Snake<D>& snake, double weight, GlobalProblem<D>& problem) const {
+  if (options_.discretization == InternalDiscretization::kPhysical) {
+    add_physical_residuals(snake, weight, problem);
+    return true;
+  }
   const Connectivity& c = snake.connectivity();
   const int n = snake.num_vertices();
   const double sa = std::sqrt(0.5 * weight * options_.alpha), sb = std::sqrt(0.5 * weight * options_.beta);
@@ -334,6 +611,87 @@ bool InternalEnergy<D>::add_residuals(const Snake<D>& snake, double weight, Glob
     }
   }
   return true;
+}
+
+// The physical E_int at q with M and K of q (internal.h), written with differences inside each
+// element (translation-invariant in floating point): 1/2 alpha sum_e sum_ij K_e,ij (q_i - q_0).(q_j - q_0)
+// + 1/2 beta sum_v |(K q)_v|^2 / M_v, (K q)_v = sum_e sum_j K_e,vj (q_j - q_v).
+template <int D>
+double InternalEnergy<D>::physical_value(const Snake<D>& snake) const {
+  const PointList<D>& q = snake.positions();
+  const std::vector<int> elements = element_vertices<D>(snake.connectivity());
+  std::vector<double> local, mass;
+  element_operators<D>(q, elements, local, mass);
+  PointList<D> kq(q.size(), Point<D>::Zero());
+  double tension = 0;
+  for (size_t e = 0; e < elements.size() / D; ++e) {
+    const int* v = elements.data() + e * D;
+    const double* k = local.data() + e * D * D;
+    for (int i = 0; i < D; ++i)
+      for (int j = 0; j < D; ++j) {
+        tension += k[D * i + j] * (q[v[i]] - q[v[0]]).dot(q[v[j]] - q[v[0]]);
+        kq[v[i]] += k[D * i + j] * (q[v[j]] - q[v[i]]);
+      }
+  }
+  double rigidity = 0;
+  if (options_.beta > 0)
+    for (size_t v = 0; v < q.size(); ++v) rigidity += kq[v].squaredNorm() / mass[v];
+  return 0.5 * options_.alpha * tension + 0.5 * options_.beta * rigidity;
+}
+
+// The physical residuals (internal.h), M and K frozen at the snake's positions.
+//  alpha, 2D: sqrt(w alpha / (2 l)) (q_1 - q_0) per edge;
+//         3D: per triangle, in an orthonormal basis (b_1, b_2) of its plane, the two residuals
+//             sqrt(w alpha / (8 A)) sum_i (e_i . b_c) q_i, whose squares sum to
+//             1/2 w alpha sum_ij e_i . e_j / (4 A) q_i . q_j (grad phi_i = n x e_i / (2 A));
+//  beta: sqrt(w beta / (2 M_v)) (K q)_v per vertex.
+template <int D>
+void InternalEnergy<D>::add_physical_residuals(const Snake<D>& snake, double weight, GlobalProblem<D>& problem) const {
+  const PointList<D>& q = snake.positions();
+  const std::vector<int> elements = element_vertices<D>(snake.connectivity());
+  const double alpha = weight * options_.alpha, beta = weight * options_.beta;
+  if (alpha > 0) {
+    const double floor = measure_floor<D>(q, elements);
+    for (size_t e = 0; e < elements.size(); e += D) {
+      const std::span<const int> v(elements.data() + e, D);
+      if constexpr (D == 2) {
+        const double coefficients[2] = {-1.0, 1.0};
+        const double length = std::max((q[v[1]] - q[v[0]]).norm(), floor);
+        problem.add_linear_residual(v, coefficients, std::sqrt(0.5 * alpha / length));
+      } else {
+        Point<3> edge[3];
+        double area = 0;
+        triangle_edges(q, v.data(), floor, edge, area);
+        int longest = 0;
+        for (int i = 1; i < 3; ++i)
+          if (edge[i].squaredNorm() > edge[longest].squaredNorm()) longest = i;
+        if (!(edge[longest].squaredNorm() > 0)) continue;  // a triangle shrunk to a point: K_T = 0
+        const Point<3> b1 = edge[longest].normalized(), other = edge[(longest + 1) % 3];
+        const Point<3> b2 = other - other.dot(b1) * b1;
+        const double scale = std::sqrt(alpha / (8.0 * area));
+        for (const Point<3>& b : {b1, b2.norm() > 0 ? Point<3>(b2.normalized()) : Point<3>(Point<3>::Zero())}) {
+          if (b.squaredNorm() == 0) continue;  // collinear: the edges lie along b1
+          const double coefficients[3] = {edge[0].dot(b), edge[1].dot(b), edge[2].dot(b)};
+          problem.add_linear_residual(v, coefficients, scale);
+        }
+      }
+    }
+  }
+  if (beta > 0) {
+    std::vector<double> mass;
+    const SparseMatrix k = stiffness_matrix<D>(snake, elements, mass);
+    std::vector<int> vertices;
+    std::vector<double> coefficients;
+    for (int v = 0; v < snake.num_vertices(); ++v) {  // column v of the symmetric K is row v
+      vertices.clear();
+      coefficients.clear();
+      for (SparseMatrix::InnerIterator it(k, v); it; ++it) {
+        vertices.push_back(int(it.row()));
+        coefficients.push_back(it.value());
+      }
+      problem.add_linear_residual(vertices, coefficients, std::sqrt(0.5 * beta / mass[v]));
+    }
+  }
 }
 
 template class InternalEnergy<2>;

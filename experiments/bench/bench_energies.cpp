@@ -125,6 +125,33 @@ void BM_InternalAndExternal3d(benchmark::State& state) {
 BENCHMARK(BM_InternalAndExternal3d)->ArgsProduct({{0, 1, 2}, {1, 2}})->ArgNames({"term", "threads"})
     ->Unit(benchmark::kMicrosecond)->UseRealTime();
 
+// The internal step alone, "umbrella" (0) against "physical" (1: M and K refreshed and the system
+// refactorised every step), alpha 0.5, beta 0 or 0.01, on the 2562-vertex icosphere (radius 50)
+// and the 7000-vertex torus.
+void BM_InternalDiscretization3d(benchmark::State& state) {
+  omp_set_num_threads(int(state.range(3)));
+  static const Template<3> sphere = [] {
+    Template<3> t = make_icosphere(4);
+    for (auto& p : t.positions) p *= 50.0;
+    return t;
+  }();
+  static const Template<3> torus = torus_7000();
+  const Template<3>& t = state.range(0) == 0 ? sphere : torus;
+  const std::string json = std::string(R"({"type": "internal", "alpha": 0.5, "beta": )") + (state.range(2) == 0 ? "0.0" : "0.01") +
+                           R"(, "discretization": ")" + (state.range(1) == 0 ? "umbrella" : "physical") + "\"}";
+  auto e = energy<3>(json);
+  Snake<3> snake = Snake<3>::from_template(t, t.positions);
+  e->bind({&t}, snake);
+  PointList<3> out(snake.num_vertices());
+  for (auto _ : state) {
+    e->propose(snake, out);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.counters["vertices"] = snake.num_vertices();
+}
+BENCHMARK(BM_InternalDiscretization3d)->ArgsProduct({{0, 1}, {0, 1}, {0, 1}, {1, 2}})
+    ->ArgNames({"torus", "physical", "beta", "threads"})->Unit(benchmark::kMicrosecond)->UseRealTime();
+
 // 2D: 1000 iterations of a 400-vertex D-Snake (internal + external + ASAP) on a precomputed
 // field; 0: exact Gauss-Seidel, 1: approximate Gauss-Seidel; 2-ring neighbourhoods.
 void BM_Dsnake2d1000Iterations(benchmark::State& state) {

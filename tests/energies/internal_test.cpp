@@ -98,6 +98,14 @@ Template<3> with_split_face(Template<3> t) {
   return t;
 }
 
+// The per-vertex form with unit parameter steps (Kass's appendix; "discretization": "umbrella"),
+// which the hand-built matrices of these tests spell out.
+InternalOptions umbrella(double alpha, double beta, double gamma) {
+  InternalOptions o{alpha, beta, gamma};
+  o.discretization = InternalDiscretization::kUmbrella;
+  return o;
+}
+
 Eigen::MatrixXd umbrella_matrix(const Connectivity& c) {
   const int n = c.num_vertices();
   Eigen::MatrixXd l = Eigen::MatrixXd::Identity(n, n);
@@ -107,7 +115,7 @@ Eigen::MatrixXd umbrella_matrix(const Connectivity& c) {
 }
 
 TEST(InternalEnergy, StepMatchesDenseSolve2d) {
-  const InternalOptions o{0.7, 0.3, 2.0};
+  const InternalOptions o = umbrella(0.7, 0.3, 2.0);
   Snake<2> snake = polygon_snake(random_polygon(7, 1));
   InternalEnergy<2> energy(o);
   energy.bind({}, snake);
@@ -121,7 +129,7 @@ TEST(InternalEnergy, StepMatchesDenseSolve2d) {
 
 TEST(InternalEnergy, StepMatchesDenseSolveSmallPolygons2d) {
   // n = 3 and 4: the pentadiagonal band wraps onto itself.
-  const InternalOptions o{0.4, 0.9, 1.5};
+  const InternalOptions o = umbrella(0.4, 0.9, 1.5);
   for (int n : {3, 4, 5}) {
     Snake<2> snake = polygon_snake(random_polygon(n, 10 + n));
     InternalEnergy<2> energy(o);
@@ -136,7 +144,7 @@ TEST(InternalEnergy, StepMatchesDenseSolveSmallPolygons2d) {
 }
 
 TEST(InternalEnergy, ValueGradientIsKassMatrix2d) {
-  const InternalOptions o{0.7, 0.3, 2.0};
+  const InternalOptions o = umbrella(0.7, 0.3, 2.0);
   Snake<2> snake = polygon_snake(random_polygon(7, 2));
   InternalEnergy<2> energy(o);
   const Eigen::MatrixXd aq = kass_matrix(7, o.alpha, o.beta) * as_matrix(snake.positions());
@@ -154,24 +162,28 @@ TEST(InternalEnergy, ValueGradientIsKassMatrix2d) {
     }
 }
 
+// Both discretisations keep a regular polygon regular and about its centroid.
 TEST(InternalEnergy, RegularPolygonShrinksAboutCentroid2d) {
   const Point<2> centre(3.0, -2.0);
   const int n = 12;
   Snake<2> snake = polygon_snake(regular_polygon(n, 10.0, centre));
-  InternalEnergy<2> energy({0.8, 0.0, 1.0});
-  energy.bind({}, snake);
-  PointList<2> out(n);
-  energy.propose(snake, out);
-  Point<2> centroid = Point<2>::Zero();
-  for (const auto& x : out) centroid += x / n;
-  EXPECT_NEAR((centroid - centre).norm(), 0.0, 1e-12);
-  const double r0 = (out[0] - centre).norm();
-  EXPECT_LT(r0, 10.0 - 1e-3);
-  for (int i = 0; i < n; ++i) {
-    EXPECT_NEAR((out[i] - centre).norm(), r0, 1e-12);
-    // Radial shrink: each vertex stays on its own ray (the polygon stays regular).
-    const Point<2> expected = centre + (r0 / 10.0) * (snake.positions()[i] - centre);
-    EXPECT_NEAR((out[i] - expected).norm(), 0.0, 1e-12);
+  for (const InternalOptions& o : {umbrella(0.8, 0.0, 1.0), InternalOptions{0.8, 0.0, 1.0}}) {
+    SCOPED_TRACE(enum_name(o.discretization));
+    InternalEnergy<2> energy(o);
+    energy.bind({}, snake);
+    PointList<2> out(n);
+    energy.propose(snake, out);
+    Point<2> centroid = Point<2>::Zero();
+    for (const auto& x : out) centroid += x / n;
+    EXPECT_NEAR((centroid - centre).norm(), 0.0, 1e-12);
+    const double r0 = (out[0] - centre).norm();
+    EXPECT_LT(r0, 10.0 - 1e-3);
+    for (int i = 0; i < n; ++i) {
+      EXPECT_NEAR((out[i] - centre).norm(), r0, 1e-12);
+      // Radial shrink: each vertex stays on its own ray (the polygon stays regular).
+      const Point<2> expected = centre + (r0 / 10.0) * (snake.positions()[i] - centre);
+      EXPECT_NEAR((out[i] - expected).norm(), 0.0, 1e-12);
+    }
   }
 }
 
@@ -181,7 +193,9 @@ TEST(InternalEnergy, IcosahedronShrinksSymmetrically3d) {
   ASSERT_EQ(ico.connectivity.closed_manifold_problem(), "");
   Snake<3> snake = Snake<3>::from_template(ico, ico.positions);
   const double r_before = (snake.positions()[0] - centre).norm();
-  for (const InternalOptions& o : {InternalOptions{0.5, 0.0, 1.0}, InternalOptions{0.5, 0.4, 2.0}}) {
+  for (const InternalOptions& o : {umbrella(0.5, 0.0, 1.0), umbrella(0.5, 0.4, 2.0), InternalOptions{0.5, 0.0, 1.0},
+                                   InternalOptions{0.5, 0.4, 2.0}}) {
+    SCOPED_TRACE(enum_name(o.discretization));
     InternalEnergy<3> energy(o);
     energy.bind({}, snake);
     PointList<3> out(12);
@@ -198,7 +212,7 @@ TEST(InternalEnergy, IcosahedronShrinksSymmetrically3d) {
 TEST(InternalEnergy, StepMatchesDenseSolve3d) {
   for (InternalSolver solver : {InternalSolver::kDirect, InternalSolver::kChebyshev})
   for (bool split : {false, true}) {
-    InternalOptions o{0.7, 0.3, 2.0};
+    InternalOptions o = umbrella(0.7, 0.3, 2.0);
     o.solver = solver;
     Template<3> mesh = icosahedron(Point<3>::Zero(), 3.0);
     if (split) mesh = with_split_face(mesh);
@@ -238,8 +252,7 @@ Snake<3> jittered_icosphere_snake(unsigned seed, double jitter) {
 TEST(InternalEnergy, ChebyshevWithinItsBoundOfTheDirectStep3d) {
   const Snake<3> snake = jittered_icosphere_snake(2, 0.4);
   const int n = snake.num_vertices();
-  for (const InternalOptions& base : {InternalOptions{0.1, 0.0, 1.0}, InternalOptions{0.5, 0.01, 1.0},
-                                     InternalOptions{3.0, 1.0, 1.0}}) {
+  for (const InternalOptions& base : {umbrella(0.1, 0.0, 1.0), umbrella(0.5, 0.01, 1.0), umbrella(3.0, 1.0, 1.0)}) {
     InternalOptions direct_options = base;
     direct_options.solver = InternalSolver::kDirect;
     InternalEnergy<3> direct(direct_options);
@@ -276,7 +289,7 @@ TEST(InternalEnergy, ChebyshevWithinItsBoundOfTheDirectStep3d) {
 // onto itself) and larger.
 TEST(InternalEnergy, ChebyshevMatchesDenseSolve2d) {
   for (int n : {3, 5, 300}) {
-    InternalOptions o{0.7, 0.3, 2.0};
+    InternalOptions o = umbrella(0.7, 0.3, 2.0);
     o.solver = InternalSolver::kChebyshev;
     Snake<2> snake = polygon_snake(random_polygon(n, 9));
     InternalEnergy<2> energy(o);
@@ -295,7 +308,7 @@ TEST(InternalEnergy, ChebyshevMatchesDenseSolve2d) {
 TEST(InternalEnergy, AutoSolverChoiceAndThreadIndependence) {
   const Snake<3> snake = jittered_icosphere_snake(4, 0.4);
   const int n = snake.num_vertices();
-  InternalEnergy<3> mild(InternalOptions{0.1, 0.01, 1.0});
+  InternalEnergy<3> mild(umbrella(0.1, 0.01, 1.0));
   PointList<3> a(n), b(n);
   omp_set_num_threads(1);
   mild.bind({}, snake);
@@ -306,11 +319,11 @@ TEST(InternalEnergy, AutoSolverChoiceAndThreadIndependence) {
   EXPECT_GT(mild.chebyshev_iterations(), 0);
   EXPECT_LE(mild.chebyshev_iterations(), 12);
   for (int v = 0; v < n; ++v) EXPECT_EQ(a[v], b[v]);
-  InternalEnergy<3> stiff(InternalOptions{50.0, 0.0, 1.0});
+  InternalEnergy<3> stiff(umbrella(50.0, 0.0, 1.0));
   stiff.bind({}, snake);
   stiff.propose(snake, a);
   EXPECT_EQ(stiff.chebyshev_iterations(), 0);
-  InternalEnergy<2> polygon(InternalOptions{0.1, 0.0, 1.0});
+  InternalEnergy<2> polygon(umbrella(0.1, 0.0, 1.0));
   Snake<2> p = polygon_snake(random_polygon(400, 2));
   PointList<2> out(400);
   polygon.bind({}, p);
@@ -320,7 +333,7 @@ TEST(InternalEnergy, AutoSolverChoiceAndThreadIndependence) {
 
 TEST(InternalEnergy, ValueGradient3d) {
   // d/dq [sum_edges 1/2 alpha |q_i - q_j|^2 + sum_v 1/2 beta |(Lq)_v|^2] = alpha Lc q + beta L^T L q.
-  const InternalOptions o{0.7, 0.3, 2.0};
+  const InternalOptions o = umbrella(0.7, 0.3, 2.0);
   Template<3> ico = with_split_face(icosahedron(Point<3>::Zero(), 2.0));
   const int n = ico.num_vertices();
   std::mt19937 rng(4);
@@ -349,7 +362,7 @@ TEST(InternalEnergy, ValueGradient3d) {
 }
 
 TEST(InternalEnergy, RebindsAfterTopologyChange) {
-  const InternalOptions o{0.6, 0.2, 1.5};
+  const InternalOptions o = umbrella(0.6, 0.2, 1.5);
   Snake<2> snake = polygon_snake(random_polygon(7, 5));
   InternalEnergy<2> energy(o);
   energy.bind({}, snake);
@@ -409,6 +422,9 @@ TEST(EnergyRegistry, CreatesWithOptions) {
   EXPECT_EQ(internal->options().alpha, 0.7);
   EXPECT_EQ(internal->options().beta, 0.2);
   EXPECT_EQ(internal->options().gamma, 3.0);
+  EXPECT_EQ(internal->options().discretization, InternalDiscretization::kPhysical);  // the default
+  auto kass = create_energy(R"({"type": "internal", "discretization": "umbrella"})");
+  EXPECT_EQ(dynamic_cast<InternalEnergy<2>*>(kass.get())->options().discretization, InternalDiscretization::kUmbrella);
   const nlohmann::json j = nlohmann::json::parse(R"({"type": "external", "tau": 0.5})");
   JsonReader reader(j, "", "energies[1]");
   EXPECT_EQ(energy_registry<3>().create(reader)->type(), "external");
@@ -428,6 +444,13 @@ TEST(EnergyRegistry, BadInternalSolverNamesPath) {
   EXPECT_NE(msg.find("energies[0].solver"), std::string::npos) << msg;
   msg = error_of(R"({"type": "internal", "solver": "chebyshev", "tolerance": 0})");
   EXPECT_NE(msg.find("energies[0].tolerance"), std::string::npos) << msg;
+  // the Chebyshev bound is the umbrella form's: refused with the physical one
+  msg = error_of(R"({"type": "internal", "solver": "chebyshev"})");
+  EXPECT_NE(msg.find("energies[0].solver"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("umbrella"), std::string::npos) << msg;
+  EXPECT_EQ(error_of(R"({"type": "internal", "solver": "chebyshev", "discretization": "umbrella"})"), "(no error)");
+  msg = error_of(R"({"type": "internal", "discretization": "arc"})");
+  EXPECT_NE(msg.find("energies[0].discretization"), std::string::npos) << msg;
 }
 
 TEST(EnergyRegistry, UnknownKeyNamesPath) {
