@@ -126,16 +126,22 @@ class SweptGrid {
     for (int k = 0; k < D; ++k) cells *= dims_[k];
     start_.assign(cells + 1, 0);
     const int n = static_cast<int>(boxes_.size());
-    for (int f = 0; f < n; ++f) for_cells(range(f), [&](int64_t c) { ++start_[c + 1]; });
+    first_.resize(n);
+    for (int f = 0; f < n; ++f) {
+      const auto r = range(f);
+      for (int k = 0; k < D; ++k) first_[f][k] = r[k];
+      for_cells(r, [&](int64_t c) { ++start_[c + 1]; });
+    }
     for (size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
     std::vector<int64_t> at(start_.begin(), start_.end() - 1);
     entries_.resize(start_.back());
     for (int f = 0; f < n; ++f) for_cells(range(f), [&](int64_t c) { entries_[at[c]++] = f; });
   }
-  // Whether cell `c` (its index per axis `cell`) holds the low corner of a and b's overlap.
+  // Whether cell `cell` holds the low corner of a and b's overlap (the cell map is monotone, so
+  // that corner's cell is the larger of their first cells on each axis).
   bool owns(int a, int b, const std::array<int, D>& cell) const {
     for (int k = 0; k < D; ++k)
-      if (cell_of(std::max(boxes_[a].lo[k], boxes_[b].lo[k]), k) != cell[k]) return false;
+      if (std::max(first_[a][k], first_[b][k]) != cell[k]) return false;
     return true;
   }
 
@@ -145,6 +151,7 @@ class SweptGrid {
   std::array<int, D> dims_;
   std::vector<int64_t> start_;
   std::vector<int> entries_;
+  std::vector<std::array<int, D>> first_;  // per facet: its first cell on each axis
 };
 
 template <int D>
@@ -157,6 +164,7 @@ void SweptGrid<D>::pairs(const std::vector<uint8_t>& moved, std::vector<std::arr
     auto& mine = found[omp_get_thread_num()];
 #pragma omp for schedule(static)
     for (int64_t c = 0; c < cells; ++c) {
+      if (start_[c + 1] - start_[c] < 2) continue;
       std::array<int, D> cell;
       int64_t rest = c;
       for (int k = 0; k < D; ++k) cell[k] = static_cast<int>(rest % dims_[k]), rest /= dims_[k];
