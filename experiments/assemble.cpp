@@ -192,6 +192,7 @@ Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   ex.name = spec.name;
   ex.seed = spec.seed;
   ex.solver = spec.solver;
+  ex.collision_guard = spec.collision_guard;
   ex.global = spec.global;
   ex.potential = spec.potential;
   const std::optional<Phantom<D>> phantom = assemble_image(spec, ex.image);

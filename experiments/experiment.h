@@ -12,6 +12,7 @@
 #include "framework/global/global_problem.h"
 #include "framework/metrics/metrics.h"
 #include "framework/core/options.h"
+#include "remesh/collision_guard.h"
 
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -97,6 +98,7 @@ struct Experiment {
   std::string name;
   uint64_t seed = 0;
   SolverKind solver = SolverKind::kSnake;
+  CollisionGuardOptions collision_guard;    // "collision_guard": the snake iteration's check
   GlobalSolverOptions global;               // "global": Ceres' options
   std::optional<PotentialOptions> potential;  // the external term's potential (global view)
   Image<D> image;

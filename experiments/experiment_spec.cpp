@@ -149,7 +149,7 @@ std::vector<PhaseSpec<D>> read_phases_section(JsonReader& top, const ExperimentF
   return phases;
 }
 
-// "seed", "solver", "global": the run's identity and how it minimises.
+// "seed", "solver", "collision_guard", "global": the run's identity and how it minimises.
 template <int D>
 void read_run_keys(JsonReader& top, ExperimentSpec<D>& spec) {
   int dimension = D;
@@ -167,6 +167,11 @@ void read_run_keys(JsonReader& top, ExperimentSpec<D>& spec) {
     const auto kind = enum_from_name<SolverKind>(solver);
     if (!kind) top.fail("solver", "must be " + enum_choices<SolverKind>());
     spec.solver = *kind;
+  }
+  if (top.has("collision_guard")) {
+    JsonReader g = top.child("collision_guard");
+    read_options(g, spec.collision_guard);
+    g.finish();
   }
   if (top.has("global")) {
     // The "global" object: Ceres' options and the external term's potential (issue 7), for a

@@ -84,6 +84,7 @@ struct ExperimentSpec {
   std::string name, description;
   uint64_t seed = 0;
   SolverKind solver = SolverKind::kSnake;
+  CollisionGuardOptions collision_guard;  // "collision_guard" (snake runs; on by default)
   GlobalSolverOptions global;
   std::optional<PotentialOptions> potential;
   ImageSpec<D> image;

@@ -275,6 +275,16 @@ struct RunRecord {
   double force_max = 0, force_median_start = 0, force_median_end = 0;
 };
 
+// Whether the run's snake iteration is checked by the collision guard ("collision_guard").
+template <int D>
+bool guarded(const Experiment<D>& ex) {
+  return ex.solver == SolverKind::kSnake && ex.collision_guard.enabled;
+}
+
+nlohmann::ordered_json guard_json(const MoveGuardReport& r) {
+  return {{"shortened", r.shortened}, {"refused", r.refused}, {"checks", r.checks}};
+}
+
 // Computes the field (and the potential of the global view, when the file asks for one), then
 // runs the phases with one phase driver whose minimizer the file's "solver" picks.
 template <int D>
@@ -308,6 +318,7 @@ void evolve(Experiment<D>& ex, const RunOptions& options, RunRecord<D>& rec) {
     minimizer = std::make_unique<SnakeStep<D>>();
   }
   PhaseDriver<D> driver(context, std::move(ex.energies), std::move(minimizer));
+  if (guarded(ex)) driver.set_move_guard(std::make_unique<CollisionGuard<D>>(ex.collision_guard));
   rec.names = term_names(driver.energies());
   driver.add_observer(&rec.recorder);
   if (!options.quiet) driver.add_observer(&progress);
@@ -411,6 +422,7 @@ nlohmann::ordered_json phases_json(const Experiment<D>& ex, const RunRecord<D>& 
                              {"vertices_after", r.vertices_after}, {"rejected_edits", r.rejected_edits}});
     const auto quality = rec.recorder.mesh_quality.find(int(p));
     if (quality != rec.recorder.mesh_quality.end()) j["mesh_quality"] = quality->second;
+    if (guarded(ex)) j["collision_guard"] = guard_json(ps.move_guard);
     phases.push_back(j);
   }
   return phases;
@@ -440,6 +452,11 @@ nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& 
   result["vertices"] = {{"initial", rec.initial_vertices}, {"final", rec.snake.num_vertices()},
                         {"deformation", rec.snake.num_deformation_vertices()}};
   result["phases"] = phases_json(ex, rec);
+  if (guarded(ex)) {
+    MoveGuardReport total;
+    for (const auto& ps : rec.summary.phases) total += ps.move_guard;
+    result["collision_guard"] = guard_json(total);
+  }
   const auto& recorder = rec.recorder;
   if (!recorder.mesh_quality.empty()) result["mesh_quality"] = recorder.mesh_quality.rbegin()->second;
   if (!recorder.trace.empty()) {

@@ -187,6 +187,8 @@ json experiment_definition() {
       {"seed", {{"type", "integer"}, {"minimum", 0}, {"description", "seeds the corruptions; same seed, same numbers"}}},
       {"solver", {{"enum", {"snake", "global"}}, {"default", "snake"},
                   {"description", "the snake iteration of §3.1 or one global Ceres solve per phase"}}},
+      {"collision_guard", closed_object(options_schema<CollisionGuardOptions>(), {},
+                                        "the snake iteration's non-self-intersection check")},
       {"global", closed_object(global, {}, "Ceres' options and the external term's potential")},
       {"image", image_schema()},
       {"corruption", {{"type", "array"}, {"items", corruption_variants()}, {"description", "seeded corruptions, in order"}}},
@@ -243,6 +245,8 @@ nlohmann::ordered_json experiment_schema() {
 
 std::string experiment_reference_markdown() {
   std::string s;
+  s += "### `collision_guard`: the snake iteration's non-self-intersection check\n\n";
+  s += key_table_markdown(options_rows<CollisionGuardOptions>()) + "\n";
   s += "### `global`: Ceres' options and the external term's potential\n\n";
   std::vector<KeyRow> global = options_rows<GlobalSolverOptions>();
   for (const auto& r : options_rows<PotentialOptions>()) global.push_back(r);

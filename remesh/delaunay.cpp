@@ -57,6 +57,10 @@ bool is_delaunay_violation(const EditMesh& m, int a, int b, int c, int d) {
   return sum > std::numbers::pi + 1e-9;
 }
 
+}  // namespace
+
+namespace remesh_detail {
+
 // Edge flips until every edge is locally Delaunay (or every remaining violation is rejected).
 // A flipped edge's four outer edges are queued again. Returns the number of rejected flips.
 int delaunay_by_flips(EditMesh& m, double cos_max_dihedral) {
@@ -156,11 +160,12 @@ int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_r
   return rejected;
 }
 
-}  // namespace
+}  // namespace remesh_detail
 
 RemeshReport DelaunayRemesher::run(EditMesh& m, const RemeshContext<3>&) {
   RemeshReport report{"delaunay", 0, 0, 0};
   const double cos_dihedral = std::cos(options_.max_dihedral_deg * std::numbers::pi / 180);
+  using remesh_detail::delaunay_by_flips, remesh_detail::regularize_valences;
   if (options_.method == DelaunayMethod::kPlanar) report.rejected_edits += remesh_detail::planar_delaunay(m, cos_dihedral);
   // The planar pass leaves patch seams as they were; flips finish them (and are the whole job
   // for the "flips" method).

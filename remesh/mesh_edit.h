@@ -196,6 +196,14 @@ FlipResult try_flip(EditMesh& m, int a, int b, double cos_max_dihedral);
 // The same with the triangles f1 = (a, b, c) and f2 = (b, a, d) already known.
 FlipResult try_flip(EditMesh& m, int a, int b, int f1, int f2, int c, int d, double cos_max_dihedral);
 
+// The flips of the "delaunay" stage (delaunay.cpp), also run by "simplify" after its collapses.
+// delaunay_by_flips: flips until every edge is locally Delaunay (intrinsic: the opposite angles
+// sum to at most pi); regularize_valences: flips that lower sum (valence - 6)^2 over the four
+// vertices without pushing the smaller minimum angle below min_angle_rad (or lower than it
+// was). Both through try_flip; they return the number of flips it rejected.
+int delaunay_by_flips(EditMesh& m, double cos_max_dihedral);
+int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_rad, bool reuse_refusals);
+
 // The "planar" method of §5.2 (delaunay_planar.cpp): disc patches, mean-value parameterisation,
 // planar Delaunay, adopted patch by patch. Returns the number of patches left as they were.
 int planar_delaunay(EditMesh& m, double cos_max_dihedral);

@@ -9,7 +9,9 @@
 // A collapse that breaks the link condition (would make the mesh non-manifold), turns a
 // triangle beyond max_normal_change_deg, pushes the smallest angle around a and b below
 // min(its old value, 15 degrees), or makes the fan cross the surface is rejected (so a short
-// edge can survive when collapsing it would do more harm).
+// edge can survive when collapsing it would do more harm). With `regularize` (our addition), the
+// stage then removes valence defects that flips cannot: collapses that bring valences closer to
+// 6, each sweep followed by the delaunay stage's flips (simplify.cpp).
 #pragma once
 
 #include "framework/core/options.h"
@@ -25,6 +27,7 @@ struct SimplifyOptions {
   double max_edge = 0;                // longest edge a curvature collapse may create; 0: 2 * min_edge
   double curvature_ratio = 0.1;       // 0 disables the curvature collapses
   double max_normal_change_deg = 45;  // largest turn of a fan triangle's normal per collapse
+  bool regularize = true;             // valence collapses and flips after the length collapses
 
   template <class V>
   void visit(V& v) {
@@ -36,6 +39,9 @@ struct SimplifyOptions {
                            Range::closed(0, 1)});
     v(max_normal_change_deg, Key{"max_normal_change_deg", "degrees",
                                  "largest turn of a fan triangle's normal per collapse", Range::open_closed(0, 180)});
+    v(regularize, Key{"regularize", "",
+                      "then collapses of free vertices that bring valences closer to 6 (no new edge over 4/3 of the mean edge), "
+                      "each sweep followed by the delaunay stage's Delaunay and valence flips"});
   }
   void check() const {
     if (max_edge != 0 && min_edge != 0 && !(min_edge < max_edge)) throw OptionError{"min_edge", "must be < max_edge"};
@@ -57,6 +63,9 @@ class SimplifyRemesher final : public EditStage {
   void set_reuse_refusals(bool reuse) { reuse_refusals_ = reuse; }
 
  private:
+  int regularize(remesh_detail::EditMesh& m, double mean_edge, double cos_max, std::vector<int>& fan,
+                 std::vector<Triangle>& fresh) const;
+
   SimplifyOptions options_;
   bool reuse_refusals_ = true;
 };

@@ -7,6 +7,19 @@
 
 namespace dsnake {
 
+namespace {
+
+template <int D>
+double largest_move(const PointList<D>& from, const PointList<D>& to) {
+  double max_move = 0.0;
+  const int n = static_cast<int>(from.size());
+#pragma omp parallel for reduction(max : max_move) schedule(static) if (n >= 256)
+  for (int v = 0; v < n; ++v) max_move = std::max(max_move, (to[v] - from[v]).norm());
+  return max_move;
+}
+
+}  // namespace
+
 template <int D>
 double SnakeStep<D>::step(PhaseDriver<D>& driver, Snake<D>& snake) {
   driver.bind(snake);
@@ -36,6 +49,12 @@ double SnakeStep<D>::step(PhaseDriver<D>& driver, Snake<D>& snake) {
     const double move = (next_[v] - q[v]).norm();
     max_move = std::isfinite(move) ? std::max(max_move, move) : INFINITY;
   }
+  // The move guard sees finite moves only (a diverged step is reported as it is).
+  if (MoveGuard<D>* guard = driver.move_guard(); guard && std::isfinite(max_move)) {
+    const MoveGuardReport r = guard->guard(snake, next_);
+    guard_report_ += r;
+    if (r.shortened + r.refused > 0) max_move = largest_move(q, next_);
+  }
   q.swap(next_);
   return max_move;
 }
@@ -43,6 +62,7 @@ double SnakeStep<D>::step(PhaseDriver<D>& driver, Snake<D>& snake) {
 template <int D>
 PhaseSummary SnakeStep<D>::run_phase(PhaseDriver<D>& driver, Snake<D>& snake, const Phase<D>& phase, int phase_index) {
   PhaseSummary ps;
+  guard_report_ = {};
   std::vector<RemeshReport> last_reports;
   for (int it = 1; it <= phase.iterations; ++it) {
     const double move = step(driver, snake);
@@ -72,6 +92,7 @@ PhaseSummary SnakeStep<D>::run_phase(PhaseDriver<D>& driver, Snake<D>& snake, co
   }
   for (const auto& r : last_reports)
     if (!r.stage.empty()) ps.remesh_reports.push_back(r);
+  ps.move_guard = guard_report_;
   return ps;
 }
 

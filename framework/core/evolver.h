@@ -4,7 +4,8 @@
 // e.g. (q_int + kappa q_ext + eta q_def) / (1 + kappa + eta) for a deformation vertex and
 // (q_int + kappa q_ext) / (1 + kappa) for a free one (§6). A phase runs until its iteration
 // budget or until the largest vertex displacement is below its tolerance, remeshing every
-// `every` iterations. Evolver<D> is the PhaseDriver that uses it.
+// `every` iterations. The driver's move guard, if any, may shorten or cancel moves before they
+// are made (framework/core/move_guard.h). Evolver<D> is the PhaseDriver that uses it.
 #pragma once
 
 #include "framework/core/phase_driver.h"
@@ -17,12 +18,16 @@ class SnakeStep final : public Minimizer<D> {
   static constexpr const char* kType = "snake";
   std::string type() const override { return kType; }
   PhaseSummary run_phase(PhaseDriver<D>& driver, Snake<D>& snake, const Phase<D>& phase, int phase_index) override;
-  // One iteration of the averaged update; returns the largest displacement.
+  // One iteration of the averaged update, checked by the driver's move guard if it has one
+  // (before the positions change); returns the largest displacement.
   double step(PhaseDriver<D>& driver, Snake<D>& snake);
+  // The move guard's interventions since the current (or last) phase began.
+  const MoveGuardReport& guard_report() const { return guard_report_; }
 
  private:
   std::vector<PointList<D>> proposals_;  // per energy, reused between iterations
   PointList<D> next_;
+  MoveGuardReport guard_report_;
 };
 
 // The phase driver with the snake iteration.

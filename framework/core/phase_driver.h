@@ -6,6 +6,7 @@
 #pragma once
 
 #include "framework/core/energy.h"
+#include "framework/core/move_guard.h"
 #include "framework/core/remesher.h"
 
 #include <memory>
@@ -61,6 +62,7 @@ struct PhaseSummary {
   EvolveStatus status = EvolveStatus::kIterationBudget;
   double last_displacement = 0;
   std::vector<RemeshReport> remesh_reports;  // the last pass of each stage
+  MoveGuardReport move_guard;                // the move guard's interventions in this phase
 };
 
 struct EvolveSummary {
@@ -102,6 +104,10 @@ class PhaseDriver {
   // Whether to evaluate every energy's value after each snake iteration (the energy trace).
   void set_trace_energy(bool on) { trace_energy_ = on; }
   bool trace_energy() const { return trace_energy_; }
+  // The check on the snake iteration's moves (null: none, the default). Minimizers other than
+  // SnakeStep (the global solve) do not use it.
+  void set_move_guard(std::unique_ptr<MoveGuard<D>> guard) { move_guard_ = std::move(guard); }
+  MoveGuard<D>* move_guard() const { return move_guard_.get(); }
 
   // Runs the phases on the snake in place.
   EvolveSummary run(Snake<D>& snake, std::vector<Phase<D>>& phases);
@@ -124,6 +130,7 @@ class PhaseDriver {
   std::vector<WeightedEnergy<D>> energies_;
   std::unique_ptr<Minimizer<D>> minimizer_;
   std::vector<EvolverObserver<D>*> observers_;
+  std::unique_ptr<MoveGuard<D>> move_guard_;
   std::vector<double> base_weights_;  // the energies' own weights (phases may override them)
   bool trace_energy_ = true;
   int iterations_ = 0;

@@ -182,6 +182,45 @@ TEST(Evolver, ObserversSeeEveryIterationWithTheEnergyTrace) {
   EXPECT_EQ(recorder.infos[2].iteration, 3);
 }
 
+// Keeps vertex 0 where it is and halves vertex 1's move; counts its calls.
+class PinFirstGuard : public MoveGuard<2> {
+ public:
+  std::string type() const override { return "pin_first"; }
+  MoveGuardReport guard(const Snake<2>& snake, PointList<2>& proposed) override {
+    ++calls;
+    EXPECT_NE(proposed[0], snake.positions()[0]);  // called before the positions change
+    proposed[0] = snake.positions()[0];
+    proposed[1] = 0.5 * (snake.positions()[1] + proposed[1]);
+    return {1, 1, 10};
+  }
+  int calls = 0;
+};
+
+TEST(Evolver, TheMoveGuardAdjustsMovesBeforeTheyAreMadeAndIsCounted) {
+  std::vector<WeightedEnergy<2>> e;
+  e.push_back({1.0, std::make_unique<HalfwayEnergy>()});
+  Evolver<2> evolver({}, std::move(e));
+  auto guard = std::make_unique<PinFirstGuard>();
+  PinFirstGuard* g = guard.get();
+  evolver.set_move_guard(std::move(guard));
+  Snake<2> s = square_snake();
+  std::vector<Phase<2>> phases(2);
+  phases[0].iterations = 2;
+  phases[1].iterations = 3;
+  const EvolveSummary summary = evolver.run(s, phases);
+  EXPECT_EQ(g->calls, 5);
+  EXPECT_EQ(s.positions()[0], Point<2>(1, 1));                 // pinned
+  EXPECT_NEAR(s.positions()[1].x(), -std::pow(0.75, 5), 1e-15);  // moved by a quarter each time
+  EXPECT_NEAR(s.positions()[2].x(), -std::pow(0.5, 5), 1e-15);   // unguarded
+  ASSERT_EQ(summary.phases.size(), 2u);
+  EXPECT_EQ(summary.phases[0].move_guard.refused, 2);
+  EXPECT_EQ(summary.phases[1].move_guard.shortened, 3);
+  EXPECT_EQ(summary.phases[1].move_guard.checks, 30);
+  // The largest move is measured on the guarded positions: vertex 1's quarter of sqrt(2) 0.75^4
+  // (unguarded, the halfway moves of vertices 0 and 1 would be larger).
+  EXPECT_NEAR(summary.phases[1].last_displacement, 0.25 * std::sqrt(2.0) * std::pow(0.75, 4), 1e-15);
+}
+
 TEST(Evolver, NonFiniteProposalsStopWithDivergedStatus) {
   std::vector<WeightedEnergy<2>> e;
   e.push_back({1.0, std::make_unique<ConstantEnergy>(Point<2>(NAN, 0), Governs::kAllVertices)});

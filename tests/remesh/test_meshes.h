@@ -132,6 +132,50 @@ inline Snake<3> star_sphere(int k, double amplitude = 0.25) {
   return s;
 }
 
+// Implicit surfaces f(x) = 0 (f < 0 inside, |grad f| about 1 near the surface), physical units:
+// a torus about the z axis, and a genus-2 surface, the smooth union of two such tori side by
+// side along x (centres at x = -+c, blended over k) whose inner tubes merge.
+inline double torus_sdf(const Point<3>& x, double R, double r) {
+  return std::hypot(std::hypot(x.x(), x.y()) - R, x.z()) - r;
+}
+inline double genus2_sdf(const Point<3>& x, double R = 12, double r = 5, double c = 14, double k = 4) {
+  const double a = torus_sdf(x - Point<3>(-c, 0, 0), R, r), b = torus_sdf(x - Point<3>(c, 0, 0), R, r);
+  const double h = std::max(k - std::abs(a - b), 0.0) / k;
+  return std::min(a, b) - h * h * k / 4;
+}
+// The gradient of f by central differences of step h.
+template <class F>
+Point<3> implicit_gradient(const F& f, const Point<3>& x, double h = 1e-4) {
+  Point<3> g;
+  for (int k = 0; k < 3; ++k) {
+    const Point<3> e = Point<3>::Unit(k) * h;
+    g[k] = (f(x + e) - f(x - e)) / (2 * h);
+  }
+  return g;
+}
+// One Newton step of x towards f = 0 along the gradient: x - f grad f / |grad f|^2.
+template <class F>
+Point<3> towards_surface(const F& f, const Point<3>& x) {
+  const Point<3> g = implicit_gradient(f, x);
+  const double g2 = g.squaredNorm();
+  return g2 > 0 ? Point<3>(x - f(x) / g2 * g) : x;
+}
+
+// A genus-2 template for genus2_sdf's default surface: two_hole_slab(s) centred, scaled onto
+// the surface's extent (holes over the holes) and projected onto it by a few Newton steps.
+inline Snake<3> genus2_template(int s = 2) {
+  Snake<3> slab = two_hole_slab(s, 1.0);
+  PointList<3> q = slab.positions();
+  const double scale = 12.4 / s;  // hole centres at x = -+2 s (slab units) -> -+12.4 (near -+14)
+  auto f = [](const Point<3>& x) { return genus2_sdf(x); };
+  for (auto& x : q) {
+    x = Point<3>((x.x() - 2.5 * s) * scale, (x.y() - 1.5 * s) * scale, (x.z() - 0.5 * s) * 10.0 / s);
+    for (int i = 0; i < 8; ++i) x = towards_surface(f, x);
+  }
+  slab.set_topology(std::move(q), slab.connectivity(), slab.template_ids());
+  return slab;
+}
+
 // Marks every vertex whose index is not a multiple of `keep_every` as free (template id -1),
 // so that the remeshers have free vertices to move and collapse; the rest keep their ids.
 inline Snake<3> with_free_vertices(const Snake<3>& s, int keep_every) {

@@ -1,0 +1,257 @@
+#include "remesh/collision_guard.h"
+
+#include "framework/core/errors.h"
+#include "framework/metrics/metrics_geometry.h"
+#include "remesh/triangle_pairs.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+namespace dsnake {
+
+namespace {
+
+template <int D>
+using Facet = std::array<int, D>;
+
+template <int D>
+struct Box {
+  Point<D> lo, hi;
+};
+
+// Whether facets a and b conflict at positions x (the remeshing stages' pair tests, in 3D).
+bool facets_conflict(const PointList<3>& x, const Facet<3>& a, const Facet<3>& b) {
+  const std::array<Point<3>, 3> pa = {x[a[0]], x[a[1]], x[a[2]]}, pb = {x[b[0]], x[b[1]], x[b[2]]};
+  const Point<3> loa = pa[0].cwiseMin(pa[1]).cwiseMin(pa[2]), hia = pa[0].cwiseMax(pa[1]).cwiseMax(pa[2]);
+  const Point<3> lob = pb[0].cwiseMin(pb[1]).cwiseMin(pb[2]), hib = pb[0].cwiseMax(pb[1]).cwiseMax(pb[2]);
+  return remesh_detail::pair_conflicts(a, pa, loa, hia, b, pb, lob, hib);
+}
+
+// 2D: segments that share no vertex must not touch (neighbours along the polygon are free).
+bool facets_conflict(const PointList<2>& x, const Facet<2>& a, const Facet<2>& b) {
+  if (a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1]) return false;
+  return detail::segments_intersect(x[a[0]], x[a[1]], x[b[0]], x[b[1]]);
+}
+
+template <int D>
+void list_facets(const Snake<D>& snake, std::vector<Facet<D>>& out) {
+  out.clear();
+  if constexpr (D == 2) {
+    const int n = snake.num_vertices();
+    for (int i = 0; i < n && n >= 3; ++i) out.push_back({i, (i + 1) % n});
+  } else {
+    out.assign(snake.connectivity().triangles().begin(), snake.connectivity().triangles().end());
+  }
+}
+
+// The box of facet f over its corners at q and at p (every position on the way back from p to
+// q lies in it), grown by a relative 1e-9 so that touching boxes overlap.
+template <int D>
+Box<D> swept_box(const PointList<D>& q, const PointList<D>& p, const Facet<D>& f) {
+  Box<D> b{q[f[0]].cwiseMin(p[f[0]]), q[f[0]].cwiseMax(p[f[0]])};
+  for (int k = 1; k < D; ++k) {
+    b.lo = b.lo.cwiseMin(q[f[k]]).cwiseMin(p[f[k]]);
+    b.hi = b.hi.cwiseMax(q[f[k]]).cwiseMax(p[f[k]]);
+  }
+  const double grow = 1e-9 * (1 + (b.hi - b.lo).maxCoeff() + b.hi.cwiseAbs().maxCoeff());
+  b.lo.array() -= grow;
+  b.hi.array() += grow;
+  return b;
+}
+
+template <int D>
+bool overlap(const Box<D>& a, const Box<D>& b) {
+  return (a.lo.array() <= b.hi.array()).all() && (b.lo.array() <= a.hi.array()).all();
+}
+
+// The broad phase: every pair of facets (i < j) whose swept boxes overlap and one of which has a
+// moved corner, into `pairs` (in cell order). A uniform grid of cells about one box wide (at
+// most ~8 cells per facet), each facet listed in the cells its box covers; a pair is taken in
+// the cell of its overlap's low corner only.
+template <int D>
+class SweptGrid {
+ public:
+  SweptGrid(const std::vector<Box<D>>& boxes) : boxes_(boxes) {
+    const int n = static_cast<int>(boxes.size());
+    Point<D> lo = Point<D>::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+    double extent = 0;
+    for (const Box<D>& b : boxes) {
+      lo = lo.cwiseMin(b.lo), hi = hi.cwiseMax(b.hi);
+      extent += (b.hi - b.lo).maxCoeff();
+    }
+    origin_ = lo;
+    cell_ = std::max(extent / std::max(n, 1), 1e-12 * (1 + (hi - lo).maxCoeff()));
+    auto count = [&](int k) { return std::floor((hi[k] - lo[k]) / cell_) + 1; };
+    auto total = [&] {
+      double c = 1;
+      for (int k = 0; k < D; ++k) c *= count(k);
+      return c;
+    };
+    while (total() > 8.0 * n + 64) cell_ *= 1.25;
+    for (int k = 0; k < D; ++k) dims_[k] = static_cast<int>(count(k));
+    fill();
+  }
+
+  void pairs(const std::vector<uint8_t>& moved_facet, std::vector<std::array<int, 2>>& out) const;
+
+ private:
+  int cell_of(double x, int k) const {
+    const double c = std::floor((x - origin_[k]) / cell_);
+    return static_cast<int>(std::clamp(c, 0.0, dims_[k] - 1.0));
+  }
+  std::array<int, 2 * D> range(int f) const {
+    std::array<int, 2 * D> r;
+    for (int k = 0; k < D; ++k) r[k] = cell_of(boxes_[f].lo[k], k), r[k + D] = cell_of(boxes_[f].hi[k], k);
+    return r;
+  }
+  template <class F>
+  void for_cells(const std::array<int, 2 * D>& r, F&& f) const {
+    std::array<int, D> c;
+    for (int k = 0; k < D; ++k) c[k] = r[k];
+    while (true) {
+      int64_t index = 0;
+      for (int k = D - 1; k >= 0; --k) index = index * dims_[k] + c[k];
+      f(index);
+      int k = 0;
+      while (k < D && ++c[k] > r[k + D]) c[k] = r[k], ++k;
+      if (k == D) return;
+    }
+  }
+  void fill() {
+    int64_t cells = 1;
+    for (int k = 0; k < D; ++k) cells *= dims_[k];
+    start_.assign(cells + 1, 0);
+    const int n = static_cast<int>(boxes_.size());
+    first_.resize(n);
+    for (int f = 0; f < n; ++f) {
+      const auto r = range(f);
+      for (int k = 0; k < D; ++k) first_[f][k] = r[k];
+      for_cells(r, [&](int64_t c) { ++start_[c + 1]; });
+    }
+    for (size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+    std::vector<int64_t> at(start_.begin(), start_.end() - 1);
+    entries_.resize(start_.back());
+    for (int f = 0; f < n; ++f) for_cells(range(f), [&](int64_t c) { entries_[at[c]++] = f; });
+  }
+  // Whether cell `cell` holds the low corner of a and b's overlap (the cell map is monotone, so
+  // that corner's cell is the larger of their first cells on each axis).
+  bool owns(int a, int b, const std::array<int, D>& cell) const {
+    for (int k = 0; k < D; ++k)
+      if (std::max(first_[a][k], first_[b][k]) != cell[k]) return false;
+    return true;
+  }
+
+  const std::vector<Box<D>>& boxes_;
+  Point<D> origin_;
+  double cell_ = 1;
+  std::array<int, D> dims_;
+  std::vector<int64_t> start_;
+  std::vector<int> entries_;
+  std::vector<std::array<int, D>> first_;  // per facet: its first cell on each axis
+};
+
+template <int D>
+void SweptGrid<D>::pairs(const std::vector<uint8_t>& moved, std::vector<std::array<int, 2>>& out) const {
+  const int64_t cells = static_cast<int64_t>(start_.size()) - 1;
+  const int threads = omp_get_max_threads();
+  std::vector<std::vector<std::array<int, 2>>> found(threads);
+#pragma omp parallel num_threads(threads) if (cells >= 4096)
+  {
+    auto& mine = found[omp_get_thread_num()];
+#pragma omp for schedule(static)
+    for (int64_t c = 0; c < cells; ++c) {
+      if (start_[c + 1] - start_[c] < 2) continue;
+      std::array<int, D> cell;
+      int64_t rest = c;
+      for (int k = 0; k < D; ++k) cell[k] = static_cast<int>(rest % dims_[k]), rest /= dims_[k];
+      for (int64_t i = start_[c]; i < start_[c + 1]; ++i)
+        for (int64_t j = i + 1; j < start_[c + 1]; ++j) {
+          const int a = std::min(entries_[i], entries_[j]), b = std::max(entries_[i], entries_[j]);
+          if ((moved[a] | moved[b]) && overlap(boxes_[a], boxes_[b]) && owns(a, b, cell)) mine.push_back({a, b});
+        }
+    }
+  }
+  out.clear();
+  for (const auto& f : found) out.insert(out.end(), f.begin(), f.end());
+}
+
+}  // namespace
+
+template <int D>
+CollisionGuard<D>::CollisionGuard(const CollisionGuardOptions& options) : options_(options) {
+  DSNAKE_ASSERT(options.halvings >= 0, "halvings >= 0");
+}
+
+// Rounds: test the pairs with a facet changed since the last round (first: with a moved
+// corner), at the proposed positions; every vertex of a newly conflicting pair that moved and
+// can still step back does so (level k: 2^-k of its move; past `halvings`: none of it).
+template <int D>
+MoveGuardReport CollisionGuard<D>::guard(const Snake<D>& snake, PointList<D>& p) {
+  MoveGuardReport report;
+  const PointList<D>& q = snake.positions();
+  const int n = snake.num_vertices();
+  moved_.assign(n, 0);
+  bool any = false;
+  for (int v = 0; v < n; ++v) any |= (moved_[v] = p[v] != q[v]) != 0;
+  if (!any) return report;
+  list_facets<D>(snake, facets_);
+  const int nf = static_cast<int>(facets_.size());
+  std::vector<Box<D>> boxes(nf);
+  changed_.assign(nf, 0);
+  for (int f = 0; f < nf; ++f) {
+    boxes[f] = swept_box<D>(q, p, facets_[f]);
+    for (int v : facets_[f]) changed_[f] |= moved_[v];
+  }
+  SweptGrid<D>(boxes).pairs(changed_, pairs_);
+  const PointList<D> wanted = p;  // the proposed positions before any step back
+  level_.assign(n, 0);
+  std::vector<uint8_t> hit(pairs_.size());
+  std::vector<int> step_back;
+  while (true) {
+    const int64_t m = static_cast<int64_t>(pairs_.size());
+    int64_t tests = 0;
+#pragma omp parallel for schedule(static) reduction(+ : tests) if (m >= 4096)
+    for (int64_t i = 0; i < m; ++i) {
+      const auto [a, b] = pairs_[i];
+      hit[i] = 0;
+      if (!(changed_[a] | changed_[b])) continue;
+      ++tests;
+      hit[i] = facets_conflict(p, facets_[a], facets_[b]) && !facets_conflict(q, facets_[a], facets_[b]);
+    }
+    report.checks += tests;
+    step_back.clear();
+    for (int64_t i = 0; i < m; ++i) {
+      if (!hit[i]) continue;
+      for (int f : pairs_[i])
+        for (int v : facets_[f])
+          if (moved_[v] && level_[v] <= options_.halvings) step_back.push_back(v);
+    }
+    if (step_back.empty()) break;
+    std::sort(step_back.begin(), step_back.end());
+    step_back.erase(std::unique(step_back.begin(), step_back.end()), step_back.end());
+    for (int v : step_back) {
+      const int k = ++level_[v];
+      p[v] = k > options_.halvings ? q[v] : Point<D>(q[v] + std::ldexp(1.0, -k) * (wanted[v] - q[v]));
+      moved_[v] = 2;  // stepped back in this round
+    }
+    for (int f = 0; f < nf; ++f) {
+      changed_[f] = 0;
+      for (int v : facets_[f]) changed_[f] |= moved_[v] == 2;
+    }
+    for (int v : step_back) moved_[v] = p[v] != q[v];
+  }
+  for (int v = 0; v < n; ++v) {
+    if (level_[v] > options_.halvings) ++report.refused;
+    else if (level_[v] > 0) ++report.shortened;
+  }
+  return report;
+}
+
+template class CollisionGuard<2>;
+template class CollisionGuard<3>;
+
+}  // namespace dsnake

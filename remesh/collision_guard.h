@@ -1,0 +1,57 @@
+// CollisionGuard<D>: the non-self-intersection constraint on the snake iteration (a MoveGuard,
+// framework/core/move_guard.h), in the manner of MIRTK's deformable surface model: a vertex move
+// that would make the surface cross itself is halved, up to `halvings` times, and then refused
+// (the vertex stays where it was). Facets: the polygon's segments (2D) or the mesh's triangles
+// (3D). A pair of facets "conflicts" at some positions as the remeshing stages' checks say
+// (remesh/triangle_pairs.h): facets sharing no vertex must not touch; in 3D, triangles sharing a
+// vertex must not pierce each other and triangles sharing an edge must not fold onto each other.
+// A move is blamed only for conflicts it creates: a pair that conflicts at q(t) already is left
+// to the forces. Every vertex of a newly conflicting pair that moved takes the next step back
+// (half its move, then a quarter, ...; refused after `halvings`), and the pairs around the
+// vertices that stepped back are tested again, until no new conflict is left. Since a vertex
+// only steps back along its own move and q(t) itself has no new conflict, this ends without one.
+// Cost: one broad phase per iteration over the facets' swept boxes (the box of each facet at
+// q(t) and at q(t+1)), then one exact test per close pair; the later rounds test only the
+// pairs around the vertices that stepped back. Deterministic, the same bits with any thread
+// count.
+#pragma once
+
+#include "framework/core/move_guard.h"
+#include "framework/core/options.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace dsnake {
+
+struct CollisionGuardOptions {
+  bool enabled = true;  // experiment files: off runs the snake iteration unchecked
+  int halvings = 3;     // a colliding move is halved up to this many times, then refused
+
+  template <class V>
+  void visit(V& v) {
+    v(enabled, Key{"enabled", "", "check the snake iteration's moves: a move that would make the surface cross itself is shortened or refused"});
+    v(halvings, Key{"halvings", "", "a colliding move is halved up to this many times before it is refused", Range::closed(0, 30)});
+  }
+};
+
+template <int D>
+class CollisionGuard final : public MoveGuard<D> {
+ public:
+  using Options = CollisionGuardOptions;
+  static constexpr const char* kType = "collision_guard";
+
+  explicit CollisionGuard(const CollisionGuardOptions& options = {});
+  std::string type() const override { return kType; }
+  MoveGuardReport guard(const Snake<D>& snake, PointList<D>& proposed) override;
+
+ private:
+  CollisionGuardOptions options_;
+  // Scratch kept between iterations (the per-iteration path allocates only while it grows).
+  std::vector<std::array<int, D>> facets_;
+  std::vector<std::array<int, 2>> pairs_;
+  std::vector<uint8_t> moved_, changed_;
+  std::vector<int> level_;
+};
+
+}  // namespace dsnake
