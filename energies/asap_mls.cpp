@@ -8,6 +8,7 @@
 #include "energies/residual_blocks.h"
 #include "framework/core/errors.h"
 
+#include <Eigen/Eigenvalues>
 #include <cmath>
 
 namespace dsnake {
@@ -33,7 +34,7 @@ struct AsapMlsEnergy<D>::Data {
   std::vector<int> vertex_of_id;
   int bound_vertices = -1;      // the snake's vertex count and topology version at the last bind
   uint64_t bound_version = 0;
-  PointList<D> q, next;
+  PointList<D> q, next, before;
   std::vector<Matrix, Eigen::aligned_allocator<Matrix>> similarity;  // 3D exact: mu_j R_j
 };
 
@@ -121,6 +122,7 @@ void AsapMlsEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& sna
     if (D == 2 && options_.variant == AsapVariant::kExact) build_quadratic();
     d.q.resize(n);
     d.next.resize(n);
+    d.before.resize(n);
     d.similarity.resize(n);
   }
   map_template_vertices(snake, d.n, d.vertex_of_id);
@@ -166,6 +168,57 @@ void AsapMlsEnergy<2>::build_quadratic() {
     d.quadratic.add(j, j, total);
   }
   d.quadratic.finalize();
+}
+
+// Removes from the move after - before its least-squares component along the infinitesimal
+// similarities at `before` (unit masses): the mean translation, the rotation omega = I^-1 L (L the
+// angular momentum sum r x u about the centroid, I the inertia tensor; 2D: omega = L / sum |r|^2)
+// and, with `scale`, the dilation sum r.u / sum |r|^2. The three are orthogonal to one another,
+// so they are removed one after the other. Serial sums: the same on any thread count.
+template <int D>
+static void remove_net_motion(const PointList<D>& before, PointList<D>& after, bool scale) {
+  const int n = int(before.size());
+  if (n == 0) return;
+  Point<D> centroid = Point<D>::Zero(), shift = Point<D>::Zero();
+  for (int i = 0; i < n; ++i) {
+    centroid += before[i];
+    shift += after[i] - before[i];
+  }
+  centroid /= n;
+  shift /= n;
+  double inertia_trace = 0.0;
+  for (int i = 0; i < n; ++i) {
+    after[i] -= shift;
+    inertia_trace += (before[i] - centroid).squaredNorm();
+  }
+  if (!(inertia_trace > 1e-300)) return;  // every vertex at one point: no rotation or scaling
+  if constexpr (D == 2) {
+    double momentum = 0.0;
+    for (int i = 0; i < n; ++i) momentum += perp(before[i] - centroid).dot(after[i] - before[i]);
+    const double omega = momentum / inertia_trace;
+    for (int i = 0; i < n; ++i) after[i] -= omega * perp(before[i] - centroid);
+  } else {
+    Eigen::Vector3d momentum = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector3d r = before[i] - centroid;
+      momentum += r.cross(after[i] - before[i]);
+      inertia += r.squaredNorm() * Eigen::Matrix3d::Identity() - r * r.transpose();
+    }
+    // pseudo-inverse: collinear vertices have no inertia about their line (no rotation there)
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(inertia);
+    Eigen::Vector3d inverse = Eigen::Vector3d::Zero();
+    for (int a = 0; a < 3; ++a)
+      if (eig.eigenvalues()[a] > 1e-12 * inertia_trace) inverse[a] = 1.0 / eig.eigenvalues()[a];
+    const Eigen::Vector3d omega = eig.eigenvectors() * inverse.asDiagonal() * eig.eigenvectors().transpose() * momentum;
+    for (int i = 0; i < n; ++i) after[i] -= omega.cross(Eigen::Vector3d(before[i] - centroid));
+  }
+  if (scale) {
+    double dilation = 0.0;
+    for (int i = 0; i < n; ++i) dilation += (before[i] - centroid).dot(after[i] - before[i]);
+    dilation /= inertia_trace;
+    for (int i = 0; i < n; ++i) after[i] -= dilation * (before[i] - centroid);
+  }
 }
 
 // One application of the chosen operator to the positions by id, d.q -> d.q.
@@ -239,6 +292,11 @@ void AsapMlsEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   const PointList<D>& q = snake.positions();
   for (int t = 0; t < d.n; ++t) d.q[t] = q[d.vertex_of_id[t]];
   for (int s = 0; s < options_.power; ++s) step();
+  const AsapNetMotion net = options_.resolved_net_motion();
+  if (net != AsapNetMotion::kKeep) {
+    for (int t = 0; t < d.n; ++t) d.before[t] = q[d.vertex_of_id[t]];
+    remove_net_motion<D>(d.before, d.q, net == AsapNetMotion::kRemoveSimilarity);
+  }
   const double lambda = options_.damping;
   for (int t = 0; t < d.n; ++t) {
     const int v = d.vertex_of_id[t];

@@ -11,6 +11,8 @@
 //    the neighbours (without j) (Appendix: 3x3 SVD in 3D, reflection-safe); `iteration`
 //    "gauss_seidel" updates one vertex at a time from the newest positions (serial), "jacobi"
 //    all from the old ones (parallel).
+//  - `net_motion`: the rigid (or similarity) part of the move q' - q, which the energy's gradient
+//    never has, can be removed; by default it is for the approximate variant (see AsapNetMotion).
 // ASAP governs the template ("deformation") vertices only (§6); everything per template vertex
 // is precomputed once per template (§7), and a remesh only rebuilds the id -> vertex map.
 #pragma once
@@ -39,14 +41,33 @@ struct EnumNames<AsapIteration> {
       {{AsapIteration::kAuto, "auto"}, {AsapIteration::kJacobi, "jacobi"}, {AsapIteration::kGaussSeidel, "gauss_seidel"}}};
 };
 
+// What becomes of the net similarity motion of a proposal (q' - q: its least-squares components
+// along the translations, the rotations about the centroid and the scaling of q, unit masses on
+// the template vertices). The energy is similarity invariant, so its gradient has none (no net
+// force, torque or dilation); the per-vertex fits of the approximate variant do have some, which
+// keeps and grows a start rotation (issue 19). kAuto: kRemoveRigid for "approximate", kKeep for
+// "exact".
+enum class AsapNetMotion { kAuto, kKeep, kRemoveRigid, kRemoveSimilarity };
+template <>
+struct EnumNames<AsapNetMotion> {
+  static constexpr std::array<std::pair<AsapNetMotion, const char*>, 4> table{
+      {{AsapNetMotion::kAuto, "auto"}, {AsapNetMotion::kKeep, "keep"}, {AsapNetMotion::kRemoveRigid, "remove_rigid"},
+       {AsapNetMotion::kRemoveSimilarity, "remove_similarity"}}};
+};
+
 struct AsapMlsOptions {
   AsapVariant variant = AsapVariant::kApproximate;
   NeighborhoodSpec neighborhood;  // JSON: "neighborhood", "k", "rings", "falloff", "weights"
   AsapIteration iteration = AsapIteration::kAuto;
   int power = 1;         // m of A3 = A2^m (steps per proposal)
   double damping = 1.0;  // lambda of A4
+  AsapNetMotion net_motion = AsapNetMotion::kAuto;
 
   bool gauss_seidel() const { return iteration != AsapIteration::kJacobi; }
+  AsapNetMotion resolved_net_motion() const {
+    if (net_motion != AsapNetMotion::kAuto) return net_motion;
+    return variant == AsapVariant::kApproximate ? AsapNetMotion::kRemoveRigid : AsapNetMotion::kKeep;
+  }
   template <class V>
   void visit(V& v) {
     v(variant, Key{"variant", "", "exact D_j minimisation (§4.1-4.2) or the approximate fit of eq. (6) (§4.3)"});
@@ -54,6 +75,7 @@ struct AsapMlsOptions {
     v(iteration, Key{"iteration", "", "sweep order: jacobi (A, parallel) or gauss_seidel (A2, serial); auto: gauss_seidel, jacobi for the 3D exact variant"});
     v(power, Key{"power", "steps", "m of A3 = A2^m: operator steps per proposal", Range::at_least(1)});
     v(damping, Key{"damping", "1", "lambda of A4 = (1 - lambda) I + lambda A2", Range::open_closed(0, 1)});
+    v(net_motion, Key{"net_motion", "", "the proposal's net motion (least-squares translation, rotation about the centroid, scaling; unit masses): keep it, remove the rigid part or the similarity part; auto: remove_rigid for approximate (its per-vertex fits rotate the whole shape), keep for exact"});
   }
 };
 

@@ -8,6 +8,7 @@
 #include "energies/external.h"
 #include "energies/internal.h"
 #include "energies/laplacian.h"
+#include "energies/similarity.h"
 
 namespace dsnake {
 
@@ -21,6 +22,7 @@ const Registry<Energy<D>>& energy_registry() {
     r.template add<LaplacianEnergy<D>>();
     r.template add<ArapEnergy<D>>();
     r.template add<BalloonEnergy<D>>();
+    r.template add<SimilarityEnergy<D>>();
     return r;
   }();
   return registry;

@@ -1,6 +1,7 @@
 // AsapMlsEnergy: similarity invariance (2D, 3D, every neighbourhood), reflection detection, the
 // exact 2D operator (coordinate minimiser, Gauss-Seidel monotonicity, Jacobi), the 3D variants'
-// fixed points, Fig. 7's ranking, degenerate templates, and the configuration errors.
+// fixed points, Fig. 7's ranking, degenerate templates, the configuration errors, and the removal
+// of the approximate proposal's net motion (issue 19).
 #include "energies/asap_mls.h"
 #include "energies/registry.h"
 #include "experiments/phantoms.h"
@@ -407,7 +408,8 @@ TEST(AsapMls, SameResultsForOneAndTwoThreads) {
   std::uniform_real_distribution<double> u(-1, 1);
   PointList<3> q = t.positions;
   for (auto& x : q) x += Point<3>(u(rng), u(rng), u(rng));
-  for (const char* variant : {R"("exact")", R"("approximate", "iteration": "jacobi")"}) {
+  for (const char* variant : {R"("exact")", R"("approximate", "iteration": "jacobi")", R"("approximate")",
+                              R"("approximate", "net_motion": "remove_similarity")"}) {
     auto e = make3(std::string(R"({"type": "asap_mls", "rings": 2, "variant": )") + variant + "}");
     Snake<3> s = Snake<3>::from_template(t, q);
     e->bind({&t}, s);
@@ -484,6 +486,89 @@ TEST(AsapMls, FreeVerticesGetNoProposal) {
     else EXPECT_LT((out[v] - q[v]).norm(), 1e-9);  // a similarity of the template stays
   }
   EXPECT_LT(e->value(s), 1e-18);
+}
+
+// The net motion of a proposal (issue 19): from a deformed, rotated copy of the template, the
+// approximate variant's move q' - q has a net torque of its own (the drift that kept and grew a
+// start rotation) unless it is removed; "auto" removes its translation and rotation (zero net
+// force and angular momentum about the centroid), "remove_similarity" also its dilation, "keep"
+// leaves it. The exact variant keeps it by default.
+template <int D>
+void net_motion(const PointList<D>& q, const PointList<D>& out, Point<D>& force, double& torque, double& dilation) {
+  Point<D> c = Point<D>::Zero();
+  for (const auto& x : q) c += x;
+  c /= double(q.size());
+  force = Point<D>::Zero();
+  Eigen::Vector3d momentum = Eigen::Vector3d::Zero();
+  dilation = 0;
+  for (size_t v = 0; v < q.size(); ++v) {
+    const Point<D> r = q[v] - c, u = out[v] - q[v];
+    force += u;
+    Eigen::Vector3d r3 = Eigen::Vector3d::Zero(), u3 = Eigen::Vector3d::Zero();
+    r3.head<D>() = r;
+    u3.head<D>() = u;
+    momentum += r3.cross(u3);
+    dilation += r.dot(u);
+  }
+  torque = momentum.norm();
+}
+
+template <int D>
+void check_net_motion(const Template<D>& t, const PointList<D>& q, Energy<D>& e, const std::string& mode) {
+  Snake<D> s = Snake<D>::from_template(t, q);
+  e.bind({&t}, s);
+  PointList<D> out(q.size());
+  e.propose(s, out);
+  Point<D> force;
+  double torque = 0, dilation = 0, move = 0;
+  net_motion<D>(q, out, force, torque, dilation);
+  for (size_t v = 0; v < q.size(); ++v) move += (out[v] - q[v]).norm();
+  const double tiny = 1e-10 * move * 10;  // relative to the summed move times the shape's size
+  if (mode == "keep") {
+    EXPECT_GT(torque, 1e-3 * move) << "the approximate fits do have a net torque";
+  } else {
+    EXPECT_LT(force.norm(), tiny);
+    EXPECT_LT(torque, tiny);
+    if (mode == "remove_similarity") EXPECT_LT(std::abs(dilation), tiny);
+    else EXPECT_GT(std::abs(dilation), 1e-3 * move);
+  }
+}
+
+TEST(AsapMls, NetMotionOfTheApproximateProposal) {
+  std::mt19937 rng(7);
+  const Template<2> t2 = jittered_polygon(30, 8);
+  const Template<3> t3 = jittered_sphere(2, 9);
+  PointList<2> q2;
+  PointList<3> q3;
+  const auto r2 = random_rotation<2>(rng);
+  const auto r3 = random_rotation<3>(rng);
+  for (const auto& p : t2.positions) q2.push_back(1.3 * r2 * p + Point<2>(5, -2));
+  for (const auto& p : t3.positions) q3.push_back(0.8 * r3 * p + Point<3>(1, 2, 3));
+  // a non-similar deformation: one side stretched
+  for (auto& x : q2) if (x[0] > 5) x[0] += 0.2 * (x[0] - 5);
+  for (auto& x : q3) if (x[1] > 2) x[1] += 0.3 * (x[1] - 2);
+  for (const char* iteration : {"gauss_seidel", "jacobi"})
+    for (const char* mode : {"keep", "auto", "remove_rigid", "remove_similarity"}) {
+      SCOPED_TRACE(std::string(iteration) + " " + mode);
+      const std::string json = std::string(R"({"type": "asap_mls", "neighborhood": "all", "iteration": ")") + iteration +
+                               R"(", "net_motion": ")" + mode + "\"}";
+      check_net_motion<2>(t2, q2, *make2(json), mode == std::string("auto") ? "remove_rigid" : mode);
+      check_net_motion<3>(t3, q3, *make3(json), mode == std::string("auto") ? "remove_rigid" : mode);
+    }
+  // exact: "auto" keeps (the variant minimises E_def itself); a similarity stays a fixed point
+  // whatever the mode
+  auto exact = make2(R"({"type": "asap_mls", "variant": "exact", "neighborhood": "all"})");
+  EXPECT_EQ(dynamic_cast<AsapMlsEnergy<2>&>(*exact).options().resolved_net_motion(), AsapNetMotion::kKeep);
+  for (const char* mode : {"remove_rigid", "remove_similarity"}) {
+    auto e = make3(std::string(R"({"type": "asap_mls", "neighborhood": "rings", "rings": 2, "net_motion": ")") + mode + "\"}");
+    PointList<3> q;
+    for (const auto& p : t3.positions) q.push_back(2.0 * r3 * p + Point<3>(-3, 0, 4));
+    Snake<3> s = Snake<3>::from_template(t3, q);
+    e->bind({&t3}, s);
+    PointList<3> out(q.size());
+    e->propose(s, out);
+    for (size_t v = 0; v < q.size(); ++v) EXPECT_LT((out[v] - q[v]).norm(), 1e-9 * 20) << mode << " " << v;
+  }
 }
 
 }  // namespace
