@@ -233,6 +233,7 @@ struct InternalEnergy<D>::Solver {
   std::vector<double> local, mass, k_values;
   SparseMatrix system;
   PreorderedLdlt physical_ldlt;
+  int cg_iterations = 0;  // of the last physical step with beta = 0 (0: solved directly)
 };
 
 template <int D>
@@ -254,6 +255,11 @@ int chebyshev_count(double lo, double hi, double eps) {
 template <int D>
 int InternalEnergy<D>::chebyshev_iterations() const {
   return solver_->iterations;
+}
+
+template <int D>
+int InternalEnergy<D>::conjugate_gradient_iterations() const {
+  return solver_->cg_iterations;
 }
 
 template <int D>
@@ -401,6 +407,7 @@ void InternalEnergy<D>::bind_physical(const Snake<D>& snake) {
   s.mass.assign(n, 0.0);
   s.points.assign(rows, Point<D>::Zero());
   s.inverse_d.resize(rows);
+  for (PointList<D>* p : {&s.x, &s.r, &s.d, &s.d_next, &s.ld}) p->assign(n, Point<D>::Zero());  // CG scratch
 }
 
 namespace {
@@ -450,6 +457,72 @@ void InternalEnergy<D>::propose_direct(const Snake<D>& snake, PointList<D>& out)
                 snake.positions(), s.points, out);
 }
 
+namespace {
+
+// Scratch of conjugate_gradient (n points each): the iterate, residual, preconditioned residual,
+// search direction and the operator applied to it.
+template <int D>
+struct CgScratch {
+  PointList<D>&x, &r, &z, &p, &ap;
+};
+
+// The physical step with beta = 0, (gamma M + alpha K) x = gamma M q, by conjugate gradients
+// preconditioned with the diagonal (Saad, Iterative Methods, Alg. 9.1), from x0 = q, on the D
+// coordinates at once (the operator acts on each; the inner products sum over them). K is given
+// by rows (row v: cols[offsets[v]...] with v first, values k). The system is symmetric positive
+// definite and well conditioned for a snake's step (its spectrum, relative to gamma M, is
+// [1, 1 + alpha lambda_max(M^-1 K) / gamma]), so a few tens of one-ring passes replace a
+// numeric refactorisation. Serial, in a fixed order: the same bits on any thread count. Stops
+// when |r| <= tolerance |r0| (r0 = -alpha K q, the internal force); returns the iterations, or 0
+// if 500 do not get there (the caller then solves directly).
+template <int D>
+int conjugate_gradient(const std::vector<int>& offsets, const std::vector<int>& cols, const std::vector<double>& k,
+                       const std::vector<double>& mass, double alpha, double gamma, double tolerance,
+                       const PointList<D>& q, CgScratch<D>& s) {
+  const int n = static_cast<int>(q.size());
+  auto apply = [&](const PointList<D>& y, int v) {
+    Point<D> sum = gamma * mass[v] * y[v];
+    for (int j = offsets[v]; j < offsets[v + 1]; ++j) sum += alpha * k[j] * y[cols[j]];
+    return sum;
+  };
+  auto inverse_diagonal = [&](int v) { return 1.0 / (gamma * mass[v] + alpha * k[offsets[v]]); };
+  double rz = 0, r0 = 0;
+  for (int v = 0; v < n; ++v) {
+    s.x[v] = q[v];
+    s.r[v] = gamma * mass[v] * q[v] - apply(q, v);
+    s.z[v] = inverse_diagonal(v) * s.r[v];
+    s.p[v] = s.z[v];
+    rz += s.r[v].dot(s.z[v]);
+    r0 += s.r[v].squaredNorm();
+  }
+  const double stop = tolerance * tolerance * r0;
+  if (!(r0 > 0)) return r0 == 0 ? 1 : 0;  // q is the solution (or not finite: direct)
+  for (int it = 1; it <= 500; ++it) {
+    double pap = 0;
+    for (int v = 0; v < n; ++v) {
+      s.ap[v] = apply(s.p, v);
+      pap += s.p[v].dot(s.ap[v]);
+    }
+    const double a = rz / pap;
+    double rz_next = 0, rr = 0;
+    for (int v = 0; v < n; ++v) {
+      s.x[v] += a * s.p[v];
+      s.r[v] -= a * s.ap[v];
+      s.z[v] = inverse_diagonal(v) * s.r[v];
+      rz_next += s.r[v].dot(s.z[v]);
+      rr += s.r[v].squaredNorm();
+    }
+    if (rr <= stop) return it;
+    if (!std::isfinite(rr)) return 0;
+    const double b = rz_next / rz;
+    rz = rz_next;
+    for (int v = 0; v < n; ++v) s.p[v] = s.z[v] + b * s.p[v];
+  }
+  return 0;
+}
+
+}  // namespace
+
 // The physical step (internal.h): M and K of the current positions, then
 // (gamma M + alpha K + beta K M^-1 K) x = gamma M q (with beta, in its mixed form; bind_physical)
 // assembled into the bound pattern (serially, in a fixed order), refactorised numerically and solved.
@@ -458,9 +531,23 @@ void InternalEnergy<D>::propose_physical(const Snake<D>& snake, PointList<D>& ou
   Solver& s = *solver_;
   const int n = snake.num_vertices();
   const double alpha = options_.alpha, beta = options_.beta, gamma = options_.gamma;
+  s.cg_iterations = 0;
+  if (alpha == 0 && beta == 0) {  // gamma M x = gamma M q: x = q, exactly
+    std::copy(snake.positions().begin(), snake.positions().end(), out.begin());
+    return;
+  }
   element_operators<D>(snake.positions(), s.elements, s.local, s.mass);
   std::fill(s.k_values.begin(), s.k_values.end(), 0.0);
   for (size_t k = 0; k < s.local.size(); ++k) s.k_values[s.element_slots[k]] += s.local[k];
+  if (beta == 0 && options_.solver != InternalSolver::kDirect) {
+    CgScratch<D> scratch{s.x, s.r, s.d, s.d_next, s.ld};
+    s.cg_iterations = conjugate_gradient<D>(s.k_offsets, s.k_cols, s.k_values, s.mass, alpha, gamma,
+                                            options_.tolerance, snake.positions(), scratch);
+    if (s.cg_iterations > 0) {
+      std::copy(s.x.begin(), s.x.end(), out.begin());
+      return;
+    }  // not converged within the cap: the direct solve below
+  }
   double* a = s.system.valuePtr();
   std::fill(a, a + s.system.nonZeros(), 0.0);
   for (int v = 0; v < n; ++v) a[s.system_diagonal[v]] += gamma * s.mass[v];

@@ -60,7 +60,11 @@ namespace dsnake {
 //    result does not depend on the thread count), one or two one-ring passes per iteration;
 //  - kAuto ("auto", default): umbrella: chebyshev on meshes when that needs <= 32 iterations (a
 //    well-conditioned step: (2 alpha + 4 beta) / gamma <= ~11), direct otherwise and on polygons;
-//    physical: direct (the spectrum of M^-1 K depends on the geometry, with no safe a-priori bound).
+//    physical: with beta = 0, conjugate gradients preconditioned by the diagonal, from x0 = q, until
+//    the residual is `tolerance` times the internal force (serial: thread-count independent; falls
+//    back to the direct solve if 500 iterations do not get there); with beta > 0, direct (the
+//    spectrum of M^-1 K depends on the geometry, with no safe a-priori bound for Chebyshev).
+//    "direct" forces the numeric refactorisation every step. With alpha = beta = 0 the step is q.
 // "chebyshev" with "physical" is refused (check()).
 enum class InternalSolver { kAuto, kDirect, kChebyshev };
 template <>
@@ -84,7 +88,7 @@ struct InternalOptions {
   double beta = 0.0;   // rigidity: weight of the squared second derivative X''(s); physical: mm^4 per unit gamma
   double gamma = 1.0;  // Kass's step viscosity (inverse step size), 1 per step
   InternalSolver solver = InternalSolver::kAuto;
-  double tolerance = 1e-10;  // chebyshev: error bound relative to the largest displacement
+  double tolerance = 1e-10;  // chebyshev / physical CG: error bound relative to the step (see InternalSolver)
   InternalDiscretization discretization = InternalDiscretization::kPhysical;
 
   template <class V>
@@ -93,8 +97,8 @@ struct InternalOptions {
     v(alpha, Key{"alpha", "mm^2 per unit gamma (physical); 1 per vertex (umbrella)", "tension: weight of the squared first derivative X'(s); physical: one step moves a circle of radius R mm in by ~ alpha / (gamma R) mm, a sphere by ~ 2 alpha / (gamma R) mm (a small step: alpha << gamma R^2)", Range::at_least(0)});
     v(beta, Key{"beta", "mm^4 per unit gamma (physical); 1 per vertex (umbrella)", "rigidity: weight of the squared second derivative X''(s); physical: one step moves a circle of radius R mm in by ~ beta / (gamma R^3) mm, a sphere by ~ 4 beta / (gamma R^3) mm", Range::at_least(0)});
     v(gamma, Key{"gamma", "1 (per step)", "Kass's step viscosity (inverse step size)", Range::greater_than(0)});
-    v(solver, Key{"solver", "", "how the step's linear system is solved (physical: direct; auto picks it)"});
-    v(tolerance, Key{"tolerance", "1 (relative)", "chebyshev: error bound relative to the step's largest displacement", Range::open(0, 1)});
+    v(solver, Key{"solver", "", "how the step's linear system is solved (physical, auto: conjugate gradients with beta 0, direct otherwise)"});
+    v(tolerance, Key{"tolerance", "1 (relative)", "umbrella chebyshev: error bound relative to the step's largest displacement; physical conjugate gradients (beta 0): residual relative to the internal force", Range::open(0, 1)});
   }
   void check() const {
     if (discretization == InternalDiscretization::kPhysical && solver == InternalSolver::kChebyshev)
@@ -141,6 +145,9 @@ class InternalEnergy final : public Energy<D> {
   double value(const Snake<D>& snake) const override;
   // Chebyshev iterations per step for the bound snake; 0 when the direct solve is used.
   int chebyshev_iterations() const;
+  // Conjugate-gradient iterations of the last physical step with beta = 0; 0 when it was solved
+  // directly (or is the identity, alpha = beta = 0).
+  int conjugate_gradient_iterations() const;
   // The residuals of value() (their squares sum to it at the positions of the call).
   // Physical: linear residuals with M and K frozen at the snake's positions when called, so that
   //   their gradient is the step's (alpha K + beta K M^-1 K) q: 2D sqrt(w alpha / (2 l_ij)) (q_j - q_i)

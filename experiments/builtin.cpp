@@ -10,7 +10,9 @@ namespace {
 
 // A classical snake (Kass internal force + the basic edge-map force of §1) started from a
 // circle outside a blurred square: the tension shrinks it onto the edges. The parameters are
-// our choice (the paper has no such experiment); they are fixed here and in the README.
+// our choice (the paper has no such experiment); they are fixed here and in the README. The
+// internal energy is in physical units (alpha mm^2, beta mm^4; issue 19): 2D alpha 2, beta 3 is
+// the per-vertex alpha 0.1, beta 0.01 of the first version at the circle's 4.3 mm edges.
 const char* kDefault = R"({
   "name": "default_circle_to_square",
   "description": "Built-in default: a 64-vertex circle template registered to a blurred 128x128 square by a classical snake (internal + gradient-field external force), then refined by arc-length resampling.",
@@ -21,7 +23,7 @@ const char* kDefault = R"({
                "transform": {"scale": 1.0, "rotation_deg": [0], "translation": [1.5, -1.0]}},
   "field": {"type": "gradient", "sigma": 2.0},
   "energies": [
-    {"type": "internal", "weight": 1.0, "alpha": 0.1, "beta": 0.01},
+    {"type": "internal", "weight": 1.0, "alpha": 2.0, "beta": 3.0},
     {"type": "external", "weight": 1.0, "tau": 3.0}],
   "phases": [
     {"name": "fit", "iterations": 600, "tolerance": 1e-3},
@@ -40,7 +42,7 @@ const char* kEllipsoid = R"({
   "template": {"phantom": "sphere", "radius": 27, "subdivisions": 3, "center": [31.5, 31.5, 31.5]},
   "field": {"type": "gradient", "sigma": 2.0},
   "energies": [
-    {"type": "internal", "weight": 1.0, "alpha": 0.1, "beta": 0.01},
+    {"type": "internal", "weight": 1.0, "alpha": 0.4, "beta": 0.0},
     {"type": "external", "weight": 1.0, "tau": 3.0}],
   "phases": [{"name": "fit", "iterations": 600, "tolerance": 1e-3}],
   "success": {"mean_surface_distance": 1.0, "dice": 0.9, "self_intersections": 0}
