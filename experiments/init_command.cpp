@@ -52,8 +52,9 @@ bool is_surface_file(const std::string& path, int dimension) {
 // spacing, mm) and a template with mean edge length l (mm):
 //  - field: GVF (a capture range beyond the edges, §1) of the edge map after Gaussian smoothing
 //    with sigma = 1.5 h;
-//  - internal: alpha 0.1, beta 0 (3D) / 0.01 (2D); external: tau = sigma (the normalised edge
-//    map's gradient is about 1/sigma at an edge, so a step is about one voxel there);
+//  - internal: alpha 0.1 mm^2, beta 0 (3D) / 0.01 mm^4 (2D), physical units (issue 19): a weak
+//    tension; external: "normalize": "max", tau = h / 2, so that a vertex where the force is
+//    strongest steps half a voxel (times the weights' share, 1 / 2.5);
 //  - ASAP-MLS, approximate, 2 rings, weight 0.5: the template's local shape (§2);
 //  - fit: 300 iterations, tolerance 0.01 h; refine: 100 iterations, remeshing every 5 to keep
 //    edges near l (3D: refine above 1.5 l, Delaunay flips, uniform relaxation, simplify; 2D:
@@ -68,7 +69,7 @@ nlohmann::ordered_json recommended(const InitCommandOptions& o, const Grid<D>& g
   std::snprintf(description, sizeof(description),
                 "Written by dsnake init for %s (voxel size up to %.3g mm) and the template %s (mean edge %.3g mm). "
                 "A D-Snake: internal + external (GVF of the edge map smoothed by sigma = 1.5 voxels = %.3g mm; step "
-                "tau = sigma) + approximate ASAP-MLS over 2 rings, which keeps the template's local shape. Phase fit: "
+                "tau = half a voxel where the force is strongest) + approximate ASAP-MLS over 2 rings, which keeps the template's local shape. Phase fit: "
                 "300 iterations; phase refine: remeshing every 5 iterations keeps edges near the template's. Edit "
                 "template.transform if the template does not start roughly on the object; docs/experiment-file.md "
                 "lists every key with its unit and range.",
@@ -81,7 +82,7 @@ nlohmann::ordered_json recommended(const InitCommandOptions& o, const Grid<D>& g
   j["field"] = {{"type", "gvf"}, {"sigma", sigma}};
   j["energies"] = nlohmann::ordered_json::array(
       {{{"type", "internal"}, {"weight", 1.0}, {"alpha", 0.1}, {"beta", D == 3 ? 0.0 : 0.01}},
-       {{"type", "external"}, {"weight", 1.0}, {"tau", sigma}},
+       {{"type", "external"}, {"weight", 1.0}, {"tau", tidy(0.5 * h)}, {"normalize", "max"}},
        {{"type", "asap_mls"}, {"weight", 0.5}, {"variant", "approximate"}, {"neighborhood", "rings"}, {"rings", 2}}});
   nlohmann::ordered_json remesh;
   if constexpr (D == 3)

@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -52,6 +53,8 @@ class UnitsTest : public test_support::TempDirTest {
       const double d_floor = dice(run(units_file(file), floor, "floor" + std::to_string(v)));
       const auto r = run(units_file(file), {set}, "run" + std::to_string(v));
       shortfall.push_back(d_floor - dice(r));
+      std::printf("  %s: floor Dice %.4f, run %.4f, shortfall %.4f, %d iterations\n", set.c_str(), d_floor, dice(r),
+                  shortfall.back(), r["iterations"].get<int>());
       EXPECT_LE(shortfall.back(), 0.03) << set << ": floor " << d_floor << ", run " << dice(r);
       EXPECT_EQ(r["metrics"]["self_intersections"].get<int>(), 0) << set;
     }
@@ -87,6 +90,8 @@ TEST_F(UnitsTest, PaperValuesRegisterATemplateTwoVoxelsInsideABlurredEllipsoid) 
                           with({"energies[0].alpha=0.55", "phases[0].weights=[1,0.1,0.5]", "energies[1].tau=5"}), "dsnake");
   const double start = dice(run(units_file("ellipsoid_resolution.json"), with({"phases[0].iterations=0"}), "start"));
   for (const auto* r : {&gvf_snake, &dsnake}) {
+    std::printf("  start Dice %.4f -> %.4f, mean distance %.3f mm\n", start, dice(*r),
+                (*r)["metrics"]["mean_surface_distance"].get<double>());
     EXPECT_TRUE((*r)["success"].get<bool>()) << (*r)["metrics"].dump();
     EXPECT_GT(dice(*r), start + 0.1) << "start " << start;
     EXPECT_LT((*r)["metrics"]["mean_surface_distance"].get<double>(), 0.8);
@@ -143,6 +148,9 @@ TEST_F(UnitsTest, SameFileGivesTheSameResultAtHalfTheSpacingAndTenTimesTheIntens
     results.push_back(run(file, {}, std::string("run_") + image));
   }
   for (const auto& r : results) {
+    std::printf("  Dice %.4f, mean distance %.3f mm, max |F| %.4f /mm, %d iterations\n", dice(r),
+                r["metrics"]["mean_surface_distance"].get<double>(), r["external_force"]["max"].get<double>(),
+                r["iterations"].get<int>());
     EXPECT_GT(dice(r), 0.95);
     EXPECT_EQ(r["metrics"]["self_intersections"].get<int>(), 0);
   }
