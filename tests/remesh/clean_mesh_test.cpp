@@ -101,8 +101,11 @@ InLoopResult run_in_loop(const InLoopRun& run) {
 }
 
 // Issue 19 asks for >= 85% valence-6 vertices on every shape; `valence6` is what the stages
-// reach today on each (measured: ellipsoid 84.7%, torus 91.5%, genus 2 81.0%), asserted with a
-// small margin so that a regression shows.
+// reached on each with the umbrella internal energy (measured: ellipsoid 84.7%, torus 91.5%,
+// genus 2 81.0%), asserted with a small margin so that a regression shows. With the physical
+// (cotangent, no tangential motion) default they reach ellipsoid 81.0%, torus 83.5%, genus 2
+// 81.8% (min angle >= 20: 100% on all three; smallest angles 29.3, 25.5, 22.2 degrees; 1831,
+// 5277, 2895 vertices): the ellipsoid and torus thresholds are not met yet (issue 19 open).
 void expect_clean(const InLoopResult& r, int chi, int start_vertices, double valence6) {
   EXPECT_EQ(r.quality.euler_characteristic, chi);
   EXPECT_TRUE(r.quality.closed);
@@ -128,7 +131,7 @@ TEST(CleanMesh, Genus2InsideTheEvolution) {
   auto f = [](const Point<3>& x) { return test::genus2_sdf(x); };
   const Snake<3> start = test::genus2_template(2);
   const InLoopResult r = run_in_loop({start, f, 2.0, 5.0});
-  expect_clean(r, -2, start.num_vertices(), 0.79);
+  expect_clean(r, -2, start.num_vertices(), 0.80);
 }
 
 }  // namespace
