@@ -100,12 +100,12 @@ InLoopResult run_in_loop(const InLoopRun& run) {
   return r;
 }
 
-// Issue 19 asks for >= 85% valence-6 vertices on every shape; `valence6` is what the stages
-// reached on each with the umbrella internal energy (measured: ellipsoid 84.7%, torus 91.5%,
-// genus 2 81.0%), asserted with a small margin so that a regression shows. With the physical
-// (cotangent, no tangential motion) default they reach ellipsoid 81.0%, torus 83.5%, genus 2
-// 81.8% (min angle >= 20: 100% on all three; smallest angles 29.3, 25.5, 22.2 degrees; 1831,
-// 5277, 2895 vertices): the ellipsoid and torus thresholds are not met yet (issue 19 open).
+// Issue 19 asks for >= 85% valence-6 vertices on every shape. With the physical internal energy
+// (cotangent, no tangential motion; the default) the stages reach ellipsoid 81.0%, torus 83.5%,
+// genus 2 80.9% (min angle >= 20: 100% on all three; smallest angles 29.3, 25.5, 25.2 degrees;
+// 1831, 5277, 2875 vertices); with the umbrella form, which also slid vertices tangentially,
+// they reached 84.7%, 91.5%, 81.0%. `valence6` is what is reached today, asserted with a small
+// margin so that a regression shows: the 85% target is not met yet (issue 19's closing note).
 void expect_clean(const InLoopResult& r, int chi, int start_vertices, double valence6) {
   EXPECT_EQ(r.quality.euler_characteristic, chi);
   EXPECT_TRUE(r.quality.closed);
@@ -118,13 +118,13 @@ void expect_clean(const InLoopResult& r, int chi, int start_vertices, double val
 TEST(CleanMesh, EllipsoidInsideTheEvolution) {
   auto f = [](const Point<3>& x) { return (x.cwiseQuotient(Point<3>(24, 18, 14)).norm() - 1) * 14; };
   const InLoopResult r = run_in_loop({test::icosphere(2, 27.0), f, 2.5, 5.0});
-  expect_clean(r, 2, 162, 0.83);
+  expect_clean(r, 2, 162, 0.80);
 }
 
 TEST(CleanMesh, TorusInsideTheEvolution) {
   auto f = [](const Point<3>& x) { return test::torus_sdf(x, 30, 10); };
   const InLoopResult r = run_in_loop({test::torus(24, 15, 30, 6), f, 2.5, 6.0});
-  expect_clean(r, 0, 360, 0.85);
+  expect_clean(r, 0, 360, 0.82);
 }
 
 TEST(CleanMesh, Genus2InsideTheEvolution) {
