@@ -234,6 +234,7 @@ struct InternalEnergy<D>::Solver {
   SparseMatrix system;
   PreorderedLdlt physical_ldlt;
   int cg_iterations = 0;  // of the last physical step with beta = 0 (0: solved directly)
+  std::vector<double> cg_inverse_diagonal;
 };
 
 template <int D>
@@ -464,6 +465,7 @@ namespace {
 template <int D>
 struct CgScratch {
   PointList<D>&x, &r, &z, &p, &ap;
+  std::vector<double>& inverse_diagonal;  // the Jacobi preconditioner, found once per solve
 };
 
 // The physical step with beta = 0, (gamma M + alpha K) x = gamma M q, by conjugate gradients
@@ -485,12 +487,14 @@ int conjugate_gradient(const std::vector<int>& offsets, const std::vector<int>& 
     for (int j = offsets[v]; j < offsets[v + 1]; ++j) sum += alpha * k[j] * y[cols[j]];
     return sum;
   };
-  auto inverse_diagonal = [&](int v) { return 1.0 / (gamma * mass[v] + alpha * k[offsets[v]]); };
+  std::vector<double>& inverse_diagonal = s.inverse_diagonal;
+  inverse_diagonal.resize(n);
+  for (int v = 0; v < n; ++v) inverse_diagonal[v] = 1.0 / (gamma * mass[v] + alpha * k[offsets[v]]);
   double rz = 0, r0 = 0;
   for (int v = 0; v < n; ++v) {
     s.x[v] = q[v];
     s.r[v] = gamma * mass[v] * q[v] - apply(q, v);
-    s.z[v] = inverse_diagonal(v) * s.r[v];
+    s.z[v] = inverse_diagonal[v] * s.r[v];
     s.p[v] = s.z[v];
     rz += s.r[v].dot(s.z[v]);
     r0 += s.r[v].squaredNorm();
@@ -508,7 +512,7 @@ int conjugate_gradient(const std::vector<int>& offsets, const std::vector<int>& 
     for (int v = 0; v < n; ++v) {
       s.x[v] += a * s.p[v];
       s.r[v] -= a * s.ap[v];
-      s.z[v] = inverse_diagonal(v) * s.r[v];
+      s.z[v] = inverse_diagonal[v] * s.r[v];
       rz_next += s.r[v].dot(s.z[v]);
       rr += s.r[v].squaredNorm();
     }
@@ -540,7 +544,7 @@ void InternalEnergy<D>::propose_physical(const Snake<D>& snake, PointList<D>& ou
   std::fill(s.k_values.begin(), s.k_values.end(), 0.0);
   for (size_t k = 0; k < s.local.size(); ++k) s.k_values[s.element_slots[k]] += s.local[k];
   if (beta == 0 && options_.solver != InternalSolver::kDirect) {
-    CgScratch<D> scratch{s.x, s.r, s.d, s.d_next, s.ld};
+    CgScratch<D> scratch{s.x, s.r, s.d, s.d_next, s.ld, s.cg_inverse_diagonal};
     s.cg_iterations = conjugate_gradient<D>(s.k_offsets, s.k_cols, s.k_values, s.mass, alpha, gamma,
                                             options_.tolerance, snake.positions(), scratch);
     if (s.cg_iterations > 0) {
