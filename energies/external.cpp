@@ -23,6 +23,9 @@ void ExternalEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& sn
     const double m = max_force_magnitude(*field_);
     force_scale_ = m > 0 ? 1.0 / m : 1.0;
     scaled_field_ = field_;
+  } else if (options_.normalize == ForceNormalization::kUnit && scaled_field_ != field_) {
+    unit_floor_ = 1e-9 * max_force_magnitude(*field_);
+    scaled_field_ = field_;
   }
   normals_.reserve(snake.num_vertices());
 }
@@ -45,11 +48,19 @@ void ExternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   const PointList<D>& normals = normals_;
   // only a field larger than the caches gains from prefetching; a small one pays for the hint
   const bool prefetch = field.vectors().num_voxels() * int64_t(sizeof(Point<D>)) > kPrefetchMinBytes;
+  const bool unit = options_.normalize == ForceNormalization::kUnit;
+  const double floor = unit_floor_;
 #pragma omp parallel for schedule(static) if (n >= 256)
   for (int v = 0; v < n; ++v) {
     if (prefetch && v + kPrefetchAhead < n) field.prefetch(q[v + kPrefetchAhead]);
     const Point<D> normal = with_normals ? normals[v] : Point<D>::Zero();
-    out[v] = q[v] + tau * field.force(q[v], normal);
+    const Point<D> f = field.force(q[v], normal);
+    if (!unit) {
+      out[v] = q[v] + tau * f;
+    } else {
+      const double length = f.norm();
+      out[v] = length > floor ? Point<D>(q[v] + (tau / length) * f) : q[v];
+    }
   }
 }
 

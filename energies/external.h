@@ -18,25 +18,32 @@ namespace dsnake {
 //  - kMax ("max"): the force divided by the field's largest magnitude |F|_max over the grid, so
 //    tau is a distance in mm: the step of a vertex where the force is strongest, whatever the
 //    field type, sigma, spacing or intensity range. The recipes of `dsnake init` use it.
-enum class ForceNormalization { kNone, kMax };
+//  - kUnit ("unit"): the force at each vertex divided by its own magnitude, so every vertex
+//    steps tau mm along the field's direction (Xu & Prince's GVF snakes normalise the GVF to
+//    unit vectors before deforming, IEEE TIP 1998 §IV; the paper's GVF snake of §8 is one).
+//    The step does not fade where the field is weak (a thin arm's apex, far from any edge), so
+//    a vertex on an edge oscillates by up to tau about it: use a tau below the tolerance sought.
+//    Forces below 1e-9 |F|_max (no direction) give no step.
+enum class ForceNormalization { kNone, kMax, kUnit };
 template <>
 struct EnumNames<ForceNormalization> {
-  static constexpr std::array<std::pair<ForceNormalization, const char*>, 2> table{
-      {{ForceNormalization::kNone, "none"}, {ForceNormalization::kMax, "max"}}};
+  static constexpr std::array<std::pair<ForceNormalization, const char*>, 3> table{
+      {{ForceNormalization::kNone, "none"}, {ForceNormalization::kMax, "max"}, {ForceNormalization::kUnit, "unit"}}};
 };
 
 struct ExternalOptions {
-  double tau = 1.0;  // step: physical displacement per unit force (or in mm with normalize "max")
+  double tau = 1.0;  // step: physical displacement per unit force (or in mm with normalize "max" or "unit")
   ForceNormalization normalize = ForceNormalization::kNone;
 
   template <class V>
   void visit(V& v) {
-    v(tau, Key{"tau", "mm per unit force (normalize none); mm (normalize max)",
+    v(tau, Key{"tau", "mm per unit force (normalize none); mm (normalize max or unit)",
                "step: displacement per unit of the field's force, or, with normalize max, the step in mm where the "
-               "force is strongest",
+               "force is strongest, or, with normalize unit, the step in mm of every vertex",
                Range::greater_than(0)});
     v(normalize, Key{"normalize", "", "what tau multiplies: the field's force as computed (none) or the force divided "
-                                      "by the field's largest magnitude (max, tau in mm)"});
+                                      "by the field's largest magnitude (max, tau in mm) or by its own magnitude at each "
+                                      "vertex (unit: direction only, Xu & Prince's GVF snake, tau in mm)"});
   }
 };
 
@@ -56,7 +63,8 @@ class ExternalEnergy final : public Energy<D> {
   // "max", finds the field's largest force once per field.
   void bind(const EnergyContext<D>& context, const Snake<D>& snake) override;
 
-  // out[v] = q_v + tau s F(q_v, n_v) for every vertex (s = 1, or 1 / |F|_max with normalize max), n_v the outward unit vertex normal
+  // out[v] = q_v + tau s F(q_v, n_v) for every vertex (s = 1, or 1 / |F|_max with normalize max,
+  // or 1 / |F(q_v, n_v)| with normalize unit), n_v the outward unit vertex normal
   // (computed only when the field uses it). Parallel over vertices.
   void propose(const Snake<D>& snake, PointList<D>& out) override;
 
@@ -68,13 +76,15 @@ class ExternalEnergy final : public Energy<D> {
   // false without one.
   bool add_residuals(const Snake<D>& snake, double weight, GlobalProblem<D>& problem) const override;
   bool has_least_squares_form() const override { return true; }
-  // The factor s applied to the force (1, or 1 / |F|_max with normalize max; 1 for a zero field).
+  // The factor s applied to the force (1, or 1 / |F|_max with normalize max; 1 for a zero field
+  // and for normalize unit, whose factor is per vertex).
   double force_scale() const { return force_scale_; }
 
  private:
   ExternalOptions options_;
   double force_scale_ = 1.0;
-  const ExternalField<D>* scaled_field_ = nullptr;  // the field force_scale_ was found for
+  double unit_floor_ = 0.0;  // normalize unit: forces at most this long give no step
+  const ExternalField<D>* scaled_field_ = nullptr;  // the field force_scale_ (or unit_floor_) was found for
   const ExternalField<D>* field_ = nullptr;
   const Potential<D>* potential_ = nullptr;
   PointList<D> normals_;  // scratch, n entries

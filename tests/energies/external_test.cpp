@@ -117,6 +117,33 @@ TEST(ExternalEnergy, NormalizeMaxMakesTauTheStepAtTheStrongestForce) {
   EXPECT_NEAR((c[0] - at_max.positions()[0]).norm(), 0.3, 1e-12);
 }
 
+// normalize "unit" (Xu & Prince's GVF snake): every vertex steps exactly tau along the field's
+// direction, however weak or strong the force there; a zero force gives no step.
+TEST(ExternalEnergy, NormalizeUnitStepsEveryVertexByTau) {
+  GridField field;
+  Snake<2> snake = circle(7, 0.6, Point<2>(0.0, 3.0), true);
+  EnergyContext<2> context;
+  context.field = &field;
+  ExternalOptions o;
+  o.tau = 0.3;
+  o.normalize = ForceNormalization::kUnit;
+  ExternalEnergy<2> unit(o);
+  unit.bind(context, snake);
+  EXPECT_DOUBLE_EQ(unit.force_scale(), 1.0);
+  PointList<2> out(7);
+  unit.propose(snake, out);
+  for (int v = 0; v < 7; ++v) {
+    const Point<2> q = snake.positions()[v], f = field.force(q, Point<2>::Zero());
+    EXPECT_NEAR((out[v] - q).norm(), 0.3, 1e-12) << v;
+    EXPECT_NEAR((out[v] - q).normalized().dot(f.normalized()), 1.0, 1e-12) << v;
+  }
+  ConstantField<2> zero(Point<2>::Zero());
+  context.field = &zero;
+  unit.bind(context, snake);
+  unit.propose(snake, out);
+  for (int v = 0; v < 7; ++v) EXPECT_EQ(out[v], snake.positions()[v]);
+}
+
 TEST(ExternalEnergy, ValueIsSumOfPotential) {
   ConstantField<2> with_potential(Point<2>(1, 0));
   NormalField<2> without_potential;
