@@ -203,6 +203,7 @@ Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   ex.truth = assemble_truth(spec, phantom, ex.tmpl);
   express_in_image_frame(ex, spec.truth);
   ex.field = build_field(spec.field);
+  ex.field_region = spec.field.region;
   ex.energies = assemble_energies(spec, ex.tmpl);
   ex.phases = assemble_phases(spec);
   for (size_t p = 0; p < spec.phases.size(); ++p)

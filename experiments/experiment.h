@@ -7,6 +7,7 @@
 #pragma once
 
 #include "framework/core/evolver.h"
+#include "fields/region.h"
 #include "fields/smooth_potential.h"
 #include "framework/core/external_field.h"
 #include "framework/global/global_problem.h"
@@ -107,6 +108,7 @@ struct Experiment {
   PointList<D> initial;  // the placed template: the snake's start
   GroundTruth<D> truth;
   std::unique_ptr<ExternalField<D>> field;
+  FieldRegionOptions field_region;  // "field.region": where the field is computed (fields/region.h)
   std::vector<WeightedEnergy<D>> energies;
   std::vector<Phase<D>> phases;
   std::vector<std::string> phase_names;  // the file's "name" of each phase, or "#k"

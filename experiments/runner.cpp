@@ -273,6 +273,7 @@ struct RunRecord {
   // |F| of the field: its largest over the grid, and the median at the vertices at the start
   // and the end of the run (result.json's "external_force").
   double force_max = 0, force_median_start = 0, force_median_end = 0;
+  VoxelBox<D> field_region;  // the voxels the field was computed on
 };
 
 // Whether the run's snake iteration is checked by the collision guard ("collision_guard").
@@ -293,7 +294,13 @@ void evolve(Experiment<D>& ex, const RunOptions& options, RunRecord<D>& rec) {
     std::fprintf(stderr, "dsnake: %s: computing the %s field on %s\n", ex.name.c_str(), ex.field->type().c_str(),
                  D == 2 ? "the image" : "the volume");
   auto t = Clock::now();
-  ex.field->compute(ex.image);
+  // The field on the region around the placed template (fields/region.h); the potential of the
+  // global view is computed on the same voxels, as it is built from the field or its image.
+  rec.field_region = region_of_interest(ex.image.grid(), ex.initial, ex.field_region);
+  const bool whole = rec.field_region.num_voxels() == ex.image.num_voxels();
+  const Image<D> cropped = whole ? Image<D>() : crop(ex.image, rec.field_region);
+  const Image<D>& field_image = whole ? ex.image : cropped;
+  ex.field->compute(field_image);
   rec.field_s = seconds_since(t);
   rec.snake = Snake<D>::from_template(ex.tmpl, ex.initial);
   rec.initial_vertices = rec.snake.num_vertices();
@@ -302,7 +309,7 @@ void evolve(Experiment<D>& ex, const RunOptions& options, RunRecord<D>& rec) {
   std::unique_ptr<SmoothPotential<D>> potential;
   if (ex.potential) {
     t = Clock::now();
-    potential = make_potential<D>(*ex.potential, ex.image, ex.field.get());
+    potential = make_potential<D>(*ex.potential, field_image, ex.field.get());
     rec.potential_s = seconds_since(t);
   }
   EnergyContext<D> context{&ex.tmpl, &ex.image, ex.field.get(), potential.get()};
@@ -441,6 +448,17 @@ nlohmann::ordered_json external_force_json(const RunRecord<D>& rec) {
           {"median_end_relative", relative(rec.force_median_end)}};
 }
 
+// result.json's "field_region": the voxels the field was computed on (fields/region.h), as the
+// first voxel's index, the voxels per axis and their share of the image.
+template <int D>
+nlohmann::ordered_json field_region_json(const Experiment<D>& ex, const RunRecord<D>& rec) {
+  const VoxelBox<D>& b = rec.field_region;
+  return {{"extent", enum_name(ex.field_region.extent)},
+          {"first_voxel", std::vector<int>(b.lo.data(), b.lo.data() + D)},
+          {"size", std::vector<int>(b.size.data(), b.size.data() + D)},
+          {"share_of_image", double(b.num_voxels()) / double(std::max<int64_t>(1, ex.image.num_voxels()))}};
+}
+
 template <int D>
 nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& rec, Clock::time_point start) {
   nlohmann::ordered_json result;
@@ -468,6 +486,7 @@ nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& 
     result["energy"] = {{"terms", terms}, {"total", last.total_energy}};
   }
   result["external_force"] = external_force_json(rec);
+  result["field_region"] = field_region_json(ex, rec);
   if (ex.potential)
     result["potential"] = {{"type", enum_name(ex.potential->type)}, {"interpolation", enum_name(ex.potential->interpolation)}};
   if (!rec.global_report.is_null()) result["global"] = rec.global_report;

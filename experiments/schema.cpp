@@ -251,7 +251,12 @@ std::string experiment_reference_markdown() {
   std::vector<KeyRow> global = options_rows<GlobalSolverOptions>();
   for (const auto& r : options_rows<PotentialOptions>()) global.push_back(r);
   s += key_table_markdown(global) + "\n";
-  s += "### `field`\n\nEvery field also takes `cache` (string): a folder of the field cache.\n\n";
+  s += "### `field`\n\nEvery field also takes `cache` (string): a folder of the field cache, and `region` "
+       "(object): where the field is computed (fields/region.h). By default the placed template's bounding box "
+       "widened on every side by max(margin, margin_share x its largest extent), cut out of the image without "
+       "resampling, so that the edge map is normalised near the object and the cost follows the template's size; "
+       "a snake that leaves the region feels the force at its border:\n\n";
+  s += key_table_markdown(options_rows<FieldRegionOptions>()) + "\n";
   s += plugin_tables("field", field_registry<2>(), field_registry<3>());
   s += "### `energies[i]`\n\nEvery energy also takes `weight` (number > 0, default 1): its w_e.\n\n";
   s += plugin_tables("energies[i]", energy_registry<2>(), energy_registry<3>());

@@ -1,6 +1,6 @@
 // Registration of the external fields: one line per field class. Each class declares its name,
 // its options (which read and check themselves) and a summary; see framework/core/registry.h. The
-// "cache" key is read here, around the registry (read_field_spec); the gradient field has no
+// "cache" and "region" keys are read here, around the registry (read_field_spec); the gradient field has no
 // stored state, so it is recomputed even with a cache.
 #include "fields/registry.h"
 
@@ -10,6 +10,7 @@
 #include "fields/gradient.h"
 #include "fields/gvf.h"
 #include "fields/vfc.h"
+#include "framework/core/options_schema.h"
 
 namespace dsnake {
 
@@ -34,6 +35,11 @@ FieldSpec<D> read_field_spec(JsonReader& reader) {
     reader.read("cache", spec.cache_dir);
     reader.expect(!spec.cache_dir.empty(), "cache", "must be a non-empty folder name");
   }
+  if (reader.has("region")) {
+    JsonReader region = reader.child("region");
+    read_options(region, spec.region);
+    region.finish();
+  }
   spec.field = field_registry<D>().read(reader);  // reads "type" and the options, then finish()
   return spec;
 }
@@ -53,6 +59,12 @@ nlohmann::ordered_json field_common_schema_properties() {
                 {"description",
                  "folder of the field cache: the computed field is stored there, keyed by the image and the "
                  "field's type and options, and loaded by later runs (fields/field_cache.h)"}};
+  p["region"] = {{"type", "object"},
+                 {"description",
+                  "where the field is computed: the placed template's bounding box widened by a margin (default), "
+                  "or the whole image (fields/region.h)"},
+                 {"properties", options_schema<FieldRegionOptions>()},
+                 {"additionalProperties", false}};
   return p;
 }
 

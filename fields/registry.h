@@ -3,6 +3,7 @@
 // fields/field_cache.h).
 #pragma once
 
+#include "fields/region.h"
 #include "framework/core/external_field.h"
 #include "framework/core/registry.h"
 
@@ -23,9 +24,10 @@ template <int D>
 struct FieldSpec {
   PluginSpec<ExternalField<D>> field;
   std::string cache_dir;
+  FieldRegionOptions region;  // "region": where the field is computed (fields/region.h)
 };
 
-// Reads "cache" (when given, a non-empty folder name), then the field's "type" and options
+// Reads "cache" (when given, a non-empty folder name) and "region", then the field's "type" and options
 // through field_registry<D>(); calls reader.finish(). Throws InputError naming the key.
 template <int D>
 FieldSpec<D> read_field_spec(JsonReader& reader);
