@@ -144,6 +144,8 @@ std::vector<Phase<D>> assemble_phases(const ExperimentSpec<D>& spec) {
     Phase<D> ph;
     ph.iterations = s.iterations;
     ph.tolerance = s.tolerance;
+    ph.window = s.window;
+    ph.energy_tolerance = s.energy_tolerance;
     ph.every = s.every;
     ph.weights = s.weights;
     // The stages as one pipeline (3D: one pass over a shared editable mesh, same result).

@@ -64,6 +64,8 @@ struct PhaseSpec {
   int iterations = 100;
   double tolerance = 0.0;
   int every = 1;
+  int window = 0;                  // the windowed stop (framework/core/stall.h); 0: off
+  double energy_tolerance = 1e-3;  // its relative energy change
   std::vector<double> weights;  // one per energy, or empty
   std::vector<PluginSpec<Remesher<D>>> remesh;
 
@@ -74,7 +76,19 @@ struct PhaseSpec {
     v(iterations, Key{"iterations", "iterations", "the phase's iteration budget (global solve: Ceres iterations are counted)", Range::closed(0, 10000000)});
     v(tolerance, Key{"tolerance", "mm", "stop when the largest vertex move of an iteration is below (0: never)", Range::at_least(0)});
     v(every, Key{"every", "iterations", "run the remeshing stages every `every` iterations", Range::at_least(1)});
+    v(window, Key{"window", "iterations",
+                  "the windowed stop (needs tolerance > 0; snake iteration only): every `window` iterations, stop when no "
+                  "template vertex moved more than `tolerance` per iteration on the net once the centroid's motion is "
+                  "removed, and the total energy changed by less than energy_tolerance of itself: a snake that only "
+                  "slides or oscillates has converged (0: off)",
+                  Range::closed(0, 10000000)});
+    v(energy_tolerance, Key{"energy_tolerance", "1", "the windowed stop's largest relative change of the total energy over a window",
+                            Range::at_least(0)});
     v(weights, Key{"weights", "1", "one weight per energy for this phase, in the energies' order (0 switches a term off); default: their own weights"});
+  }
+  void check() const {
+    if (window > 0 && tolerance <= 0)
+      throw OptionError{"window", "needs a tolerance > 0 (the net move per iteration below which the shape is still)"};
   }
 };
 

@@ -424,6 +424,8 @@ nlohmann::ordered_json phases_json(const Experiment<D>& ex, const RunRecord<D>& 
     const auto& ps = rec.summary.phases[p];
     nlohmann::ordered_json j = {{"name", ex.phase_names[p]}, {"iterations", ps.iterations},
                                 {"status", to_string(ps.status)}, {"last_displacement", ps.last_displacement}};
+    if (!ps.converged_on.empty()) j["converged_on"] = ps.converged_on;
+    if (ex.phases[p].window > 0) j["centroid_rate"] = ps.centroid_rate;
     for (const auto& r : ps.remesh_reports)
       j["remesh"].push_back({{"stage", r.stage}, {"vertices_before", r.vertices_before},
                              {"vertices_after", r.vertices_after}, {"rejected_edits", r.rejected_edits}});

@@ -1,6 +1,7 @@
 #include "framework/core/evolver.h"
 
 #include "framework/core/errors.h"
+#include "framework/core/stall.h"
 
 #include <algorithm>
 #include <cmath>
@@ -16,6 +17,14 @@ double largest_move(const PointList<D>& from, const PointList<D>& to) {
 #pragma omp parallel for reduction(max : max_move) schedule(static) if (n >= 256)
   for (int v = 0; v < n; ++v) max_move = std::max(max_move, (to[v] - from[v]).norm());
   return max_move;
+}
+
+// The sum of the finite terms (an external field without a potential has none).
+double finite_total(const std::vector<double>& terms) {
+  double total = 0;
+  for (double t : terms)
+    if (std::isfinite(t)) total += t;
+  return total;
 }
 
 }  // namespace
@@ -64,6 +73,9 @@ PhaseSummary SnakeStep<D>::run_phase(PhaseDriver<D>& driver, Snake<D>& snake, co
   PhaseSummary ps;
   guard_report_ = {};
   std::vector<RemeshReport> last_reports;
+  const int window = phase.tolerance > 0 ? phase.window : 0;
+  StallDetector<D> stall(window, phase.tolerance, phase.energy_tolerance);
+  if (window > 0) stall.start(snake, finite_total(driver.energy_terms(snake)));
   for (int it = 1; it <= phase.iterations; ++it) {
     const double move = step(driver, snake);
     ps.iterations = it;
@@ -82,7 +94,14 @@ PhaseSummary SnakeStep<D>::run_phase(PhaseDriver<D>& driver, Snake<D>& snake, co
       driver.report(info, snake);
       break;
     }
-    const bool converged = phase.tolerance > 0 && move < phase.tolerance;
+    bool converged = phase.tolerance > 0 && move < phase.tolerance;
+    if (converged) ps.converged_on = "displacement";
+    if (!converged && window > 0 && it % window == 0) {
+      const double energy = driver.trace_energy() ? info.total_energy : finite_total(driver.energy_terms(snake));
+      converged = stall.stalled(it, snake, energy);
+      ps.centroid_rate = stall.centroid_rate();
+      if (converged) ps.converged_on = "window";
+    }
     if (phase.remesher && !converged && it % std::max(1, phase.every) == 0) last_reports = driver.remesh(snake, phase, it);
     driver.report(info, snake);
     if (converged) {

@@ -35,6 +35,12 @@ template <int D>
 struct Phase {
   int iterations = 100;     // iteration budget
   double tolerance = 0.0;   // stop when the largest displacement (physical units) is below; 0: never
+  // The windowed stop (framework/core/stall.h; the snake iteration only): every `window`
+  // iterations, stop when the template vertices' net move per iteration, the centroid's motion
+  // removed, is below `tolerance` and the total energy changed by less than energy_tolerance of
+  // itself. 0: off.
+  int window = 0;
+  double energy_tolerance = 1e-3;
   int every = 1;            // run the remesher pipeline every `every` iterations
   // Per-energy weights for this phase, in the energies' order (empty: their own weights); 0
   // switches a term off, e.g. §3's first phase with the deformation and external forces only.
@@ -61,6 +67,10 @@ struct PhaseSummary {
   int iterations = 0;
   EvolveStatus status = EvolveStatus::kIterationBudget;
   double last_displacement = 0;
+  // kConverged: "displacement" (one iteration's largest move below the tolerance) or "window"
+  // (the windowed stop: the shape still and the energy flat while the centroid may move).
+  std::string converged_on;
+  double centroid_rate = 0;  // the windowed stop: the centroid's move per iteration in its last window (mm)
   std::vector<RemeshReport> remesh_reports;  // the last pass of each stage
   MoveGuardReport move_guard;                // the move guard's interventions in this phase
 };

@@ -142,6 +142,72 @@ TEST(Evolver, PhasesStopAtTheToleranceOrTheBudget) {
   EXPECT_NEAR(s.positions()[0].x(), std::pow(0.5, 14), 1e-18);
 }
 
+// Moves every vertex by a fixed step (a snake sliding at a steady rate), or, with `alternate`,
+// by +step and -step in turn (a snake oscillating about an edge), or shrinks it by `shrink` per
+// iteration towards the origin (a snake still changing shape). Energy: the sum of |q|^2 of the
+// shape about its centroid, flat under sliding and oscillation.
+class DriftEnergy : public Energy<2> {
+ public:
+  DriftEnergy(Point<2> step, bool alternate, double shrink) : step_(step), alternate_(alternate), shrink_(shrink) {}
+  std::string type() const override { return "drift"; }
+  void bind(const EnergyContext<2>&, const Snake<2>&) override {}
+  void propose(const Snake<2>& snake, PointList<2>& out) override {
+    const Point<2> d = alternate_ && (calls_++ % 2) ? Point<2>(-step_) : step_;
+    for (int v = 0; v < snake.num_vertices(); ++v) out[v] = (1 - shrink_) * snake.positions()[v] + d;
+  }
+  double value(const Snake<2>& snake) const override {
+    Point<2> c = Point<2>::Zero();
+    for (const auto& q : snake.positions()) c += q;
+    c /= snake.num_vertices();
+    double e = 0;
+    for (const auto& q : snake.positions()) e += (q - c).squaredNorm();
+    return e;
+  }
+
+ private:
+  Point<2> step_;
+  bool alternate_;
+  double shrink_;
+  int calls_ = 0;
+};
+
+// The windowed stop (framework/core/stall.h): a snake that slides at 0.05 mm per iteration
+// (above the tolerance 0.01, so the displacement stop never fires) or oscillates by 0.05 mm
+// converges at the first window's end; a shrinking one (shape changing by more than the
+// tolerance per iteration) runs its budget; without a window, sliding runs its budget too.
+TEST(Evolver, TheWindowedStopEndsSlidingAndOscillationButNotShapeChange) {
+  const auto run = [](Point<2> step, bool alternate, double shrink, int window) {
+    std::vector<WeightedEnergy<2>> e;
+    e.push_back({1.0, std::make_unique<DriftEnergy>(step, alternate, shrink)});
+    Evolver<2> evolver({}, std::move(e));
+    Snake<2> s = square_snake();
+    std::vector<Phase<2>> phases(1);
+    phases[0].iterations = 200;
+    phases[0].tolerance = 0.01;
+    phases[0].window = window;
+    return evolver.run(s, phases).phases[0];
+  };
+  const PhaseSummary sliding = run(Point<2>(0.03, 0.04), false, 0, 20);
+  EXPECT_EQ(sliding.status, EvolveStatus::kConverged);
+  EXPECT_EQ(sliding.converged_on, "window");
+  EXPECT_EQ(sliding.iterations, 20);
+  EXPECT_NEAR(sliding.centroid_rate, 0.05, 1e-12);
+  const PhaseSummary oscillating = run(Point<2>(0.03, 0.04), true, 0, 20);
+  EXPECT_EQ(oscillating.converged_on, "window");
+  EXPECT_EQ(oscillating.iterations, 20);
+  EXPECT_NEAR(oscillating.centroid_rate, 0.0, 1e-12);
+  // shrinking by 1% per iteration about (3, 4) while drifting: the corners move 0.014 mm per
+  // iteration about the centroid at first and less than the tolerance after about 35 iterations,
+  // but the energy falls by a third per window, so no window stops it; the displacement stop
+  // does, once the shape has nearly vanished
+  const PhaseSummary shrinking = run(Point<2>(0.03, 0.04), false, 0.01, 20);
+  EXPECT_EQ(shrinking.converged_on, "displacement");
+  EXPECT_GT(shrinking.iterations, 150);
+  const PhaseSummary off = run(Point<2>(0.03, 0.04), false, 0, 0);
+  EXPECT_EQ(off.status, EvolveStatus::kIterationBudget);
+  EXPECT_EQ(off.iterations, 200);
+}
+
 TEST(Evolver, RemeshersRunEveryKIterationsAndEnergiesRebind) {
   std::vector<WeightedEnergy<2>> e;
   auto constant = std::make_unique<ConstantEnergy>(Point<2>(0, 0), Governs::kAllVertices);
