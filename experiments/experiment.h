@@ -105,6 +105,8 @@ struct Experiment {
   bool image_is_file_as_read = false;  // a file without corruptions (so image.nii.gz would be a copy)
   Template<D> tmpl;
   PointList<D> initial;  // the placed template: the snake's start
+  // "template.reference_image": the template at its rest positions lies on its object there
+  std::optional<Image<D>> reference_image;
   GroundTruth<D> truth;
   std::unique_ptr<ExternalField<D>> field;
   std::vector<WeightedEnergy<D>> energies;
