@@ -28,6 +28,27 @@ void ExternalEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& sn
     scaled_field_ = field_;
   }
   normals_.reserve(snake.num_vertices());
+  if (options_.polarity != PolarityRule::kAny) bind_polarity(context, snake);
+}
+
+// The polarity rule's precomputation: the smoothed image, the noise floor and the ray step once
+// per image, and with "auto" the polarity, learned from the snake at its first bind (the start).
+template <int D>
+void ExternalEnergy<D>::bind_polarity(const EnergyContext<D>& context, const Snake<D>& snake) {
+  DSNAKE_ASSERT(context.image != nullptr, "the polarity rule samples the image");
+  const Image<D>& smoothed = smoothed_.of(*context.image, options_.polarity_sigma);
+  if (probed_image_ != context.image) {
+    probe_.step = half_smallest_spacing(smoothed.grid());
+    probe_.range = options_.polarity_range;
+    probe_.floor = options_.polarity_floor * gradient_noise_level(smoothed);
+    probed_image_ = context.image;
+  }
+  if (polarity_ == EdgePolarity::kAuto) {
+    polarity_ = options_.polarity == PolarityRule::kBrightInside ? EdgePolarity::kBrightInside
+                : options_.polarity == PolarityRule::kDarkInside ? EdgePolarity::kDarkInside
+                                                                 : learn_polarity(smoothed, snake, options_.polarity_range, probe_.step);
+  }
+  probe_.sign = polarity_sign(polarity_);
 }
 
 // §3.1: q_i^ext(t+1) = q_i(t) + tau F_ext(q_i(t)), the force scaled by force_scale_.
@@ -41,8 +62,9 @@ void ExternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   const PointList<D>& q = snake.positions();
   const int n = snake.num_vertices();
   DSNAKE_ASSERT(int(out.size()) == n, "out has one entry per vertex");
+  const bool polarised = options_.polarity != PolarityRule::kAny;
   const bool with_normals = field_->uses_normal();
-  if (with_normals) snake.vertex_normals(normals_);
+  if (with_normals || polarised) snake.vertex_normals(normals_);
   const ExternalField<D>& field = *field_;
   const double tau = options_.tau * force_scale_;
   const PointList<D>& normals = normals_;
@@ -50,11 +72,14 @@ void ExternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   const bool prefetch = field.vectors().num_voxels() * int64_t(sizeof(Point<D>)) > kPrefetchMinBytes;
   const bool unit = options_.normalize == ForceNormalization::kUnit;
   const double floor = unit_floor_;
+  const Image<D>& smoothed = smoothed_.image();
+  const PolarityProbe& probe = probe_;
 #pragma omp parallel for schedule(static) if (n >= 256)
   for (int v = 0; v < n; ++v) {
     if (prefetch && v + kPrefetchAhead < n) field.prefetch(q[v + kPrefetchAhead]);
     const Point<D> normal = with_normals ? normals[v] : Point<D>::Zero();
-    const Point<D> f = field.force(q[v], normal);
+    Point<D> f = field.force(q[v], normal);
+    if (polarised) f *= polarity_factor(smoothed, probe, q[v], normals[v], f);
     if (!unit) {
       out[v] = q[v] + tau * f;
     } else {

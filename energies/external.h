@@ -3,6 +3,7 @@
 // explicit external term of eqs. (19)-(20)). With the basic field of §1, F = -grad E_ext.
 #pragma once
 
+#include "energies/polarity.h"
 #include "framework/core/energy.h"
 #include "framework/core/options.h"
 
@@ -31,9 +32,35 @@ struct EnumNames<ForceNormalization> {
       {{ForceNormalization::kNone, "none"}, {ForceNormalization::kMax, "max"}, {ForceNormalization::kUnit, "unit"}}};
 };
 
+// The polarity rule (issue 20, "edges with a side"), for any field: "any" (default) leaves the
+// force as the field gives it (bit-identical to the energy without the rule); otherwise at each
+// vertex q with outward unit normal n and force f != 0, on the image smoothed by polarity_sigma:
+//  1. the edge the force pulls q onto is the first local maximum of |dI/du| (u = f / |f|) along
+//     the ray q + t u, t = 0, h, 2h, ... <= polarity_range (h half the smallest voxel size) that
+//     exceeds polarity_floor times the smoothed image's noise level (the median |grad I|, at least
+//     1% of the largest; energies/polarity.h);
+//  2. if that edge's dI/dn at its place has the wrong sign for the polarity (bright_inside wants
+//     dI/dn < 0: the intensity falls outwards; dark_inside wants > 0), the force is reversed,
+//     -f: a wrong-polarity edge repels the vertex instead of capturing it, so that it leaves
+//     that edge's basin for the next one; otherwise (a right edge, or no edge within range) f
+//     stays. On a step edge of the right polarity nothing changes.
+// "auto" learns the polarity once, at the first bind, from the start (energies/polarity.h, with
+// a band of polarity_range).
+enum class PolarityRule { kAny, kBrightInside, kDarkInside, kAuto };
+template <>
+struct EnumNames<PolarityRule> {
+  static constexpr std::array<std::pair<PolarityRule, const char*>, 4> table{
+      {{PolarityRule::kAny, "any"}, {PolarityRule::kBrightInside, "bright_inside"},
+       {PolarityRule::kDarkInside, "dark_inside"}, {PolarityRule::kAuto, "auto"}}};
+};
+
 struct ExternalOptions {
   double tau = 1.0;  // step: physical displacement per unit force (or in mm with normalize "max" or "unit")
   ForceNormalization normalize = ForceNormalization::kNone;
+  PolarityRule polarity = PolarityRule::kAny;
+  double polarity_sigma = 1.0;  // mm
+  double polarity_range = 5.0;  // mm
+  double polarity_floor = 3.0;  // multiples of the image's gradient noise level
 
   template <class V>
   void visit(V& v) {
@@ -44,6 +71,16 @@ struct ExternalOptions {
     v(normalize, Key{"normalize", "", "what tau multiplies: the field's force as computed (none) or the force divided "
                                       "by the field's largest magnitude (max, tau in mm) or by its own magnitude at each "
                                       "vertex (unit: direction only, Xu & Prince's GVF snake, tau in mm)"});
+    v(polarity, Key{"polarity", "", "which edges may capture a vertex: any (the field as it is), bright_inside or "
+                                    "dark_inside (a force pulling a vertex onto an edge of the other polarity is "
+                                    "reversed), or auto (the polarity learned from the start)"});
+    v(polarity_sigma, Key{"polarity_sigma", "mm", "polarity rule: Gaussian smoothing of the image in which edges are "
+                                                  "found and their polarity read (0: none)", Range::at_least(0)});
+    v(polarity_range, Key{"polarity_range", "mm", "polarity rule: how far along the force the edge it pulls to is "
+                                                  "sought (and the band that auto compares)", Range::greater_than(0)});
+    v(polarity_floor, Key{"polarity_floor", "1", "polarity rule: an edge counts where |dI/du| exceeds this multiple "
+                                                 "of the smoothed image's noise level (median gradient magnitude, at "
+                                                 "least 1% of the largest)", Range::at_least(0)});
   }
 };
 
@@ -79,6 +116,9 @@ class ExternalEnergy final : public Energy<D> {
   // The factor s applied to the force (1, or 1 / |F|_max with normalize max; 1 for a zero field
   // and for normalize unit, whose factor is per vertex).
   double force_scale() const { return force_scale_; }
+  // The polarity the rule applies (after auto has learned it; kAuto before the first bind and
+  // with polarity "any").
+  EdgePolarity polarity() const { return polarity_; }
 
  private:
   ExternalOptions options_;
@@ -88,6 +128,12 @@ class ExternalEnergy final : public Energy<D> {
   const ExternalField<D>* field_ = nullptr;
   const Potential<D>* potential_ = nullptr;
   PointList<D> normals_;  // scratch, n entries
+  // the polarity rule
+  EdgePolarity polarity_ = EdgePolarity::kAuto;
+  SmoothedImage<D> smoothed_;
+  const Image<D>* probed_image_ = nullptr;  // the image probe_ was set up for
+  PolarityProbe probe_;
+  void bind_polarity(const EnergyContext<D>& context, const Snake<D>& snake);
 };
 
 }  // namespace dsnake

@@ -8,6 +8,7 @@
 #include "energies/external.h"
 #include "energies/internal.h"
 #include "energies/laplacian.h"
+#include "energies/profile.h"
 #include "energies/similarity.h"
 
 namespace dsnake {
@@ -23,6 +24,7 @@ const Registry<Energy<D>>& energy_registry() {
     r.template add<ArapEnergy<D>>();
     r.template add<BalloonEnergy<D>>();
     r.template add<SimilarityEnergy<D>>();
+    r.template add<ProfileEnergy<D>>();
     return r;
   }();
   return registry;

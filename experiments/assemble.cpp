@@ -96,6 +96,18 @@ Template<D> assemble_template(const ExperimentSpec<D>& spec) {
   return tmpl;
 }
 
+// "template.reference_image": read as an image; a problem with it names the experiment file and
+// the key, then the image's own message (which names the image file).
+template <int D>
+Image<D> read_reference_image(const ExperimentSpec<D>& spec) {
+  try {
+    return read_image<D>(spec.tmpl.reference_image);
+  } catch (const InputError& e) {
+    const std::string where = e.where().empty() ? "" : " (" + e.where() + ")";
+    throw InputError(spec.file.path, "template.reference_image", e.file() + where + ": " + e.message());
+  }
+}
+
 // Ground truth: the phantom's own, then explicit files override.
 template <int D>
 GroundTruth<D> assemble_truth(const ExperimentSpec<D>& spec, const std::optional<Phantom<D>>& phantom,
@@ -202,6 +214,7 @@ Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   ex.tmpl = assemble_template(spec);
   const PlacementSpec<D>& t = spec.tmpl.transform;
   ex.initial = place<D>(ex.tmpl.positions, t.scale, t.rotation_deg, t.translation);
+  if (!spec.tmpl.reference_image.empty()) ex.reference_image = read_reference_image(spec);
   ex.truth = assemble_truth(spec, phantom, ex.tmpl);
   express_in_image_frame(ex, spec.truth);
   ex.field = build_field(spec.field);

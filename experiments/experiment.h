@@ -106,6 +106,8 @@ struct Experiment {
   bool image_is_file_as_read = false;  // a file without corruptions (so image.nii.gz would be a copy)
   Template<D> tmpl;
   PointList<D> initial;  // the placed template: the snake's start
+  // "template.reference_image": the template at its rest positions lies on its object there
+  std::optional<Image<D>> reference_image;
   GroundTruth<D> truth;
   std::unique_ptr<ExternalField<D>> field;
   FieldRegionOptions field_region;  // "field.region": where the field is computed (fields/region.h)

@@ -67,7 +67,7 @@ template <int D>
 TemplateSpec<D> read_template_section(JsonReader& top, const ExperimentFile& f) {
   TemplateSpec<D> spec;
   JsonReader r = top.child("template");
-  spec.phantom = read_source(r, f, spec.file, {"landmarks", "transform"});
+  spec.phantom = read_source(r, f, spec.file, {"landmarks", "transform", "reference_image"});
   if (r.has("landmarks")) {
     const auto& lm = r.raw("landmarks");
     if (!lm.is_object()) r.fail("landmarks", "expected an object {\"name\": vertex id}");
@@ -78,6 +78,9 @@ TemplateSpec<D> read_template_section(JsonReader& top, const ExperimentFile& f) 
     }
   }
   if (r.has("transform")) spec.transform = read_placement<D>(r.child("transform"));
+  r.read("reference_image", spec.reference_image);
+  if (r.has("reference_image")) r.expect(!spec.reference_image.empty(), "reference_image", "expected an image file");
+  spec.reference_image = resolve(f, spec.reference_image);
   r.finish();
   return spec;
 }

@@ -45,6 +45,7 @@ struct TemplateSpec {
   std::optional<PhantomSource> phantom;
   std::map<std::string, int> landmarks;  // checked against the template's size at assembly
   PlacementSpec<D> transform;
+  std::string reference_image;  // "reference_image": resolved path, "" when absent
 };
 
 struct GroundTruthSpec {  // "ground_truth": files that override a phantom's own truth

@@ -312,7 +312,8 @@ void evolve(Experiment<D>& ex, const RunOptions& options, RunRecord<D>& rec) {
     potential = make_potential<D>(*ex.potential, field_image, ex.field.get());
     rec.potential_s = seconds_since(t);
   }
-  EnergyContext<D> context{&ex.tmpl, &ex.image, ex.field.get(), potential.get()};
+  EnergyContext<D> context{&ex.tmpl, &ex.image, ex.field.get(), potential.get(),
+                           ex.reference_image ? &*ex.reference_image : nullptr};
   ProgressObserver<D> progress(ex.phases, ex.phase_names, ex.solver == SolverKind::kGlobal);
   t = Clock::now();
   std::unique_ptr<Minimizer<D>> minimizer;

@@ -147,6 +147,10 @@ json template_schema() {
   template_keys<2>(keys);
   template_keys<3>(keys);
   json own = {
+      {"reference_image", {{"type", "string"},
+                           {"description", "an image in which the template at its rest positions (as read) lies on "
+                                           "its object (an atlas, the previous slice): the profile energy's expected "
+                                           "profiles are sampled there"}}},
       {"landmarks", {{"type", "object"}, {"additionalProperties", {{"type", "integer"}, {"minimum", 0}}},
                      {"description", "named template vertices: {\"name\": vertex id}"}}},
       {"transform", closed_object({{"scale", {{"type", "number"}, {"exclusiveMinimum", 0}, {"default", 1},

@@ -26,6 +26,10 @@ struct EnergyContext {
   const ExternalField<D>* field = nullptr;
   // The smooth potential of the external term's global view (framework/core/potential.h), if any.
   const Potential<D>* potential = nullptr;
+  // "template.reference_image", if any: an image in which the template at its rest positions p
+  // (as read) lies on its object (an atlas, the previous slice); the profile force samples its
+  // expected profiles there (energies/profile.h).
+  const Image<D>* reference_image = nullptr;
 };
 
 enum class Governs {

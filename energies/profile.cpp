@@ -1,0 +1,191 @@
+// The profile force; see profile.h. Cootes et al., "Active shape models", CVIU 1995, §4.1: the
+// normalised derivative profile along the normal and the search for its best match.
+#include "energies/profile.h"
+
+#include "framework/core/errors.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+
+namespace dsnake {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kFlat = 1e-12;  // a profile whose sum |dI| is below this has no edge
+
+// d[i] /= sum |d| over the 2K values at d; false (left as is) when the profile is flat.
+bool normalise_l1(double* d, int count) {
+  double a = 0.0;
+  for (int i = 0; i < count; ++i) a += std::abs(d[i]);
+  if (!(a > kFlat)) return false;
+  for (int i = 0; i < count; ++i) d[i] /= a;
+  return true;
+}
+
+// The normalised derivative profile of `image` at x along n: 2K + 1 samples every h mm from
+// x - K h n, their 2K differences, normalised; empty when flat.
+template <int D>
+std::vector<double> sample_profile(const Image<D>& image, const Point<D>& x, const Point<D>& n, double h, int half) {
+  std::vector<double> s(2 * half + 1);
+  for (int k = -half; k <= half; ++k) s[k + half] = image.sample(x + (k * h) * n);
+  std::vector<double> d(2 * half);
+  for (int i = 0; i < 2 * half; ++i) d[i] = s[i + 1] - s[i];
+  if (!normalise_l1(d.data(), 2 * half)) return {};
+  return d;
+}
+
+// A step edge of the polarity (sign of dI/dn) blurred by a Gaussian of sigma mm: the differences
+// of sign * Phi(s / sigma) at s = k h, k = -K..K, normalised.
+std::vector<double> step_profile(int sign, double sigma, double h, int half) {
+  std::vector<double> d(2 * half);
+  auto phi = [&](int k) { return 0.5 * std::erfc(-(k * h) / (sigma * std::sqrt(2.0))); };
+  for (int k = -half; k < half; ++k) d[k + half] = sign * (phi(k + 1) - phi(k));
+  normalise_l1(d.data(), 2 * half);
+  return d;
+}
+
+// The mean of the non-empty profiles, normalised; empty if there is none.
+std::vector<double> mean_profile(const std::vector<std::vector<double>>& profiles, int count) {
+  std::vector<double> mean(count, 0.0);
+  bool any = false;
+  for (const auto& p : profiles) {
+    if (p.empty()) continue;
+    any = true;
+    for (int i = 0; i < count; ++i) mean[i] += p[i];
+  }
+  if (!any || !normalise_l1(mean.data(), count)) return {};
+  return mean;
+}
+
+// The misfit |g(d) - e|^2 of the 2K differences starting at diff, normalised on the fly; inf
+// for a flat window.
+double misfit(const double* diff, const std::vector<double>& expected) {
+  const int count = static_cast<int>(expected.size());
+  double a = 0.0;
+  for (int i = 0; i < count; ++i) a += std::abs(diff[i]);
+  if (!(a > kFlat)) return kInf;
+  double f = 0.0;
+  for (int i = 0; i < count; ++i) {
+    const double r = diff[i] / a - expected[i];
+    f += r * r;
+  }
+  return f;
+}
+
+// The best offset index in [-J, J] (smallest misfit; ties to the smallest |j|, then the smaller
+// j, by visiting 0, -1, +1, -2, ...), refined by a parabola through its neighbours; in steps of h.
+// NaN when every window is flat.
+double best_offset(const double* misfits, int reach) {
+  int best = 0;
+  double fb = misfits[reach];
+  for (int m = 1; m <= reach; ++m) {
+    for (int j : {-m, m}) {
+      if (misfits[j + reach] < fb) {
+        fb = misfits[j + reach];
+        best = j;
+      }
+    }
+  }
+  if (!std::isfinite(fb)) return std::numeric_limits<double>::quiet_NaN();
+  double offset = best;
+  if (best > -reach && best < reach) {
+    const double fm = misfits[best - 1 + reach], fp = misfits[best + 1 + reach];
+    const double curvature = fm - 2 * fb + fp;
+    if (std::isfinite(fm) && std::isfinite(fp) && curvature > 0)
+      offset += std::clamp(0.5 * (fm - fp) / curvature, -0.5, 0.5);
+  }
+  return offset;
+}
+
+}  // namespace
+
+template <int D>
+ProfileEnergy<D>::ProfileEnergy(const ProfileOptions& options) : options_(checked(options, kType)) {}
+
+template <int D>
+void ProfileEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& snake) {
+  DSNAKE_ASSERT(context.image != nullptr, "the profile energy samples the image");
+  const Image<D>& smoothed = image_.of(*context.image, options_.sigma);
+  if (expected_for_ != context.image) {
+    h_ = options_.spacing > 0 ? options_.spacing : half_smallest_spacing(smoothed.grid());
+    half_ = std::max(1, static_cast<int>(std::lround(options_.length / h_)));
+    reach_ = std::max(1, static_cast<int>(std::lround(options_.search / h_)));
+    set_up_expected(context, snake);
+    expected_for_ = context.image;
+  }
+  const int n = snake.num_vertices();
+  profile_of_.assign(n, &mean_);
+  for (int v = 0; v < n; ++v) {
+    const int t = snake.template_id(v);
+    if (t >= 0 && t < int(expected_.size()) && !expected_[t].empty()) profile_of_[v] = &expected_[t];
+  }
+  offsets_.assign(n, 0.0);
+  scratch_.resize(size_t(n) * (2 * (reach_ + half_) + 1 + 2 * reach_ + 1));
+  normals_.reserve(n);
+}
+
+// The expected profiles: per template vertex from the reference image at the rest positions
+// (p, mapped into the reference image's frame), or the step edge of the (learned) polarity.
+template <int D>
+void ProfileEnergy<D>::set_up_expected(const EnergyContext<D>& context, const Snake<D>& snake) {
+  expected_.clear();
+  mean_.clear();
+  if (context.reference_image) {
+    DSNAKE_ASSERT(context.tmpl != nullptr, "a reference profile needs the template");
+    SmoothedImage<D> reference;
+    const Image<D>& ref = reference.of(*context.reference_image, options_.sigma);
+    PointList<D> p = context.tmpl->positions;
+    for (auto& x : p) x = ref.grid().to_frame(x);
+    const PointList<D> normals = Snake<D>::from_template(*context.tmpl, p).vertex_normals();
+    expected_.resize(p.size());
+    for (size_t t = 0; t < p.size(); ++t) expected_[t] = sample_profile(ref, p[t], normals[t], h_, half_);
+    mean_ = mean_profile(expected_, 2 * half_);
+    if (options_.reference_profile == ReferenceProfile::kMean) expected_.clear();
+    if (!mean_.empty()) return;
+    expected_.clear();  // a reference without any edge: fall back to the step edge
+  }
+  polarity_ = options_.polarity != EdgePolarity::kAuto ? options_.polarity
+                                                        : learn_polarity(image_.image(), snake, options_.search, h_);
+  mean_ = step_profile(polarity_sign(polarity_), std::max(options_.sigma, h_), h_, half_);
+}
+
+// Samples each vertex's normal line once (2(J + K) + 1 samples), differences it, and slides the
+// expected profile over the 2J + 1 offsets.
+template <int D>
+void ProfileEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
+  const int n = snake.num_vertices();
+  DSNAKE_ASSERT(int(out.size()) == n && int(profile_of_.size()) == n, "bind() before propose(), one entry per vertex");
+  snake.vertex_normals(normals_);
+  const PointList<D>& q = snake.positions();
+  const Image<D>& image = image_.image();
+  const int reach = reach_, half = half_, samples = 2 * (reach_ + half_) + 1;
+  const size_t stride = samples + 2 * reach + 1;
+  const double h = h_, step = options_.step;
+#pragma omp parallel for schedule(static) if (n >= 64)
+  for (int v = 0; v < n; ++v) {
+    double* s = scratch_.data() + v * stride;
+    double* misfits = s + samples;
+    const Point<D>& nv = normals_[v];
+    for (int i = 0; i < samples; ++i) s[i] = image.sample(q[v] + ((i - reach - half) * h) * nv);
+    for (int i = 0; i + 1 < samples; ++i) s[i] = s[i + 1] - s[i];  // differences, in place
+    const std::vector<double>& expected = *profile_of_[v];
+    for (int j = -reach; j <= reach; ++j)
+      misfits[j + reach] = expected.empty() ? kInf : misfit(s + (j + reach), expected);
+    const double best = best_offset(misfits, reach);
+    offsets_[v] = std::isnan(best) ? 0.0 : best * h;
+    out[v] = q[v] + (step * offsets_[v]) * nv;
+  }
+}
+
+template <int D>
+double ProfileEnergy<D>::value(const Snake<D>&) const {
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+template class ProfileEnergy<2>;
+template class ProfileEnergy<3>;
+
+}  // namespace dsnake

@@ -1,0 +1,113 @@
+// The profile force: an active-shape-model search along the vertex normals (Cootes, Taylor,
+// Cooper & Graham, "Active shape models - their training and application", CVIU 1995, §4.1 and
+// the grey-level profile model of Cootes & Taylor 1993). For each vertex q with outward unit
+// normal n, on the image smoothed by `sigma`:
+//  - the profile at offset d is the derivative of the intensity along n, sampled every h mm over
+//    [d - length, d + length] (2K differences of 2K + 1 samples, K = round(length / h)),
+//    normalised to unit sum of absolute values, g(d) (ASM's normalised derivative profile: it
+//    does not change with the image's intensity scale or offset, and it keeps the sign);
+//  - its misfit is f(d) = |g(d) - g_expected|^2 (ASM's Mahalanobis distance with the identity
+//    covariance: one expected profile, no training set); a flat profile (no derivative) has none;
+//  - d runs over -search, ..., +search in steps of h; the best d* (smallest f, ties to the
+//    smallest |d|, then the smaller d) is refined by a parabola through its neighbours' misfits;
+//  - propose: q + step d* n (no profile anywhere: q).
+// The expected profile:
+//  - with `template.reference_image` (EnergyContext::reference_image): sampled in that image
+//    along the normals of the template at its rest positions p, as read from its file (the
+//    template sits on its object there: an atlas, the previous slice; template.transform places
+//    it in the target image). One profile per template vertex (reference_profile "per_vertex",
+//    as ASM keeps one per landmark: a boundary's contrast varies along it), or their mean
+//    ("mean": steadier on a noisy reference). Free vertices (added by remeshing, no template
+//    vertex) and vertices whose reference profile is flat take the mean;
+//  - without one: a step edge of the given polarity blurred by max(sigma, h), the same for all
+//    vertices; "auto" learns the polarity at the first bind from the start (energies/polarity.h,
+//    band `search`).
+// Global view: none. The best offset is a discrete search, not a smooth function of q, so the
+// term has no least-squares form (value() is NaN; "solver": "global" refuses it).
+#pragma once
+
+#include "energies/polarity.h"
+#include "framework/core/energy.h"
+#include "framework/core/options.h"
+
+#include <string>
+#include <vector>
+
+namespace dsnake {
+
+// Where the expected profile comes from when there is a reference image.
+enum class ReferenceProfile { kPerVertex, kMean };
+template <>
+struct EnumNames<ReferenceProfile> {
+  static constexpr std::array<std::pair<ReferenceProfile, const char*>, 2> table{
+      {{ReferenceProfile::kPerVertex, "per_vertex"}, {ReferenceProfile::kMean, "mean"}}};
+};
+
+struct ProfileOptions {
+  double sigma = 1.0;    // mm
+  double search = 5.0;   // mm
+  double length = 3.0;   // mm
+  double spacing = 0.0;  // mm; 0: half the smallest voxel size
+  double step = 0.5;     // share of the offset per iteration
+  EdgePolarity polarity = EdgePolarity::kAuto;
+  ReferenceProfile reference_profile = ReferenceProfile::kPerVertex;
+
+  template <class V>
+  void visit(V& v) {
+    v(sigma, Key{"sigma", "mm", "Gaussian smoothing of the image (and of the reference image) before sampling (0: none)",
+                 Range::at_least(0)});
+    v(search, Key{"search", "mm", "the offsets searched along each normal, -search to +search", Range::greater_than(0)});
+    v(length, Key{"length", "mm", "half-length of the compared profile", Range::greater_than(0)});
+    v(spacing, Key{"spacing", "mm", "sampling step along the normal (0: half the smallest voxel size)", Range::at_least(0)});
+    v(step, Key{"step", "1", "share of the best offset moved per iteration", Range::open_closed(0, 1)});
+    v(polarity, Key{"polarity", "", "without a reference image, the expected step edge: bright_inside, dark_inside or "
+                                    "auto (learned from the start); ignored with template.reference_image"});
+    v(reference_profile, Key{"reference_profile", "", "with template.reference_image: one expected profile per template "
+                                                      "vertex (per_vertex) or their mean (mean)"});
+  }
+};
+
+template <int D>
+class ProfileEnergy final : public Energy<D> {
+ public:
+  using Options = ProfileOptions;
+  static constexpr const char* kType = "profile";
+  static constexpr const char* kSummary =
+      "active-shape-model profile search along the normals: q + step d* n, d* the best-matching offset";
+
+  explicit ProfileEnergy(const ProfileOptions& options = {});
+  std::string type() const override { return kType; }
+  const ProfileOptions& options() const { return options_; }
+
+  // Smooths the image (once per image), sets up the expected profiles (once: from the reference
+  // image or the step edge; auto polarity learned from this first snake) and maps every snake
+  // vertex to its expected profile. context.image must be set.
+  void bind(const EnergyContext<D>& context, const Snake<D>& snake) override;
+  // out[v] = q_v + step d*_v n_v for every vertex; parallel over vertices, the same bits for any
+  // thread count (each vertex is computed alone).
+  void propose(const Snake<D>& snake, PointList<D>& out) override;
+  double value(const Snake<D>& snake) const override;  // NaN: no energy (see above)
+
+  // The polarity of the step edge (after the first bind; kAuto with a reference image).
+  EdgePolarity polarity() const { return polarity_; }
+  // The best offset d* found for each vertex by the last propose(), mm along the normal.
+  const std::vector<double>& offsets() const { return offsets_; }
+
+ private:
+  void set_up_expected(const EnergyContext<D>& context, const Snake<D>& snake);
+
+  ProfileOptions options_;
+  double h_ = 0.0;               // sampling step, mm
+  int half_ = 0, reach_ = 0;     // K (profile half-length) and J (search) in steps of h
+  SmoothedImage<D> image_;
+  const Image<D>* expected_for_ = nullptr;  // the image the expected profiles were set up with
+  EdgePolarity polarity_ = EdgePolarity::kAuto;
+  std::vector<std::vector<double>> expected_;  // per template id (or one), 2K values each
+  std::vector<double> mean_;                   // the mean expected profile
+  std::vector<const std::vector<double>*> profile_of_;  // per snake vertex
+  std::vector<double> offsets_;
+  std::vector<double> scratch_;  // per vertex: 2(J + K) + 1 samples
+  PointList<D> normals_;
+};
+
+}  // namespace dsnake

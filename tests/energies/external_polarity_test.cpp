@@ -1,0 +1,135 @@
+// The external energy's polarity rule (energies/external.h) on images with edges at known places:
+// on an edge of the right polarity nothing changes (same bits as "any"); between two concentric
+// edges of opposite polarity the rule picks the edge of its polarity whichever is nearer; "auto"
+// learns the sign from the start; bad keys name their path; one and two threads give the same bits.
+#include "energies/external.h"
+
+#include "fields/gvf.h"
+#include "framework/core/errors.h"
+#include "tests/energies/edge_images.h"
+#include "tests/energy_fixtures.h"
+
+#include <gtest/gtest.h>
+#include <omp.h>
+
+namespace dsnake {
+namespace {
+
+using namespace test_support;
+
+ExternalOptions rule(PolarityRule polarity) {
+  ExternalOptions o;
+  o.tau = 0.5;
+  o.normalize = ForceNormalization::kMax;
+  o.polarity = polarity;
+  return o;
+}
+
+// A bright disk (r = 10): for contours at r = 7 ... 13 the bright_inside rule proposes exactly
+// what "any" does (every force there pulls onto the one edge, whose polarity is right).
+TEST(ExternalPolarity, RightPolarityChangesNothing) {
+  const Image<2> image = radial_image<2>(64, 1.0, bright_disk(10.0), 1.5);
+  GvfField<2> field;
+  field.compute(image);
+  for (double r = 7.0; r <= 13.0; r += 0.5) {
+    const Template<2> t = round_template<2>(r);
+    const Snake<2> snake = Snake<2>::from_template(t, t.positions);
+    ExternalEnergy<2> any(rule(PolarityRule::kAny)), bright(rule(PolarityRule::kBrightInside));
+    any.bind(EnergyContext<2>{&t, &image, &field}, snake);
+    bright.bind(EnergyContext<2>{&t, &image, &field}, snake);
+    PointList<2> a(snake.num_vertices()), b(snake.num_vertices());
+    any.propose(snake, a);
+    bright.propose(snake, b);
+    for (int v = 0; v < snake.num_vertices(); ++v) ASSERT_EQ(a[v], b[v]) << "r " << r << " vertex " << v;
+  }
+}
+
+// Bright inside r = 8, dark ring, bright beyond r = 14, GVF field; a contour started at r = 10,
+// nearer the inner edge: "any" and bright_inside end on the inner edge (so does bright_inside
+// from r = 13, nearer the outer one), dark_inside on the outer
+// one: where "any" ends when started at r = 13, next to it (within 0.2 mm, two steps tau; both within 0.3 mm of
+// the blurred edges' radii, GVF's own equilibrium being a little inside the outer edge's).
+// normalize unit, tau 0.1 mm, 300 iterations: the GVF between the two edges is too weak for a
+// step proportional to it to cross in time.
+TEST(ExternalPolarity, ConcentricEdgesArePickedByThePolarity) {
+  const Image<2> image = radial_image<2>(72, 1.0, dark_ring(8.0, 14.0), 1.0);
+  GvfField<2> field;
+  field.compute(image);
+  const double inner = blurred_edge_radius(2, 8.0, std::hypot(1.0, 1.0));
+  const double outer = blurred_edge_radius(2, 14.0, std::hypot(1.0, 1.0));
+  // the snake after 300 iterations from a circle of radius `start`, and its radii's mean and spread
+  auto run = [&](PolarityRule polarity, double start) {
+    const Template<2> t = round_template<2>(start);
+    Snake<2> snake = Snake<2>::from_template(t, t.positions);
+    ExternalOptions o = rule(polarity);
+    o.normalize = ForceNormalization::kUnit;
+    o.tau = 0.1;
+    ExternalEnergy<2> energy(o);
+    iterate_alone<2>(energy, EnergyContext<2>{&t, &image, &field}, snake, 300);
+    const double mean = mean_radial_offset(snake, 0.0);
+    std::printf("polarity %s from r = %.0f: mean radius %.3f, largest deviation %.3f\n", enum_name(polarity), start,
+                mean, radial_error(snake, mean).second);
+    return snake;
+  };
+  const Snake<2> any_inner = run(PolarityRule::kAny, 10.0), any_outer = run(PolarityRule::kAny, 13.0);
+  const double r_inner = mean_radial_offset(any_inner, 0.0), r_outer = mean_radial_offset(any_outer, 0.0);
+  EXPECT_LT(std::abs(r_inner - inner), 0.3);
+  EXPECT_LT(std::abs(r_outer - outer), 0.3);
+  EXPECT_LT(radial_error(run(PolarityRule::kBrightInside, 10.0), r_inner).second, 0.2);
+  EXPECT_LT(radial_error(run(PolarityRule::kDarkInside, 10.0), r_outer).second, 0.2);
+  EXPECT_LT(radial_error(run(PolarityRule::kBrightInside, 13.0), r_inner).second, 0.2);
+}
+
+// "auto": bright_inside for a bright disk, dark_inside for its negative.
+TEST(ExternalPolarity, AutoLearnsThePolarityFromTheStart) {
+  const Image<2> bright = radial_image<2>(64, 1.0, bright_disk(10.0), 1.5);
+  const Image<2> dark = radial_image<2>(64, 1.0, [](double r) { return r < 10.0 ? 20.0 : 180.0; }, 1.5);
+  GvfField<2> field;
+  field.compute(bright);
+  const Template<2> t = round_template<2>(12.0);
+  const Snake<2> snake = Snake<2>::from_template(t, t.positions);
+  ExternalEnergy<2> a(rule(PolarityRule::kAuto)), b(rule(PolarityRule::kAuto));
+  a.bind(EnergyContext<2>{&t, &bright, &field}, snake);
+  b.bind(EnergyContext<2>{&t, &dark, &field}, snake);
+  EXPECT_EQ(a.polarity(), EdgePolarity::kBrightInside);
+  EXPECT_EQ(b.polarity(), EdgePolarity::kDarkInside);
+}
+
+TEST(ExternalPolarity, BadKeysNameTheirPath) {
+  for (auto [json, where] : {std::pair{R"({"type": "external", "polarity": "inside"})", "energies[0].polarity"},
+                             std::pair{R"({"type": "external", "polarity_range": 0})", "energies[0].polarity_range"},
+                             std::pair{R"({"type": "external", "polarity_sigma": -1})", "energies[0].polarity_sigma"},
+                             std::pair{R"({"type": "external", "polarity_floor": -0.5})", "energies[0].polarity_floor"}}) {
+    SCOPED_TRACE(json);
+    try {
+      make_energy<2>(json);
+      ADD_FAILURE() << "accepted";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.where(), where);
+    }
+  }
+}
+
+// One and two threads give the same proposals, bit for bit (a 642-vertex sphere on a ball, 3D).
+TEST(ExternalPolarity, SameBitsForOneAndTwoThreads) {
+  const Image<3> image = radial_image<3>(32, 1.0, dark_ring(6.0, 11.0), 1.0);
+  GvfField<3> field;
+  field.compute(image);
+  Template<3> t = make_icosphere(3);
+  for (auto& p : t.positions) p *= 8.0;
+  const Snake<3> snake = Snake<3>::from_template(t, perturbed<3>(t.positions, 0.7, 3));
+  const int threads = omp_get_max_threads();
+  std::vector<PointList<3>> out;
+  for (int k : {1, 2}) {
+    omp_set_num_threads(k);
+    ExternalEnergy<3> energy(rule(PolarityRule::kDarkInside));
+    energy.bind(EnergyContext<3>{&t, &image, &field}, snake);
+    out.emplace_back(snake.num_vertices());
+    energy.propose(snake, out.back());
+  }
+  omp_set_num_threads(threads);
+  for (int v = 0; v < snake.num_vertices(); ++v) EXPECT_EQ(out[0][v], out[1][v]) << v;
+}
+
+}  // namespace
+}  // namespace dsnake
