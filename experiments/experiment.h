@@ -6,6 +6,7 @@
 // the file and the JSON path; making an Experiment validates it completely without running.
 #pragma once
 
+#include "experiments/template_init.h"
 #include "framework/core/evolver.h"
 #include "fields/smooth_potential.h"
 #include "framework/core/external_field.h"
@@ -105,6 +106,7 @@ struct Experiment {
   bool image_is_file_as_read = false;  // a file without corruptions (so image.nii.gz would be a copy)
   Template<D> tmpl;
   PointList<D> initial;  // the placed template: the snake's start
+  std::optional<InitReport<D>> init;  // what "template.init" did, if given (template_init.h)
   GroundTruth<D> truth;
   std::unique_ptr<ExternalField<D>> field;
   std::vector<WeightedEnergy<D>> energies;

@@ -9,6 +9,7 @@
 
 #include "experiments/corruption.h"
 #include "experiments/experiment.h"
+#include "experiments/template_init.h"
 #include "fields/registry.h"
 
 #include <map>
@@ -45,6 +46,7 @@ struct TemplateSpec {
   std::optional<PhantomSource> phantom;
   std::map<std::string, int> landmarks;  // checked against the template's size at assembly
   PlacementSpec<D> transform;
+  std::optional<TemplateInitOptions> init;  // "template.init", after the transform (template_init.h)
 };
 
 struct GroundTruthSpec {  // "ground_truth": files that override a phantom's own truth

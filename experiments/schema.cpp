@@ -155,7 +155,9 @@ json template_schema() {
                                                      {"description", "2D: one angle; 3D: up to three (x, y, z), degrees"}}},
                                    {"translation", {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 2},
                                                     {"maxItems", 3}, {"description", "mm, after scale and rotation"}}}},
-                                  {}, "the template's placement: x -> scale R x + translation")}};
+                                  {}, "the template's placement: x -> scale R x + translation")},
+      {"init", closed_object(options_schema<TemplateInitOptions>(), {"type"},
+                             "a pre-alignment after the transform: moments of a region, or a similarity from named landmark points")}};
   return source_schema(union_of(template_phantom_kinds<2>(), template_phantom_kinds<3>()), keys, own,
                        "the template: a contour (2D) or closed mesh (3D) file, or a phantom");
 }
@@ -251,6 +253,8 @@ std::string experiment_reference_markdown() {
   std::vector<KeyRow> global = options_rows<GlobalSolverOptions>();
   for (const auto& r : options_rows<PotentialOptions>()) global.push_back(r);
   s += key_table_markdown(global) + "\n";
+  s += "### `template.init`: the pre-alignment (moments or landmarks)\n\n";
+  s += key_table_markdown(options_rows<TemplateInitOptions>()) + "\n";
   s += "### `field`\n\nEvery field also takes `cache` (string): a folder of the field cache.\n\n";
   s += plugin_tables("field", field_registry<2>(), field_registry<3>());
   s += "### `energies[i]`\n\nEvery energy also takes `weight` (number > 0, default 1): its w_e.\n\n";
