@@ -7,6 +7,7 @@
 #include "energies/balloon.h"
 #include "energies/external.h"
 #include "energies/internal.h"
+#include "energies/landmarks.h"
 #include "energies/laplacian.h"
 #include "energies/profile.h"
 #include "energies/similarity.h"
@@ -25,6 +26,7 @@ const Registry<Energy<D>>& energy_registry() {
     r.template add<BalloonEnergy<D>>();
     r.template add<SimilarityEnergy<D>>();
     r.template add<ProfileEnergy<D>>();
+    r.template add<LandmarksEnergy<D>>();
     return r;
   }();
   return registry;

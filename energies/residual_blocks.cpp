@@ -90,7 +90,30 @@ class PotentialCost : public ceres::SizedCostFunction<1, D> {
   double weight_;
 };
 
+// r = scale (q - target), dr/dq = scale I.
+template <int D>
+class AnchorCost : public ceres::SizedCostFunction<D, D> {
+ public:
+  AnchorCost(const Point<D>& target, double scale) : target_(target), scale_(scale) {}
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    for (int a = 0; a < D; ++a) residuals[a] = scale_ * (parameters[0][a] - target_[a]);
+    if (jacobians && jacobians[0])
+      for (int a = 0; a < D; ++a)
+        for (int b = 0; b < D; ++b) jacobians[0][a * D + b] = a == b ? scale_ : 0.0;
+    return true;
+  }
+
+ private:
+  Point<D> target_;
+  double scale_;
+};
+
 }  // namespace
+
+template <int D>
+void add_anchor_residual(GlobalProblem<D>& problem, int v, const Point<D>& target, double scale) {
+  problem.add_residual_block(new AnchorCost<D>(target, scale), {v});
+}
 
 template <int D>
 void add_block_linear_residual(GlobalProblem<D>& problem, const std::vector<int>& vertices,
@@ -145,6 +168,8 @@ void add_potential_residual(GlobalProblem<D>& problem, int v, const Potential<D>
   problem.add_residual_block(new PotentialCost<D>(potential, weight), std::vector<int>{v});
 }
 
+template void add_anchor_residual<2>(GlobalProblem<2>&, int, const Point<2>&, double);
+template void add_anchor_residual<3>(GlobalProblem<3>&, int, const Point<3>&, double);
 template void add_potential_residual<2>(GlobalProblem<2>&, int, const Potential<2>&, double);
 template void add_potential_residual<3>(GlobalProblem<3>&, int, const Potential<3>&, double);
 template void add_block_linear_residual<2>(GlobalProblem<2>&, const std::vector<int>&, const std::vector<Block<2>>&, double);

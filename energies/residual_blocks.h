@@ -28,6 +28,10 @@ void add_transform_residuals(GlobalProblem<D>& problem, int centre, const std::v
                              const PointList<D>& a, const std::vector<double>& scales, bool with_scale,
                              const Block<D>& initial);
 
+// Adds the D residuals r = scale (q_v - target) (a spring to a fixed point; Jacobian scale I).
+template <int D>
+void add_anchor_residual(GlobalProblem<D>& problem, int v, const Point<D>& target, double scale);
+
 // Adds r = sqrt(weight (P(q_v) + 1e-12)) for vertex v (the offset keeps the square root
 // differentiable where P = 0), with the exact derivative weight grad P / (2 r).
 template <int D>

@@ -215,6 +215,8 @@ Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   const PlacementSpec<D>& t = spec.tmpl.transform;
   ex.initial = place<D>(ex.tmpl.positions, t.scale, t.rotation_deg, t.translation);
   if (!spec.tmpl.reference_image.empty()) ex.reference_image = read_reference_image(spec);
+  // The pre-alignment in world coordinates, after the placement (template_init.h).
+  if (spec.tmpl.init) ex.init = initialize_template<D>(*spec.tmpl.init, ex.tmpl, ex.image, ex.initial, spec.file.path);
   ex.truth = assemble_truth(spec, phantom, ex.tmpl);
   express_in_image_frame(ex, spec.truth);
   ex.field = build_field(spec.field);

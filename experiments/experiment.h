@@ -6,6 +6,7 @@
 // the file and the JSON path; making an Experiment validates it completely without running.
 #pragma once
 
+#include "experiments/template_init.h"
 #include "framework/core/evolver.h"
 #include "fields/region.h"
 #include "fields/smooth_potential.h"
@@ -108,6 +109,7 @@ struct Experiment {
   PointList<D> initial;  // the placed template: the snake's start
   // "template.reference_image": the template at its rest positions lies on its object there
   std::optional<Image<D>> reference_image;
+  std::optional<InitReport<D>> init;  // what "template.init" did, if given (template_init.h)
   GroundTruth<D> truth;
   std::unique_ptr<ExternalField<D>> field;
   FieldRegionOptions field_region;  // "field.region": where the field is computed (fields/region.h)

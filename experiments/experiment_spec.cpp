@@ -63,11 +63,25 @@ PlacementSpec<D> read_placement(JsonReader t) {
   return p;
 }
 
+// "template.init": a required type, the keys of that type, points of D numbers; the mask's path
+// resolved against the experiment's folder.
+template <int D>
+TemplateInitOptions read_init(JsonReader r, const ExperimentFile& f) {
+  if (!r.has("type")) r.fail("type", "is required (\"moments\" or \"landmarks\")");
+  TemplateInitOptions init;
+  read_options(r, init);
+  r.finish();
+  for (const auto& [name, p] : init.points)
+    r.expect(int(p.size()) == D, "points." + name, "expected " + std::to_string(D) + " numbers");
+  init.mask = resolve(f, init.mask);
+  return init;
+}
+
 template <int D>
 TemplateSpec<D> read_template_section(JsonReader& top, const ExperimentFile& f) {
   TemplateSpec<D> spec;
   JsonReader r = top.child("template");
-  spec.phantom = read_source(r, f, spec.file, {"landmarks", "transform", "reference_image"});
+  spec.phantom = read_source(r, f, spec.file, {"landmarks", "transform", "reference_image", "init"});
   if (r.has("landmarks")) {
     const auto& lm = r.raw("landmarks");
     if (!lm.is_object()) r.fail("landmarks", "expected an object {\"name\": vertex id}");
@@ -81,6 +95,7 @@ TemplateSpec<D> read_template_section(JsonReader& top, const ExperimentFile& f) 
   r.read("reference_image", spec.reference_image);
   if (r.has("reference_image")) r.expect(!spec.reference_image.empty(), "reference_image", "expected an image file");
   spec.reference_image = resolve(f, spec.reference_image);
+  if (r.has("init")) spec.init = read_init<D>(r.child("init"), f);
   r.finish();
   return spec;
 }

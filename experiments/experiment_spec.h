@@ -9,6 +9,7 @@
 
 #include "experiments/corruption.h"
 #include "experiments/experiment.h"
+#include "experiments/template_init.h"
 #include "fields/registry.h"
 
 #include <map>
@@ -46,6 +47,7 @@ struct TemplateSpec {
   std::map<std::string, int> landmarks;  // checked against the template's size at assembly
   PlacementSpec<D> transform;
   std::string reference_image;  // "reference_image": resolved path, "" when absent
+  std::optional<TemplateInitOptions> init;  // "template.init", after the transform (template_init.h)
 };
 
 struct GroundTruthSpec {  // "ground_truth": files that override a phantom's own truth

@@ -1,5 +1,6 @@
 #include "experiments/runner.h"
 
+#include "energies/landmarks.h"
 #include "experiments/figures.h"
 #include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
@@ -274,7 +275,26 @@ struct RunRecord {
   // and the end of the run (result.json's "external_force").
   double force_max = 0, force_median_start = 0, force_median_end = 0;
   VoxelBox<D> field_region;  // the voxels the field was computed on
+  nlohmann::ordered_json landmarks;  // result.json's "landmarks" (landmark energies only)
 };
+
+// result.json's "landmarks": per landmark energy, each landmark's distance to its point (mm) at
+// the start and at the end. Null when no energy is a landmark energy.
+template <int D>
+nlohmann::ordered_json landmarks_json(const std::vector<WeightedEnergy<D>>& energies, const Snake<D>& start,
+                                      const Snake<D>& end) {
+  nlohmann::ordered_json list;
+  for (size_t e = 0; e < energies.size(); ++e) {
+    const auto* spring = dynamic_cast<const LandmarksEnergy<D>*>(energies[e].energy.get());
+    if (!spring) continue;
+    const auto final_distance = spring->distances(end);
+    double largest = 0.0;
+    for (const auto& [name, d] : final_distance) largest = std::max(largest, d);
+    list.push_back({{"energy", "energies[" + std::to_string(e) + "]"}, {"initial_distance_mm", spring->distances(start)},
+                    {"final_distance_mm", final_distance}, {"final_max_mm", largest}});
+  }
+  return list;
+}
 
 // Whether the run's snake iteration is checked by the collision guard ("collision_guard").
 template <int D>
@@ -332,6 +352,7 @@ void evolve(Experiment<D>& ex, const RunOptions& options, RunRecord<D>& rec) {
   if (!options.quiet) driver.add_observer(&progress);
   rec.summary = driver.run(rec.snake, ex.phases);
   rec.force_median_end = median_force_magnitude(*ex.field, rec.snake);
+  rec.landmarks = landmarks_json(driver.energies(), Snake<D>::from_template(ex.tmpl, ex.initial), rec.snake);
   if (global) rec.global_report = global_json(ex, global->solves());
   rec.evolve_s = seconds_since(t);
 }
@@ -473,6 +494,8 @@ nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& 
   result["vertices"] = {{"initial", rec.initial_vertices}, {"final", rec.snake.num_vertices()},
                         {"deformation", rec.snake.num_deformation_vertices()}};
   result["phases"] = phases_json(ex, rec);
+  if (ex.init) result["init"] = init_report_json(*ex.init);
+  if (!rec.landmarks.is_null()) result["landmarks"] = rec.landmarks;
   if (guarded(ex)) {
     MoveGuardReport total;
     for (const auto& ps : rec.summary.phases) total += ps.move_guard;

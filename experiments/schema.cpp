@@ -159,7 +159,9 @@ json template_schema() {
                                                      {"description", "2D: one angle; 3D: up to three (x, y, z), degrees"}}},
                                    {"translation", {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 2},
                                                     {"maxItems", 3}, {"description", "mm, after scale and rotation"}}}},
-                                  {}, "the template's placement: x -> scale R x + translation")}};
+                                  {}, "the template's placement: x -> scale R x + translation")},
+      {"init", closed_object(options_schema<TemplateInitOptions>(), {"type"},
+                             "a pre-alignment after the transform: moments of a region, or a similarity from named landmark points")}};
   return source_schema(union_of(template_phantom_kinds<2>(), template_phantom_kinds<3>()), keys, own,
                        "the template: a contour (2D) or closed mesh (3D) file, or a phantom");
 }
@@ -255,6 +257,8 @@ std::string experiment_reference_markdown() {
   std::vector<KeyRow> global = options_rows<GlobalSolverOptions>();
   for (const auto& r : options_rows<PotentialOptions>()) global.push_back(r);
   s += key_table_markdown(global) + "\n";
+  s += "### `template.init`: the pre-alignment (moments or landmarks)\n\n";
+  s += key_table_markdown(options_rows<TemplateInitOptions>()) + "\n";
   s += "### `field`\n\nEvery field also takes `cache` (string): a folder of the field cache, and `region` "
        "(object): where the field is computed (fields/region.h). By default the placed template's bounding box "
        "widened on every side by max(margin, margin_share x its largest extent), cut out of the image without "

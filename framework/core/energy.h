@@ -9,6 +9,8 @@
 
 #include "framework/core/shape.h"
 
+#include <cstdint>
+#include <span>
 #include <string>
 
 namespace dsnake {
@@ -35,6 +37,8 @@ struct EnergyContext {
 enum class Governs {
   kAllVertices,          // every snake vertex (internal, external, balloon)
   kDeformationVertices,  // template vertices only (ASAP, §6: free vertices get no proposal)
+  kMarkedVertices,       // the vertices governed_mask() marks (landmark springs): no other
+                         // vertex's average includes the term
 };
 
 template <int D>
@@ -43,6 +47,9 @@ class Energy {
   virtual ~Energy() = default;
   virtual std::string type() const = 0;
   virtual Governs governs() const { return Governs::kAllVertices; }
+  // For Governs::kMarkedVertices: one flag per snake vertex (non-zero: governed), valid from
+  // bind() until the snake's topology changes; empty for the other kinds.
+  virtual std::span<const uint8_t> governed_mask() const { return {}; }
 
   // Precomputes what depends on the template and the snake's connectivity. Called before the
   // first iteration and again whenever snake.topology_version() changes (after a remesh).

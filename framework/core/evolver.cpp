@@ -37,8 +37,15 @@ double SnakeStep<D>::step(PhaseDriver<D>& driver, Snake<D>& snake) {
   proposals_.resize(energies.size());
   for (auto& p : proposals_) p.resize(n, Point<D>::Zero());
   next_.resize(n, Point<D>::Zero());
-  for (size_t e = 0; e < energies.size(); ++e)
+  governs_.resize(energies.size());
+  masks_.resize(energies.size());
+  for (size_t e = 0; e < energies.size(); ++e) {
     if (energies[e].weight > 0) energies[e].energy->propose(snake, proposals_[e]);
+    governs_[e] = energies[e].energy->governs();
+    masks_[e] = energies[e].energy->governed_mask();
+    DSNAKE_ASSERT(governs_[e] != Governs::kMarkedVertices || int(masks_[e].size()) == n,
+                  "a marked-vertex energy's mask has one flag per snake vertex");
+  }
 
   // Weighted average over the energies that govern each vertex (§3.1, §6).
   double max_move = 0.0;
@@ -50,7 +57,8 @@ double SnakeStep<D>::step(PhaseDriver<D>& driver, Snake<D>& snake) {
     const bool deformation = snake.is_deformation_vertex(v);
     for (size_t e = 0; e < energies.size(); ++e) {
       if (energies[e].weight == 0) continue;  // switched off for this phase
-      if (!deformation && energies[e].energy->governs() == Governs::kDeformationVertices) continue;
+      if (!deformation && governs_[e] == Governs::kDeformationVertices) continue;
+      if (governs_[e] == Governs::kMarkedVertices && !masks_[e][v]) continue;
       sum += energies[e].weight * proposals_[e][v];
       weight += energies[e].weight;
     }

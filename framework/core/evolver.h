@@ -2,7 +2,8 @@
 // the weighted average of the positions that each force alone would give,
 //   q_v(t+1) = sum_{e governs v} w_e propose_e(q(t))_v / sum_{e governs v} w_e,
 // e.g. (q_int + kappa q_ext + eta q_def) / (1 + kappa + eta) for a deformation vertex and
-// (q_int + kappa q_ext) / (1 + kappa) for a free one (§6). A phase runs until its iteration
+// (q_int + kappa q_ext) / (1 + kappa) for a free one (§6); a term that governs marked vertices
+// only (a landmark spring) enters the averages of those vertices alone. A phase runs until its iteration
 // budget or until the largest vertex displacement is below its tolerance, remeshing every
 // `every` iterations. The driver's move guard, if any, may shorten or cancel moves before they
 // are made (framework/core/move_guard.h). Evolver<D> is the PhaseDriver that uses it.
@@ -26,6 +27,8 @@ class SnakeStep final : public Minimizer<D> {
 
  private:
   std::vector<PointList<D>> proposals_;  // per energy, reused between iterations
+  std::vector<Governs> governs_;           // per energy, for the averaging loop
+  std::vector<std::span<const uint8_t>> masks_;  // per energy: governed_mask() (marked vertices)
   PointList<D> next_;
   MoveGuardReport guard_report_;
 };

@@ -112,6 +112,25 @@ void JsonReader::read(const std::string& key, std::vector<std::string>& value) {
   }
 }
 
+void JsonReader::read(const std::string& key, NamedPoints& value) {
+  if (active_recorder) note(key, "object", nlohmann::json(value).dump());
+  if (!has(key)) return;
+  seen_.insert(key);
+  const auto& j = (*object_)[key];
+  if (!j.is_object()) fail(key, std::string("expected an object {\"name\": [x, y(, z)]}, found ") + type_name(j));
+  value.clear();
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    const std::string where = key + "." + it.key();
+    if (!it->is_array()) fail(where, std::string("expected an array of numbers, found ") + type_name(*it));
+    std::vector<double>& point = value[it.key()];
+    for (size_t i = 0; i < it->size(); ++i) {
+      if (!(*it)[i].is_number() || !std::isfinite((*it)[i].get<double>()))
+        fail(where + "[" + std::to_string(i) + "]", "expected a finite number");
+      point.push_back((*it)[i].get<double>());
+    }
+  }
+}
+
 const nlohmann::json& JsonReader::raw(const std::string& key) {
   if (active_recorder) note(key, "", "");
   if (!has(key)) fail(key, "is required");

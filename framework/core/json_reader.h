@@ -6,6 +6,7 @@
 
 #include "framework/core/types.h"
 
+#include <map>
 #include <nlohmann/json_fwd.hpp>
 #include <optional>
 #include <set>
@@ -13,6 +14,10 @@
 #include <vector>
 
 namespace dsnake {
+
+// Named points, {"name": [x, y(, z)], ...}: landmark targets in world coordinates (LPS mm). The
+// reader checks that each is an array of numbers; the user of the points checks their length.
+using NamedPoints = std::map<std::string, std::vector<double>>;
 
 // Every key that JsonReaders on this thread are asked for while a KeyRecorder lives, with its
 // JSON type and the default it had: how the schema learns the keys of readers that are not
@@ -42,6 +47,7 @@ class JsonReader {
   void read(const std::string& key, std::string& value);
   void read(const std::string& key, std::vector<double>& value);
   void read(const std::string& key, std::vector<std::string>& value);
+  void read(const std::string& key, NamedPoints& value);
   template <int D>
   void read(const std::string& key, Point<D>& value) {
     std::vector<double> v;

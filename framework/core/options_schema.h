@@ -28,6 +28,7 @@ template <> struct TypeInfo<bool> { static constexpr const char* json = "boolean
 template <> struct TypeInfo<std::string> { static constexpr const char* json = "string"; static constexpr const char* doc = "string"; };
 template <> struct TypeInfo<std::vector<double>> { static constexpr const char* json = "array"; static constexpr const char* doc = "array of numbers"; };
 template <> struct TypeInfo<std::vector<std::string>> { static constexpr const char* json = "array"; static constexpr const char* doc = "array of strings"; };
+template <> struct TypeInfo<NamedPoints> { static constexpr const char* json = "object"; static constexpr const char* doc = "object {name: [x, y(, z)]}"; };
 
 template <class T>
 nlohmann::ordered_json value_json(const T& value) {
@@ -59,6 +60,8 @@ class SchemaVisitor {
       p["type"] = TypeInfo<T>::json;
       if constexpr (std::is_same_v<T, std::vector<double>>) p["items"] = {{"type", "number"}};
       if constexpr (std::is_same_v<T, std::vector<std::string>>) p["items"] = {{"type", "string"}};
+      if constexpr (std::is_same_v<T, NamedPoints>)
+        p["additionalProperties"] = {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 2}, {"maxItems", 3}};
       if constexpr (std::is_arithmetic_v<T> && !std::is_same_v<T, bool>) {
         const Range& r = key.range;
         if (r.bounded_below()) p[r.min_open ? "exclusiveMinimum" : "minimum"] = r.min;

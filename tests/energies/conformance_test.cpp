@@ -61,9 +61,14 @@ void every_energy_conforms(const Template<D>& t) {
     energy->bind(EnergyContext<D>{&t, &image, &field, nullptr}, snake);
     PointList<D> out(snake.num_vertices(), Point<D>::Constant(NAN));
     energy->propose(snake, out);
-    for (int v = 0; v < snake.num_vertices(); ++v)
-      if (energy->governs() == Governs::kAllVertices || snake.is_deformation_vertex(v))
+    const auto mask = energy->governed_mask();
+    if (energy->governs() == Governs::kMarkedVertices) EXPECT_EQ(int(mask.size()), snake.num_vertices());
+    for (int v = 0; v < snake.num_vertices(); ++v) {
+      const Governs g = energy->governs();
+      if (g == Governs::kAllVertices || (g == Governs::kDeformationVertices && snake.is_deformation_vertex(v)) ||
+          (g == Governs::kMarkedVertices && mask[v]))
         EXPECT_TRUE(out[v].allFinite()) << "vertex " << v;
+    }
   }
 }
 
