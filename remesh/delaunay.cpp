@@ -57,6 +57,53 @@ bool is_delaunay_violation(const EditMesh& m, int a, int b, int c, int d) {
   return sum > std::numbers::pi + 1e-9;
 }
 
+int valence_dev(int v) { return (v - 6) * (v - 6); }
+
+// The flip of a-b to c-d keeps the smaller minimum angle of its two triangles above the floor
+// (a key of angle_key), or does not lower it.
+bool flip_keeps_angles(const EditMesh& m, int a, int b, int c, int d, double floor_key) {
+  using remesh_detail::min_angle_key;
+  const double old_min = std::min(min_angle_key(m.pos(a), m.pos(b), m.pos(c)), min_angle_key(m.pos(b), m.pos(a), m.pos(d)));
+  const double new_min = std::min(min_angle_key(m.pos(a), m.pos(d), m.pos(c)), min_angle_key(m.pos(d), m.pos(b), m.pos(c)));
+  return new_min >= std::min(old_min, floor_key);
+}
+
+// The two triangles at edge a-b and their opposite vertices: (a, b, c) = f1, (b, a, d) = f2.
+struct Quad {
+  int a, b, c, d, f1, f2;
+};
+bool quad_at(const EditMesh& m, int a, int b, Quad& q) {
+  q.a = a, q.b = b, q.f1 = m.face_with_edge(a, b), q.f2 = m.face_with_edge(b, a);
+  if (q.f1 < 0 || q.f2 < 0) return false;
+  q.c = m.opposite(q.f1, a, b), q.d = m.opposite(q.f2, b, a);
+  return q.c != q.d;
+}
+
+// The best second flip after a virtual flip of quad `q` (a-b to c-d, not made): among the
+// edges at a, b, c and d, the one whose flip, in the mesh after the first, lowers sum
+// (valence - 6)^2 most. Returns its gain (0: none) and the edge in `x`, `w`.
+int best_second_flip(const EditMesh& m, const Quad& q, int& x, int& w) {
+  auto delta = [&](int v) { return v == q.a || v == q.b ? -1 : (v == q.c || v == q.d ? 1 : 0); };
+  auto val = [&](int v) { return m.valence(v) + delta(v); };
+  // After the first flip, an edge of f1 (other than a-b) has d opposite it, one of f2 has c.
+  auto opp = [&](int f, int from, int to) { return f == q.f1 ? q.d : (f == q.f2 ? q.c : m.opposite(f, from, to)); };
+  int best = 0;
+  for (int u : {q.a, q.b, q.c, q.d})
+    for (const EditMesh::Corner& corner : m.corners(u)) {
+      const int v = corner.next;
+      if ((u == q.a && v == q.b) || (u == q.b && v == q.a)) continue;
+      const int g = m.face_with_edge(v, u);
+      if (g < 0) continue;
+      const int p = opp(corner.f, u, v), r = opp(g, v, u);
+      if (p == r || val(u) <= 3 || val(v) <= 3 || m.has_edge(p, r) || (p == q.c && r == q.d) || (p == q.d && r == q.c))
+        continue;
+      const int before = valence_dev(val(u)) + valence_dev(val(v)) + valence_dev(val(p)) + valence_dev(val(r));
+      const int after = valence_dev(val(u) - 1) + valence_dev(val(v) - 1) + valence_dev(val(p) + 1) + valence_dev(val(r) + 1);
+      if (before - after > best) best = before - after, x = u, w = v;
+    }
+  return best;
+}
+
 }  // namespace
 
 namespace remesh_detail {
@@ -91,10 +138,86 @@ int delaunay_by_flips(EditMesh& m, double cos_max_dihedral) {
   return rejected;
 }
 
+}  // namespace remesh_detail
+
+namespace {
+
+// The flip of quad q if it keeps the angle floor and try_flip accepts it (the two triangles it
+// replaces are saved in t1, t2 for undo_flip). Counts try_flip's rejections in `rejected`.
+bool checked_flip(EditMesh& m, const Quad& q, double cos_max_dihedral, double floor_key, Triangle& t1, Triangle& t2,
+                  int& rejected) {
+  if (!flip_keeps_angles(m, q.a, q.b, q.c, q.d, floor_key)) return false;
+  t1 = m.tri(q.f1), t2 = m.tri(q.f2);
+  const FlipResult r = try_flip(m, q.a, q.b, q.f1, q.f2, q.c, q.d, cos_max_dihedral);
+  rejected += r == FlipResult::kRejected;
+  return r == FlipResult::kFlipped;
+}
+
+// Undoes the flip of q (a-b to c-d, the mesh otherwise as the flip left it): the two triangles
+// at c-d give way to t1 and t2 again.
+void undo_flip(EditMesh& m, const Quad& q, const Triangle& t1, const Triangle& t2) {
+  const int f = m.face_with_edge(q.c, q.d), g = m.face_with_edge(q.d, q.c);
+  m.remove_triangle(f);
+  m.remove_triangle(g);
+  m.add_triangle(t1);
+  m.add_triangle(t2);
+}
+
+// Whether the flip of q leaves sum (valence - 6)^2 over its four vertices as it was, with a
+// defect among them (the flip moves a defect).
+bool is_neutral_move(const EditMesh& m, const Quad& q) {
+  const int va = m.valence(q.a), vb = m.valence(q.b), vc = m.valence(q.c), vd = m.valence(q.d);
+  const int before = valence_dev(va) + valence_dev(vb) + valence_dev(vc) + valence_dev(vd);
+  return before > 0 && before == valence_dev(va - 1) + valence_dev(vb - 1) + valence_dev(vc + 1) + valence_dev(vd + 1);
+}
+
+// A neutral flip of q (not yet made), then a second flip that lowers the sum (the best one,
+// best_second_flip), or if that fails, a second neutral flip at the first's four vertices and
+// then such a third. All kept, or all undone. Returns true if kept.
+bool move_defect(EditMesh& m, const Quad& q, double cos_max_dihedral, double floor_key, int& rejected) {
+  int x = -1, w = -1;
+  const bool second = best_second_flip(m, q, x, w) > 0;
+  Triangle t1, t2, u1, u2, v1, v2;
+  if (!checked_flip(m, q, cos_max_dihedral, floor_key, t1, t2, rejected)) return false;
+  Quad q2;
+  if (second && quad_at(m, x, w, q2) && checked_flip(m, q2, cos_max_dihedral, floor_key, u1, u2, rejected)) return true;
+  // (Corners re-read each time: the flips and undos below edit u's list.)
+  for (int u : {q.a, q.b, q.c, q.d})
+    for (size_t k = 0; k < m.corners(u).size(); ++k) {
+      const int v = m.corners(u)[k].next;
+      Quad q3;
+      if (!quad_at(m, u, v, q2) || !is_neutral_move(m, q2) || best_second_flip(m, q2, x, w) == 0) continue;
+      if (!checked_flip(m, q2, cos_max_dihedral, floor_key, u1, u2, rejected)) continue;
+      if (quad_at(m, x, w, q3) && checked_flip(m, q3, cos_max_dihedral, floor_key, v1, v2, rejected)) return true;
+      undo_flip(m, q2, u1, u2);
+    }
+  undo_flip(m, q, t1, t2);
+  return false;
+}
+
+// Moves of defects (our addition): a flip that leaves sum (valence - 6)^2 over its four
+// vertices as it was moves a 5-7 pair by one edge, which the greedy flips never do, so that
+// pairs a few edges apart stay. Such a flip is made when a second flip at its vertices (or a
+// second neutral one and a third) then lowers the sum: the pair meets another defect and
+// cancels. Every kept move lowers the sum, so repeating them ends. The flips keep the angle
+// floor of the greedy ones. Returns the number of moves made; counts the flips try_flip
+// rejected in `rejected`.
+int defect_moves(EditMesh& m, double cos_max_dihedral, double floor_key, std::vector<ListedEdge>& edges,
+                 int& rejected) {
+  int moves = 0;
+  all_edges(m, edges);
+  for (const ListedEdge& e : edges) {
+    Quad q;
+    if (quad_at(m, e.a, e.b, q) && is_neutral_move(m, q))
+      moves += move_defect(m, q, cos_max_dihedral, floor_key, rejected);
+  }
+  return moves;
+}
+
 // Valence-driven flips (a regularity step in the spirit of §5.2): flip a-b to c-d when that
 // lowers sum (valence - 6)^2 over a, b, c, d and the smaller minimum angle of the two
 // triangles stays above the floor (or does not drop). Sweeps until nothing changes (max 5).
-int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_rad, bool reuse_refusals) {
+int greedy_valence_flips(EditMesh& m, double cos_max_dihedral, double min_angle_rad, bool reuse_refusals) {
   int rejected = 0;
   const double min_floor = remesh_detail::angle_key(min_angle_rad);
   // An edge turned down on local grounds (valences, angles, topology: not by try_flip's
@@ -132,22 +255,14 @@ int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_r
       auto refuse = [&] {
         if (listed) refused[key] = time, refused_d[key] = d;
       };
-      auto dev = [](int v) { return (v - 6) * (v - 6); };
       const int va = m.valence(a), vb = m.valence(b), vc = m.valence(c), vd = m.valence(d);
-      const int before = dev(va) + dev(vb) + dev(vc) + dev(vd);
-      const int after = dev(va - 1) + dev(vb - 1) + dev(vc + 1) + dev(vd + 1);
-      if (after >= before) {
+      const int before = valence_dev(va) + valence_dev(vb) + valence_dev(vc) + valence_dev(vd);
+      const int after = valence_dev(va - 1) + valence_dev(vb - 1) + valence_dev(vc + 1) + valence_dev(vd + 1);
+      if (after >= before || !flip_keeps_angles(m, a, b, c, d, min_floor)) {
         refuse();
         continue;
       }
-      using remesh_detail::min_angle_key;
-      const double old_min = std::min(min_angle_key(m.pos(a), m.pos(b), m.pos(c)), min_angle_key(m.pos(b), m.pos(a), m.pos(d)));
-      const double new_min = std::min(min_angle_key(m.pos(a), m.pos(d), m.pos(c)), min_angle_key(m.pos(d), m.pos(b), m.pos(c)));
-      if (new_min < std::min(old_min, min_floor)) {
-        refuse();
-        continue;
-      }
-      const FlipResult r = remesh_detail::try_flip(m, a, b, f1, f2, c, d, cos_max_dihedral);
+      const FlipResult r = try_flip(m, a, b, f1, f2, c, d, cos_max_dihedral);
       if (r == FlipResult::kRejected) ++rejected;
       if (r == FlipResult::kTopology) refuse();
       if (r == FlipResult::kFlipped) {
@@ -156,6 +271,23 @@ int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_r
       }
     }
     if (flips == 0) break;
+  }
+  return rejected;
+}
+
+}  // namespace
+
+namespace remesh_detail {
+
+// Greedy flips, then defect moves (see there) while they find any.
+int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_rad, bool reuse_refusals) {
+  int rejected = greedy_valence_flips(m, cos_max_dihedral, min_angle_rad, reuse_refusals);
+  // Then up to three rounds of defect moves, each followed by greedy flips again (measured on
+  // tests/remesh/clean_mesh_test.cpp: the first round makes most of the gain).
+  std::vector<ListedEdge> edges;
+  for (int round = 0; round < 3; ++round) {
+    if (defect_moves(m, cos_max_dihedral, remesh_detail::angle_key(min_angle_rad), edges, rejected) == 0) break;
+    rejected += greedy_valence_flips(m, cos_max_dihedral, min_angle_rad, reuse_refusals);
   }
   return rejected;
 }

@@ -9,7 +9,9 @@
 // Either way no vertex moves; a flip or a patch whose new triangles would fold (dihedral over
 // max_dihedral_deg), flip a normal, or cross the surface is rejected and left as it was.
 // "regularize" then flips edges that bring vertex valences closer to 6 without lowering the
-// smaller of the two triangles' minimum angles below min_angle_deg.
+// smaller of the two triangles' minimum angles below min_angle_deg, and moves the valence
+// defects that such flips leave (5-7 pairs) by flips that keep the valences' deviation, when
+// one or two further flips then let them cancel with a nearby defect (our addition).
 #pragma once
 
 #include "framework/core/options.h"

@@ -274,6 +274,7 @@ RemeshReport SimplifyRemesher::run(EditMesh& m, const RemeshContext<3>& context)
     if (done == 0) break;
   }
   if (options_.regularize) report.rejected_edits += regularize(m, mean_edge, cos_max, fan, fresh);
+  if (options_.relax) report.rejected_edits += remesh_detail::relax_sweep(m, cos_max);
   return report;
 }
 

@@ -85,75 +85,86 @@ std::optional<Point<3>> relaxed_position(const EditMesh& m, int v, const std::ve
   return std::nullopt;
 }
 
+// Commits the move of free vertex v to `to` unless it turns a fan triangle's normal by more
+// than acos(cos_max), lowers the fan's smallest angle below min(its old value, the floor), or
+// makes the fan cross the surface. `fan`, `fan_tris`: scratch.
+bool commit_move(EditMesh& m, int v, const Point<3>& to, double cos_max, std::vector<int>& fan,
+                 std::vector<Triangle>& fan_tris) {
+  static const double floor_key = remesh_detail::angle_key(kMinAngleFloor);
+  m.triangles_of(v, fan);
+  if (fan.size() > 32) return true;  // valence > 32: beyond the batched check, left alone
+  // The move may turn no triangle by more than the limit, and may lower the fan's smallest
+  // angle only while it stays above the floor (the old angles are needed only below it).
+  auto at = [&](int x) -> const Point<3>& { return x == v ? to : m.pos(x); };
+  using remesh_detail::area_normal, remesh_detail::min_angle_key;
+  bool ok = true;
+  double new_min = 1;  // the key of the largest angle
+  for (size_t i = 0; i < fan.size() && ok; ++i) {
+    const auto& t = m.tri(fan[i]);
+    const Point<3> nn = area_normal(at(t[0]), at(t[1]), at(t[2]));
+    ok = nn.squaredNorm() > 0 &&
+         remesh_detail::cos_between(nn, area_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]))) >= cos_max;
+    new_min = std::min(new_min, min_angle_key(at(t[0]), at(t[1]), at(t[2])));
+  }
+  if (ok && new_min < floor_key) {
+    double old_min = floor_key;
+    for (int f : fan) {
+      const auto& t = m.tri(f);
+      old_min = std::min(old_min, min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
+    }
+    ok = new_min >= old_min;
+  }
+  const Point<3> old = m.pos(v);
+  if (ok) {
+    m.set_pos(v, to);  // tentative: the crossing test reads the positions
+    fan_tris.clear();
+    for (int f : fan) fan_tris.push_back(m.tri(f));
+    ok = !m.intersects_any(fan_tris, fan);
+  }
+  m.set_pos(v, old);
+  if (ok) m.move_vertex(v, to);  // the intersection grid sees the new boxes
+  return ok;
+}
+
 }  // namespace
+
+namespace remesh_detail {
+
+int relax_sweep(EditMesh& m, double cos_max) {
+  const int n = m.num_vertices();
+  const double mean_edge = m.mean_edge_length();  // of the mesh as the calling stage received it
+  std::vector<std::optional<Point<3>>> proposal(n);
+  // Proposals from the positions at the start of the sweep (thread-count independent).
+#pragma omp parallel if (n >= 256)
+  {
+    std::vector<int> ring;
+    RelaxScratch scratch;
+#pragma omp for schedule(static)
+    for (int v = 0; v < n; ++v) {
+      if (!m.is_free(v) || !m.vertex_alive(v)) continue;
+      m.ring(v, ring);
+      proposal[v] = relaxed_position(m, v, ring, scratch);
+    }
+  }
+  // Serial commit in vertex order, each move checked against the current mesh.
+  std::vector<Triangle> fan_tris;
+  std::vector<int> fan;
+  int rejected = 0;
+  for (int v = 0; v < n; ++v) {
+    if (!proposal[v]) continue;
+    // Moves below 1% of the mean edge are not worth their checks (the relaxation has converged).
+    if ((*proposal[v] - m.pos(v)).squaredNorm() < 1e-4 * mean_edge * mean_edge) continue;
+    rejected += !commit_move(m, v, *proposal[v], cos_max, fan, fan_tris);
+  }
+  return rejected;
+}
+
+}  // namespace remesh_detail
 
 RemeshReport UniformRemesher::run(EditMesh& m, const RemeshContext<3>&) {
   RemeshReport report{"uniform", 0, 0, 0};
-  const int n = m.num_vertices();
   const double cos_max = std::cos(options_.max_normal_change_deg * std::numbers::pi / 180);
-  std::vector<std::optional<Point<3>>> proposal(n);
-  std::vector<Triangle> fan_tris;
-  std::vector<int> fan;
-  const double floor_key = remesh_detail::angle_key(kMinAngleFloor);
-  const double mean_edge = m.mean_edge_length();  // of the mesh as this stage receives it
-  for (int sweep = 0; sweep < options_.iterations; ++sweep) {
-    // Proposals from the positions at the start of the sweep (thread-count independent).
-#pragma omp parallel if (n >= 256)
-    {
-      std::vector<int> ring;
-      RelaxScratch scratch;
-#pragma omp for schedule(static)
-      for (int v = 0; v < n; ++v) {
-        proposal[v].reset();
-        if (!m.is_free(v) || !m.vertex_alive(v)) continue;
-        m.ring(v, ring);
-        proposal[v] = relaxed_position(m, v, ring, scratch);
-      }
-    }
-    // Serial commit in vertex order, each move checked against the current mesh.
-    for (int v = 0; v < n; ++v) {
-      if (!proposal[v]) continue;
-      const Point<3> old = m.pos(v);
-      // Moves below 1% of the mean edge are not worth their checks (the relaxation has converged).
-      if ((*proposal[v] - old).squaredNorm() < 1e-4 * mean_edge * mean_edge) continue;
-      m.triangles_of(v, fan);
-      if (fan.size() > 32) continue;  // valence > 32: beyond the batched check, left alone
-      // The move may turn no triangle by more than the limit, and may lower the fan's smallest
-      // angle only while it stays above the floor (the old angles are needed only below it).
-      const Point<3> to = *proposal[v];
-      auto at = [&](int x) -> const Point<3>& { return x == v ? to : m.pos(x); };
-      using remesh_detail::area_normal, remesh_detail::min_angle_key;
-      bool ok = true;
-      double new_min = 1;  // the key of the largest angle
-      for (size_t i = 0; i < fan.size() && ok; ++i) {
-        const auto& t = m.tri(fan[i]);
-        const Point<3> nn = area_normal(at(t[0]), at(t[1]), at(t[2]));
-        ok = nn.squaredNorm() > 0 &&
-             remesh_detail::cos_between(nn, area_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]))) >= cos_max;
-        new_min = std::min(new_min, min_angle_key(at(t[0]), at(t[1]), at(t[2])));
-      }
-      if (ok && new_min < floor_key) {
-        double old_min = floor_key;
-        for (int f : fan) {
-          const auto& t = m.tri(f);
-          old_min = std::min(old_min, min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
-        }
-        ok = new_min >= old_min;
-      }
-      if (ok) {
-        m.set_pos(v, to);  // tentative: the crossing test reads the positions
-        fan_tris.clear();
-        for (int f : fan) fan_tris.push_back(m.tri(f));
-        ok = !m.intersects_any(fan_tris, fan);
-      }
-      if (!ok) {
-        m.set_pos(v, old);
-        ++report.rejected_edits;
-        continue;
-      }
-      m.move_vertex(v, *proposal[v]);  // the intersection grid sees the new boxes
-    }
-  }
+  for (int sweep = 0; sweep < options_.iterations; ++sweep) report.rejected_edits += remesh_detail::relax_sweep(m, cos_max);
   return report;
 }
 
