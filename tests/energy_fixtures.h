@@ -4,7 +4,10 @@
 
 #include "energies/registry.h"
 #include "experiments/phantoms.h"
+#include "framework/core/errors.h"
 #include "framework/core/json_reader.h"
+
+#include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
 
@@ -12,6 +15,8 @@
 #include <memory>
 #include <random>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace dsnake::test_support {
 
@@ -40,6 +45,20 @@ std::unique_ptr<Energy<D>> make_energy(const std::string& json) {
   const auto spec = nlohmann::json::parse(json);
   JsonReader r(spec, "test.json", "energies[0]");
   return energy_registry<D>().create(r);
+}
+
+// Each JSON spec is refused as an InputError at its JSON path ("energies[0].key").
+template <int D>
+void expect_refused_at(const std::vector<std::pair<const char*, const char*>>& cases) {
+  for (const auto& [json, where] : cases) {
+    SCOPED_TRACE(json);
+    try {
+      make_energy<D>(json);
+      ADD_FAILURE() << "accepted";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.where(), where);
+    }
+  }
 }
 
 // p with every coordinate moved by a uniform amount in [-amount, amount], seeded.
