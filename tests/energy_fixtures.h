@@ -8,6 +8,7 @@
 #include "framework/core/json_reader.h"
 
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <nlohmann/json.hpp>
 
@@ -59,6 +60,23 @@ void expect_refused_at(const std::vector<std::pair<const char*, const char*>>& c
       EXPECT_EQ(e.where(), where);
     }
   }
+}
+
+// The proposals of a fresh energy (make()) bound to `context`, at 1 and at 2 OpenMP threads,
+// compared bit for bit (the thread count is restored).
+template <int D, class Make>
+void expect_same_proposals_at_one_and_two_threads(Make make, const EnergyContext<D>& context, const Snake<D>& snake) {
+  const int threads = omp_get_max_threads();
+  std::vector<PointList<D>> out;
+  for (int k : {1, 2}) {
+    omp_set_num_threads(k);
+    auto energy = make();
+    energy.bind(context, snake);
+    out.emplace_back(snake.num_vertices());
+    energy.propose(snake, out.back());
+  }
+  omp_set_num_threads(threads);
+  for (int v = 0; v < snake.num_vertices(); ++v) EXPECT_EQ(out[0][v], out[1][v]) << v;
 }
 
 // p with every coordinate moved by a uniform amount in [-amount, amount], seeded.

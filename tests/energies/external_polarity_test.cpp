@@ -110,17 +110,7 @@ TEST(ExternalPolarity, SameBitsForOneAndTwoThreads) {
   Template<3> t = make_icosphere(3);
   for (auto& p : t.positions) p *= 8.0;
   const Snake<3> snake = Snake<3>::from_template(t, perturbed<3>(t.positions, 0.7, 3));
-  const int threads = omp_get_max_threads();
-  std::vector<PointList<3>> out;
-  for (int k : {1, 2}) {
-    omp_set_num_threads(k);
-    ExternalEnergy<3> energy(rule(PolarityRule::kDarkInside));
-    energy.bind(EnergyContext<3>{&t, &image, &field}, snake);
-    out.emplace_back(snake.num_vertices());
-    energy.propose(snake, out.back());
-  }
-  omp_set_num_threads(threads);
-  for (int v = 0; v < snake.num_vertices(); ++v) EXPECT_EQ(out[0][v], out[1][v]) << v;
+  test_support::expect_same_proposals_at_one_and_two_threads<3>([&] { return ExternalEnergy<3>(rule(PolarityRule::kDarkInside)); }, EnergyContext<3>{&t, &image, &field}, snake);
 }
 
 }  // namespace

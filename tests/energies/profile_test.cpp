@@ -130,17 +130,7 @@ TEST(ProfileEnergy, SameBitsForOneAndTwoThreads) {
   const Image<3> image = radial_image<3>(32, 1.0, bright_disk(8.0), 1.0);
   const Template<3> t = round_template<3>(9.5);
   const Snake<3> snake = Snake<3>::from_template(t, perturbed<3>(t.positions, 0.7, 3));
-  const int threads = omp_get_max_threads();
-  std::vector<PointList<3>> out;
-  for (int k : {1, 2}) {
-    omp_set_num_threads(k);
-    ProfileEnergy<3> energy;
-    energy.bind(EnergyContext<3>{&t, &image}, snake);
-    out.emplace_back(snake.num_vertices());
-    energy.propose(snake, out.back());
-  }
-  omp_set_num_threads(threads);
-  for (int v = 0; v < snake.num_vertices(); ++v) EXPECT_EQ(out[0][v], out[1][v]) << v;
+  test_support::expect_same_proposals_at_one_and_two_threads<3>([] { return ProfileEnergy<3>(); }, EnergyContext<3>{&t, &image}, snake);
 }
 
 }  // namespace
