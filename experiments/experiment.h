@@ -75,6 +75,7 @@ struct OutputOptions {
   int snapshot_every = 0;   // write the snake every n iterations (0: never)
   bool figures = true;
   bool result_mask = true;  // result_mask.nii.gz: the result's interior on the image grid
+  bool start_metrics = false;  // result.json's "start": the placed template's metrics
   ImageOutput image = ImageOutput::kAuto;
 
   template <class V>
@@ -82,6 +83,7 @@ struct OutputOptions {
     v(snapshot_every, Key{"snapshot_every", "iterations", "write the snake every n iterations into snapshots/ (0: never)", Range::at_least(0)});
     v(figures, Key{"figures", "", "write the PNG figures"});
     v(result_mask, Key{"result_mask", "", "write result_mask.nii.gz: the result's interior as a uint8 label map on the image's grid, with its orientation"});
+    v(start_metrics, Key{"start_metrics", "", "also measure the placed template against the ground truth (result.json's \"start\"), to see what the run gained; costs one more metrics pass"});
     v(image, Key{"image", "", "write image.nii.gz, the image that was registered: auto (when it is a phantom or was corrupted), always or never"});
   }
 };

@@ -168,6 +168,7 @@ void add_init(CLI::App& app, CommandLine& c) {
   InitCommandOptions& i = c.init;
   c.init_cmd->add_option("--image", i.image, "Image or volume file (or DICOM folder)")->required();
   c.init_cmd->add_option("--template", i.tmpl, "Template: 3D mesh (.off .obj .ply .stl .vtk) or 2D contour (.txt .json .vtk)")->required();
+  c.init_cmd->add_option("--reference", i.reference, "Reference image in which the template sits on its object (an atlas, the previous slice): the profile force's expected profiles");
   c.init_cmd->add_option("--mask", i.mask, "Ground truth: a label image (non-zero inside) or a surface file");
   c.init_cmd->add_option("--name", i.name, "Experiment name (default: the image's file name)");
 }

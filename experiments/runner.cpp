@@ -2,6 +2,7 @@
 
 #include "energies/landmarks.h"
 #include "experiments/figures.h"
+#include "experiments/pose_report.h"
 #include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
 #include "framework/core/evolver.h"
@@ -268,6 +269,8 @@ struct RunRecord {
   EvolveSummary summary;
   nlohmann::ordered_json global_report;
   Metrics metrics;
+  std::optional<Metrics> start_metrics;  // output.start_metrics: the placed template's
+  nlohmann::ordered_json pose;           // result.json's "pose" (experiments/pose_report.h)
   CorrespondenceError correspondence;
   bool finite = false;  // a diverged snake (non-finite positions) has no meaningful metrics
   double field_s = 0, potential_s = 0, evolve_s = 0, metrics_s = 0;
@@ -363,7 +366,10 @@ void measure(const Experiment<D>& ex, RunRecord<D>& rec) {
   const auto& q = rec.snake.positions();
   rec.finite = std::all_of(q.begin(), q.end(), [](const Point<D>& p) { return p.allFinite(); });
   rec.metrics = rec.finite ? compute_metrics(rec.snake, ex.truth) : Metrics{};
+  const Snake<D> start = Snake<D>::from_template(ex.tmpl, ex.initial);
+  if (ex.output.start_metrics) rec.start_metrics = compute_metrics(start, ex.truth);
   rec.metrics_s = seconds_since(t);
+  if (rec.finite) rec.pose = pose_json(start, rec.snake, ex.image.grid());
   rec.correspondence = correspondence_error(rec.snake, ex.truth.targets);
 }
 
@@ -488,6 +494,8 @@ nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& 
   nlohmann::ordered_json result;
   result["name"] = ex.name;
   result["metrics"] = metrics_json(rec.metrics, rec.finite);
+  if (rec.start_metrics) result["start"] = {{"metrics", metrics_json(*rec.start_metrics, true)}};
+  if (!rec.pose.is_null()) result["pose"] = rec.pose;
   result["success"] = rec.summary.status != EvolveStatus::kDiverged && ex.success.met(rec.metrics);
   result["status"] = to_string(rec.summary.status);
   result["iterations"] = rec.summary.iterations;

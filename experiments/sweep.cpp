@@ -96,6 +96,7 @@ void absolutise_paths(json& doc, const std::string& base_dir) {
   fix("template", "file");
   fix("image", "mesh");  // the "mesh" and "bunny" phantoms read a mesh file
   fix("template", "mesh");
+  fix("template", "reference_image");
   fix("ground_truth", "mask");
   fix("ground_truth", "surface");
   fix("ground_truth", "correspondence");

@@ -5,7 +5,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 PACKAGES=(cmake ninja-build g++ libeigen3-dev libceres-dev libopenmesh-dev libopencv-dev
           nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libspdlog-dev
-          zlib1g-dev libfftw3-dev libgdcm-dev parallel python3-matplotlib python3-jsonschema python3-vtk9)
+          zlib1g-dev libfftw3-dev libgdcm-dev parallel python3-matplotlib python3-jsonschema python3-vtk9
+          python3-numpy python3-scipy elastix)
 missing=()
 for p in "${PACKAGES[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -1,7 +1,7 @@
-// `dsnake init`: the file it prints is complete and valid, its lengths follow the image's voxel
-// size and the template's edges (init_command.cpp's rules), and run as printed (with the template
-// started 10% too small) it registers a label volume it was not tuned for; bad input exits 2
-// with one line and prints nothing.
+// `dsnake init`: the file it prints is the recipe (experiments/real/recipe_3d.json) with only the
+// inputs replaced, valid, and run as printed (with the template started 10% too small) it
+// registers a label volume it was not tuned for; a scan outside the recipe's voxel range gets a
+// warning; bad input exits 2 with one line and prints nothing.
 #include "framework/io/image_io.h"
 
 #include "tests/experiments/temp_dir_test.h"
@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 
 namespace dsnake {
 namespace {
@@ -45,50 +46,63 @@ class InitCommandTest : public test_support::TempDirTest {
   std::string out_, err_;
 };
 
-TEST_F(InitCommandTest, PrintsAValidFileWhoseRunRegistersTheVolume) {
+// The recipe file of a dimension with its inputs (name, description, image, template,
+// ground_truth) removed: what `dsnake init` must keep as it is.
+nlohmann::json settings_of(nlohmann::json j) {
+  for (const char* k : {"name", "description", "image", "template", "ground_truth"}) j.erase(k);
+  return j;
+}
+
+TEST_F(InitCommandTest, PrintsTheRecipeWithOnlyTheInputsReplacedAndItsRunRegistersTheVolume) {
   const fs::path labels = ellipsoid_labels(), tmpl = dir_ / "t.off";
   ASSERT_EQ(dsnake("template --mask " + labels.string() + " --label 1 --vertices 400 --out " + tmpl.string()), 0) << err_;
-  ASSERT_EQ(dsnake("init --image " + labels.string() + " --template " + tmpl.string() + " --mask " + labels.string()), 0)
+  ASSERT_EQ(dsnake("init --image " + labels.string() + " --template " + tmpl.string() + " --reference " +
+                   labels.string() + " --mask " + labels.string()),
+            0)
       << err_;
   const nlohmann::json j = nlohmann::json::parse(out_);
   EXPECT_EQ(j["dimension"], 3);
   EXPECT_TRUE(fs::path(j["image"]["file"].get<std::string>()).is_absolute());
+  EXPECT_EQ(j["template"]["reference_image"], fs::absolute(labels).string());
   EXPECT_EQ(j["ground_truth"]["mask"], fs::absolute(labels).string());
-  EXPECT_DOUBLE_EQ(j["field"]["sigma"].get<double>(), 1.8);  // 1.5 x the largest spacing, 1.2 mm
-  EXPECT_DOUBLE_EQ(j["energies"][1]["tau"].get<double>(), 0.6);  // half a voxel, with normalize max
-  EXPECT_EQ(j["energies"][1]["normalize"], "max");
-  EXPECT_EQ(j["energies"][2]["type"], "asap_mls");
-  EXPECT_DOUBLE_EQ(j["phases"][0]["tolerance"].get<double>(), 0.012);
+  std::ifstream recipe(std::string(DSNAKE_SOURCE_DIR) + "/experiments/real/recipe_3d.json");
+  ASSERT_TRUE(recipe.good());
+  EXPECT_EQ(settings_of(j), settings_of(nlohmann::json::parse(recipe)));
+  EXPECT_EQ(err_, "");  // 0.8 x 1.2 mm voxels: within the recipe's range, no warning
   const fs::path exp = dir_ / "exp.json";
   std::ofstream(exp) << out_;
   ASSERT_EQ(dsnake("validate " + exp.string()), 0) << err_;
 
+  // Started 10% small on a label volume nobody tuned it for (its own label as the reference
+  // image: the template's rest surface sits on its boundary there), the run ends nearer the
+  // boundary.
   const fs::path run = dir_ / "run";
-  ASSERT_EQ(dsnake("run " + exp.string() + " -o " + run.string() + " -j 2 --quiet --set template.transform.scale=0.9"), 0)
-      << err_;
-  const nlohmann::json r = nlohmann::json::parse(slurp(run / "result.json"));
-  // The start: one iteration with negligible weights.
-  const fs::path start = dir_ / "start";
-  ASSERT_EQ(dsnake("run " + exp.string() + " -o " + start.string() +
-                   " -j 2 --quiet --set template.transform.scale=0.9 --set phases[0].iterations=1"
-                   " --set phases[1].iterations=1 --set energies[0].weight=1e-12 --set energies[1].weight=1e-12"
-                   " --set energies[2].weight=1e-12"),
+  ASSERT_EQ(dsnake("run " + exp.string() + " -o " + run.string() +
+                   " -j 2 --quiet --set template.transform.scale=0.9 --set output.start_metrics=true"),
             0)
       << err_;
-  const nlohmann::json s = nlohmann::json::parse(slurp(start / "result.json"));
-  // Started 10% small, the run ends nearer the label's boundary, but not on it. Measured: Dice
-  // 0.844 -> 0.872, mean distance 0.897 -> 0.726 mm (0.843 -> 0.871 with the first recipe). Started on the boundary of a larger label
-  // (the built-in ellipsoid's), the same settings end about 0.4 mm inside (Dice 0.998 -> 0.953):
-  // the recommended settings are not yet good on real labels (issue 20).
+  const nlohmann::json r = nlohmann::json::parse(slurp(run / "result.json"));
+  const nlohmann::json& s = r["start"];
   std::printf("  Dice %.3f -> %.3f, mean distance %.3f -> %.3f mm\n", s["metrics"]["dice"].get<double>(),
               r["metrics"]["dice"].get<double>(), s["metrics"]["mean_surface_distance"].get<double>(),
               r["metrics"]["mean_surface_distance"].get<double>());
-  EXPECT_GT(r["metrics"]["dice"].get<double>(), s["metrics"]["dice"].get<double>() + 0.015) << s["metrics"].dump();
+  EXPECT_GT(r["metrics"]["dice"].get<double>(), s["metrics"]["dice"].get<double>() + 0.05) << s["metrics"].dump();
   EXPECT_LT(r["metrics"]["mean_surface_distance"].get<double>(),
-            0.9 * s["metrics"]["mean_surface_distance"].get<double>()) << s["metrics"].dump();
+            0.5 * s["metrics"]["mean_surface_distance"].get<double>()) << s["metrics"].dump();
   EXPECT_EQ(r["metrics"]["self_intersections"], 0);
   EXPECT_TRUE(fs::exists(run / "result_mask.nii.gz"));
   EXPECT_FALSE(fs::exists(run / "image.nii.gz"));  // a file read as it is is not copied
+}
+
+TEST_F(InitCommandTest, WarnsWhenTheVoxelsAreOutsideTheRecipesRange) {
+  Grid<2> g{GridIndex<2>(40, 40), Point<2>(0.05, 0.05), Point<2>(0, 0)};
+  Image<2> im(g, 0.0f);
+  const fs::path image = dir_ / "tiny.nii.gz", contour = dir_ / "c.txt";
+  write_image<2>(im, image.string());
+  std::ofstream(contour) << "0.5 0.5\n1.5 0.5\n1.5 1.5\n0.5 1.5\n";
+  ASSERT_EQ(dsnake("init --image " + image.string() + " --template " + contour.string()), 0) << err_;
+  EXPECT_NE(err_.find("warning: " + image.string() + ": voxels of up to 0.05 mm"), std::string::npos) << err_;
+  EXPECT_EQ(nlohmann::json::parse(out_)["dimension"], 2);
 }
 
 TEST_F(InitCommandTest, BadInputExitsTwoWithOneLineAndPrintsNothing) {

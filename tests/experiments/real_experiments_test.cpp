@@ -1,0 +1,123 @@
+// The real experiments of issue 20 (experiments/real/, REPRODUCTION.md "Real scans"): every
+// case runs the recipe's settings with only its inputs replaced, and the 2D cases (fast: about a
+// second each) run here end to end on ITK's example scans: the recipe ends better than it
+// starts, the rat lung reaches Dice 0.95, and started on the lung's true contour the recipe stays
+// there. The 3D cases take minutes; they run as experiments (experiments/real/run.sh).
+#include "tests/experiments/temp_dir_test.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+
+namespace dsnake {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+const fs::path kReal = fs::path(DSNAKE_SOURCE_DIR) / "experiments" / "real";
+
+json read_json(const fs::path& p) {
+  std::ifstream in(p);
+  return json::parse(in);
+}
+
+// Every case's "recipe" and "fixed_point" methods take the recipe file as it is (no base of their
+// own) and override only inputs: what a user changes when copying it.
+TEST(RealExperiments, RecipeMethodsChangeOnlyTheInputs) {
+  const std::set<std::string> inputs = {"name", "image", "template", "ground_truth", "output"};
+  const std::set<std::string> template_inputs = {"file", "reference_image", "transform"};
+  int cases = 0;
+  for (const auto& entry : fs::directory_iterator(kReal)) {
+    const fs::path sweep = entry.path() / "sweep.json";
+    if (!fs::exists(sweep)) continue;
+    ++cases;
+    const json s = read_json(sweep);
+    const std::string recipe = s.at("base").get<std::string>();
+    EXPECT_TRUE(recipe == "../recipe_2d.json" || recipe == "../recipe_3d.json") << sweep;
+    for (const char* method : {"recipe", "fixed_point"}) {
+      SCOPED_TRACE(sweep.string() + " " + method);
+      const json& m = s.at("methods").at(method);
+      EXPECT_FALSE(m.contains("base"));
+      for (const auto& [key, value] : m.at("overrides").items()) {
+        EXPECT_TRUE(inputs.count(key)) << key;
+        if (key == "template") {
+          for (const auto& [k, v] : value.items()) EXPECT_TRUE(template_inputs.count(k)) << k;
+        }
+        if (key == "output") {
+          for (const auto& [k, v] : value.items()) EXPECT_EQ(k, "start_metrics");
+        }
+      }
+    }
+  }
+  EXPECT_GE(cases, 2);
+}
+
+class RealExperiments2d : public test_support::TempDirTest {
+ protected:
+  // Runs the case's sweep into dir_/case and returns each method's result.json.
+  std::map<std::string, json> run_case(const std::string& name) {
+    const fs::path out = dir_ / name;
+    const std::string cmd = std::string(DSNAKE_EXE) + " sweep " + (kReal / name / "sweep.json").string() + " --out " +
+                            out.string() + " -j 1 -q 2>" + (dir_ / "err.txt").string();
+    EXPECT_EQ(std::system(cmd.c_str()), 0) << slurp(dir_ / "err.txt");
+    std::map<std::string, json> results;
+    for (const auto& run : fs::directory_iterator(out / "runs")) {
+      const std::string id = run.path().filename().string();
+      results[id.substr(0, id.find("-g"))] = read_json(run.path() / "result.json");
+    }
+    return results;
+  }
+  static double metric(const json& r, const char* key) { return r.at("metrics").at(key).get<double>(); }
+  static double start_metric(const json& r, const char* key) { return r.at("start").at("metrics").at(key).get<double>(); }
+  static void print(const std::string& what, const json& r) {
+    std::printf("  %s: Dice %.4f -> %.4f, msd %.3f -> %.3f mm, HD95 %.2f mm, centroid shift %.2f mm\n", what.c_str(),
+                start_metric(r, "dice"), metric(r, "dice"), start_metric(r, "mean_surface_distance"),
+                metric(r, "mean_surface_distance"), metric(r, "hausdorff95"), r.at("pose").at("centroid_shift").get<double>());
+  }
+};
+
+TEST_F(RealExperiments2d, TheRecipeImprovesTheRatLungAndTheCorpusCallosumAndHoldsTheLungsTrueContour) {
+  // The inputs (reference segmentations, templates) from ITK's example data, made in data/real/.
+  const std::string make = "/usr/bin/python3 " + (kReal / "make_2d_inputs.py").string() + " " + DSNAKE_EXE + " " +
+                           DSNAKE_SOURCE_DIR + " >/dev/null";
+  ASSERT_EQ(std::system(make.c_str()), 0);
+
+  auto lung = run_case("lung");
+  ASSERT_EQ(lung.size(), 4u);
+  const json& r = lung["recipe"];
+  print("lung recipe", r);
+  // Measured: Dice 0.9222 -> 0.9505, msd 0.92 -> 0.62 mm, HD95 2.05 mm.
+  EXPECT_GE(metric(r, "dice"), 0.95);
+  EXPECT_GT(metric(r, "dice"), start_metric(r, "dice"));
+  EXPECT_LT(metric(r, "mean_surface_distance"), start_metric(r, "mean_surface_distance"));
+  EXPECT_EQ(r["metrics"]["self_intersections"], 0);
+  // The paper's lung-slice settings collapse the contour (Dice 0.26): reported, not asserted
+  // beyond "the recipe is better".
+  EXPECT_GT(metric(r, "dice"), metric(lung["paper"], "dice"));
+  EXPECT_GT(metric(r, "dice"), metric(lung["classical"], "dice"));
+  const json& f = lung["fixed_point"];
+  print("lung fixed point", f);
+  EXPECT_NEAR(metric(f, "dice"), start_metric(f, "dice"), 0.01);  // measured: 0.9989 -> 0.9989
+  EXPECT_LE(f["pose"]["centroid_shift"].get<double>(), 0.5);      // measured: 0.04 mm
+
+  auto cc = run_case("cc");
+  ASSERT_EQ(cc.size(), 4u);
+  const json& c = cc["recipe"];
+  print("corpus callosum recipe", c);
+  // Measured: Dice 0.387 -> 0.895, msd 2.94 -> 0.65 mm. Started on the reference contour, the
+  // recipe does not stay (Dice 0.990 -> 0.892, REPRODUCTION.md): not asserted as a success.
+  EXPECT_GT(metric(c, "dice"), start_metric(c, "dice") + 0.3);
+  EXPECT_LT(metric(c, "mean_surface_distance"), 0.5 * start_metric(c, "mean_surface_distance"));
+  EXPECT_EQ(c["metrics"]["self_intersections"], 0);
+  print("corpus callosum fixed point", cc["fixed_point"]);
+}
+
+}  // namespace
+}  // namespace dsnake
