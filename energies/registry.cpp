@@ -10,6 +10,7 @@
 #include "energies/landmarks.h"
 #include "energies/laplacian.h"
 #include "energies/profile.h"
+#include "energies/region_term.h"
 #include "energies/similarity.h"
 
 namespace dsnake {
@@ -26,6 +27,7 @@ const Registry<Energy<D>>& energy_registry() {
     r.template add<BalloonEnergy<D>>();
     r.template add<SimilarityEnergy<D>>();
     r.template add<ProfileEnergy<D>>();
+    r.template add<RegionTermEnergy<D>>();
     r.template add<LandmarksEnergy<D>>();
     return r;
   }();

@@ -65,6 +65,7 @@ template <int D>
 struct GlobalProblem<D>::Impl {
   std::vector<double> parameters;  // n x D, vertex-major
   std::deque<std::vector<double>> auxiliary;  // stable addresses
+  std::vector<bool> eliminated;                // per auxiliary block: in the first Schur group
   ceres::Problem problem;
   int num_vertices = 0;
 };
@@ -103,8 +104,10 @@ template <int D>
 int GlobalProblem<D>::add_auxiliary_block(std::span<const double> initial, AuxiliaryKind kind) {
   auto& block = impl_->auxiliary.emplace_back(initial.begin(), initial.end());
   const int size = int(block.size());
+  impl_->eliminated.push_back(kind != AuxiliaryKind::kSharedEuclidean);
   switch (kind) {
     case AuxiliaryKind::kEuclidean:
+    case AuxiliaryKind::kSharedEuclidean:
       impl_->problem.AddParameterBlock(block.data(), size);
       break;
     case AuxiliaryKind::kQuaternion:
@@ -143,7 +146,8 @@ template <int D>
 double* GlobalProblem<D>::auxiliary(int b) { return impl_->auxiliary[b].data(); }
 
 // Ceres' trust-region (Levenberg-Marquardt) solve. With sparse Schur, the auxiliary blocks are
-// eliminated first (each residual touches at most one of them), like points in bundle adjustment.
+// eliminated first (each residual touches at most one of them), like points in bundle adjustment;
+// shared blocks are not (their elimination would couple every vertex).
 template <int D>
 GlobalSolveSummary GlobalProblem<D>::solve(const GlobalSolverOptions& options,
                                            const std::function<bool(int)>& on_iteration) {
@@ -154,9 +158,13 @@ GlobalSolveSummary GlobalProblem<D>::solve(const GlobalSolverOptions& options,
     o.linear_solver_type = options.linear_solver == LinearSolver::kSparseSchur ? ceres::SPARSE_SCHUR : ceres::ITERATIVE_SCHUR;
     o.preconditioner_type = ceres::SCHUR_JACOBI;
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-    for (auto& b : impl_->auxiliary) ordering->AddElementToGroup(b.data(), 0);
+    bool any_eliminated = false;
+    for (size_t b = 0; b < impl_->auxiliary.size(); ++b) {
+      ordering->AddElementToGroup(impl_->auxiliary[b].data(), impl_->eliminated[b] ? 0 : 1);
+      any_eliminated = any_eliminated || impl_->eliminated[b];
+    }
     for (int v = 0; v < impl_->num_vertices; ++v) ordering->AddElementToGroup(vertex(v), 1);
-    if (!impl_->auxiliary.empty()) o.linear_solver_ordering = ordering;
+    if (any_eliminated) o.linear_solver_ordering = ordering;  // else Ceres picks its own
   } else if (options.linear_solver == LinearSolver::kCgnr) {
     o.linear_solver_type = ceres::CGNR;
     o.preconditioner_type = ceres::JACOBI;

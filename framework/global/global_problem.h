@@ -5,7 +5,9 @@
 // sum_of_squares(), which is twice Ceres' cost (Ceres minimises 1/2 sum |r|^2).
 // Besides the vertex positions, an energy may add auxiliary parameter blocks (ASAP's per-vertex
 // similarity, ARAP's per-vertex rotation): they are the first group of the Schur ordering, since
-// no residual couples two of them.
+// no residual couples two of them. A shared block (the region term's two means, which every one
+// of its residuals touches) stays with the vertices: eliminating it first would fill the reduced
+// system.
 #pragma once
 
 #include "framework/core/options.h"
@@ -27,7 +29,8 @@ namespace dsnake {
 // The auxiliary blocks' parameterisations. A rotation in 2D is an angle (Euclidean); a rotation
 // in 3D is a unit quaternion [w, x, y, z] on Ceres' quaternion manifold; a similarity appends
 // the log-scale: [angle, log s] in 2D, [w, x, y, z, log s] in 3D (quaternion x Euclidean).
-enum class AuxiliaryKind { kEuclidean, kQuaternion, kQuaternionAndScale };
+// kSharedEuclidean: Euclidean, shared by residuals of many vertices (not eliminated first).
+enum class AuxiliaryKind { kEuclidean, kQuaternion, kQuaternionAndScale, kSharedEuclidean };
 
 // Ceres solver options (the experiment file's "global" object; see experiments/experiment.cpp).
 // Ceres' linear solver: sparse_normal_cholesky; sparse_schur (eliminates the auxiliary blocks);

@@ -12,6 +12,7 @@
 #include <Eigen/Geometry>
 #include <ceres/ceres.h>
 #include <ceres/gradient_checker.h>
+#include "tests/energies/edge_images.h"
 #include "tests/energy_fixtures.h"
 
 #include <gtest/gtest.h>
@@ -130,7 +131,9 @@ void check_energies(const Template<D>& t, const std::vector<std::string>& specs,
   const PointList<D> q = perturbed<D>(t.positions, 1.0, seed);
   Snake<D> snake = Snake<D>::from_template(t, q);
   ShellPotential<D> potential(Point<D>::Zero(), 9.0, 0.3);
-  EnergyContext<D> context{&t, nullptr, nullptr, &potential};
+  // an image with an edge near the snake, for the energies that sample one (the region term)
+  const Image<D> image = test_support::radial_image<D>(D == 2 ? 48 : 32, 1.0, [](double r) { return r < 10 ? 170.0 : 85.0; }, 1.5);
+  EnergyContext<D> context{&t, &image, nullptr, &potential};
   for (const auto& spec : specs) {
     auto e = make<D>(spec);
     ASSERT_TRUE(e->has_least_squares_form()) << spec;
