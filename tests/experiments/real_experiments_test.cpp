@@ -14,6 +14,7 @@
 #include <fstream>
 #include <map>
 #include <set>
+#include <vector>
 
 namespace dsnake {
 namespace {
@@ -45,18 +46,28 @@ TEST(RealExperiments, RecipeMethodsChangeOnlyTheInputs) {
       SCOPED_TRACE(sweep.string() + " " + method);
       const json& m = s.at("methods").at(method);
       EXPECT_FALSE(m.contains("base"));
+      // An override is an object per section ("template": {"file": ...}) or a key path
+      // ("template.file"); either way its section and, for template and output, its key.
       for (const auto& [key, value] : m.at("overrides").items()) {
-        EXPECT_TRUE(inputs.count(key)) << key;
-        if (key == "template") {
-          for (const auto& [k, v] : value.items()) EXPECT_TRUE(template_inputs.count(k)) << k;
+        const size_t dot = key.find('.');
+        const std::string section = key.substr(0, dot);
+        EXPECT_TRUE(inputs.count(section)) << key;
+        std::vector<std::string> keys;
+        if (dot != std::string::npos) keys.push_back(key.substr(dot + 1));
+        else if (value.is_object()) {
+          for (const auto& [k, v] : value.items()) keys.push_back(k);
         }
-        if (key == "output") {
-          for (const auto& [k, v] : value.items()) EXPECT_EQ(k, "start_metrics");
+        for (const auto& k : keys) {
+          if (section == "template") {
+            EXPECT_TRUE(template_inputs.count(k)) << key << " " << k;
+          } else if (section == "output") {
+            EXPECT_EQ(k, "start_metrics") << key;
+          }
         }
       }
     }
   }
-  EXPECT_GE(cases, 2);
+  EXPECT_GE(cases, 4);
 }
 
 class RealExperiments2d : public test_support::TempDirTest {

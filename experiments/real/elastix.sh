@@ -1,0 +1,99 @@
+#!/bin/bash
+# The peer of issue 20's real experiments: atlas registration with elastix (affine, then B-spline;
+# experiments/real/elastix_affine.txt and elastix_bspline.txt), its result measured exactly as
+# dsnake's results are.
+#
+#   experiments/real/elastix.sh CASE                  (liver, femur: data/real/CASE/ from
+#                                                     make_3d_inputs.py; lung: make_2d_inputs.py)
+#   experiments/real/elastix.sh FIXED MOVING TEMPLATE GROUND_TRUTH OUT
+#
+# FIXED is the scan, MOVING the atlas (reference) image in which TEMPLATE (a mesh, or a 2D contour
+# .txt) sits on its object, GROUND_TRUTH the true mask on FIXED's grid. Steps, into OUT
+# (default out/real/CASE/elastix):
+#   1. the template's mask in the moving space: result_mask.nii.gz of a 0-iteration dsnake run
+#      whose image is MOVING;
+#   2. elastix FIXED <- MOVING (affine, then B-spline), under /usr/bin/time (wall, peak memory);
+#   3. transformix warps the mask with nearest-neighbour interpolation (FinalBSplineInterpolationOrder 0);
+#   4. `dsnake template --mask` makes a surface (3D: VERTICES, default 3000) or contour (2D: VERTICES,
+#      default 128) of the warped mask;
+#   5. a 0-iteration dsnake run evaluates it against GROUND_TRUTH (Dice, mean surface distance,
+#      HD95, self-intersections: the metrics of dsnake's own runs).
+# Environment: DSNAKE (default build/release/experiments/dsnake), THREADS (elastix's and dsnake's
+# threads, default 2), VERTICES.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+ROOT=$PWD
+DSNAKE=$(realpath "${DSNAKE:-build/release/experiments/dsnake}")
+THREADS=${THREADS:-2}
+PAR=$ROOT/experiments/real
+
+if [ $# -eq 1 ]; then
+  CASE=$1
+  OUT=out/real/$CASE/elastix
+  case $CASE in
+    liver | femur)
+      [ -f data/real/$CASE/inputs.json ] || /usr/bin/python3 experiments/real/make_3d_inputs.py "$DSNAKE" . "$CASE"
+      set -- data/real/$CASE/image.mha data/real/$CASE/reference.mha data/real/$CASE/template.off data/real/$CASE/truth.mha "$OUT" ;;
+    lung)
+      [ -f data/real/lung/template.txt ] || /usr/bin/python3 experiments/real/make_2d_inputs.py "$DSNAKE" .
+      set -- data/scans/itk/RatLungSlice2.mha data/scans/itk/RatLungSlice1.mha data/real/lung/template.txt data/real/lung/slice2_mask.mha "$OUT" ;;
+    *) echo "elastix.sh: unknown case $CASE (liver, femur, lung; or give FIXED MOVING TEMPLATE GROUND_TRUTH OUT)" >&2; exit 2 ;;
+  esac
+fi
+[ $# -eq 5 ] || { echo "usage: elastix.sh CASE | FIXED MOVING TEMPLATE GROUND_TRUTH OUT" >&2; exit 2; }
+FIXED=$(realpath "$1"); MOVING=$(realpath "$2"); TEMPLATE=$(realpath "$3"); TRUTH=$(realpath "$4"); OUT=$5
+case $TEMPLATE in *.txt | *.json) DIM=2; EXT=txt; VERTICES=${VERTICES:-128} ;; *) DIM=3; EXT=off; VERTICES=${VERTICES:-3000} ;; esac
+rm -rf "$OUT"
+mkdir -p "$OUT/elastix" "$OUT/transformix"
+OUT=$(realpath "$OUT")
+
+zero_run() {  # zero_run NAME IMAGE TEMPLATE [TRUTH]: a 0-iteration dsnake run into OUT/NAME
+  local truth=""
+  [ -n "${4:-}" ] && truth=", \"ground_truth\": {\"mask\": \"$4\"}"
+  cat >"$OUT/$1.json" <<EOF
+{"dimension": $DIM, "name": "$1", "image": {"file": "$2"}, "template": {"file": "$3"}$truth,
+ "field": {"type": "gradient"}, "energies": [{"type": "internal", "weight": 1.0}],
+ "phases": [{"iterations": 0}], "output": {"figures": true}}
+EOF
+  "$DSNAKE" run "$OUT/$1.json" --out "$OUT/$1" --quiet -j "$THREADS"
+}
+
+# 1. the template's mask where the template sits: on the moving (atlas) image's grid
+zero_run moving_mask "$MOVING" "$TEMPLATE"
+
+# 2. elastix
+/usr/bin/time -f "%e %M" -o "$OUT/elastix_time.txt" \
+  elastix -f "$FIXED" -m "$MOVING" -p "$PAR/elastix_affine.txt" -p "$PAR/elastix_bspline.txt" \
+  -out "$OUT/elastix" -threads "$THREADS" >"$OUT/elastix.log" 2>&1
+
+# 3. transformix: the mask, nearest neighbour, as unsigned char
+for k in 0 1; do
+  sed -e 's/^(FinalBSplineInterpolationOrder .*)/(FinalBSplineInterpolationOrder 0)/' \
+      -e 's/^(ResultImagePixelType .*)/(ResultImagePixelType "unsigned char")/' \
+      -e "s|^(InitialTransformParametersFileName .*)|(InitialTransformParametersFileName \"$( [ $k = 1 ] && echo "$OUT/transformix/TransformParameters.0.txt" || echo NoInitialTransform)\")|" \
+      "$OUT/elastix/TransformParameters.$k.txt" >"$OUT/transformix/TransformParameters.$k.txt"
+done
+/usr/bin/time -f "%e %M" -o "$OUT/transformix_time.txt" \
+  transformix -in "$OUT/moving_mask/result_mask.nii.gz" -tp "$OUT/transformix/TransformParameters.1.txt" \
+  -out "$OUT/transformix" -threads "$THREADS" >"$OUT/transformix.log" 2>&1
+
+# 4. a surface (contour) of the warped mask
+"$DSNAKE" template --mask "$OUT/transformix/result.mha" --label 1 --vertices "$VERTICES" \
+  --out "$OUT/elastix_result.$EXT" -j "$THREADS" >"$OUT/template.log"
+
+# 5. measured as dsnake's runs are
+zero_run evaluate "$FIXED" "$OUT/elastix_result.$EXT" "$TRUTH"
+
+/usr/bin/python3 - "$OUT" <<'EOF'
+import json, sys
+out = sys.argv[1]
+m = json.load(open(f"{out}/evaluate/result.json"))["metrics"]
+wall, kb = open(f"{out}/elastix_time.txt").read().split()[-2:]
+twall, tkb = open(f"{out}/transformix_time.txt").read().split()[-2:]
+print(open(f"{out}/template.log").read().strip())
+print(f"elastix (affine + B-spline): Dice {m['dice']:.4f}, mean surface distance {m['mean_surface_distance']:.3f} mm, "
+      f"HD95 {m['hausdorff95']:.3f} mm, self-intersections {m['self_intersections']}; elastix {float(wall):.1f} s wall, "
+      f"{int(kb) / 1024:.0f} MB peak; transformix {float(twall):.1f} s, {int(tkb) / 1024:.0f} MB")
+json.dump({"metrics": m, "elastix_wall_s": float(wall), "elastix_peak_mb": int(kb) / 1024,
+           "transformix_wall_s": float(twall), "transformix_peak_mb": int(tkb) / 1024}, open(f"{out}/summary.json", "w"), indent=1)
+EOF
