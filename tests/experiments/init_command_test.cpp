@@ -106,8 +106,13 @@ TEST_F(InitCommandTest, WarnsWhenTheVoxelsAreOutsideTheRecipesRange) {
 }
 
 TEST_F(InitCommandTest, BadInputExitsTwoWithOneLineAndPrintsNothing) {
-  const fs::path labels = ellipsoid_labels();
+  const fs::path labels = ellipsoid_labels(), tmpl = dir_ / "t.off", flat = dir_ / "flat.nii.gz";
+  ASSERT_EQ(dsnake("template --mask " + labels.string() + " --label 1 --vertices 200 --out " + tmpl.string()), 0) << err_;
+  write_image<2>(Image<2>(Grid<2>{GridIndex<2>(8, 8), Point<2>(1, 1), Point<2>(0, 0)}, 0.0f), flat.string());
+  const std::string good = "init --image " + labels.string() + " --template " + tmpl.string();
   for (const std::string& args : {"init --image " + labels.string() + " --template " + (dir_ / "missing.off").string(),
+                                  good + " --reference " + (dir_ / "missing_atlas.nii.gz").string(),
+                                  good + " --reference " + flat.string(),
                                   "init --image " + (dir_ / "missing.nii").string() + " --template x.off",
                                   "init --image " + labels.string() + " --template " + labels.string()}) {
     SCOPED_TRACE(args);
@@ -116,6 +121,9 @@ TEST_F(InitCommandTest, BadInputExitsTwoWithOneLineAndPrintsNothing) {
     EXPECT_EQ(std::count(err_.begin(), err_.end(), '\n'), 1) << err_;
     EXPECT_NE(err_.find("dsnake: error: "), std::string::npos) << err_;
   }
+  // A reference image of the wrong dimension is named with the option it came from.
+  ASSERT_EQ(dsnake(good + " --reference " + flat.string()), 2);
+  EXPECT_NE(err_.find(flat.string() + ": --reference: expected a 3D image"), std::string::npos) << err_;
 }
 
 }  // namespace
