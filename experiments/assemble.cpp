@@ -227,6 +227,7 @@ Experiment<D> assemble(const ExperimentSpec<D>& spec) {
     ex.phase_names.push_back(spec.phases[p].name.empty() ? "#" + std::to_string(p + 1) : spec.phases[p].name);
   ex.success = spec.success;
   ex.output = spec.output;
+  ex.metrics = spec.metrics;
   return ex;
 }
 

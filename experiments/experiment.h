@@ -120,6 +120,7 @@ struct Experiment {
   std::vector<std::string> phase_names;  // the file's "name" of each phase, or "#k"
   SuccessCriteria success;
   OutputOptions output;
+  MetricsOptions metrics;
 };
 
 // Reads the file's sections (read_experiment_spec) and assembles the objects (assemble).

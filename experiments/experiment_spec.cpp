@@ -233,6 +233,11 @@ ExperimentSpec<D> read_experiment_spec(const ExperimentFile& file) {
     read_options(r, spec.output);
     r.finish();
   }
+  if (top.has("metrics")) {
+    JsonReader r = top.child("metrics");
+    read_options(r, spec.metrics);
+    r.finish();
+  }
   top.finish();
   return spec;
 }

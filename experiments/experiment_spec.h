@@ -112,6 +112,7 @@ struct ExperimentSpec {
   std::vector<PhaseSpec<D>> phases;
   SuccessCriteria success;
   OutputOptions output;
+  MetricsOptions metrics;  // "metrics": how the surface distances are sampled
 };
 
 // Reads and checks every section; throws InputError naming the file and the JSON path.

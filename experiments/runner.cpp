@@ -365,9 +365,9 @@ void measure(const Experiment<D>& ex, RunRecord<D>& rec) {
   const auto t = Clock::now();
   const auto& q = rec.snake.positions();
   rec.finite = std::all_of(q.begin(), q.end(), [](const Point<D>& p) { return p.allFinite(); });
-  rec.metrics = rec.finite ? compute_metrics(rec.snake, ex.truth) : Metrics{};
+  rec.metrics = rec.finite ? compute_metrics(rec.snake, ex.truth, ex.metrics) : Metrics{};
   const Snake<D> start = Snake<D>::from_template(ex.tmpl, ex.initial);
-  if (ex.output.start_metrics) rec.start_metrics = compute_metrics(start, ex.truth);
+  if (ex.output.start_metrics) rec.start_metrics = compute_metrics(start, ex.truth, ex.metrics);
   rec.metrics_s = seconds_since(t);
   if (rec.finite) rec.pose = pose_json(start, rec.snake, ex.image.grid());
   rec.correspondence = correspondence_error(rec.snake, ex.truth.targets);

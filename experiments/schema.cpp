@@ -207,7 +207,8 @@ json experiment_definition() {
                     {"items", plugin_variants(energy_registry<2>(), energy_registry<3>(), energy_common)}}},
       {"phases", {{"type", "array"}, {"minItems", 1}, {"items", phase_schema()}}},
       {"success", closed_object(options_schema<SuccessCriteria>(), {}, "thresholds of a successful run")},
-      {"output", closed_object(options_schema<OutputOptions>())}};
+      {"output", closed_object(options_schema<OutputOptions>())},
+      {"metrics", closed_object(options_schema<MetricsOptions>(), {}, "how the surface distances are sampled")}};
   return closed_object(props, {"dimension", "image", "template", "field", "energies", "phases"}, "an experiment file");
 }
 
@@ -276,7 +277,8 @@ std::string experiment_reference_markdown() {
   s += "#### type `noise`\n\n" + key_table_markdown(options_rows<NoiseOptions>()) + "\n";
   s += "#### type `perturb`\n\n" + key_table_markdown(options_rows<PerturbOptions>()) + "\n";
   s += "### `success`\n\n" + key_table_markdown(options_rows<SuccessCriteria>()) + "\n";
-  s += "### `output`\n\n" + key_table_markdown(options_rows<OutputOptions>());
+  s += "### `output`\n\n" + key_table_markdown(options_rows<OutputOptions>()) + "\n";
+  s += "### `metrics`\n\n" + key_table_markdown(options_rows<MetricsOptions>());
   return s;
 }
 

@@ -57,33 +57,44 @@ FacetSurface<D> facets_of(SurfaceRef<D> s) {
   return out;
 }
 
-// Samples at the midpoints of ceil(length / h) equal pieces of [a, b], weighted by length.
+// Samples at the midpoints of ceil(length / h) equal pieces of [a, b], weighted by length, in
+// batches of consecutive pieces about `block` long (batched queries, FacetGrid::batch_distances).
 template <int D>
-void sample_segment(const Point<D>& a, const Point<D>& b, double h, Samples<D>& out) {
+void sample_segment(const Point<D>& a, const Point<D>& b, double h, double block, Samples<D>& out) {
   const double len = (b - a).norm();
   const int n = std::max(1, static_cast<int>(std::ceil(len / h)));
-  out.begin_batch();
-  for (int k = 0; k < n; ++k) out.add(a + ((k + 0.5) / n) * (b - a), len / n);
+  const int per_batch = len > 0 ? static_cast<int>(std::clamp(block / (len / n), 1.0, double(n))) : n;
+  for (int k = 0; k < n; ++k) {
+    if (k % per_batch == 0) out.begin_batch();
+    out.add(a + ((k + 0.5) / n) * (b - a), len / n);
+  }
 }
 
 // Splits the triangle into n^2 congruent pieces (n = ceil(longest edge / h)) and samples each
-// piece at its centroid with a weight of area / n^2.
-void sample_triangle(const Point<3>& a, const Point<3>& b, const Point<3>& c, double h, Samples<3>& out) {
+// piece at its centroid with a weight of area / n^2. The pieces come in batches of B x B
+// (in the triangle's (i, j) lattice), each about `block` wide, so that a large triangle's
+// samples are queried as many small, tight batches rather than one loose one.
+void sample_triangle(const Point<3>& a, const Point<3>& b, const Point<3>& c, double h, double block, Samples<3>& out) {
   const Point<3> e0 = b - a, e1 = c - a;
   const double longest = std::max({e0.norm(), e1.norm(), (c - b).norm()});
   const int n = std::max(1, static_cast<int>(std::ceil(longest / h)));
+  const int B = longest > 0 ? static_cast<int>(std::clamp(block / (longest / n), 1.0, double(n))) : n;
   const double w = 0.5 * e0.cross(e1).norm() / (double(n) * n);
-  out.begin_batch();
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; i + j < n; ++j) {
-      out.add(a + ((i + 1.0 / 3) / n) * e0 + ((j + 1.0 / 3) / n) * e1, w);  // upright piece
-      if (i + j + 1 < n) out.add(a + ((i + 2.0 / 3) / n) * e0 + ((j + 2.0 / 3) / n) * e1, w);
+  for (int i0 = 0; i0 < n; i0 += B)
+    for (int j0 = 0; i0 + j0 < n; j0 += B) {
+      out.begin_batch();
+      for (int i = i0; i < std::min(n, i0 + B); ++i)
+        for (int j = j0; j < j0 + B && i + j < n; ++j) {
+          out.add(a + ((i + 1.0 / 3) / n) * e0 + ((j + 1.0 / 3) / n) * e1, w);  // upright piece
+          if (i + j + 1 < n) out.add(a + ((i + 2.0 / 3) / n) * e0 + ((j + 2.0 / 3) / n) * e1, w);
+        }
     }
 }
 
-// Vertices (weight 0: they count for the Hausdorff distance only) and facet samples.
+// Vertices (weight 0: they count for the Hausdorff distance only) and facet samples, batched
+// in blocks about `block` wide.
 template <int D>
-Samples<D> sample_surface(const FacetSurface<D>& s, double h) {
+Samples<D> sample_surface(const FacetSurface<D>& s, double h, double block) {
   Samples<D> out;
   for (const auto& v : s.vertices) {
     out.begin_batch();
@@ -91,26 +102,64 @@ Samples<D> sample_surface(const FacetSurface<D>& s, double h) {
   }
   for (const auto& f : s.facets) {
     if constexpr (D == 2) {
-      sample_segment<2>(s.vertices[f[0]], s.vertices[f[1]], h, out);
+      sample_segment<2>(s.vertices[f[0]], s.vertices[f[1]], h, block, out);
     } else {
-      sample_triangle(s.vertices[f[0]], s.vertices[f[1]], s.vertices[f[2]], h, out);
+      sample_triangle(s.vertices[f[0]], s.vertices[f[1]], s.vertices[f[2]], h, block, out);
     }
   }
   return out;
 }
 
-// A mask's boundary faces as facets, with samples of those faces.
+// A facet's longest edge: sample_segment / sample_triangle cut it into ceil(longest / h) pieces
+// per edge, i.e. n (2D) or n^2 (3D) samples.
+template <int D>
+std::vector<double> longest_edges(const FacetSurface<D>& s) {
+  std::vector<double> out;
+  out.reserve(s.facets.size());
+  for (const auto& f : s.facets) {
+    double longest = 0;
+    for (int k = 0; k < D; ++k) longest = std::max(longest, (s.vertices[f[(k + 1) % D]] - s.vertices[f[k]]).norm());
+    out.push_back(longest);
+  }
+  return out;
+}
+
+// Pieces per edge of a facet whose longest edge is `longest`, at spacing h (as the samplers).
+inline int64_t pieces(double longest, double h) {
+  return std::max<int64_t>(1, static_cast<int64_t>(std::ceil(longest / h)));
+}
+
+// The spacing at which sample_surface(s, .) gives at most max_samples samples (bounded_spacing).
+template <int D>
+double surface_spacing(const FacetSurface<D>& s, double finest, int64_t max_samples) {
+  const std::vector<double> longest = longest_edges(s);
+  const double coarsest = longest.empty() ? finest : std::max(finest, *std::max_element(longest.begin(), longest.end()));
+  return bounded_spacing(finest, coarsest, max_samples, [&](double h) {
+    int64_t n = int64_t(s.vertices.size());
+    for (double l : longest) {
+      const int64_t k = pieces(l, h);
+      n += D == 2 ? k : k * k;
+    }
+    return n;
+  });
+}
+
+// A mask's boundary faces as facets, and per face its lowest corner's vertex and its axis (the
+// face is normal to that axis), from which the samples are made at a chosen spacing.
 template <int D>
 struct MaskBoundary {
   FacetSurface<D> surface;
-  Samples<D> samples;
+  // Per face: its lowest corner's vertex, the next corner along the face, the normal axis, and
+  // the number of vertices once the face was made (the corners it added come just before).
+  std::vector<std::array<int, 4>> faces;
+  std::array<int64_t, D> faces_per_axis{};
 };
 
 // The faces between an inside voxel (non-zero) and an outside one (zero or off the grid), in
 // physical units: segments in 2D, squares split into two triangles in 3D. Face corners sit
-// half a voxel from the centres; each corner becomes one vertex (and a weight-0 sample).
+// half a voxel from the centres; each corner becomes one vertex.
 template <int D>
-MaskBoundary<D> mask_boundary(const Image<D>& mask, double h) {
+MaskBoundary<D> mask_boundary(const Image<D>& mask) {
   const Grid<D>& g = mask.grid();
   MaskBoundary<D> out;
   std::unordered_map<int64_t, int> corner_vertex;
@@ -118,12 +167,8 @@ MaskBoundary<D> mask_boundary(const Image<D>& mask, double h) {
     int64_t key = corner[D - 1];
     for (int a = D - 2; a >= 0; --a) key = key * (g.size[a] + 1) + corner[a];
     auto [it, added] = corner_vertex.try_emplace(key, int(out.surface.vertices.size()));
-    if (added) {
-      const Point<D> x = g.origin + (corner.template cast<double>() - Point<D>::Constant(0.5)).cwiseProduct(g.spacing);
-      out.surface.vertices.push_back(x);
-      out.samples.begin_batch();
-      out.samples.add(x, 0.0);
-    }
+    if (added)
+      out.surface.vertices.push_back(g.origin + (corner.template cast<double>() - Point<D>::Constant(0.5)).cwiseProduct(g.spacing));
     return it->second;
   };
   auto inside = [&](const GridIndex<D>& idx) {
@@ -144,34 +189,72 @@ MaskBoundary<D> mask_boundary(const Image<D>& mask, double h) {
         const int u = (a + 1) % D;
         GridIndex<D> cu = c0;
         ++cu[u];
+        const int i00 = vertex(c0), i10 = vertex(cu);
+        ++out.faces_per_axis[a];
         if constexpr (D == 2) {
-          const int v0 = vertex(c0), v1 = vertex(cu);
-          out.surface.facets.push_back({v0, v1});
-          sample_segment<2>(out.surface.vertices[v0], out.surface.vertices[v1], h, out.samples);
+          out.surface.facets.push_back({i00, i10});
         } else {
           const int v = (a + 2) % 3;
           GridIndex<3> cv = c0, cuv = cu;
           ++cv[v];
           ++cuv[v];
-          const int i00 = vertex(c0), i10 = vertex(cu), i11 = vertex(cuv), i01 = vertex(cv);
+          const int i11 = vertex(cuv), i01 = vertex(cv);
           out.surface.facets.push_back({i00, i10, i11});
           out.surface.facets.push_back({i00, i11, i01});
-          // Sample the square on a regular grid of ceil(side / h) cells per side.
-          const double su = g.spacing[u], sv = g.spacing[v];
-          const int nu = std::max(1, int(std::ceil(su / h))), nv = std::max(1, int(std::ceil(sv / h)));
-          const Point<3> x0 = out.surface.vertices[i00];
-          out.samples.begin_batch();
-          for (int j = 0; j < nv; ++j)
-            for (int i = 0; i < nu; ++i) {
-              Point<3> x = x0;
-              x[u] += (i + 0.5) / nu * su;
-              x[v] += (j + 0.5) / nv * sv;
-              out.samples.add(x, su * sv / (nu * nv));
-            }
         }
+        out.faces.push_back({i00, i10, a, int(out.surface.vertices.size())});
       }
   }
   return out;
+}
+
+// Samples per face normal to `axis` at spacing h: a segment cut into ceil(side / h) pieces (2D),
+// a square into a regular grid of ceil(side / h) cells per side (3D).
+template <int D>
+int64_t face_samples(const Point<D>& spacing, int axis, double h) {
+  if constexpr (D == 2) return pieces(spacing[(axis + 1) % 2], h);
+  return pieces(spacing[(axis + 1) % 3], h) * pieces(spacing[(axis + 2) % 3], h);
+}
+
+// The corners (weight 0) and every face's samples at spacing h: one batch per face, holding
+// the corners that face added and its samples (all within a voxel of each other).
+template <int D>
+Samples<D> sample_mask_boundary(const MaskBoundary<D>& b, const Point<D>& spacing, double h) {
+  Samples<D> out;
+  int corners_done = 0;
+  for (const auto& [corner, next, a, corners_end] : b.faces) {
+    out.begin_batch();
+    for (; corners_done < corners_end; ++corners_done) out.add(b.surface.vertices[corners_done], 0.0);
+    const Point<D>& x0 = b.surface.vertices[corner];
+    const int u = (a + 1) % D;
+    if constexpr (D == 2) {
+      const double len = spacing[u];
+      const int64_t n = pieces(len, h);
+      for (int64_t k = 0; k < n; ++k) out.add(x0 + ((k + 0.5) / n) * (b.surface.vertices[next] - x0), len / n);
+    } else {
+      const int v = (a + 2) % 3;
+      const double su = spacing[u], sv = spacing[v];
+      const int64_t nu = pieces(su, h), nv = pieces(sv, h);
+      for (int64_t j = 0; j < nv; ++j)
+        for (int64_t i = 0; i < nu; ++i) {
+          Point<3> x = x0;
+          x[u] += (i + 0.5) / nu * su;
+          x[v] += (j + 0.5) / nv * sv;
+          out.add(x, su * sv / double(nu * nv));
+        }
+    }
+  }
+  return out;
+}
+
+// The spacing at which sample_mask_boundary gives at most max_samples samples.
+template <int D>
+double mask_spacing(const MaskBoundary<D>& b, const Point<D>& spacing, double finest, int64_t max_samples) {
+  return bounded_spacing(finest, std::max(finest, spacing.maxCoeff()), max_samples, [&](double h) {
+    int64_t n = int64_t(b.surface.vertices.size());
+    for (int a = 0; a < D; ++a) n += b.faces_per_axis[a] * face_samples<D>(spacing, a, h);
+    return n;
+  });
 }
 
 // Exact distance from every sample to the surface behind `grid`, in parallel over batches;
@@ -248,12 +331,18 @@ SurfaceDistances summarize(const Samples<D>& sa, const std::vector<double>& da,
   return r;
 }
 
-// Distances between two sampled facet surfaces, both directions.
+// Distances between two sampled surfaces (their facet grids and samples), both directions.
 template <int D>
-SurfaceDistances distances_between(const FacetSurface<D>& a, const Samples<D>& sa,
-                                   const FacetSurface<D>& b, const Samples<D>& sb) {
-  const FacetGrid<D> grid_a(a), grid_b(b);
+SurfaceDistances distances_between(const FacetGrid<D>& grid_a, const Samples<D>& sa,
+                                   const FacetGrid<D>& grid_b, const Samples<D>& sb) {
   return summarize<D>(sa, nearest_distances(grid_b, sa), sb, nearest_distances(grid_a, sb));
+}
+
+// The width of the sample batches queried against `target`: two of its cells (batches wider
+// than four fall back to one query per point).
+template <int D>
+double batch_block(const FacetGrid<D>& target) {
+  return 2 * target.cell_size();
 }
 
 // Sorted x positions where the row through the voxel centres at `y` (2D) crosses the polygon.
@@ -272,10 +361,11 @@ std::vector<double> row_crossings(const PointList<2>& p, double y) {
 
 // Even-odd fill of one row of voxels from its sorted crossings: inside when an odd number of
 // crossings lies before the voxel centre.
-void fill_row(const std::vector<double>& xs, double x0, double dx, int nx, float* row) {
+// The row holds voxels first .. first + nx - 1 of the grid's row (x0: the grid's origin).
+void fill_row(const std::vector<double>& xs, double x0, double dx, int first, int nx, float* row) {
   size_t k = 0;
   for (int i = 0; i < nx; ++i) {
-    const double x = x0 + i * dx;
+    const double x = x0 + (first + i) * dx;
     while (k < xs.size() && xs[k] < x) ++k;
     row[i] = (k % 2) ? 1.0f : 0.0f;
   }
@@ -311,34 +401,51 @@ bool ray_crossing(const PointList<3>& p, const Triangle& t, double y, double z, 
   return true;
 }
 
-// Rasterisation, 2D: an even-odd scanline per row of voxel centres.
-Image<2> rasterize(SurfaceRef<2> s, const Grid<2>& grid) {
-  Image<2> out(grid);
-  const int nx = grid.size[0], ny = grid.size[1];
+// A box of whole voxels of a grid: the first voxel's index and the voxels per axis.
+template <int D>
+struct VoxelRange {
+  GridIndex<D> lo = GridIndex<D>::Zero(), size = GridIndex<D>::Zero();
+  int64_t num_voxels() const { return size.template cast<int64_t>().prod(); }
+};
+
+// The box's voxels as a grid of their own (the same spacing and direction, origin at lo).
+template <int D>
+Grid<D> sub_grid(const Grid<D>& g, const VoxelRange<D>& box) {
+  Grid<D> sub = g;
+  sub.size = box.size;
+  sub.origin = g.to_physical(box.lo);
+  return sub;
+}
+
+// Rasterisation, 2D: an even-odd scanline per row of voxel centres, over the box's voxels;
+// centres are computed from the whole grid's indices, so a voxel's value does not depend on the box.
+Image<2> rasterize(SurfaceRef<2> s, const Grid<2>& grid, const VoxelRange<2>& box) {
+  Image<2> out(sub_grid(grid, box));
+  const int nx = box.size[0], ny = box.size[1];
 #pragma omp parallel for schedule(dynamic, 4)
   for (int j = 0; j < ny; ++j) {
-    const auto xs = row_crossings(s.points, grid.origin.y() + j * grid.spacing.y());
-    fill_row(xs, grid.origin.x(), grid.spacing.x(), nx, &out[int64_t(j) * nx]);
+    const auto xs = row_crossings(s.points, grid.origin.y() + (box.lo[1] + j) * grid.spacing.y());
+    fill_row(xs, grid.origin.x(), grid.spacing.x(), box.lo[0], nx, &out[int64_t(j) * nx]);
   }
   return out;
 }
 
-// Rasterisation, 3D: a ray along x per (y, z) row of voxel centres, counting crossings with
-// the triangles (bucketed by the z slices they span); even-odd fill.
-Image<3> rasterize(SurfaceRef<3> s, const Grid<3>& grid) {
-  Image<3> out(grid);
-  const int nx = grid.size[0], ny = grid.size[1], nz = grid.size[2];
+// Rasterisation, 3D: a ray along x per (y, z) row of voxel centres of the box, counting
+// crossings with the triangles (bucketed by the z slices they span); even-odd fill.
+Image<3> rasterize(SurfaceRef<3> s, const Grid<3>& grid, const VoxelRange<3>& box) {
+  Image<3> out(sub_grid(grid, box));
+  const int nx = box.size[0], ny = box.size[1], nz = box.size[2];
   const auto& tris = s.connectivity.triangles();
   const auto& p = s.points;
-  std::vector<std::array<int, 2>> slices(tris.size());  // z slice range of each triangle
+  std::vector<std::array<int, 2>> slices(tris.size());  // z slice range of each triangle, in the box
   std::vector<int64_t> offsets(nz + 1, 0);
   for (size_t t = 0; t < tris.size(); ++t) {
     double lo = kInfinity, hi = -kInfinity;
     for (int v : tris[t]) lo = std::min(lo, p[v].z()), hi = std::max(hi, p[v].z());
-    const int k0 = std::max(0, int(std::ceil((lo - grid.origin.z()) / grid.spacing.z())));
-    const int k1 = std::min(nz - 1, int(std::floor((hi - grid.origin.z()) / grid.spacing.z())));
-    slices[t] = {k0, k1};
-    for (int k = k0; k <= k1; ++k) ++offsets[k + 1];
+    const double k0 = std::max(double(box.lo[2]), std::ceil((lo - grid.origin.z()) / grid.spacing.z()));
+    const double k1 = std::min(double(box.lo[2] + nz - 1), std::floor((hi - grid.origin.z()) / grid.spacing.z()));
+    slices[t] = k0 <= k1 ? std::array<int, 2>{int(k0) - box.lo[2], int(k1) - box.lo[2]} : std::array<int, 2>{0, -1};
+    for (int k = slices[t][0]; k <= slices[t][1]; ++k) ++offsets[k + 1];
   }
   for (int k = 0; k < nz; ++k) offsets[k + 1] += offsets[k];
   std::vector<int> in_slice(offsets[nz]);
@@ -349,7 +456,8 @@ Image<3> rasterize(SurfaceRef<3> s, const Grid<3>& grid) {
 #pragma omp parallel for schedule(dynamic, 8)
   for (int64_t row = 0; row < int64_t(ny) * nz; ++row) {
     const int j = int(row % ny), k = int(row / ny);
-    const double y = grid.origin.y() + j * grid.spacing.y(), z = grid.origin.z() + k * grid.spacing.z();
+    const double y = grid.origin.y() + (box.lo[1] + j) * grid.spacing.y();
+    const double z = grid.origin.z() + (box.lo[2] + k) * grid.spacing.z();
     std::vector<double> xs;
     for (int64_t q = offsets[k]; q < offsets[k + 1]; ++q) {
       const Triangle& t = tris[in_slice[q]];
@@ -360,9 +468,57 @@ Image<3> rasterize(SurfaceRef<3> s, const Grid<3>& grid) {
       if (ray_crossing(p, t, y, z, x)) xs.push_back(x);
     }
     std::sort(xs.begin(), xs.end());
-    fill_row(xs, grid.origin.x(), grid.spacing.x(), nx, &out[row * nx]);
+    fill_row(xs, grid.origin.x(), grid.spacing.x(), box.lo[0], nx, &out[row * nx]);
   }
   return out;
+}
+
+// The voxels whose centres lie in the points' bounding box, widened by one voxel and clamped
+// to the grid (empty when the box misses the grid): every voxel whose centre is inside the
+// closed surface of these points.
+template <int D>
+VoxelRange<D> voxels_around(const PointList<D>& points, const Grid<D>& g) {
+  VoxelRange<D> r;
+  if (points.empty()) return r;
+  Point<D> lo = points[0], hi = points[0];
+  for (const auto& p : points) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  for (int a = 0; a < D; ++a) {
+    const double i0 = std::floor((lo[a] - g.origin[a]) / g.spacing[a]) - 1;
+    const double i1 = std::ceil((hi[a] - g.origin[a]) / g.spacing[a]) + 1;
+    const double first = std::max(0.0, i0), last = std::min(double(g.size[a] - 1), i1);
+    if (!(first <= last)) return VoxelRange<D>{};
+    r.lo[a] = int(first);
+    r.size[a] = int(last - first) + 1;
+  }
+  return r;
+}
+
+// The box of the mask's non-zero voxels (empty when there are none).
+template <int D>
+VoxelRange<D> nonzero_voxels(const Image<D>& mask) {
+  const Grid<D>& g = mask.grid();
+  GridIndex<D> lo = g.size, hi = GridIndex<D>::Constant(-1);
+  for (int64_t l = 0; l < g.num_voxels(); ++l) {
+    if (mask[l] == 0.0f) continue;
+    const GridIndex<D> idx = g.index(l);
+    lo = lo.cwiseMin(idx), hi = hi.cwiseMax(idx);
+  }
+  VoxelRange<D> r;
+  if (hi[0] < 0) return r;
+  r.lo = lo;
+  r.size = hi - lo + GridIndex<D>::Ones();
+  return r;
+}
+
+// The smallest box holding two boxes (an empty box holds nothing).
+template <int D>
+VoxelRange<D> union_of(const VoxelRange<D>& a, const VoxelRange<D>& b) {
+  if (a.num_voxels() == 0) return b;
+  if (b.num_voxels() == 0) return a;
+  VoxelRange<D> r;
+  r.lo = a.lo.cwiseMin(b.lo);
+  r.size = (a.lo + a.size).cwiseMax(b.lo + b.size) - r.lo;
+  return r;
 }
 
 // Whether facets f and g of a surface share a vertex.
@@ -386,26 +542,70 @@ std::vector<double> distances_to_surface(SurfaceRef<D> s, const PointList<D>& po
   return nearest_distances(FacetGrid<D>(facets_of(s)), batch);
 }
 
-template <int D>
-SurfaceDistances surface_distances(SurfaceRef<D> a, SurfaceRef<D> b, double sample_spacing) {
-  DSNAKE_ASSERT(sample_spacing > 0, "sample spacing is positive");
-  const FacetSurface<D> fa = facets_of(a), fb = facets_of(b);
-  return distances_between(fa, sample_surface(fa, sample_spacing), fb, sample_surface(fb, sample_spacing));
+double bounded_spacing(double finest, double coarsest, int64_t max_samples,
+                       const std::function<int64_t(double)>& count) {
+  DSNAKE_ASSERT(finest > 0 && coarsest >= finest, "0 < finest <= coarsest");
+  if (count(finest) <= max_samples) return finest;
+  if (count(coarsest) > max_samples) return coarsest;
+  double lo = finest, hi = coarsest;  // count(lo) > max_samples >= count(hi)
+  while (hi > lo * (1 + 1e-3)) {
+    const double mid = std::sqrt(lo * hi);
+    (count(mid) <= max_samples ? hi : lo) = mid;
+  }
+  return hi;
 }
 
 template <int D>
-SurfaceDistances surface_distances_to_mask(SurfaceRef<D> a, const Image<D>& mask, double sample_spacing) {
+SurfaceDistances surface_distances(SurfaceRef<D> a, SurfaceRef<D> b, double sample_spacing, int64_t max_samples) {
+  DSNAKE_ASSERT(sample_spacing > 0, "sample spacing is positive");
+  const FacetSurface<D> fa = facets_of(a), fb = facets_of(b);
+  const FacetGrid<D> ga(fa), gb(fb);
+  return distances_between(ga, sample_surface(fa, surface_spacing(fa, sample_spacing, max_samples), batch_block(gb)),
+                           gb, sample_surface(fb, surface_spacing(fb, sample_spacing, max_samples), batch_block(ga)));
+}
+
+template <int D>
+SurfaceDistances surface_distances_to_mask(SurfaceRef<D> a, const Image<D>& mask, double sample_spacing,
+                                           int64_t max_samples) {
   DSNAKE_ASSERT(sample_spacing > 0, "sample spacing is positive");
   const FacetSurface<D> fa = facets_of(a);
-  const MaskBoundary<D> boundary = mask_boundary(mask, sample_spacing);
-  return distances_between(fa, sample_surface(fa, sample_spacing), boundary.surface, boundary.samples);
+  const MaskBoundary<D> boundary = mask_boundary(mask);
+  const Point<D>& spacing = mask.spacing();
+  const Samples<D> sb = sample_mask_boundary(boundary, spacing, mask_spacing(boundary, spacing, sample_spacing, max_samples));
+  const FacetGrid<D> ga(fa), gb(boundary.surface);
+  return distances_between(ga, sample_surface(fa, surface_spacing(fa, sample_spacing, max_samples), batch_block(gb)),
+                           gb, sb);
 }
 
 template <int D>
 Image<D> rasterize_interior(SurfaceRef<D> s, const Grid<D>& grid) {
   DSNAKE_ASSERT(int(s.points.size()) == s.connectivity.num_vertices(), "one position per vertex");
   DSNAKE_ASSERT(s.connectivity.is_polygon() == (D == 2), "polygon in 2D, mesh in 3D");
-  return rasterize(s, grid);
+  return rasterize(s, grid, VoxelRange<D>{GridIndex<D>::Zero(), grid.size});
+}
+
+template <int D>
+double dice_against_mask(SurfaceRef<D> s, const Image<D>& mask) {
+  DSNAKE_ASSERT(int(s.points.size()) == s.connectivity.num_vertices(), "one position per vertex");
+  DSNAKE_ASSERT(s.connectivity.is_polygon() == (D == 2), "polygon in 2D, mesh in 3D");
+  const Grid<D>& g = mask.grid();
+  const VoxelRange<D> truth = nonzero_voxels(mask), box = union_of(truth, voxels_around(s.points, g));
+  int64_t in_mask = 0, in_snake = 0, both = 0;
+  for (int64_t l = 0; l < mask.num_voxels(); ++l) in_mask += mask[l] != 0.0f;
+  if (box.num_voxels() > 0) {
+    const Image<D> inside = rasterize(s, g, box);
+    const Grid<D>& sub = inside.grid();
+    const int nx = box.size[0];
+    for (int64_t row = 0; row < inside.num_voxels(); row += nx) {  // a row of the box along x
+      const float* in_row = inside.data().data() + row;
+      const float* mask_row = mask.data().data() + g.linear(sub.index(row) + box.lo);
+      for (int i = 0; i < nx; ++i) {
+        in_snake += in_row[i] != 0.0f;
+        both += in_row[i] != 0.0f && mask_row[i] != 0.0f;
+      }
+    }
+  }
+  return in_mask + in_snake == 0 ? 1.0 : 2.0 * double(both) / double(in_mask + in_snake);
 }
 
 template <int D>
@@ -473,26 +673,27 @@ int count_self_intersections(SurfaceRef<D> s) {
 }
 
 template <int D>
-Metrics compute_metrics(const Snake<D>& snake, const GroundTruth<D>& truth, double sample_spacing) {
+Metrics compute_metrics(const Snake<D>& snake, const GroundTruth<D>& truth, const MetricsOptions& options) {
   Metrics m;
   const SurfaceRef<D> shape{snake.positions(), snake.connectivity()};
   const bool has_inside = truth.mask && std::any_of(truth.mask->data().begin(), truth.mask->data().end(),
                                                     [](float v) { return v != 0.0f; });
-  double h = sample_spacing;
+  double h = options.sample_spacing;
   if (!(h > 0)) h = truth.mask ? truth.mask->spacing().minCoeff() / 5.0 : 0.2;
+  const int64_t cap = options.max_samples;
 
   std::optional<SurfaceDistances> sd;
   if (truth.surface) {
-    sd = surface_distances<D>(shape, {truth.surface->positions, truth.surface->connectivity}, h);
+    sd = surface_distances<D>(shape, {truth.surface->positions, truth.surface->connectivity}, h, cap);
   } else if (has_inside) {
-    sd = surface_distances_to_mask<D>(shape, *truth.mask, h);
+    sd = surface_distances_to_mask<D>(shape, *truth.mask, h, cap);
   }
   if (sd && std::isfinite(sd->hausdorff)) {
     m.mean_surface_distance = sd->mean;
     m.hausdorff95 = sd->hausdorff95;
     m.hausdorff = sd->hausdorff;
   }
-  if (truth.mask) m.dice = dice<D>(rasterize_interior<D>(shape, truth.mask->grid()), *truth.mask);
+  if (truth.mask) m.dice = dice_against_mask<D>(shape, *truth.mask);
   if (std::any_of(truth.targets.begin(), truth.targets.end(), [](const auto& t) { return t.has_value(); })) {
     const CorrespondenceError ce = correspondence_error<D>(snake, truth.targets);
     if (ce.count > 0) {
@@ -506,14 +707,15 @@ Metrics compute_metrics(const Snake<D>& snake, const GroundTruth<D>& truth, doub
 
 #define DSNAKE_INSTANTIATE_METRICS(D)                                                            \
   template std::vector<double> distances_to_surface<D>(SurfaceRef<D>, const PointList<D>&);      \
-  template SurfaceDistances surface_distances<D>(SurfaceRef<D>, SurfaceRef<D>, double);          \
-  template SurfaceDistances surface_distances_to_mask<D>(SurfaceRef<D>, const Image<D>&, double); \
+  template SurfaceDistances surface_distances<D>(SurfaceRef<D>, SurfaceRef<D>, double, int64_t);          \
+  template SurfaceDistances surface_distances_to_mask<D>(SurfaceRef<D>, const Image<D>&, double, int64_t); \
   template Image<D> rasterize_interior<D>(SurfaceRef<D>, const Grid<D>&);                        \
+  template double dice_against_mask<D>(SurfaceRef<D>, const Image<D>&);                          \
   template double dice<D>(const Image<D>&, const Image<D>&);                                     \
   template CorrespondenceError correspondence_error<D>(const Snake<D>&,                          \
                                                        const std::vector<std::optional<Point<D>>>&); \
   template int count_self_intersections<D>(SurfaceRef<D>);                                       \
-  template Metrics compute_metrics<D>(const Snake<D>&, const GroundTruth<D>&, double);
+  template Metrics compute_metrics<D>(const Snake<D>&, const GroundTruth<D>&, const MetricsOptions&);
 
 DSNAKE_INSTANTIATE_METRICS(2)
 DSNAKE_INSTANTIATE_METRICS(3)

@@ -8,8 +8,11 @@
 #pragma once
 
 #include "framework/core/image.h"
+#include "framework/core/options.h"
 #include "framework/core/shape.h"
 
+#include <cstdint>
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -35,9 +38,11 @@ struct SurfaceDistances {
 };
 
 // Distances between two closed surfaces, sampled every `sample_spacing` (physical units) or
-// finer; exact point-to-segment / point-to-triangle distances.
+// finer, each surface at most `max_samples` times (then coarser); exact point-to-segment /
+// point-to-triangle distances.
 template <int D>
-SurfaceDistances surface_distances(SurfaceRef<D> a, SurfaceRef<D> b, double sample_spacing);
+SurfaceDistances surface_distances(SurfaceRef<D> a, SurfaceRef<D> b, double sample_spacing,
+                                   int64_t max_samples = INT64_MAX);
 
 // Exact distance from each point to the closed surface s (uniform-grid accelerated); the
 // building block of surface_distances, exposed for tests and tools.
@@ -47,7 +52,8 @@ std::vector<double> distances_to_surface(SurfaceRef<D> s, const PointList<D>& po
 // Distances between a surface and the boundary of a mask (the faces between inside and
 // outside voxels), for when the ground truth has a mask and no surface.
 template <int D>
-SurfaceDistances surface_distances_to_mask(SurfaceRef<D> a, const Image<D>& mask, double sample_spacing);
+SurfaceDistances surface_distances_to_mask(SurfaceRef<D> a, const Image<D>& mask, double sample_spacing,
+                                           int64_t max_samples = INT64_MAX);
 
 // 1 at voxel centres inside the closed surface, 0 outside, on `grid`.
 template <int D>
@@ -69,15 +75,48 @@ CorrespondenceError correspondence_error(const Snake<D>& snake,
 template <int D>
 int count_self_intersections(SurfaceRef<D> s);
 
+// "metrics": how finely the surfaces are sampled for the surface distances (issue 21: a cost
+// bounded by a count, whatever the grid's size or the mesh's state). Each surface is sampled
+// every `sample_spacing` mm, or more coarsely where that would give it more than `max_samples`
+// samples: its spacing then grows to the smallest that fits. Dice is exact (the interior is
+// rasterised on the box of the mask's and the snake's voxels only).
+struct MetricsOptions {
+  double sample_spacing = 0;  // mm; 0: a fifth of the mask's smallest voxel (0.2 mm without a mask)
+  int max_samples = 1000000;  // per surface
+
+  template <class V>
+  void visit(V& v) {
+    v(sample_spacing, Key{"sample_spacing", "mm",
+                          "the finest spacing of the surface samples of the distances (0: a fifth of the ground-truth "
+                          "mask's smallest voxel, 0.2 mm without a mask)",
+                          Range::at_least(0)});
+    v(max_samples, Key{"max_samples", "samples",
+                       "the most samples per surface: a surface that would have more at sample_spacing is sampled "
+                       "more coarsely (bounds the metrics' time and memory on large grids and runaway meshes)",
+                       Range::closed(1000, 1e9)});
+  }
+};
+
 struct Metrics {
   std::optional<double> mean_surface_distance, hausdorff95, hausdorff, dice;
   std::optional<double> correspondence_error_mean, correspondence_error_max;
   int self_intersections = 0;
 };
 
-// All metrics the ground truth allows (absent ones stay empty). sample_spacing defaults to a
-// fifth of the smallest voxel size of the mask when there is one, else 0.2.
+// The spacing at which a surface is sampled: `finest`, or the smallest larger spacing at which
+// count(spacing) <= max_samples (count is non-increasing; bisection to 1e-3 relative), or
+// `coarsest`, the spacing at which every facet is down to one sample (count no longer falls
+// beyond it), when even that is too many.
+double bounded_spacing(double finest, double coarsest, int64_t max_samples,
+                       const std::function<int64_t(double)>& count);
+
+// Dice of the snake's interior against the mask, exactly as dice(rasterize_interior(s, grid),
+// mask), computed on the box of voxels that holds both (cost follows the object, not the grid).
 template <int D>
-Metrics compute_metrics(const Snake<D>& snake, const GroundTruth<D>& truth, double sample_spacing = 0);
+double dice_against_mask(SurfaceRef<D> s, const Image<D>& mask);
+
+// All metrics the ground truth allows (absent ones stay empty), sampled as `options` say.
+template <int D>
+Metrics compute_metrics(const Snake<D>& snake, const GroundTruth<D>& truth, const MetricsOptions& options = {});
 
 }  // namespace dsnake

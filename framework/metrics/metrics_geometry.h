@@ -58,6 +58,7 @@ class FacetGrid {
   Scratch make_scratch() const;
 
   int num_facets() const { return static_cast<int>(prepared_.size()); }
+  double cell_size() const { return cell_; }  // physical units
 
   // Exact distance from p (anywhere, inside the grid or not) to the nearest facet: rings of
   // cells around p's cell, skipping cells and facets whose box is farther than the best

@@ -416,3 +416,35 @@ TEST(Metrics, OffsetSpheresHaveBoundedDistances) {
 
 }  // namespace
 }  // namespace dsnake
+
+namespace dsnake {
+namespace {
+
+// Issue 21: Dice on the box of the two objects' voxels equals Dice on the whole grid, for a
+// shape inside, across the border of and outside the grid.
+TEST(MetricsBoundedCost, DiceOnTheObjectsBoxEqualsDiceOnTheWholeGrid) {
+  const auto grid = make_grid<2>({60, 50}, {0.7, 1.3}, {-3, 2});
+  const Image<2> truth = rasterize_interior<2>(circle(90, 9, Point<2>(15, 30)).ref(), grid);
+  for (const Point<2>& c : {Point<2>(17, 31), Point<2>(-4, 20), Point<2>(200, 200)}) {
+    const Shape2 s = circle(70, 8, c);
+    EXPECT_EQ(dice_against_mask<2>(s.ref(), truth), dice<2>(rasterize_interior<2>(s.ref(), grid), truth)) << c.transpose();
+  }
+}
+
+// The sample cap: the spacing grows only when the count at the finest exceeds the cap, and then
+// to the smallest spacing (within 1e-3) that fits; the distances of two circles 2 apart stay 2.
+TEST(MetricsBoundedCost, TheSampleCapCoarsensTheSpacingJustEnough) {
+  auto count = [](double h) { return int64_t(std::ceil(100.0 / h)); };
+  EXPECT_EQ(bounded_spacing(0.1, 100.0, 2000, count), 0.1);
+  const double h = bounded_spacing(0.1, 100.0, 500, count);
+  EXPECT_LE(count(h), 500);
+  EXPECT_GT(count(h / 1.002), 500);
+  EXPECT_EQ(bounded_spacing(0.1, 1.0, 10, count), 1.0);  // even one sample per facet is too many
+  const Shape2 inner = circle(400, 10), outer = circle(400, 12);
+  const SurfaceDistances capped = surface_distances<2>(inner.ref(), outer.ref(), 0.01, 2000);
+  EXPECT_NEAR(capped.mean, 2.0, 1e-3);
+  EXPECT_NEAR(capped.hausdorff, 2.0, 1e-3);
+}
+
+}  // namespace
+}  // namespace dsnake

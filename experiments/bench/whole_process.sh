@@ -1,0 +1,96 @@
+#!/bin/bash
+# Whole-process figures (issue 21): each case runs REPEATS times (default 5) under /usr/bin/time -v
+# and prints the median wall time (s) and the median peak resident memory (MB), with the
+# figure the in-process benchmark or result.json gives for the same work beside it.
+#
+# Cases (all by default; name some to run only those):
+#   field         dsnake field, converged multigrid GVF on the 230 x 300 x 80 ellipsoid of the
+#                 in-process benchmark (BM_GvfMultigridConverged3d), 1 thread
+#   lung_j1       experiments/paper/lung_dsnake.json end to end, 1 thread
+#   lung_j2       the same, 2 threads
+#   lung_busy_j1  the same, 1 thread, while another process keeps one core busy
+#   lung_busy_j2  the same, 2 threads, while another process keeps one core busy
+#   ct            experiments/bench/ct_lung.json: a 512 x 512 x 300 lung phantom, a 506-vertex
+#                 template refined to about 7000 vertices, 2 threads
+#   liver_metrics the liver case's recipe (experiments/real/liver) with 0 iterations: the metrics
+#                 of its 300-vertex template on the 25.5 M-voxel truth (needs data/real/liver,
+#                 from experiments/real/make_3d_inputs.py); result.json's metrics_s beside
+#   collapsed_metrics  the same template shrunk 100 times about its centroid
+#
+# Usage: experiments/bench/whole_process.sh [CASE ...]    (env: REPEATS, DSNAKE, WORK)
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+DSNAKE=${DSNAKE:-build/release/experiments/dsnake}
+REPEATS=${REPEATS:-5}
+WORK=${WORK:-/tmp/dsnake-whole-process}
+mkdir -p "$WORK"
+[ -f "$WORK/ellipsoid.mha" ] || /usr/bin/python3 experiments/bench/make_volumes.py "$WORK"
+
+HOG=""
+start_hog() { (while :; do :; done) & HOG=$!; }
+stop_hog() { [ -n "$HOG" ] && kill "$HOG" 2>/dev/null && wait "$HOG" 2>/dev/null; HOG=""; return 0; }
+trap stop_hog EXIT
+
+# measure NAME INPROCESS_NOTE COMMAND...: REPEATS runs, medians of wall time and peak RSS.
+measure() {
+  local name=$1 note=$2
+  shift 2
+  local times=()
+  for i in $(seq "$REPEATS"); do
+    rm -rf "$WORK/out"
+    if ! /usr/bin/time -v -o "$WORK/time.txt" "$@" > "$WORK/stdout.txt" 2> "$WORK/stderr.txt"; then
+      echo "whole_process: $name failed:" >&2
+      tail -5 "$WORK/stderr.txt" >&2
+      exit 1
+    fi
+    times+=("$(awk -F': ' '/Elapsed \(wall clock\)/ {n = split($2, t, ":"); s = 0; for (i = 1; i <= n; ++i) s = s * 60 + t[i]; w = s}
+                             /Maximum resident set size/ {m = $2} END {print w, m}' "$WORK/time.txt")")
+  done
+  printf '%s\n' "${times[@]}" | /usr/bin/python3 -c '
+import statistics, sys
+rows = [tuple(map(float, l.split())) for l in sys.stdin if l.strip()]
+name, note = sys.argv[1], sys.argv[2]
+wall = statistics.median(r[0] for r in rows)
+rss = statistics.median(r[1] for r in rows) / 1024
+print(f"{name:18s} wall {wall:7.2f} s (min {min(r[0] for r in rows):6.2f})  peak {rss:7.0f} MB  n={len(rows)}  {note}")
+' "$name" "$note"
+}
+
+# The in-process time of a result.json entry of the last run (timings.KEY, seconds).
+timing() { /usr/bin/python3 -c 'import json,sys; print("%.2f" % json.load(open(sys.argv[1]))["timings"][sys.argv[2]])' "$WORK/out/result.json" "$1"; }
+
+run_case() {
+  case $1 in
+    field)
+      local bench
+      bench=$(build/release/experiments/bench/bench_fields --benchmark_filter='BM_GvfMultigridConverged3d/1$' \
+                --benchmark_repetitions=3 --benchmark_report_aggregates_only=true --benchmark_format=csv 2>/dev/null |
+              awk -F, '/_median/ {printf "%.2f", $3 / 1000}')
+      measure field "in-process solve ${bench} s (BM_GvfMultigridConverged3d, 1 thread, median of 3); $(( 230 * 300 * 80 )) voxels" \
+        "$DSNAKE" field --image "$WORK/ellipsoid.mha" --type gvf --out "$WORK/gvf.mha" -j 1 ;;
+    lung_j1) measure lung_j1 "" "$DSNAKE" run experiments/paper/lung_dsnake.json --out "$WORK/out" -j 1 --quiet ;;
+    lung_j2) measure lung_j2 "" "$DSNAKE" run experiments/paper/lung_dsnake.json --out "$WORK/out" -j 2 --quiet ;;
+    lung_busy_j1)
+      start_hog; measure lung_busy_j1 "one core busy" "$DSNAKE" run experiments/paper/lung_dsnake.json --out "$WORK/out" -j 1 --quiet; stop_hog ;;
+    lung_busy_j2)
+      start_hog; measure lung_busy_j2 "one core busy" "$DSNAKE" run experiments/paper/lung_dsnake.json --out "$WORK/out" -j 2 --quiet; stop_hog ;;
+    ct) measure ct "" "$DSNAKE" run experiments/bench/ct_lung.json --out "$WORK/out" -j 2 --quiet
+        echo "                   last run: $(/usr/bin/python3 -c 'import json,sys; r=json.load(open(sys.argv[1])); print("vertices", r["vertices"], "timings", {k: round(v, 2) for k, v in r["timings"].items()})' "$WORK/out/result.json")" ;;
+    liver_metrics|collapsed_metrics)
+      if [ ! -f data/real/liver/truth.mha ]; then echo "$1: skipped: data/real/liver missing (experiments/real/make_3d_inputs.py)"; return; fi
+      local scale=1
+      [ "$1" = collapsed_metrics ] && scale=0.01
+      measure "$1" "" "$DSNAKE" run experiments/real/recipe_3d.json --out "$WORK/out" --quiet \
+        --set image.file=$PWD/data/real/liver/image.mha --set template.file=$PWD/data/real/liver/template.off \
+        --set ground_truth.mask=$PWD/data/real/liver/truth.mha --set phases[0].iterations=0 --set phases[1].iterations=0 \
+        --set template.transform.scale=$scale --set output.figures=false --set output.result_mask=false \
+        --field-cache "$WORK/cache"
+      echo "                   last run: metrics $(timing metrics_s) s in-process" ;;
+    *) echo "whole_process: unknown case $1" >&2; exit 2 ;;
+  esac
+}
+
+CASES=("$@")
+[ ${#CASES[@]} -gt 0 ] || CASES=(field lung_j1 lung_j2 lung_busy_j1 lung_busy_j2 ct liver_metrics collapsed_metrics)
+echo "whole_process: $(nproc) cores, REPEATS=$REPEATS, $($DSNAKE --version 2>/dev/null | head -1)"
+for c in "${CASES[@]}"; do run_case "$c"; done
