@@ -73,7 +73,7 @@ void write_field_png(const Image<2>& image, const VectorField<2>& field, const s
     }
   const int step = std::max(1, std::max(g.size[0], g.size[1]) / kArrowsAlongLongSide);
   double f_max = 0;
-  for (const auto& v : field.data()) f_max = std::max(f_max, v.norm());
+  for (int64_t l = 0; l < field.num_voxels(); ++l) f_max = std::max(f_max, field[l].norm());
   if (f_max > 0) {
     const double step_px = step * std::min(px[0], px[1]);
     for (int j = step / 2; j < g.size[1]; j += step)

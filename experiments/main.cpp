@@ -29,8 +29,10 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <omp.h>
+#include <unistd.h>
 
 namespace {
 
@@ -193,7 +195,7 @@ void add_sweep_and_schema(CLI::App& app, CommandLine& c) {
   c.sweep_cmd->add_option("sweep", c.sweep_file, "Sweep file (JSON; format in experiments/sweep.h)")->required();
   c.sweep_cmd->add_option("--out,-o", o.out_dir, "Output folder (runs/, results.csv, breakdown.csv; default out/<sweep file name>)");
   c.sweep_cmd->add_option("--jobs,-j", o.jobs, "Runs at once (child processes; default 1)")->check(CLI::Range(1, 1024));
-  c.sweep_cmd->add_option("--threads", o.threads, "OpenMP threads per run (default: 1 with -j > 1, else all)")
+  c.sweep_cmd->add_option("--threads", o.threads, "OpenMP threads per run (default: the cores shared evenly among the -j jobs, at least 1)")
       ->check(CLI::Range(1, 1024));
   auto* manifest_opt =
       c.sweep_cmd
@@ -226,9 +228,23 @@ int dispatch(const CommandLine& c) {
   return validate(c.validate_config, c.validate_overrides);
 }
 
+// OpenMP threads that wait without spinning (issue 21). libgomp's threads spin for a while at
+// every barrier before they sleep; when another process holds a core, a spinning thread takes
+// the time its descheduled partner needs, and two threads run slower than one. libgomp reads
+// its wait policy from the environment once, when it loads, so a process started without one
+// sets OMP_WAIT_POLICY=PASSIVE and executes itself again (a few milliseconds). A policy or spin
+// count the user set (OMP_WAIT_POLICY, GOMP_SPINCOUNT) is kept. If the exec fails, the run goes
+// on with the default policy.
+void exec_with_passive_openmp_wait(char** argv) {
+  if (std::getenv("OMP_WAIT_POLICY") != nullptr || std::getenv("GOMP_SPINCOUNT") != nullptr) return;
+  if (setenv("OMP_WAIT_POLICY", "PASSIVE", 1) != 0) return;
+  execv("/proc/self/exe", argv);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  exec_with_passive_openmp_wait(argv);
   CLI::App app{"dsnake: register a template shape to an image or a volume with snake forces "
                "(D-Snake, Levi & Gotsman)"};
   app.require_subcommand(1);

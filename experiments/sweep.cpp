@@ -7,6 +7,8 @@
 #include "framework/core/errors.h"
 #include "framework/core/json_reader.h"
 
+#include <sched.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
@@ -637,6 +639,16 @@ void run_children(const Sweep& sweep, const SweepOptions& o, const fs::path& out
   }
 }
 
+// OpenMP threads for each of `jobs` concurrent runs (issue 21): the cores this process may use
+// (its CPU affinity, so taskset and cgroup cpusets count), shared evenly, at least one; 0 (the
+// OpenMP default, every core) for a single job.
+int threads_per_job(int jobs) {
+  if (jobs <= 1) return 0;
+  cpu_set_t set;
+  const int cores = sched_getaffinity(0, sizeof(set), &set) == 0 ? CPU_COUNT(&set) : 1;
+  return std::max(1, cores / jobs);
+}
+
 }  // namespace
 
 SweepSummary run_sweep(const Sweep& sweep, const SweepOptions& o) {
@@ -660,7 +672,7 @@ SweepSummary run_sweep(const Sweep& sweep, const SweepOptions& o) {
     return summary;
   }
 
-  const int threads = o.threads > 0 ? o.threads : (o.jobs > 1 ? 1 : 0);
+  const int threads = o.threads > 0 ? o.threads : threads_per_job(o.jobs);
   if (!o.quiet)
     std::fprintf(stderr, "dsnake sweep: %d runs, %d finished already (skipped), running %zu with -j %d%s\n",
                  summary.total, summary.skipped, pending.size(), o.jobs,

@@ -74,7 +74,7 @@ struct SweepOptions {
   std::string out_dir;
   std::string executable;        // the dsnake binary run for each run (absolute path)
   int jobs = 1;                  // runs at once
-  int threads = 0;               // OpenMP threads per run; 0: 1 when jobs > 1, else the default
+  int threads = 0;               // OpenMP threads per run; 0: the cores shared evenly among the jobs (at least 1)
   std::string manifest;          // "", "parallel" or "slurm": write the runs, run nothing
   bool aggregate_only = false;   // only rebuild results.csv and breakdown.csv
   bool quiet = false;            // no progress lines on stderr

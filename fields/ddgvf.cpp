@@ -79,7 +79,7 @@ void DdgvfField<D>::compute(const Image<D>& image) {
     if (e) std::rethrow_exception(e);
 #pragma omp parallel for schedule(static)
   for (int64_t l = 0; l < n; ++l)
-    for (int a = 0; a < D; ++a) vectors_[l][a] = double(components_[a][0][l]) + components_[a][1][l];
+    for (int a = 0; a < D; ++a) vectors_.at(l)[a] = float(double(components_[a][0][l]) + components_[a][1][l]);
 }
 
 template <int D>
@@ -98,7 +98,7 @@ Point<D> DdgvfField<D>::force(const Point<D>& x, const Point<D>& normal) const {
 
 template <int D>
 std::string DdgvfField<D>::save_state() const {
-  StateWriter w("dsnake-ddgvf-1");
+  StateWriter w("dsnake-ddgvf-2");
   w.grid(vectors_.grid());
   for (const auto& axis : components_)
     for (const auto& c : axis) w.array(c.data());
@@ -107,7 +107,7 @@ std::string DdgvfField<D>::save_state() const {
 
 template <int D>
 bool DdgvfField<D>::load_state(const Grid<D>& grid, const std::string& bytes) {
-  StateReader r(bytes, "dsnake-ddgvf-1");
+  StateReader r(bytes, "dsnake-ddgvf-2");
   if (!r.grid(grid)) return false;
   std::array<std::array<Image<D>, 2>, D> comps;
   for (auto& axis : comps)
@@ -121,7 +121,7 @@ bool DdgvfField<D>::load_state(const Grid<D>& grid, const std::string& bytes) {
   components_ = std::move(comps);
   vectors_ = VectorField<D>(grid);
   for (int64_t l = 0; l < grid.num_voxels(); ++l)
-    for (int a = 0; a < D; ++a) vectors_[l][a] = double(components_[a][0][l]) + components_[a][1][l];
+    for (int a = 0; a < D; ++a) vectors_.at(l)[a] = float(double(components_[a][0][l]) + components_[a][1][l]);
   return true;
 }
 

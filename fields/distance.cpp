@@ -93,7 +93,7 @@ void DistanceField<D>::compute(const Image<D>& image) {
 #pragma omp parallel for schedule(static)
   for (int64_t l = 0; l < n; ++l) {
     distance_[l] = static_cast<float>(d[l]);
-    for (int a = 0; a < D; ++a) vectors_[l][a] = -partial_derivative(grid, d, l, a);
+    for (int a = 0; a < D; ++a) vectors_.at(l)[a] = float(-partial_derivative(grid, d, l, a));
   }
 }
 
@@ -111,7 +111,7 @@ double DistanceField<D>::potential(const Point<D>& x) const {
 
 template <int D>
 std::string DistanceField<D>::save_state() const {
-  StateWriter w("dsnake-distance-1");
+  StateWriter w("dsnake-distance-2");
   w.grid(vectors_.grid());
   w.array(distance_.data());
   w.vectors(vectors_);
@@ -120,7 +120,7 @@ std::string DistanceField<D>::save_state() const {
 
 template <int D>
 bool DistanceField<D>::load_state(const Grid<D>& grid, const std::string& bytes) {
-  StateReader r(bytes, "dsnake-distance-1");
+  StateReader r(bytes, "dsnake-distance-2");
   if (!r.grid(grid)) return false;
   std::vector<float> d = r.array<float>();
   VectorField<D> v = r.vectors(grid);

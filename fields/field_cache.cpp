@@ -3,6 +3,8 @@
 
 #include "framework/core/atomic_file.h"
 
+#include <zlib.h>
+
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -45,15 +47,68 @@ struct Hash128 {
   }
 };
 
+// A deflated entry: this tag, the inflated size (8 bytes), then zlib's stream of the state's
+// bytes shuffled by 4: byte k of every 4-byte word together (k = 0..3). The state is mostly
+// float arrays; their sign-and-exponent bytes, side by side, are what deflate can shrink.
+constexpr char kDeflatedTag[] = "dsnake-deflated-1";
+constexpr size_t kDeflatedTagSize = sizeof(kDeflatedTag) - 1;
+
+// Byte k of word w goes to k * words + w (the tail of fewer than 4 bytes stays in place), or
+// back with `inverse`.
+std::string shuffled(const std::string& in, bool inverse) {
+  std::string out(in.size(), '\0');
+  const size_t words = in.size() / 4;
+  for (size_t w = 0; w < words; ++w)
+    for (size_t k = 0; k < 4; ++k) {
+      const size_t plain = 4 * w + k, grouped = k * words + w;
+      out[inverse ? plain : grouped] = in[inverse ? grouped : plain];
+    }
+  for (size_t i = 4 * words; i < in.size(); ++i) out[i] = in[i];
+  return out;
+}
+
+std::string deflated(const std::string& bytes) {
+  const std::string plain = shuffled(bytes, false);
+  uLongf size = compressBound(plain.size());
+  std::string out(kDeflatedTagSize + 8 + size, '\0');
+  std::memcpy(out.data(), kDeflatedTag, kDeflatedTagSize);
+  const uint64_t n = plain.size();
+  std::memcpy(out.data() + kDeflatedTagSize, &n, 8);
+  auto* dst = reinterpret_cast<Bytef*>(out.data() + kDeflatedTagSize + 8);
+  if (compress2(dst, &size, reinterpret_cast<const Bytef*>(plain.data()), plain.size(), Z_BEST_SPEED) != Z_OK)
+    return bytes;  // stored raw: still a valid entry
+  out.resize(kDeflatedTagSize + 8 + size);
+  return out;
+}
+
+// The entry's state bytes: inflated if it was deflated. An inflated size above `max_bytes`
+// (more than this grid's state can hold) or a broken stream gives "" (does not fit), before
+// anything that large is allocated.
+std::string inflated(std::string bytes, uint64_t max_bytes) {
+  if (bytes.compare(0, kDeflatedTagSize, kDeflatedTag) != 0) return bytes;
+  uint64_t n = 0;
+  if (bytes.size() < kDeflatedTagSize + 8) return {};
+  std::memcpy(&n, bytes.data() + kDeflatedTagSize, 8);
+  if (n > max_bytes) return {};
+  std::string out(n, '\0');
+  uLongf size = n;
+  const auto* src = reinterpret_cast<const Bytef*>(bytes.data() + kDeflatedTagSize + 8);
+  if (uncompress(reinterpret_cast<Bytef*>(out.data()), &size, src, bytes.size() - kDeflatedTagSize - 8) != Z_OK ||
+      size != n)
+    return {};
+  return shuffled(out, true);
+}
+
 }  // namespace
 
 template <int D>
 std::string field_cache_key(const Image<D>& image, const std::string& type, const std::string& parameters) {
   Hash128 h;
   // The generation tag changes whenever a field's numerics change (2: the GVF solvers' padded
-  // kernels and fused multigrid passes, last bits), so that a cache never serves a field that
+  // kernels and fused multigrid passes, last bits; 3: single-precision vectors, GVF's fields
+  // solved one after another), so that a cache never serves a field that
   // this build would not compute bit for bit.
-  const std::string head = "dsnake-field-cache-2 D=" + std::to_string(D) + " type=" + type + " " + parameters;
+  const std::string head = "dsnake-field-cache-3 D=" + std::to_string(D) + " type=" + type + " " + parameters;
   h.words(head.data(), head.size());
   const Grid<D>& g = image.grid();
   for (int a = 0; a < D; ++a) {
@@ -65,8 +120,9 @@ std::string field_cache_key(const Image<D>& image, const std::string& type, cons
 }
 
 template <int D>
-CachedField<D>::CachedField(std::unique_ptr<ExternalField<D>> field, std::string dir, std::string parameters)
-    : field_(std::move(field)), dir_(std::move(dir)), parameters_(std::move(parameters)) {}
+CachedField<D>::CachedField(std::unique_ptr<ExternalField<D>> field, std::string dir, std::string parameters,
+                            bool compressed)
+    : field_(std::move(field)), dir_(std::move(dir)), parameters_(std::move(parameters)), compressed_(compressed) {}
 
 template <int D>
 void CachedField<D>::compute(const Image<D>& image) {
@@ -79,7 +135,9 @@ void CachedField<D>::compute(const Image<D>& image) {
     if (in) {
       std::ostringstream bytes;
       bytes << in.rdbuf();
-      if (field_->load_state(image.grid(), bytes.str())) {
+      // No field stores more than 64 bytes a voxel (DDGVF: 2 D floats and D vector floats).
+      const uint64_t max_bytes = uint64_t(image.num_voxels()) * 64 + (uint64_t(1) << 20);
+      if (field_->load_state(image.grid(), inflated(std::move(bytes).str(), max_bytes))) {
         loaded_ = true;
         return;
       }
@@ -91,7 +149,7 @@ void CachedField<D>::compute(const Image<D>& image) {
   if (state.empty()) return;  // this field cannot be cached
   try {
     std::filesystem::create_directories(dir_);
-    write_file_atomically(path_, state);
+    write_file_atomically(path_, compressed_ ? deflated(state) : state);
   } catch (const std::exception& e) {  // a cache that cannot be written only costs time
     std::fprintf(stderr, "warning: cannot store the field in the cache: %s\n", e.what());
   }

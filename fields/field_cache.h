@@ -4,7 +4,9 @@
 // options (their canonical JSON, every key with its value), so that a sweep over snake settings
 // computes each field once. CachedField<D> wraps any field that implements save_state()/load_state(): compute()
 // loads DIR/<type>-<key>.field when it exists and fits, and otherwise computes and stores it
-// (atomically: a killed run never leaves a half-written entry). A field that cannot save its
+// (atomically: a killed run never leaves a half-written entry). Entries hold single-precision
+// arrays of the region the field was computed on (fields/region.h); `"cache_compression":
+// "zlib"` deflates new ones. A field that cannot save its
 // state is computed every time. Everything else is forwarded to the wrapped field.
 #pragma once
 
@@ -21,7 +23,9 @@ class CachedField final : public ExternalField<D> {
  public:
   // `parameters`: a canonical text of the field's options (build_field: options_json(...).dump(),
   // every key, defaults made explicit).
-  CachedField(std::unique_ptr<ExternalField<D>> field, std::string dir, std::string parameters);
+  // `compressed`: new entries are deflated with zlib (either kind is read).
+  CachedField(std::unique_ptr<ExternalField<D>> field, std::string dir, std::string parameters,
+              bool compressed = false);
 
   std::string type() const override { return field_->type(); }
   void compute(const Image<D>& image) override;
@@ -42,6 +46,7 @@ class CachedField final : public ExternalField<D> {
   std::unique_ptr<ExternalField<D>> field_;
   std::string dir_, parameters_, path_;
   bool loaded_ = false;
+  bool compressed_ = false;
 };
 
 // The cache key: a 128-bit hash (hex) of the image's voxels and grid, the dimension, the field

@@ -29,8 +29,8 @@ class StateWriter {
   }
   template <int D>
   void vectors(const VectorField<D>& v) {
-    value<uint64_t>(v.data().size());
-    raw(v.data().data(), v.data().size() * sizeof(Point<D>));
+    value<uint64_t>(v.num_voxels());
+    raw(v.data().data(), v.data().size() * sizeof(float));
   }
   std::string bytes() && { return std::move(bytes_); }
 
@@ -76,8 +76,8 @@ class StateReader {
   VectorField<D> vectors(const Grid<D>& g) {
     VectorField<D> v(g);
     const uint64_t n = value<uint64_t>();
-    if (!ok_ || n != v.data().size()) return ok_ = false, VectorField<D>{};
-    raw(v.data().data(), n * sizeof(Point<D>));
+    if (!ok_ || n != uint64_t(v.num_voxels())) return ok_ = false, VectorField<D>{};
+    raw(v.data().data(), v.data().size() * sizeof(float));
     return v;
   }
   bool fine() const { return ok_; }

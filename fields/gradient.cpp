@@ -27,7 +27,7 @@ void GradientField<D>::compute(const Image<D>& image) {
 #pragma omp parallel for schedule(static)
   for (int64_t l = 0; l < n; ++l) {
     edge_map_[l] = edges.f[l];
-    for (int a = 0; a < D; ++a) vectors_[l][a] = edges.grad_f[a][l];
+    for (int a = 0; a < D; ++a) vectors_.at(l)[a] = edges.grad_f[a][l];
   }
 }
 

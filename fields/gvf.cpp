@@ -9,14 +9,22 @@ namespace dsnake {
 template <int D>
 GvfField<D>::GvfField(const GvfFieldOptions& options) : options_(checked(options, kType)) {}
 
+// Memory (issue 21): the sources grad f are solved in place (they are the initial guess, and
+// the multigrid solver reads a source only before its field changes), f is released before the
+// solve, b is moved into the solver, and the stored vectors are allocated after it, so the peak
+// is the image, b, the three components and one component's solver arrays.
 template <int D>
 void GvfField<D>::compute(const Image<D>& image) {
-  const EdgeMap<D> edges = compute_edge_map(image, options_.edge, false, "gvf");
-  const Grid<D>& grid = edges.grid;
+  EdgeMap<D> edges = compute_edge_map(image, options_.edge, false, "gvf");
+  const Grid<D> grid = edges.grid;
   const int64_t n = grid.num_voxels();
-  vectors_ = VectorField<D>(grid);
+  vectors_ = VectorField<D>();
   stats_ = {};
-  if (edges.f_max == 0) return;  // no edges: the zero field (warned by compute_edge_map)
+  if (edges.f_max == 0) {  // no edges: the zero field (warned by compute_edge_map)
+    vectors_ = VectorField<D>(grid);
+    return;
+  }
+  std::vector<float>().swap(edges.f);
   // b = |grad f|^2; the sources c = grad f are also the initial guess (Xu & Prince).
   std::vector<float> b(n);
 #pragma omp parallel for schedule(static)
@@ -25,14 +33,20 @@ void GvfField<D>::compute(const Image<D>& image) {
     for (int a = 0; a < D; ++a) s += edges.grad_f[a][l] * edges.grad_f[a][l];
     b[l] = s;
   }
-  std::array<std::vector<float>, D> v = edges.grad_f;
+  const bool in_place = options_.solve.solver == GvfSolver::kMultigrid;
+  std::array<std::vector<float>, D> copy;
+  if (!in_place) copy = edges.grad_f;  // the explicit solver reads c at every iteration
   std::vector<const std::vector<float>*> c;
   std::vector<std::vector<float>*> out;
-  for (int a = 0; a < D; ++a) c.push_back(&edges.grad_f[a]), out.push_back(&v[a]);
-  stats_ = solve_gvf(grid, b, c, out, options_.solve);
+  for (int a = 0; a < D; ++a) c.push_back(&edges.grad_f[a]), out.push_back(in_place ? &edges.grad_f[a] : &copy[a]);
+  stats_ = solve_gvf(grid, std::move(b), c, out, options_.solve);
+  vectors_ = VectorField<D>(grid);
+  for (int a = 0; a < D; ++a) {
+    const std::vector<float>& v = *out[a];
 #pragma omp parallel for schedule(static)
-  for (int64_t l = 0; l < n; ++l)
-    for (int a = 0; a < D; ++a) vectors_[l][a] = v[a][l];
+    for (int64_t l = 0; l < n; ++l) vectors_[l][a] = v[l];
+    std::vector<float>().swap(*out[a]);
+  }
 }
 
 template <int D>
@@ -43,7 +57,7 @@ Point<D> GvfField<D>::force(const Point<D>& x, const Point<D>&) const {
 
 template <int D>
 std::string GvfField<D>::save_state() const {
-  StateWriter w("dsnake-gvf-1");
+  StateWriter w("dsnake-gvf-2");
   w.grid(vectors_.grid());
   w.value(stats_);
   w.vectors(vectors_);
@@ -52,7 +66,7 @@ std::string GvfField<D>::save_state() const {
 
 template <int D>
 bool GvfField<D>::load_state(const Grid<D>& grid, const std::string& bytes) {
-  StateReader r(bytes, "dsnake-gvf-1");
+  StateReader r(bytes, "dsnake-gvf-2");
   if (!r.grid(grid)) return false;
   const GvfSolveStats stats = r.value<GvfSolveStats>();
   VectorField<D> v = r.vectors(grid);

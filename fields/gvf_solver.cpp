@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <tuple>
 
 namespace dsnake {
 
@@ -450,7 +451,7 @@ constexpr int kPreSmooth = 2, kPostSmooth = 2;  // red-black sweeps per V-cycle 
 class Multigrid {
  public:
   // The hierarchy for grids shaped like finest_shape and K fields, with weights b.
-  Multigrid(const Level& finest_shape, const std::vector<float>& b, int K, double mu) : mu_(mu), K_(K) {
+  Multigrid(const Level& finest_shape, std::vector<float> b, int K, double mu) : mu_(mu), K_(K) {
     levels_.push_back(finest_shape);
     for (;;) {
       Level& F = levels_.back();
@@ -473,7 +474,7 @@ class Multigrid {
       transfers_.push_back(transfer(F, C));
       levels_.push_back(std::move(C));
     }
-    set_weights(b);
+    set_weights(std::move(b));
   }
 
   // True if this hierarchy serves grids shaped like `shape` with K fields and this mu.
@@ -485,8 +486,8 @@ class Multigrid {
 
   // New weights b on the same grids (no allocation): b on every level (averaged down), 1 / A_ii,
   // and the coarsest factorisation, exactly as a new hierarchy would compute them.
-  void set_weights(const std::vector<float>& b) {
-    levels_[0].b = b;
+  void set_weights(std::vector<float> b) {
+    levels_[0].b = std::move(b);
     for (size_t l = 0; l < levels_.size(); ++l) {
       Level& F = levels_[l];
       inverse_diagonal(F, coupling(F, mu_));
@@ -609,95 +610,106 @@ double update_and_norm(float* __restrict x, float* __restrict r, const float* __
   return s;
 }
 
-// Conjugate gradients on A x = b c, preconditioned by one multigrid V-cycle per iteration (a
-// symmetric positive definite preconditioner: symmetric smoothing, R = P^T / factor, exact
-// coarsest solve). The V-cycle alone stalls where the coarse grids see the image border
+// Conjugate gradients on A x = b c for one field, preconditioned by one multigrid V-cycle per
+// iteration (a symmetric positive definite preconditioner: symmetric smoothing, R = P^T / factor,
+// exact coarsest solve). The V-cycle alone stalls where the coarse grids see the image border
 // differently from the fine one (odd sizes, masked DDGVF weights); CG removes those few slow
-// modes. The K fields run K independent CG recurrences that share the V-cycles' passes.
-GvfSolveStats solve_multigrid_pcg(Level shape, const std::vector<float>& b,
-                                  const std::vector<const std::vector<float>*>& c,
-                                  const std::vector<std::vector<float>*>& x, const GvfSolveOptions& o,
-                                  GvfWorkspace::Impl& ws) {
-  const int K = int(x.size());
-  if (ws.multigrid && ws.multigrid->fits(shape, K, o.mu)) {
-    ws.multigrid->set_weights(b);
-  } else {
-    ws.multigrid = std::make_unique<Multigrid>(shape, b, K, o.mu);
-  }
-  Multigrid& mg = *ws.multigrid;
+// modes. c may be x itself (GVF's initial guess is its source): c is read only before x changes.
+// The right-hand side b c is released once the first residual is known, so the finest level
+// holds four arrays (z, A p, r, p) besides x. Returns the iterations and |r|^2, |b c|^2.
+struct FieldSolve {
+  int iterations = 0;
+  double r2 = 0, f2 = 0;
+};
+FieldSolve solve_one_field(Multigrid& mg, const std::vector<float>& c, std::vector<float>& x,
+                           const GvfSolveOptions& o, GvfWorkspace::Impl& ws) {
   Level& L = mg.levels()[0];
+  const std::vector<float>& b = L.b;
   const int64_t n = L.size(), rows = int64_t(L.ny) * L.nz;
   const Coupling cp = coupling(L, o.mu);
-  // r = b c - A x.
-  for (int k = 0; k < K; ++k) {
-    L.v[k] = *x[k];
+  L.v[0] = x;
+  L.rhs[0].resize(n);
 #pragma omp parallel for schedule(static) if(n >= kParallelMin)
-    for (int64_t l = 0; l < n; ++l) L.rhs[k][l] = b[l] * (*c[k])[l];
-  }
-  const auto [r2_start, f2] = residual(L, cp, true);
-  std::vector<std::vector<float>>& r = ws.r;
-  std::vector<std::vector<float>>& p = ws.p;
-  r.resize(K), p.resize(K);
-  for (int k = 0; k < K; ++k) r[k].swap(L.res[k]), L.res[k].resize(n), p[k].resize(n);
-  GvfSolveStats st;
-  auto relative = [&](double r2) { return f2 > 0 ? std::sqrt(r2 / f2) : (r2 > 0 ? 1.0 : 0.0); };
-  st.relative_residual = relative(r2_start);
+  for (int64_t l = 0; l < n; ++l) L.rhs[0][l] = b[l] * c[l];
+  FieldSolve st;
+  std::tie(st.r2, st.f2) = residual(L, cp, true);
+  std::vector<float>().swap(L.rhs[0]);  // b c is not needed again
+  ws.r.resize(1), ws.p.resize(1);
+  std::vector<float>& r = ws.r[0];
+  std::vector<float>& p = ws.p[0];
+  r.swap(L.res[0]), L.res[0].resize(n), p.resize(n);
+  auto converged = [&] {
+    const double relative = st.f2 > 0 ? std::sqrt(st.r2 / st.f2) : (st.r2 > 0 ? 1.0 : 0.0);
+    return o.tolerance > 0 && relative <= o.tolerance;
+  };
   // z = M r: a V-cycle from zero with r as right-hand side; z is left in L.v.
   auto precondition = [&] {
-    for (int k = 0; k < K; ++k) L.rhs[k].swap(r[k]);  // the cycle takes v as 0
+    L.rhs[0].swap(r);  // the cycle takes v as 0
     mg.cycle(0);
-    for (int k = 0; k < K; ++k) L.rhs[k].swap(r[k]);
+    L.rhs[0].swap(r);
   };
   const int max_it = o.iterations > 0 ? o.iterations : 100;
-  if (o.tolerance > 0 && st.relative_residual <= o.tolerance) return st;
+  if (converged()) return st;
   precondition();
-  std::vector<double> rz(K), row_pap(size_t(K) * rows);
-  for (int k = 0; k < K; ++k) p[k] = L.v[k], rz[k] = dot(r[k], L.v[k]);
+  std::vector<double> row_pap(rows);
+  p = L.v[0];
+  double rz = dot(r, L.v[0]);
   while (st.iterations < max_it) {
     // ap = A p (in L.res), then x += alpha p, r -= alpha ap.
     // With p.ap per row while the row is in cache (summed in row order: thread-independent).
-    std::vector<double> alpha(K, 0.0);
 #pragma omp parallel for schedule(static) if(n >= kParallelMin)
     for (int64_t yz = 0; yz < rows; ++yz) {
       const RowNeighbours rn = row_neighbours(L, cp, int(yz % L.ny), int(yz / L.ny));
-      for (int k = 0; k < K; ++k) {
-        apply_row(p[k].data(), L.res[k].data(), b.data() + rn.row, rn, cp.cx, L.nx);
-        row_pap[k * rows + yz] = dot_chunk(p[k].data() + rn.row, L.res[k].data() + rn.row, L.nx);
-      }
+      apply_row(p.data(), L.res[0].data(), b.data() + rn.row, rn, cp.cx, L.nx);
+      row_pap[yz] = dot_chunk(p.data() + rn.row, L.res[0].data() + rn.row, L.nx);
     }
-    double r2 = 0;
-    for (int k = 0; k < K; ++k) {
-      double pap = 0;
-      for (int64_t yz = 0; yz < rows; ++yz) pap += row_pap[k * rows + yz];
-      alpha[k] = pap > 0 ? rz[k] / pap : 0.0;
-      const float a = float(alpha[k]);
-      float* __restrict xk = x[k]->data();
-      float* __restrict rk = r[k].data();
-      const float *__restrict pk = p[k].data(), *__restrict apk = L.res[k].data();
-      r2 += update_and_norm(xk, rk, pk, apk, a, n);
-    }
+    double pap = 0;
+    for (int64_t yz = 0; yz < rows; ++yz) pap += row_pap[yz];
+    const float alpha = float(pap > 0 ? rz / pap : 0.0);
+    st.r2 = update_and_norm(x.data(), r.data(), p.data(), L.res[0].data(), alpha, n);
     ++st.iterations;
-    st.relative_residual = relative(r2);
-    if (o.tolerance > 0 && st.relative_residual <= o.tolerance) break;
-    if (st.iterations == max_it) break;
+    if (converged() || st.iterations == max_it) break;
     precondition();
-    for (int k = 0; k < K; ++k) {
-      const double rz_new = dot(r[k], L.v[k]);
-      const float beta = rz[k] > 0 ? float(rz_new / rz[k]) : 0.f;
-      rz[k] = rz_new;
-      float* __restrict pk = p[k].data();
-      const float* __restrict zk = L.v[k].data();
+    const double rz_new = dot(r, L.v[0]);
+    const float beta = rz > 0 ? float(rz_new / rz) : 0.f;
+    rz = rz_new;
+    float* __restrict pk = p.data();
+    const float* __restrict zk = L.v[0].data();
 #pragma omp parallel for schedule(static) if(n >= kParallelMin)
-      for (int64_t l = 0; l < n; ++l) pk[l] = zk[l] + beta * pk[l];
-    }
+    for (int64_t l = 0; l < n; ++l) pk[l] = zk[l] + beta * pk[l];
   }
+  return st;
+}
+
+// The K fields one after another on one hierarchy (built for a single field), each with its own
+// stopping test |r_k| <= tolerance |b c_k|, so that the memory is that of one field (issue 21:
+// K fields sharing the V-cycles' passes held 5 K full-grid arrays). Every field meeting the test
+// implies the joint one, |r| <= tolerance |b c|; the stats give the most iterations any field
+// took and the joint relative residual.
+GvfSolveStats solve_multigrid_pcg(Level shape, std::vector<float>&& b,
+                                  const std::vector<const std::vector<float>*>& c,
+                                  const std::vector<std::vector<float>*>& x, const GvfSolveOptions& o,
+                                  GvfWorkspace::Impl& ws) {
+  if (ws.multigrid && ws.multigrid->fits(shape, 1, o.mu)) {
+    ws.multigrid->set_weights(std::move(b));
+  } else {
+    ws.multigrid = std::make_unique<Multigrid>(shape, std::move(b), 1, o.mu);
+  }
+  GvfSolveStats st;
+  double r2 = 0, f2 = 0;
+  for (size_t k = 0; k < x.size(); ++k) {
+    const FieldSolve one = solve_one_field(*ws.multigrid, *c[k], *x[k], o, ws);
+    st.iterations = std::max(st.iterations, one.iterations);
+    r2 += one.r2, f2 += one.f2;
+  }
+  st.relative_residual = f2 > 0 ? std::sqrt(r2 / f2) : (r2 > 0 ? 1.0 : 0.0);
   return st;
 }
 
 }  // namespace
 
 template <int D>
-GvfSolveStats solve_gvf(const Grid<D>& grid, const std::vector<float>& b,
+GvfSolveStats solve_gvf(const Grid<D>& grid, std::vector<float> b,
                         const std::vector<const std::vector<float>*>& c, const std::vector<std::vector<float>*>& v,
                         const GvfSolveOptions& o, GvfWorkspace* workspace) {
   DSNAKE_ASSERT(o.mu > 0, "GVF: mu > 0");
@@ -726,9 +738,9 @@ GvfSolveStats solve_gvf(const Grid<D>& grid, const std::vector<float>& b,
     return solve_explicit(shape, b, c, v, o, rhs_norm2);
   }
   DSNAKE_ASSERT(o.solver == GvfSolver::kMultigrid, "GVF: solver is explicit or multigrid");
-  if (workspace) return solve_multigrid_pcg(shape, b, c, v, o, workspace->impl());
+  if (workspace) return solve_multigrid_pcg(shape, std::move(b), c, v, o, workspace->impl());
   GvfWorkspace::Impl local;
-  return solve_multigrid_pcg(shape, b, c, v, o, local);
+  return solve_multigrid_pcg(shape, std::move(b), c, v, o, local);
 }
 
 template <int D>
@@ -748,9 +760,9 @@ double gvf_relative_residual(const Grid<D>& grid, const std::vector<float>& b,
   return f2 > 0 ? std::sqrt(r2 / f2) : (r2 > 0 ? 1.0 : 0.0);
 }
 
-template GvfSolveStats solve_gvf(const Grid<2>&, const std::vector<float>&, const std::vector<const std::vector<float>*>&,
+template GvfSolveStats solve_gvf(const Grid<2>&, std::vector<float>, const std::vector<const std::vector<float>*>&,
                                  const std::vector<std::vector<float>*>&, const GvfSolveOptions&, GvfWorkspace*);
-template GvfSolveStats solve_gvf(const Grid<3>&, const std::vector<float>&, const std::vector<const std::vector<float>*>&,
+template GvfSolveStats solve_gvf(const Grid<3>&, std::vector<float>, const std::vector<const std::vector<float>*>&,
                                  const std::vector<std::vector<float>*>&, const GvfSolveOptions&, GvfWorkspace*);
 template double gvf_relative_residual(const Grid<2>&, const std::vector<float>&,
                                       const std::vector<const std::vector<float>*>&,

@@ -9,7 +9,9 @@
 //  - "multigrid": V-cycles with red-black Gauss-Seidel, coarsening the axes whose spacing is
 //    finest (semi-coarsening for anisotropic voxels), exact dense solve on the coarsest grid.
 // Both stop at a relative residual |b c - A v|_2 / |b c|_2 <= tolerance or after a number of
-// iterations (V-cycles). Float arrays (x fastest); OpenMP over z-slabs (2D: rows), and the
+// iterations (V-cycles). The multigrid solver takes the K fields one after another, each to
+// |b c_k - A v_k| <= tolerance |b c_k| (which implies the joint test), so that its memory is
+// that of one field (issue 21). Float arrays (x fastest); OpenMP over z-slabs (2D: rows), and the
 // explicit solver runs blocks of up to 10 iterations as a wavefront over tiles (each tile
 // recomputes its halo, so the arrays stream from memory once per block); the results do not
 // depend on the thread count (red-black updates are independent within a colour and
@@ -80,10 +82,11 @@ class GvfWorkspace {
 };
 
 // Solves for v (in: initial guess; out: solution), given b and the sources c (same sizes as the
-// grid). Throws InputError naming "field.time_step" if an explicit step is unstable. The
+// grid). b is taken by value: a caller that moves it in lets the solver keep it without a copy
+// (issue 21). The multigrid solver reads c[k] only before v[k] changes, so v[k] may be c[k]. Throws InputError naming "field.time_step" if an explicit step is unstable. The
 // multigrid solver reuses `workspace` if given.
 template <int D>
-GvfSolveStats solve_gvf(const Grid<D>& grid, const std::vector<float>& b,
+GvfSolveStats solve_gvf(const Grid<D>& grid, std::vector<float> b,
                         const std::vector<const std::vector<float>*>& c, const std::vector<std::vector<float>*>& v,
                         const GvfSolveOptions& options, GvfWorkspace* workspace = nullptr);
 

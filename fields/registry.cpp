@@ -35,6 +35,12 @@ FieldSpec<D> read_field_spec(JsonReader& reader) {
     reader.read("cache", spec.cache_dir);
     reader.expect(!spec.cache_dir.empty(), "cache", "must be a non-empty folder name");
   }
+  if (reader.has("cache_compression")) {
+    std::string c;
+    reader.read("cache_compression", c);
+    reader.expect(c == "none" || c == "zlib", "cache_compression", "must be \"none\" or \"zlib\"");
+    spec.cache_compressed = c == "zlib";
+  }
   if (reader.has("region")) {
     JsonReader region = reader.child("region");
     read_options(region, spec.region);
@@ -50,7 +56,8 @@ std::unique_ptr<ExternalField<D>> build_field(const FieldSpec<D>& spec) {
   if (spec.cache_dir.empty()) return field;
   // The type is part of the key (field_cache_key hashes field->type()); the options text is the
   // canonical JSON of every option, in visit() order.
-  return std::make_unique<CachedField<D>>(std::move(field), spec.cache_dir, spec.field.options.dump());
+  return std::make_unique<CachedField<D>>(std::move(field), spec.cache_dir, spec.field.options.dump(),
+                                          spec.cache_compressed);
 }
 
 nlohmann::ordered_json field_common_schema_properties() {
@@ -59,6 +66,12 @@ nlohmann::ordered_json field_common_schema_properties() {
                 {"description",
                  "folder of the field cache: the computed field is stored there, keyed by the image and the "
                  "field's type and options, and loaded by later runs (fields/field_cache.h)"}};
+  p["cache_compression"] = {{"type", "string"},
+                            {"enum", {"none", "zlib"}},
+                            {"default", "none"},
+                            {"description",
+                             "how new field cache entries are stored: raw single-precision arrays (none) or deflated "
+                             "with zlib (smaller, slower to write and read); entries of either kind are read"}};
   p["region"] = {{"type", "object"},
                  {"description",
                   "where the field is computed: the placed template's bounding box widened by a margin (default), "

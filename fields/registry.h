@@ -24,10 +24,11 @@ template <int D>
 struct FieldSpec {
   PluginSpec<ExternalField<D>> field;
   std::string cache_dir;
+  bool cache_compressed = false;  // "cache_compression": "zlib" (default "none")
   FieldRegionOptions region;  // "region": where the field is computed (fields/region.h)
 };
 
-// Reads "cache" (when given, a non-empty folder name) and "region", then the field's "type" and options
+// Reads "cache" (when given, a non-empty folder name), "cache_compression" and "region", then the field's "type" and options
 // through field_registry<D>(); calls reader.finish(). Throws InputError naming the key.
 template <int D>
 FieldSpec<D> read_field_spec(JsonReader& reader);

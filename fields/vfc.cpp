@@ -167,7 +167,7 @@ void VfcField<D>::Fft::convolve(const Grid<D>& image_grid, const float* f, Vecto
 #pragma omp parallel for schedule(static)
     for (int64_t r = 0; r < image_rows; ++r) {
       const float* src = real + pad_row(r);
-      for (int x = 0; x < nx; ++x) vectors[r * nx + x][a] = src[x];
+      for (int x = 0; x < nx; ++x) vectors.at(r * nx + x)[a] = float(src[x]);
     }
   }
 }
@@ -239,7 +239,7 @@ Point<D> VfcField<D>::force(const Point<D>& x, const Point<D>&) const {
 
 template <int D>
 std::string VfcField<D>::save_state() const {
-  StateWriter w("dsnake-vfc-1");
+  StateWriter w("dsnake-vfc-2");
   w.grid(vectors_.grid());
   w.vectors(vectors_);
   return std::move(w).bytes();
@@ -247,7 +247,7 @@ std::string VfcField<D>::save_state() const {
 
 template <int D>
 bool VfcField<D>::load_state(const Grid<D>& grid, const std::string& bytes) {
-  StateReader r(bytes, "dsnake-vfc-1");
+  StateReader r(bytes, "dsnake-vfc-2");
   if (!r.grid(grid)) return false;
   VectorField<D> v = r.vectors(grid);
   if (!r.ok()) return false;

@@ -54,6 +54,7 @@ wall = statistics.median(r[0] for r in rows)
 rss = statistics.median(r[1] for r in rows) / 1024
 print(f"{name:18s} wall {wall:7.2f} s (min {min(r[0] for r in rows):6.2f})  peak {rss:7.0f} MB  n={len(rows)}  {note}")
 ' "$name" "$note"
+  LAST_RSS_KB=$(printf '%s\n' "${times[@]}" | awk '{print $2}' | sort -n | awk '{a[NR] = $1} END {print a[int((NR + 1) / 2)]}')
 }
 
 # The in-process time of a result.json entry of the last run (timings.KEY, seconds).
@@ -62,12 +63,15 @@ timing() { /usr/bin/python3 -c 'import json,sys; print("%.2f" % json.load(open(s
 run_case() {
   case $1 in
     field)
+      # The in-process benchmark of the same work as `dsnake field --type gvf`: the edge map and
+      # the converged multigrid solve (BM_GvfField3d), median of 3, 1 thread.
       local bench
-      bench=$(build/release/experiments/bench/bench_fields --benchmark_filter='BM_GvfMultigridConverged3d/1$' \
+      bench=$(build/release/experiments/bench/bench_fields --benchmark_filter='BM_GvfField3d/1/real_time$' \
                 --benchmark_repetitions=3 --benchmark_report_aggregates_only=true --benchmark_format=csv 2>/dev/null |
               awk -F, '/_median/ {printf "%.2f", $3 / 1000}')
-      measure field "in-process solve ${bench} s (BM_GvfMultigridConverged3d, 1 thread, median of 3); $(( 230 * 300 * 80 )) voxels" \
-        "$DSNAKE" field --image "$WORK/ellipsoid.mha" --type gvf --out "$WORK/gvf.mha" -j 1 ;;
+      measure field "in-process ${bench} s (BM_GvfField3d, 1 thread, median of 3); $(( 230 * 300 * 80 )) voxels" \
+        "$DSNAKE" field --image "$WORK/ellipsoid.mha" --type gvf --out "$WORK/gvf.mha" -j 1
+      echo "                   peak bytes per voxel: $(awk -v kb="$LAST_RSS_KB" 'BEGIN {printf "%.1f", kb * 1024 / (230 * 300 * 80)}')" ;;
     lung_j1) measure lung_j1 "" "$DSNAKE" run experiments/paper/lung_dsnake.json --out "$WORK/out" -j 1 --quiet ;;
     lung_j2) measure lung_j2 "" "$DSNAKE" run experiments/paper/lung_dsnake.json --out "$WORK/out" -j 2 --quiet ;;
     lung_busy_j1)

@@ -9,12 +9,12 @@ namespace dsnake {
 
 template <int D>
 double max_force_magnitude(const ExternalField<D>& field) {
-  const PointList<D>& v = field.vectors().data();
-  const int64_t n = static_cast<int64_t>(v.size());
+  const VectorField<D>& v = field.vectors();
+  const int64_t n = v.num_voxels();
   double m2 = 0.0;  // max of squares: exact in any reduction order
 #pragma omp parallel for reduction(max : m2) schedule(static) if (n >= (int64_t(1) << 16))
   for (int64_t i = 0; i < n; ++i) {
-    const double s = v[i].squaredNorm();
+    const double s = v[i].squaredNorm();  // in double, from the stored floats
     if (std::isfinite(s)) m2 = std::max(m2, s);
   }
   return std::sqrt(m2);

@@ -112,36 +112,39 @@ double Image<D>::sample(const Point<D>& x) const {
 
 template <int D>
 VectorField<D>::VectorField(const Grid<D>& grid)
-    : grid_(grid), vectors_(grid.num_voxels(), Point<D>::Zero()) {}
+    : grid_(grid), values_(size_t(grid.num_voxels()) * D, 0.0f) {}
 
 template <int D>
 Point<D> VectorField<D>::sample(const Point<D>& x) const {
   const auto s = grid_.stencil(x);
   Point<D> v = Point<D>::Zero();
-  for (size_t k = 0; k < s.voxel.size(); ++k) v += s.weight[k] * vectors_[s.voxel[k]];
+  for (size_t k = 0; k < s.voxel.size(); ++k) {
+    const float* p = values_.data() + size_t(s.voxel[k]) * D;
+    for (int a = 0; a < D; ++a) v[a] += s.weight[k] * double(p[a]);
+  }
   return v;
 }
 
 template <int D>
 void VectorField<D>::prefetch(const Point<D>& x) const {
-  if (vectors_.empty()) return;
+  if (values_.empty()) return;
   // the stencil's base voxel only (no weights): its x neighbour shares the line or the next one
   std::array<int64_t, D> step;
   std::array<double, D> t;
   const int64_t base = stencil_base<D>(grid_, x, step, t);
-  const char* p = reinterpret_cast<const char*>(vectors_.data() + base);
+  const char* p = reinterpret_cast<const char*>(values_.data() + base * D);
   for (int k = 0; k < (1 << (D - 1)); ++k) {
     int64_t offset = 0;
     for (int a = 1; a < D; ++a) offset += ((k >> (a - 1)) & 1) * step[a];
-    __builtin_prefetch(p + offset * int64_t(sizeof(Point<D>)));
-    __builtin_prefetch(p + offset * int64_t(sizeof(Point<D>)) + 2 * sizeof(Point<D>) - 1);
+    __builtin_prefetch(p + offset * int64_t(D * sizeof(float)));
+    __builtin_prefetch(p + offset * int64_t(D * sizeof(float)) + 2 * D * sizeof(float) - 1);
   }
 }
 
 template <int D>
 Image<D> VectorField<D>::component(int axis) const {
   Image<D> img(grid_);
-  for (int64_t i = 0; i < num_voxels(); ++i) img[i] = static_cast<float>(vectors_[i][axis]);
+  for (int64_t i = 0; i < num_voxels(); ++i) img[i] = values_[size_t(i) * D + axis];
   return img;
 }
 

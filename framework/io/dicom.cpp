@@ -57,7 +57,7 @@ struct SliceHeader {
 struct Slice {
   SliceHeader header;
   int64_t columns = 0, rows = 0;
-  std::vector<double> values;           // columns x rows x frames, x fastest
+  std::vector<float> values;            // columns x rows x frames, x fastest
   Vec3 frame_origin{0, 0, 0};           // multi-frame geometry as GDCM reports it
   std::array<Vec3, 3> frame_axes{};
   Vec3 frame_spacing{1, 1, 1};
@@ -298,9 +298,10 @@ Slice read_slice(const std::string& path) {
     throw InputError(path, "PixelData", "pixel data hold " + std::to_string(buffer.size()) + " bytes, " +
                                             std::to_string(s.columns) + "x" + std::to_string(s.rows) + "x" +
                                             std::to_string(s.header.frames) + " pixels need more");
-  s.values = decode(buffer.data(), count, scalar, false);
-  keep_stored_bits(s.values, pf);
-  for (double& v : s.values) v = v * s.header.slope + s.header.intercept;
+  std::vector<double> values = decode<double>(buffer.data(), count, scalar, false);
+  keep_stored_bits(values, pf);
+  s.values.resize(values.size());  // rescaled in double, rounded once
+  for (size_t i = 0; i < values.size(); ++i) s.values[i] = float(values[i] * s.header.slope + s.header.intercept);
   for (int a = 0; a < 3; ++a) {
     s.frame_origin[a] = image.GetOrigin(a);
     s.frame_spacing[a] = image.GetSpacing(a);

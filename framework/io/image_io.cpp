@@ -42,8 +42,9 @@ int scalar_bytes(Scalar s) {
 }
 
 // Decodes `count` values of type s from raw bytes (the caller checked the length).
-std::vector<double> decode(const char* data, int64_t count, Scalar s, bool swap) {
-  std::vector<double> out(count);
+template <class T>
+std::vector<T> decode(const char* data, int64_t count, Scalar s, bool swap) {
+  std::vector<T> out(count);
   const int nb = scalar_bytes(s);
   for (int64_t i = 0; i < count; ++i) {
     const char* p = data + i * nb;
@@ -60,21 +61,21 @@ std::vector<double> decode(const char* data, int64_t count, Scalar s, bool swap)
   }
   return out;
 }
+template std::vector<float> decode<float>(const char*, int64_t, Scalar, bool);
+template std::vector<double> decode<double>(const char*, int64_t, Scalar, bool);
 
 // Values as little-endian float32 bytes (the format every writer stores).
-std::string float_bytes(const std::vector<double>& values) {
+std::string float_bytes(const std::vector<float>& values) {
   std::string out(values.size() * 4, '\0');
-  for (size_t i = 0; i < values.size(); ++i) {
-    const float f = static_cast<float>(values[i]);
-    std::memcpy(out.data() + 4 * i, &f, 4);
-  }
+  std::memcpy(out.data(), values.data(), out.size());
   return out;
 }
 
 // Values rounded and clamped to [0, 255], one byte each (label maps).
-std::string label_bytes(const std::vector<double>& values) {
+std::string label_bytes(const std::vector<float>& values) {
   std::string out(values.size(), '\0');
-  for (size_t i = 0; i < values.size(); ++i) out[i] = char(uint8_t(std::lround(std::clamp(values[i], 0.0, 255.0))));
+  for (size_t i = 0; i < values.size(); ++i)
+    out[i] = char(uint8_t(std::lround(std::clamp(double(values[i]), 0.0, 255.0))));
   return out;
 }
 
@@ -171,7 +172,7 @@ RawVolume read_opencv(const std::string& path) {
   v.size = {d.cols, d.rows, 1};
   v.values.resize(size_t(d.cols) * d.rows);
   for (int y = 0; y < d.rows; ++y)
-    for (int x = 0; x < d.cols; ++x) v.values[size_t(y) * d.cols + x] = d.at<double>(y, x);
+    for (int x = 0; x < d.cols; ++x) v.values[size_t(y) * d.cols + x] = float(d.at<double>(y, x));
   return v;
 }
 
@@ -180,7 +181,7 @@ void write_opencv(const RawVolume& v, const std::string& path) {
   cv::Mat m(int(v.size[1]), int(v.size[0]), CV_8U);
   for (int y = 0; y < m.rows; ++y)
     for (int x = 0; x < m.cols; ++x)
-      m.at<uint8_t>(y, x) = uint8_t(std::lround(std::clamp(v.values[size_t(y) * m.cols + x], 0.0, 255.0)));
+      m.at<uint8_t>(y, x) = uint8_t(std::lround(std::clamp(double(v.data()[size_t(y) * m.cols + x]), 0.0, 255.0)));
   write_via_temporary(path, [&](const std::string& tmp) {
     if (!cv::imwrite(tmp, m)) throw std::runtime_error(path + ": cannot write image");
   });
@@ -337,7 +338,8 @@ Grid<D> checked_grid(const RawVolume& v, const std::string& path, int channels) 
     const GridIndex<D> idx = g.index(int64_t(i) / channels);
     std::string where = "voxel (";
     for (int a = 0; a < D; ++a) where += (a ? ", " : "") + std::to_string(idx[a]);
-    throw InputError(path, where + ")", std::isnan(v.values[i]) ? "value is NaN" : "value is infinite");
+    throw InputError(path, where + ")", std::isnan(v.values[i]) ? "value is NaN"
+                                                                      : "value is infinite or beyond float's range (3.4e38)");
   }
   return g;
 }
@@ -377,9 +379,9 @@ int image_file_dimension(const std::string& path) {
 // Decodes, checks (dimension, one channel, spacing, finite voxels) and converts to float.
 template <int D>
 Image<D> read_image(const std::string& path) {
-  const RawVolume v = read_volume(path);
-  Image<D> image(checked_grid<D>(v, path, 1));
-  for (size_t i = 0; i < v.values.size(); ++i) image[int64_t(i)] = static_cast<float>(v.values[i]);
+  RawVolume v = read_volume(path);
+  Image<D> image(checked_grid<D>(v, path, 1), 0.0f);
+  image.data().swap(v.values);  // the decoded floats are the image's (same size: checked_grid)
   return image;
 }
 
@@ -387,7 +389,7 @@ Image<D> read_image(const std::string& path) {
 template <int D>
 void write_image(const Image<D>& image, const std::string& path, const ImageWriteOptions& options) {
   RawVolume v = raw_of<D>(image.grid(), 1);
-  v.values.assign(image.data().begin(), image.data().end());
+  v.borrowed = &image.data();
   v.label = options.label;
   write_volume(v, path, options);
 }
@@ -403,12 +405,13 @@ void write_image(const Image<D>& image, const std::string& path) {
 template <int D>
 void write_vector_field(const VectorField<D>& field, const std::string& path) {
   RawVolume v = raw_of<D>(field.grid(), D);
-  v.values.resize(size_t(field.num_voxels()) * D);
   const auto& r = field.grid().direction;  // frame components -> world components (as ITK stores them)
   const bool rotate = !field.grid().axis_aligned();
-  for (int64_t i = 0; i < field.num_voxels(); ++i) {
+  if (!rotate) v.borrowed = &field.data();  // stored as they are: no copy
+  else v.values.resize(size_t(field.num_voxels()) * D);
+  for (int64_t i = 0; rotate && i < field.num_voxels(); ++i) {
     const Point<D> w = rotate ? Point<D>(r * field[i]) : field[i];
-    for (int a = 0; a < D; ++a) v.values[size_t(i) * D + a] = w[a];
+    for (int a = 0; a < D; ++a) v.values[size_t(i) * D + a] = float(w[a]);
   }
   const std::string ext = extension_of(path);
   if (is_opencv_extension(ext)) throw InputError(path, "", "vector fields need .mha, .mhd, .nii, .nii.gz, .nrrd, .nhdr, .inr or .inr.gz");

@@ -23,8 +23,13 @@ struct RawVolume {
   std::array<std::array<double, 3>, 3> axes{{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
   int channels = 1;                           // 1 for an image, D for a vector field
   bool label = false;                         // writers: store as uint8 (a label map), else float32
-  std::vector<double> values;                 // voxel-major (x fastest), channels interleaved
+  std::vector<float> values;                  // voxel-major (x fastest), channels interleaved (issue 21: float,
+                                              // the precision of Image; 4 bytes a value while a file is read)
   std::string dim_key = "dimension", spacing_key = "spacing", channel_key = "channels";
+  // Writers: the values to store, when they are another object's (an Image's or a VectorField's
+  // own floats), so that a write holds no copy of them; null: `values`.
+  const std::vector<float>* borrowed = nullptr;
+  const std::vector<float>& data() const { return borrowed ? *borrowed : values; }
 
   int64_t num_voxels() const { return size[0] * size[1] * size[2]; }
   // A 3D volume with one slice counts as 2D.
@@ -47,14 +52,16 @@ double load(const char* p, bool swap) {
   return static_cast<double>(v);
 }
 
-// Decodes `count` values of type s from raw bytes (the caller checked the length).
-std::vector<double> decode(const char* data, int64_t count, Scalar s, bool swap);
+// Decodes `count` values of type s from raw bytes (the caller checked the length), as T (float
+// or double: DICOM masks and rescales its integers in double before they are rounded once).
+template <class T>
+std::vector<T> decode(const char* data, int64_t count, Scalar s, bool swap);
 
 // Values as little-endian float32 bytes (the format every writer stores).
-std::string float_bytes(const std::vector<double>& values);
+std::string float_bytes(const std::vector<float>& values);
 
 // Values rounded and clamped to [0, 255], one byte each (label maps).
-std::string label_bytes(const std::vector<double>& values);
+std::string label_bytes(const std::vector<float>& values);
 
 // What writers store: label_bytes for a label map, else float_bytes.
 inline std::string stored_bytes(const std::vector<double>& values, bool label);
@@ -108,8 +115,19 @@ RawVolume read_inr(const std::string& path);
 int inr_dimension(const std::string& path);
 void write_inr(const RawVolume& v, const std::string& path);
 
-inline std::string stored_bytes(const std::vector<double>& values, bool label) {
+inline std::string stored_bytes(const std::vector<float>& values, bool label) {
   return label ? label_bytes(values) : float_bytes(values);
+}
+
+// Appends what stored_bytes gives to `out` (one allocation: a file's header then its data).
+inline void append_stored_bytes(std::string& out, const std::vector<float>& values, bool label) {
+  const size_t at = out.size();
+  if (label) {
+    out += label_bytes(values);
+    return;
+  }
+  out.resize(at + values.size() * sizeof(float));
+  std::memcpy(out.data() + at, values.data(), values.size() * sizeof(float));
 }
 
 }  // namespace dsnake::detail

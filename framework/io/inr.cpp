@@ -145,7 +145,7 @@ RawVolume read_inr(const std::string& path) {
     throw InputError(path, "XDIM/YDIM/ZDIM", "XDIM x YDIM x ZDIM x VDIM x PIXSIZE need " + exact(expected) +
                                                  " bytes of data, the file holds " + exact(held) +
                                                  " (truncated data or wrong sizes)");
-  v.values = decode(bytes.data() + h.data_start, int64_t(count), type, swap);
+  v.values = decode<float>(bytes.data() + h.data_start, int64_t(count), type, swap);
   return v;
 }
 
@@ -170,7 +170,8 @@ void write_inr(const RawVolume& v, const std::string& path) {
        exact(v.origin[1]) + "\nZO=" + exact(v.ndims == 3 ? v.origin[2] : 0.0) + "\n";
   const size_t total = (h.size() + sizeof(kInrEnd) - 1 + kInrBlock - 1) / kInrBlock * kInrBlock;
   h += std::string(total - h.size() - (sizeof(kInrEnd) - 1), '\n') + kInrEnd;
-  std::string file = h + float_bytes(v.values);
+  std::string file = h;
+  append_stored_bytes(file, v.data(), false);
   if (extension_of(path) == ".inr.gz") file = gzip_bytes(file, path);
   write_file_atomically(path, file);
 }

@@ -216,14 +216,16 @@ RawVolume read_meta(const std::string& path) {
   if (data.size() < expected)
     throw InputError(data_path, "ElementDataFile", "data holds " + std::to_string(data.size()) + " bytes, expected " +
                                                        std::to_string(expected));
-  v.values = decode(data.data(), count, type, swap);
+  v.values = decode<float>(data.data(), count, type, swap);
   return v;
 }
 
 // Writes a MetaImage (LPS world, as MetaImage's own convention): .mha with LOCAL data, or .mhd
 // plus a .raw/.zraw data file beside it.
 void write_meta(const RawVolume& v, const std::string& path, bool compress) {
-  std::string data = stored_bytes(v.values, v.label);
+  const bool local = extension_of(path) == ".mha";
+  std::string data;  // compressed: the stream; an uncompressed .mha appends the values to its header
+  if (compress || !local) data = stored_bytes(v.data(), v.label);
   if (compress) {
     uLongf n = compressBound(data.size());
     std::string z(n, '\0');
@@ -250,8 +252,11 @@ void write_meta(const RawVolume& v, const std::string& path, bool compress) {
   h += "\n";
   if (v.channels > 1) h += "ElementNumberOfChannels = " + std::to_string(v.channels) + "\n";
   h += v.label ? "ElementType = MET_UCHAR\n" : "ElementType = MET_FLOAT\n";
-  if (extension_of(path) == ".mha") {
-    write_file_atomically(path, h + "ElementDataFile = LOCAL\n" + data);
+  if (local) {
+    std::string file = h + "ElementDataFile = LOCAL\n";
+    if (compress) file += data;
+    else append_stored_bytes(file, v.data(), v.label);
+    write_file_atomically(path, file);
     return;
   }
   const fs::path p(path);

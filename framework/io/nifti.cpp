@@ -170,16 +170,22 @@ RawVolume decode_nifti(const std::string& bytes, const std::string& path, bool h
   if (available < expected)
     throw InputError(path, "vox_offset", "data holds " + std::to_string(available) + " bytes, expected " +
                                              std::to_string(expected));
-  const std::vector<double> stored = decode(bytes.data() + size_t(vox_offset), count, type_it->second, swap);
   const double slope = nifti_field<float>(bytes, 112, swap), inter = nifti_field<float>(bytes, 116, swap);
   const bool scaled = slope != 0 && std::isfinite(slope) && std::isfinite(inter);
+  const char* data = bytes.data() + size_t(vox_offset);
+  if (!scaled && v.channels == 1) {  // the common case: decoded straight into place
+    v.values = decode<float>(data, count, type_it->second, swap);
+    return v;
+  }
+  // Rescaled in double from the stored values, rounded once (as an unscaled value is).
+  const std::vector<double> stored = decode<double>(data, count, type_it->second, swap);
   // NIfTI keeps components slowest (one volume per component); RawVolume interleaves them.
   const int64_t n = v.num_voxels();
   v.values.resize(count);
   for (int c = 0; c < v.channels; ++c)
     for (int64_t i = 0; i < n; ++i) {
       const double s = stored[c * n + i];
-      v.values[i * v.channels + c] = scaled ? s * slope + inter : s;
+      v.values[i * v.channels + c] = float(scaled ? s * slope + inter : s);
     }
   return v;
 }
@@ -226,13 +232,16 @@ void write_nifti(const RawVolume& lps, const std::string& path) {
   std::memcpy(h.data() + 344, "n+1", 4);
   std::string bytes;
   if (v.channels == 1) {
-    bytes = h + stored_bytes(lps.values, lps.label);
+    bytes = std::move(h);
+    append_stored_bytes(bytes, lps.data(), lps.label);
   } else {  // NIfTI keeps components slowest (one volume per component); RawVolume interleaves them
     const int64_t n = v.num_voxels();
-    std::vector<double> planar(lps.values.size());
+    const std::vector<float>& values = lps.data();
+    std::vector<float> planar(values.size());
     for (int c = 0; c < v.channels; ++c)
-      for (int64_t i = 0; i < n; ++i) planar[c * n + i] = lps.values[i * v.channels + c];
-    bytes = h + stored_bytes(planar, lps.label);
+      for (int64_t i = 0; i < n; ++i) planar[c * n + i] = values[i * v.channels + c];
+    bytes = std::move(h);
+    append_stored_bytes(bytes, planar, lps.label);
   }
   write_file_atomically(path, extension_of(path) == ".nii" ? bytes : gzip_bytes(bytes, path));
 }

@@ -437,7 +437,7 @@ RawVolume read_nrrd(const std::string& path) {
   const double expected = count * scalar_bytes(type);
   if (expected > kMaxDataBytes) throw InputError(path, "sizes", "absurd sizes (" + exact(count) + " values)");
   const std::string data = nrrd_data(h, bytes, path, expected);
-  v.values = decode(data.data(), int64_t(count), type, swap);
+  v.values = decode<float>(data.data(), int64_t(count), type, swap);
   return v;
 }
 
@@ -465,7 +465,13 @@ void write_nrrd(const RawVolume& v, const std::string& path, bool compress) {
   h += std::string("\nkinds:") + (vec ? " vector" : "") + (n == 3 ? " domain domain domain" : " domain domain");
   h += "\nendian: little\nencoding: " + std::string(compress ? "gzip" : "raw") + "\n";
   h += "space origin: " + vector_text(v.origin, n) + "\n";
-  std::string data = stored_bytes(v.values, v.label);
+  if (!compress && extension_of(path) != ".nhdr") {  // one allocation: the header, then the values
+    std::string file = h + "\n";
+    append_stored_bytes(file, v.data(), v.label);
+    write_file_atomically(path, file);
+    return;
+  }
+  std::string data = stored_bytes(v.data(), v.label);
   if (compress) data = gzip_bytes(data, path);
   if (extension_of(path) != ".nhdr") {
     write_file_atomically(path, h + "\n" + data);

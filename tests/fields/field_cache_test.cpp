@@ -118,6 +118,39 @@ TEST(FieldCache, EveryCacheableTypeRoundTrips3d) {
   std::filesystem::remove_all(dir);
 }
 
+// "cache_compression": "zlib" stores a smaller entry that loads to the same bits; a raw entry
+// of the same field is read by a compressing cache and the other way round (one key for both),
+// and a deflated entry whose stream is cut short is recomputed.
+TEST(FieldCache, DeflatedEntriesAreSmallerAndLoadToTheSameBits) {
+  const Image<2> image = disk(1.0f);
+  const std::string raw_dir = fresh_dir("raw"), zip_dir = fresh_dir("zip");
+  auto raw = make<2>(R"({"type": "gvf", "cache": ")" + raw_dir + R"("})");
+  auto zip = make<2>(R"({"type": "gvf", "cache": ")" + zip_dir + R"(", "cache_compression": "zlib"})");
+  raw->compute(image);
+  zip->compute(image);
+  const std::string raw_path = dynamic_cast<CachedField<2>*>(raw.get())->entry_path();
+  const std::string zip_path = dynamic_cast<CachedField<2>*>(zip.get())->entry_path();
+  EXPECT_EQ(std::filesystem::path(raw_path).filename(), std::filesystem::path(zip_path).filename());
+  EXPECT_LT(std::filesystem::file_size(zip_path), std::filesystem::file_size(raw_path));
+  // An uncompressing cache reads the deflated entry.
+  auto load = make<2>(R"({"type": "gvf", "cache": ")" + zip_dir + R"("})");
+  load->compute(image);
+  EXPECT_TRUE(dynamic_cast<CachedField<2>*>(load.get())->loaded_from_cache());
+  EXPECT_EQ(load->vectors().data(), raw->vectors().data());
+  // A cut stream does not fit: recomputed, same bits.
+  const auto size = std::filesystem::file_size(zip_path);
+  std::filesystem::resize_file(zip_path, size / 2);
+  auto cut = make<2>(R"({"type": "gvf", "cache": ")" + zip_dir + R"("})");
+  testing::internal::CaptureStderr();
+  cut->compute(image);
+  EXPECT_NE(testing::internal::GetCapturedStderr().find("does not fit"), std::string::npos);
+  EXPECT_FALSE(dynamic_cast<CachedField<2>*>(cut.get())->loaded_from_cache());
+  EXPECT_EQ(cut->vectors().data(), raw->vectors().data());
+  EXPECT_THROW(make<2>(R"({"type": "gvf", "cache": "x", "cache_compression": "lzma"})"), InputError);
+  std::filesystem::remove_all(raw_dir);
+  std::filesystem::remove_all(zip_dir);
+}
+
 TEST(FieldCache, KeyDependsOnGridAndParameters) {
   Image<2> a = disk(1.0f), b = a;
   Grid<2> g = b.grid();

@@ -48,7 +48,7 @@ Image<3> ball(double hz, double extent, const Point<3>& c, double r, double widt
 
 double max_norm(const VectorField<2>& v) {
   double m = 0;
-  for (const auto& p : v.data()) m = std::max(m, p.norm());
+  for (int64_t l = 0; l < v.num_voxels(); ++l) m = std::max(m, v[l].norm());
   return m;
 }
 
@@ -218,7 +218,7 @@ TEST(GvfField, ConstantImageGivesZeroFieldWithWarning) {
   field.compute(Image<2>(grid, 3.0f));
   const std::string err = testing::internal::GetCapturedStderr();
   EXPECT_NE(err.find("warning"), std::string::npos) << err;
-  for (const auto& v : field.vectors().data()) ASSERT_EQ(v, Point<2>::Zero());
+  for (float v : field.vectors().data()) ASSERT_EQ(v, 0.0f);
   EXPECT_EQ(field.force(Point<2>(3, 3), Point<2>::Zero()), Point<2>::Zero());
 }
 

@@ -88,7 +88,9 @@ TEST(IntegrateField, RecoversQuadraticExactly2dAnisotropic) {
   auto g = [](const Point<2>& x) { return Point<2>(0.6 * x[0] - 0.2 * x[1] + 1, -0.2 * x[0] + 0.2 * x[1]); };
   double range;
   const double err = integration_error<2>(grid, p, g, &range);
-  EXPECT_LT(err, 1e-9 * range) << range;
+  // Exact up to the rounding of the stored vectors to float (issue 21): ~1e-8 of the range
+  // (1e-9 when they were stored in double).
+  EXPECT_LT(err, 2e-8 * range) << range;
 }
 
 TEST(IntegrateField, RecoversQuadraticExactly3dAnisotropic) {
@@ -97,7 +99,7 @@ TEST(IntegrateField, RecoversQuadraticExactly3dAnisotropic) {
   auto g = [](const Point<3>& x) { return Point<3>(0.6 * x[0], 0.05 * x[2] + 2, 0.05 * x[1] - 0.2 * x[2]); };
   double range;
   const double err = integration_error<3>(grid, p, g, &range);
-  EXPECT_LT(err, 1e-9 * range) << range;
+  EXPECT_LT(err, 2e-8 * range) << range;  // float-rounded vectors, as above
 }
 
 // Error (up to a constant) of the integrated Gaussian bump 5 exp(-|x - c|^2 / 72) on `grid`.
@@ -140,10 +142,11 @@ TEST(IntegrateField, SolvesTheNeumannNormalEquations) {
     f[l] = Point<3>(-x[1] + noise(rng), x[0] + noise(rng), 0.3 * x[0] + noise(rng));
   }
   const std::vector<double> p = integrate_field(f);
+  const VectorField<3>& stored = f;  // the stored vectors, read in double as the solver reads them
   std::vector<double> lp(p.size(), 0.0), b(p.size(), 0.0);
   for_each_edge<3>(grid, [&](int64_t i, int64_t j, int a) {
     const double h = grid.spacing[a];
-    const double d = (p[j] - p[i]) / h, g = -(f[i][a] + f[j][a]) / 2;
+    const double d = (p[j] - p[i]) / h, g = -(stored[i][a] + stored[j][a]) / 2;
     lp[i] -= d / h;
     lp[j] += d / h;
     b[i] -= g / h;

@@ -276,11 +276,12 @@ TEST(ImageOrientation, VectorFieldsOfAnObliqueGridAreStoredInWorldComponents) {
   const size_t data = bytes.size() - size_t(f.num_voxels()) * 3 * sizeof(float);
   float first[3];
   std::memcpy(first, bytes.data() + data, sizeof(first));
-  const Point<3> world = g.direction * f[0];
-  ASSERT_GT((world - f[0]).norm(), 0.3);  // the rotation changes the components
+  const VectorField<3>& stored = f;  // read back as Points
+  const Point<3> world = g.direction * stored[0];
+  ASSERT_GT((world - stored[0]).norm(), 0.3);  // the rotation changes the components
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(first[k], world[k], 1e-6) << k;
   const VectorField<3> back = read_vector_field<3>(dir + "/f.mha");
-  for (int64_t i = 0; i < f.num_voxels(); ++i) EXPECT_LT((back[i] - f[i]).norm(), 1e-6) << i;
+  for (int64_t i = 0; i < f.num_voxels(); ++i) EXPECT_LT((back[i] - stored[i]).norm(), 1e-6) << i;
 }
 
 // NIfTI's RAS origin and axes are dsnake's LPS with x and y negated: an axis-aligned LPS image
