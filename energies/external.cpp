@@ -36,7 +36,7 @@ void ExternalEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& sn
 template <int D>
 void ExternalEnergy<D>::bind_polarity(const EnergyContext<D>& context, const Snake<D>& snake) {
   DSNAKE_ASSERT(context.image != nullptr, "the polarity rule samples the image");
-  const Image<D>& smoothed = smoothed_.of(*context.image, options_.polarity_sigma);
+  const Image<D>& smoothed = smoothed_.of(*context.image, options_.polarity_sigma, context.smoothed_images);
   if (probed_image_ != context.image) {
     probe_.step = half_smallest_spacing(smoothed.grid());
     probe_.range = options_.polarity_range;

@@ -31,14 +31,15 @@ EdgePolarity learn_polarity(const Image<D>& smoothed, const Snake<D>& snake, dou
 }
 
 template <int D>
-const Image<D>& SmoothedImage<D>::of(const Image<D>& image, double sigma) {
-  if (source_ == &image && sigma_ == sigma && grid_.same_geometry(image.grid()) && !smoothed_.empty())
-    return smoothed_;
-  smoothed_ = sigma > 0 ? gaussian_blur(image, sigma) : image;
+const Image<D>& SmoothedImage<D>::of(const Image<D>& image, double sigma, SmoothedImageCache<D>* cache) {
+  if (source_ == &image && sigma_ == sigma && grid_.same_geometry(image.grid()) && smoothed_)
+    return *smoothed_;
+  smoothed_ = cache ? cache->get(image, sigma)
+                    : std::make_shared<const Image<D>>(sigma > 0 ? gaussian_blur(image, sigma) : image);
   source_ = &image;
   grid_ = image.grid();
   sigma_ = sigma;
-  return smoothed_;
+  return *smoothed_;
 }
 
 template <int D>

@@ -9,6 +9,7 @@
 #pragma once
 
 #include "framework/core/image.h"
+#include "framework/core/image_filters.h"
 #include "framework/core/options.h"
 #include "framework/core/shape.h"
 
@@ -35,19 +36,21 @@ EdgePolarity learn_polarity(const Image<D>& smoothed, const Snake<D>& snake, dou
 
 // A Gaussian-smoothed copy of an image (sigma in mm), recomputed only when the image or sigma
 // changes: energies keep one per image they sample, so that binding again after a remesh costs
-// nothing.
+// nothing. With a cache (EnergyContext::smoothed_images) the copy is shared with the run's other
+// energies that smooth the same image by the same sigma.
 template <int D>
 class SmoothedImage {
  public:
   // The image smoothed by sigma (sigma <= 0: a copy).
-  const Image<D>& of(const Image<D>& image, double sigma);
-  const Image<D>& image() const { return smoothed_; }
+  const Image<D>& of(const Image<D>& image, double sigma, SmoothedImageCache<D>* cache = nullptr);
+  const Image<D>& image() const { return smoothed_ ? *smoothed_ : empty_; }
 
  private:
   const Image<D>* source_ = nullptr;
   Grid<D> grid_;
   double sigma_ = -1.0;
-  Image<D> smoothed_;
+  std::shared_ptr<const Image<D>> smoothed_;
+  Image<D> empty_;
 };
 
 // The derivative of the image along the unit direction u at x, by central differences of linear

@@ -108,7 +108,7 @@ ProfileEnergy<D>::ProfileEnergy(const ProfileOptions& options) : options_(checke
 template <int D>
 void ProfileEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& snake) {
   DSNAKE_ASSERT(context.image != nullptr, "the profile energy samples the image");
-  const Image<D>& smoothed = image_.of(*context.image, options_.sigma);
+  const Image<D>& smoothed = image_.of(*context.image, options_.sigma, context.smoothed_images);
   if (expected_for_ != context.image) {
     h_ = options_.spacing > 0 ? options_.spacing : half_smallest_spacing(smoothed.grid());
     half_ = std::max(1, static_cast<int>(std::lround(options_.length / h_)));
@@ -136,7 +136,7 @@ void ProfileEnergy<D>::set_up_expected(const EnergyContext<D>& context, const Sn
   if (context.reference_image) {
     DSNAKE_ASSERT(context.tmpl != nullptr, "a reference profile needs the template");
     SmoothedImage<D> reference;
-    const Image<D>& ref = reference.of(*context.reference_image, options_.sigma);
+    const Image<D>& ref = reference.of(*context.reference_image, options_.sigma, context.smoothed_images);
     PointList<D> p = context.tmpl->positions;
     for (auto& x : p) x = ref.grid().to_frame(x);
     const PointList<D> normals = Snake<D>::from_template(*context.tmpl, p).vertex_normals();

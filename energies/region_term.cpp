@@ -159,7 +159,7 @@ double RegionTermEnergy<D>::c_out() const {
 template <int D>
 void RegionTermEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& snake) {
   DSNAKE_ASSERT(context.image != nullptr, "the region term samples the image");
-  const Image<D>& smoothed = image_.of(*context.image, options_.sigma);
+  const Image<D>& smoothed = image_.of(*context.image, options_.sigma, context.smoothed_images);
   if (sampled_for_ != context.image) {
     const double largest = options_.spacing > 0 ? options_.spacing : half_smallest_spacing(smoothed.grid());
     samples_ = std::max(1, static_cast<int>(std::ceil(options_.band / largest - 1e-9)));

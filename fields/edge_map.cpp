@@ -18,8 +18,11 @@ EdgeMap<D> compute_edge_map(const Image<D>& image, const EdgeMapOptions& options
   const Grid<D>& grid = out.grid;
   const int64_t n = grid.num_voxels();
   DSNAKE_ASSERT(n > 0, "a non-empty image");
-  std::vector<double> u(image.data().begin(), image.data().end()), f(n);
+  // Double precision buffers, each allocated only while it is needed (issue 21: the peak of a
+  // field's computation is here): the smoothed image u, then f, then the float outputs.
+  std::vector<double> u(image.data().begin(), image.data().end());
   gaussian_blur(grid, u, options.sigma);
+  std::vector<double> f(n);
   if (with_image_gradient)
     for (int a = 0; a < D; ++a) out.grad_image[a].resize(n);
 #pragma omp parallel for schedule(static)
@@ -32,6 +35,7 @@ EdgeMap<D> compute_edge_map(const Image<D>& image, const EdgeMapOptions& options
     }
     f[l] = sum;
   }
+  std::vector<double>().swap(u);
   double f_max = 0.0;  // max is exact: the reduction order does not matter
 #pragma omp parallel for reduction(max : f_max) schedule(static)
   for (int64_t l = 0; l < n; ++l) f_max = std::max(f_max, f[l]);

@@ -28,7 +28,8 @@ mkdir -p "$WORK"
 
 HOG=""
 start_hog() { (while :; do :; done) & HOG=$!; }
-stop_hog() { [ -n "$HOG" ] && kill "$HOG" 2>/dev/null && wait "$HOG" 2>/dev/null; HOG=""; return 0; }
+# (wait returns the killed hog's status 143: it must not end the script under set -e)
+stop_hog() { if [ -n "$HOG" ]; then kill "$HOG" 2>/dev/null || true; wait "$HOG" 2>/dev/null || true; fi; HOG=""; return 0; }
 trap stop_hog EXIT
 
 # measure NAME INPROCESS_NOTE COMMAND...: REPEATS runs, medians of wall time and peak RSS.

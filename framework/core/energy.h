@@ -19,6 +19,7 @@ template <int D> class ExternalField;
 template <int D> class Image;
 template <int D> class GlobalProblem;  // Ceres lives behind this in framework/global_problem.*
 template <int D> class Potential;
+template <int D> class SmoothedImageCache;  // framework/core/image_filters.h
 
 // What an energy is bound to: the template and, where there is one, the image and its field.
 template <int D>
@@ -32,6 +33,9 @@ struct EnergyContext {
   // (as read) lies on its object (an atlas, the previous slice); the profile force samples its
   // expected profiles there (energies/profile.h).
   const Image<D>* reference_image = nullptr;
+  // Smoothed images shared by the energies of the run (framework/core/image_filters.h), if any;
+  // without one each energy smooths its own copy.
+  SmoothedImageCache<D>* smoothed_images = nullptr;
 };
 
 enum class Governs {

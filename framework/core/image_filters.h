@@ -5,6 +5,8 @@
 
 #include "framework/core/image.h"
 
+#include <memory>
+#include <mutex>
 #include <vector>
 
 namespace dsnake {
@@ -24,5 +26,25 @@ double partial_derivative(const Grid<D>& grid, const std::vector<double>& u, int
 // The gradient of an image, by partial_derivative on every axis.
 template <int D>
 VectorField<D> gradient(const Image<D>& image);
+
+// Gaussian-smoothed copies of images, shared by the energies of one run (EnergyContext): each
+// (image, sigma) is smoothed once however many energies sample it (the recipes' two profile
+// terms and the external polarity rule all smooth by 1 mm; issue 21). Keyed by the image's
+// address: valid only while the images it was given live and are not modified, as within a run.
+template <int D>
+class SmoothedImageCache {
+ public:
+  // The image smoothed by sigma (sigma <= 0: a copy), computed on the first request.
+  std::shared_ptr<const Image<D>> get(const Image<D>& image, double sigma);
+
+ private:
+  struct Entry {
+    const Image<D>* source;
+    double sigma;
+    std::shared_ptr<const Image<D>> smoothed;
+  };
+  std::mutex mutex_;
+  std::vector<Entry> entries_;
+};
 
 }  // namespace dsnake

@@ -4,6 +4,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <numeric>
 #include <cmath>
 #include <limits>
 
@@ -12,6 +13,11 @@ namespace dsnake::detail {
 namespace {
 
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
+// Rings of cells a single-point query walks before the facet tree takes over (FacetGrid::distance).
+constexpr int kWalkRings = 2;
+// A batch whose candidate box spans more cells than this many per point is queried point by
+// point (FacetGrid::batch_distances): gathering would cost more than the tree queries.
+constexpr int64_t kGatherCellsPerPoint = 64;
 
 // Twice the signed area of (a, b, c): positive when counter-clockwise.
 double orient2d(const Point<2>& a, const Point<2>& b, const Point<2>& c) {
@@ -245,6 +251,98 @@ FacetGrid<D>::FacetGrid(const FacetSurface<D>& surface) {
   cell_facets_.resize(offsets_[num_cells]);
   std::vector<int64_t> fill(offsets_.begin(), offsets_.end() - 1);
   for (int f = 0; f < n; ++f) for_each_cell_of(f, [&](int64_t l) { cell_facets_[fill[l]++] = f; });
+  build_tree();
+}
+
+// Leaves of at most kLeafFacets facets; median splits (nth_element, ties by index: the same tree
+// for the same input).
+constexpr int kLeafFacets = 4;
+
+constexpr int kTreeStack = 128;  // > the depth of a median-split tree over 2^31 facets
+
+template <int D>
+void FacetGrid<D>::build_tree() {
+  const int n = num_facets();
+  tree_facets_.resize(n);
+  std::iota(tree_facets_.begin(), tree_facets_.end(), 0);
+  std::vector<Point<D>> centre(n);
+  for (int f = 0; f < n; ++f) centre[f] = 0.5 * (box_lo_[f] + box_hi_[f]);
+  tree_.assign(1, TreeNode{});
+  tree_.reserve(2 * (n / kLeafFacets) + 2);
+  struct Task {
+    int node, first, count;
+  };
+  std::vector<Task> todo{{0, 0, n}};
+  while (!todo.empty()) {
+    const Task t = todo.back();
+    todo.pop_back();
+    Point<D> lo = Point<D>::Constant(kInfinity), hi = Point<D>::Constant(-kInfinity);
+    Point<D> clo = lo, chi = hi;
+    for (int k = t.first; k < t.first + t.count; ++k) {
+      const int f = tree_facets_[k];
+      lo = lo.cwiseMin(box_lo_[f]);
+      hi = hi.cwiseMax(box_hi_[f]);
+      clo = clo.cwiseMin(centre[f]);
+      chi = chi.cwiseMax(centre[f]);
+    }
+    tree_[t.node].lo = lo;
+    tree_[t.node].hi = hi;
+    if (t.count <= kLeafFacets) {
+      tree_[t.node].first = t.first;
+      tree_[t.node].count = t.count;
+      continue;
+    }
+    int axis = 0;
+    (chi - clo).maxCoeff(&axis);
+    const int half = t.count / 2;
+    auto begin = tree_facets_.begin() + t.first;
+    std::nth_element(begin, begin + half, begin + t.count, [&](int a, int b) {
+      return centre[a][axis] < centre[b][axis] || (centre[a][axis] == centre[b][axis] && a < b);
+    });
+    const int left = static_cast<int>(tree_.size());
+    tree_.resize(tree_.size() + 2);
+    tree_[t.node].first = left;
+    tree_[t.node].count = 0;
+    todo.push_back({left + 1, t.first + half, t.count - half});
+    todo.push_back({left, t.first, half});
+  }
+}
+
+// Depth first, the nearer child first; a node is skipped when its box is farther than the best
+// distance so far (with the rounding slack, so that pruning never changes the result).
+template <int D>
+void FacetGrid<D>::tree_distance(const Point<D>& p, Scratch& s, double& best) const {
+  if (tree_.empty() || prepared_.empty()) return;
+  auto reach2 = [&] {
+    const double r = best + tolerance_;
+    return r * r;
+  };
+  std::array<std::pair<double, int>, kTreeStack> stack;
+  int top = 0;
+  stack[top++] = {box_distance2<D>(p, tree_[0].lo, tree_[0].hi), 0};
+  while (top > 0) {
+    const auto [d2, id] = stack[--top];
+    if (d2 > reach2()) continue;
+    const TreeNode& node = tree_[id];
+    if (node.count > 0) {
+      for (int k = node.first; k < node.first + node.count; ++k) {
+        const int f = tree_facets_[k];
+        if (box_distance2<D>(p, box_lo_[f], box_hi_[f]) > reach2()) continue;
+        const double d = facet_distance(p, f);
+        if (d < best) {
+          best = d;
+          s.hint = f;
+        }
+      }
+      continue;
+    }
+    int a = node.first, b = node.first + 1;
+    double da = box_distance2<D>(p, tree_[a].lo, tree_[a].hi), db = box_distance2<D>(p, tree_[b].lo, tree_[b].hi);
+    if (db < da) std::swap(a, b), std::swap(da, db);
+    DSNAKE_ASSERT(top + 2 <= kTreeStack, "the facet tree is shallower than its stack");
+    if (db <= reach2()) stack[top++] = {db, b};
+    if (da <= reach2()) stack[top++] = {da, a};
+  }
 }
 
 template <int D>
@@ -334,18 +432,21 @@ double FacetGrid<D>::distance(const Point<D>& p, Scratch& s) const {
     const double g = std::max({0.0, lo_[a] - p[a], p[a] - (lo_[a] + dims_[a] * cell_)});
     gap2 += g * g;
   }
+  // A point farther from the grid's box than the box is large (a collapsed or distant surface):
+  // every cell is within the nearest facet's reach, so the tree answers.
   const double size = dims_.maxCoeff() * cell_;
-  if (gap2 > size * size && int64_t(num_facets()) < dims_.template cast<int64_t>().prod()) {
-    for (int f = 0; f < num_facets(); ++f) {
-      const double reach = best + tolerance_;
-      if (box_distance2<D>(p, box_lo_[f], box_hi_[f]) > reach * reach) continue;
-      const double d = facet_distance(p, f);
-      if (d < best) best = d, s.hint = f;
-    }
+  if (gap2 > size * size) {
+    tree_distance(p, s, best);
     return best;
   }
   const GridIndex<D> c = cell_of(p);
   for (int r = 0;; ++r) {
+    // A point more than a few rings from every facet (deep inside a large surface, or beside a
+    // collapsed one) would walk O(r^D) empty cells: the tree finishes the search (issue 21).
+    if (r > kWalkRings) {
+      tree_distance(p, s, best);
+      return best;
+    }
     // Only cells that overlap the box of half-width `best` around p can hold a nearer facet.
     GridIndex<D> lo = GridIndex<D>::Zero(), hi = dims_ - GridIndex<D>::Ones();
     if (best < kInfinity) {
@@ -408,6 +509,14 @@ void FacetGrid<D>::batch_distances(const Point<D>* points, int64_t count, double
   s.stamp[first] = s.query;
   s.candidates.clear();
   const GridIndex<D> c0 = cell_of(lo_reach), c1 = cell_of(hi_reach);
+  if ((c1 - c0 + GridIndex<D>::Ones()).template cast<int64_t>().prod() > kGatherCellsPerPoint * count) {
+    for (int64_t i = 0; i < count; ++i) {
+      double best = std::sqrt(out[i]);  // the centre's nearest facet bounds it
+      tree_distance(points[i], s, best);
+      out[i] = best;
+    }
+    return;
+  }
   auto gather = [&](const GridIndex<D>& c) {
     const int64_t l = linear(c);
     for (int64_t k = offsets_[l]; k < offsets_[l + 1]; ++k) {

@@ -96,6 +96,23 @@ class FacetGrid {
   double tolerance_ = 0;                           // slack on pruning tests (rounding)
   std::vector<int64_t> offsets_;                   // CSR: facets of cell c are
   std::vector<int> cell_facets_;                   // cell_facets_[offsets_[c] .. offsets_[c+1])
+
+  // A bounding-volume hierarchy over the same facets, for the queries the grid answers badly:
+  // a point far from every facet (a collapsed or distant surface, or a point deep inside a
+  // large one), whose ring walk would visit O((distance / cell)^D) empty cells (issue 21). A
+  // leaf is a box over tree_facets_[first .. first + count); inner nodes split their facets at
+  // the median of the facet centres along the centres' longest axis (depth <= log2(facets) + 1).
+  struct TreeNode {
+    Point<D> lo, hi;
+    int first = 0;  // leaf: its first entry in tree_facets_; inner: the left child (right: first + 1)
+    int count = 0;  // leaf: its facets; inner: 0
+  };
+  void build_tree();
+  // Lowers best (and s.hint) to the exact distance from p to the nearest facet, visiting only
+  // nodes whose box is within best (+ the rounding slack) of p.
+  void tree_distance(const Point<D>& p, Scratch& s, double& best) const;
+  std::vector<TreeNode> tree_;
+  std::vector<int> tree_facets_;
 };
 
 }  // namespace dsnake::detail

@@ -5,6 +5,9 @@
 
 #include <omp.h>
 
+#include <algorithm>
+#include <cmath>
+
 namespace dsnake {
 namespace {
 
@@ -80,6 +83,63 @@ TEST(ImageFilters, BlurKeepsConstantsAndMassAndIsThreadIndependent) {
   EXPECT_NEAR(b1.at({10, 8, 5}) / b1.at({10, 8, 4}), b1.at({10, 8, 4}) > 0 ? std::exp(-2.5 * 2.5 / 8.0) : 0, 0.05);
   const Image<3> c = gaussian_blur(Image<3>(g, 7.0f), 3.0);
   for (int64_t l = 0; l < g.num_voxels(); ++l) EXPECT_NEAR(c[l], 7.0f, 1e-5);
+}
+
+// The blur, written per voxel as its comment states (w0 u[i] + w1 (u[i-1] + u[i+1]) + ..., the
+// border replicated), against the line-wise implementation: the same bits on every axis, also
+// where the support is longer than the axis (issue 21 rewrote the loops, not the sums).
+TEST(ImageFilters, BlurEqualsThePerVoxelSumBitForBit) {
+  Grid<3> g;
+  g.size = {13, 4, 9};
+  g.spacing = {0.7, 1.3, 2.0};
+  Image<3> img(g);
+  for (int64_t l = 0; l < g.num_voxels(); ++l) img[l] = static_cast<float>(std::sin(0.37 * l) * 100 + (l % 7));
+  const double sigma = 1.9;
+  std::vector<double> u(img.data().begin(), img.data().end()), next(u.size());
+  for (int a = 0; a < 3; ++a) {
+    const double sv = sigma / g.spacing[a];
+    const int radius = std::max(1, static_cast<int>(std::ceil(3.0 * sv - 1e-9)));
+    std::vector<double> w(radius + 1);
+    double total = 0;
+    for (int k = 0; k <= radius; ++k) total += (k ? 2 : 1) * (w[k] = std::exp(-0.5 * k * k / (sv * sv)));
+    for (double& x : w) x /= total;
+    for (int64_t l = 0; l < g.num_voxels(); ++l) {
+      const GridIndex<3> c = g.index(l);
+      auto at = [&](int i) {
+        GridIndex<3> d = c;
+        d[a] = std::clamp(i, 0, g.size[a] - 1);
+        return u[g.linear(d)];
+      };
+      double sum = w[0] * u[l];
+      for (int k = 1; k <= radius; ++k) sum += w[k] * (at(c[a] - k) + at(c[a] + k));
+      next[l] = sum;
+    }
+    u.swap(next);
+  }
+  for (const int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    const Image<3> b = gaussian_blur(img, sigma);
+    for (int64_t l = 0; l < g.num_voxels(); ++l) ASSERT_EQ(b[l], static_cast<float>(u[l])) << "voxel " << l;
+  }
+}
+
+// The run's shared smoothed images: one blur per (image, sigma), the same values as a blur of
+// one's own.
+TEST(ImageFilters, SmoothedImageCacheSmoothsEachImageAndSigmaOnce) {
+  Grid<2> g;
+  g.size = {20, 12};
+  Image<2> a(g, 0.0f), b(g, 0.0f);
+  a.at({5, 6}) = 10.0f;
+  b.at({14, 3}) = 4.0f;
+  SmoothedImageCache<2> cache;
+  const auto a1 = cache.get(a, 1.0), a1_again = cache.get(a, 1.0), a2 = cache.get(a, 2.0), b1 = cache.get(b, 1.0);
+  EXPECT_EQ(a1.get(), a1_again.get());
+  EXPECT_NE(a1.get(), a2.get());
+  EXPECT_NE(a1.get(), b1.get());
+  EXPECT_EQ(a1->data(), gaussian_blur(a, 1.0).data());
+  EXPECT_EQ(a2->data(), gaussian_blur(a, 2.0).data());
+  EXPECT_EQ(b1->data(), gaussian_blur(b, 1.0).data());
+  EXPECT_EQ(cache.get(a, 0.0)->data(), a.data());  // sigma 0: a copy
 }
 
 // A spacing a rounding error off 1 (as a NRRD reader computes it, the norm of a rotated space

@@ -382,6 +382,33 @@ TEST(Metrics, GridSearchAgreesWithBruteForce) {
   EXPECT_LT(err3, 1e-12);
 }
 
+// Points many cells away from every facet of a fine surface (deep inside it) and batches whose
+// candidate box would span most of the grid go to the facet tree (issue 21: a collapsed snake's
+// metrics walked O((distance / cell)^3) empty cells); the distances stay exact.
+TEST(Metrics, TreeQueriesFarFromEveryFacetAgreeWithBruteForce) {
+  const Shape3 fine = geodesic_sphere(24, 50, Point<3>(3, -2, 1));
+  ASSERT_GT(fine.points.size(), 5000u);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  PointList<3> q;
+  for (int i = 0; i < 300; ++i) q.push_back(Point<3>(3, -2, 1) + 25 * Point<3>(unit(rng), unit(rng), unit(rng)));
+  for (int i = 0; i < 100; ++i) q.push_back(400 * Point<3>(unit(rng), unit(rng), unit(rng)));
+  const std::vector<double> d = distances_to_surface<3>(fine.ref(), q);
+  double err = 0;
+  for (size_t i = 0; i < q.size(); ++i) err = std::max(err, std::abs(d[i] - brute_distance(fine, q[i])));
+  EXPECT_LT(err, 1e-12);
+  // A small sphere at the centre against the fine one: every distance is the radius difference
+  // within the chord errors, in both directions (the small sphere's batches query far).
+  const Shape3 small = geodesic_sphere(8, 2, Point<3>(3, -2, 1));
+  const double chord50 = 50 - brute_distance(fine, Point<3>(3, -2, 1));
+  const double chord2 = 2 - brute_distance(small, Point<3>(3, -2, 1));
+  const SurfaceDistances sd = surface_distances<3>(small.ref(), fine.ref(), 0.5);
+  for (double v : {sd.mean, sd.hausdorff95, sd.hausdorff}) {
+    EXPECT_GE(v, 48 - chord50 - 1e-9);
+    EXPECT_LE(v, 48 + chord2 + 1e-9);
+  }
+}
+
 TEST(Metrics, ResultsDoNotDependOnThreadCount) {
   const Shape3 a = geodesic_sphere(6, 20, Point<3>(40, 40, 40));
   const Shape3 b = geodesic_sphere(7, 21, Point<3>(40.5, 39.7, 40.2));
