@@ -62,7 +62,8 @@ class FacetGrid {
 
   // Exact distance from p (anywhere, inside the grid or not) to the nearest facet: rings of
   // cells around p's cell, skipping cells and facets whose box is farther than the best
-  // distance so far, until the unvisited region is provably farther. Infinity if no facets.
+  // distance so far, until the unvisited region is provably farther; past two rings, or for a
+  // point far outside the grid, the facet tree finishes the search. Infinity if no facets.
   double distance(const Point<D>& p, Scratch& scratch) const;
 
   // Exact distances from points that lie close together (e.g. the samples of one facet) to

@@ -180,7 +180,7 @@ TEST(Metrics, ConcentricSpheresGiveRadiusDifference) {
 }
 
 // A collapsed snake far inside the truth (the case of a failed run): the truth's samples lie
-// farther from the tiny surface's grid than the grid is large, which takes the all-facets path;
+// farther from the tiny surface's grid than the grid is large, which takes the facet tree;
 // the distances must still be the radius difference (within the chord errors).
 TEST(Metrics, ATinySurfaceFarFromTheOtherGivesTheRadiusDifference) {
   const Shape3 tiny = geodesic_sphere(16, 0.05), outer = geodesic_sphere(16, 11);
