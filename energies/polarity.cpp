@@ -56,7 +56,7 @@ double half_smallest_spacing(const Grid<D>& grid) {
 template <int D>
 double gradient_noise_level(const Image<D>& image) {
   if (image.empty()) return 0.0;
-  const std::vector<double> u(image.data().begin(), image.data().end());
+  const std::vector<float>& u = image.data();  // differenced in double, without a copy
   std::vector<double> magnitude(u.size());
 #pragma omp parallel for schedule(static) if (u.size() >= 65536)
   for (int64_t l = 0; l < int64_t(u.size()); ++l) {

@@ -72,6 +72,20 @@ void blur_axis(const Grid<D>& grid, int axis, double sigma_voxels, const std::ve
   }
 }
 
+// The central (one-sided at the border) difference, in double precision whatever the values'
+// type: floats are widened exactly, so a float image gives the bits of its double copy.
+template <int D, class T>
+double partial_derivative_of(const Grid<D>& grid, const std::vector<T>& u, int64_t l, int axis) {
+  const int size = grid.size[axis];
+  if (size < 2) return 0.0;
+  const int64_t stride = axis_stride(grid, axis);
+  const int i = static_cast<int>((l / stride) % size);
+  const double h = grid.spacing[axis];
+  if (i == 0) return (double(u[l + stride]) - double(u[l])) / h;
+  if (i == size - 1) return (double(u[l]) - double(u[l - stride])) / h;
+  return (double(u[l + stride]) - double(u[l - stride])) / (2.0 * h);
+}
+
 }  // namespace
 
 template <int D>
@@ -97,20 +111,18 @@ Image<D> gaussian_blur(const Image<D>& image, double sigma) {
 
 template <int D>
 double partial_derivative(const Grid<D>& grid, const std::vector<double>& u, int64_t l, int axis) {
-  const int size = grid.size[axis];
-  if (size < 2) return 0.0;
-  const int64_t stride = axis_stride(grid, axis);
-  const int i = static_cast<int>((l / stride) % size);
-  const double h = grid.spacing[axis];
-  if (i == 0) return (u[l + stride] - u[l]) / h;
-  if (i == size - 1) return (u[l] - u[l - stride]) / h;
-  return (u[l + stride] - u[l - stride]) / (2.0 * h);
+  return partial_derivative_of<D>(grid, u, l, axis);
+}
+
+template <int D>
+double partial_derivative(const Grid<D>& grid, const std::vector<float>& u, int64_t l, int axis) {
+  return partial_derivative_of<D>(grid, u, l, axis);
 }
 
 template <int D>
 VectorField<D> gradient(const Image<D>& image) {
   const auto& g = image.grid();
-  const std::vector<double> u(image.data().begin(), image.data().end());
+  const std::vector<float>& u = image.data();
   VectorField<D> out(g);
   const int64_t n = g.num_voxels();
 #pragma omp parallel for schedule(static)
@@ -136,6 +148,8 @@ template void gaussian_blur<3>(const Grid<3>&, std::vector<double>&, double);
 template Image<2> gaussian_blur<2>(const Image<2>&, double);
 template Image<3> gaussian_blur<3>(const Image<3>&, double);
 template double partial_derivative<2>(const Grid<2>&, const std::vector<double>&, int64_t, int);
+template double partial_derivative<2>(const Grid<2>&, const std::vector<float>&, int64_t, int);
+template double partial_derivative<3>(const Grid<3>&, const std::vector<float>&, int64_t, int);
 template double partial_derivative<3>(const Grid<3>&, const std::vector<double>&, int64_t, int);
 template VectorField<2> gradient<2>(const Image<2>&);
 template VectorField<3> gradient<3>(const Image<3>&);

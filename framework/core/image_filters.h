@@ -22,6 +22,10 @@ Image<D> gaussian_blur(const Image<D>& image, double sigma);
 // border, 0 along an axis of a single voxel.
 template <int D>
 double partial_derivative(const Grid<D>& grid, const std::vector<double>& u, int64_t l, int axis);
+// The same on float values (an image's own data, without a double copy), in double precision:
+// the same bits as on the values widened to double.
+template <int D>
+double partial_derivative(const Grid<D>& grid, const std::vector<float>& u, int64_t l, int axis);
 
 // The gradient of an image, by partial_derivative on every axis.
 template <int D>
