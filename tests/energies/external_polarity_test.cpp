@@ -3,14 +3,19 @@
 // edges of opposite polarity the rule picks the edge of its polarity whichever is nearer; "auto"
 // learns the sign from the start; bad keys name their path; one and two threads give the same bits.
 #include "energies/external.h"
+#include "energies/polarity.h"
 
 #include "fields/gvf.h"
 #include "framework/core/errors.h"
+#include "framework/core/image_filters.h"
 #include "tests/energies/edge_images.h"
 #include "tests/energy_fixtures.h"
 
 #include <gtest/gtest.h>
 #include <omp.h>
+#include <cmath>
+#include <algorithm>
+#include <random>
 
 namespace dsnake {
 namespace {
@@ -111,6 +116,42 @@ TEST(ExternalPolarity, SameBitsForOneAndTwoThreads) {
   for (auto& p : t.positions) p *= 8.0;
   const Snake<3> snake = Snake<3>::from_template(t, perturbed<3>(t.positions, 0.7, 3));
   test_support::expect_same_proposals_at_one_and_two_threads<3>([&] { return ExternalEnergy<3>(rule(PolarityRule::kDarkInside)); }, EnergyContext<3>{&t, &image, &field}, snake);
+}
+
+// The polarity rule's noise level is the median of the voxels' gradient magnitudes (or 1% of the
+// largest): the two-pass bucket selection gives the value an nth_element over all voxels gives,
+// at 1 and 2 threads, on a noisy volume, on one with many equal magnitudes and on a constant one.
+TEST(GradientNoiseLevel, EqualsTheMedianOfAllMagnitudes) {
+  Grid<3> g;
+  g.size = {67, 41, 30};  // > 65536 voxels: the parallel passes
+  g.spacing = {0.8, 1.1, 2.0};
+  auto reference = [&](const Image<3>& img) {
+    const std::vector<double> u(img.data().begin(), img.data().end());
+    std::vector<double> m(u.size());
+    for (int64_t l = 0; l < int64_t(u.size()); ++l) {
+      double s = 0;
+      for (int a = 0; a < 3; ++a) s += std::pow(partial_derivative(g, u, l, a), 2);
+      m[l] = std::sqrt(s);
+    }
+    const double largest = *std::max_element(m.begin(), m.end());
+    std::nth_element(m.begin(), m.begin() + m.size() / 2, m.end());
+    return std::max(m[m.size() / 2], 0.01 * largest);
+  };
+  std::mt19937 rng(3);
+  std::normal_distribution<float> noise(0.0f, 5.0f);
+  Image<3> noisy(g), steps(g), flat(g, 7.0f);
+  for (int64_t l = 0; l < g.num_voxels(); ++l) {
+    noisy[l] = 100.0f * (l % 67 > 30) + noise(rng);
+    steps[l] = float((l / 67) % 41 > 20 ? 10 : 0);  // most magnitudes 0, a few equal ones
+  }
+  for (const Image<3>* img : {&noisy, &steps, &flat}) {
+    const double expected = reference(*img);
+    for (const int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      EXPECT_EQ(gradient_noise_level(*img), expected) << threads;
+    }
+  }
+  EXPECT_GT(reference(noisy), 0.0);
 }
 
 }  // namespace
