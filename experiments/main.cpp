@@ -127,6 +127,8 @@ void add_run_and_validate(CLI::App& app, CommandLine& c) {
   add_overrides(c.run_cmd, c.overrides, "Override a key of the experiment file: key.path=value (repeatable)");
   c.run_cmd->add_option("--threads,-j", c.threads, "OpenMP threads (default: all cores)")->check(CLI::Range(1, 1024));
   c.run_cmd->add_flag("--quiet,-q", c.run.quiet, "No progress lines on stderr");
+  c.run_cmd->add_flag("--force", c.run.force,
+                      "Write into a non-empty --out folder that holds no earlier dsnake result (only dsnake's own files are replaced)");
   c.run_cmd->add_option("--field-cache", c.field_cache, "Store and reuse computed fields in this folder");
 
   c.validate_cmd = app.add_subcommand("validate", "Check an experiment or sweep file without running it");

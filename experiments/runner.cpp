@@ -1,5 +1,7 @@
 #include "experiments/runner.h"
 
+#include "experiments/output_folder.h"
+
 #include "framework/core/image_filters.h"
 
 #include "energies/landmarks.h"
@@ -190,28 +192,6 @@ std::string correspondence_csv(const Experiment<D>& ex, const Snake<D>& snake, c
     s << "," << csv_number(t < int(err.per_vertex.size()) ? err.per_vertex[t] : NAN) << "\n";
   }
   return s.str();
-}
-
-// Publishes `staging` as `out`: a rename when `out` is new, else moves every entry into `out`
-// (replacing same-named entries), result.json last.
-void publish(const fs::path& staging, const fs::path& out) {
-  if (!fs::exists(out)) {  // a new folder appears in one step
-    if (out.has_parent_path()) fs::create_directories(out.parent_path());
-    std::error_code ec;
-    fs::rename(staging, out, ec);
-    if (!ec) return;
-  }
-  fs::create_directories(out);
-  std::vector<fs::path> entries;
-  for (const auto& e : fs::directory_iterator(staging)) entries.push_back(e.path());
-  std::stable_partition(entries.begin(), entries.end(), [](const fs::path& p) { return p.filename() != "result.json"; });
-  for (const auto& p : entries) {
-    const fs::path target = out / p.filename();
-    std::error_code ec;
-    if (fs::is_directory(target)) fs::remove_all(target, ec);
-    fs::rename(p, target);
-  }
-  fs::remove_all(staging);
 }
 
 // result.json's "global": the solver options and Ceres' summary of every solve, per phase.
@@ -546,9 +526,8 @@ nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& optio
   const auto start = Clock::now();
   const fs::path out = options.out_dir.empty() ? fs::path("out") / (ex.name.empty() ? "run" : ex.name)
                                                : fs::path(options.out_dir);
-  const fs::path staging = out.string() + ".partial-" + std::to_string(::getpid());
-  fs::remove_all(staging);
-  fs::create_directories(staging);
+  check_output_folder(out, options.force);
+  const fs::path staging = make_staging_folder(out);
   try {
     RunRecord<D> rec(staging, ex.output.snapshot_every, ex.image.grid());
     evolve(ex, options, rec);
@@ -556,7 +535,7 @@ nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& optio
     write_outputs(ex, rec, staging);
     const nlohmann::ordered_json result = result_json(ex, rec, start);
     write_file_atomically((staging / "result.json").string(), result.dump(2) + "\n");
-    publish(staging, out);
+    publish_outputs(staging, out);
     if (!options.quiet)
       std::fprintf(stderr, "dsnake: wrote %s (success: %s)\n", (out / "result.json").string().c_str(),
                    result["success"].get<bool>() ? "true" : "false");

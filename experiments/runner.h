@@ -21,6 +21,7 @@ namespace dsnake {
 struct RunOptions {
   std::string out_dir;   // created if missing
   bool quiet = false;    // no progress lines on stderr
+  bool force = false;    // write into a non-empty folder that holds no earlier result (experiments/output_folder.h)
 };
 
 // Runs and writes the outputs; returns the result document (as written to result.json).

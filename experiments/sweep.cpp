@@ -2,6 +2,8 @@
 // (or as a manifest for GNU parallel / Slurm). The robustness study is the paper's §8.
 #include "experiments/sweep.h"
 
+#include "experiments/output_folder.h"
+
 #include "experiments/experiment.h"
 #include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
@@ -407,29 +409,6 @@ class FolderLock {
  private:
   int fd_ = -1;
 };
-
-// Whether a process still runs. A killed run whose parent died stays a zombie until init reaps
-// it, and kill(pid, 0) succeeds on a zombie: /proc tells the two apart.
-bool process_alive(long pid) {
-  if (pid <= 0) return false;
-  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
-  if (stat) {
-    std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
-    const auto close = text.rfind(')');  // "pid (comm) state ..."
-    const char state = close != std::string::npos && close + 2 < text.size() ? text[close + 2] : '?';
-    return state != 'Z' && state != 'X';
-  }
-  return ::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH;
-}
-
-// The pid in "<name>.partial-<pid>" (runner staging) or ".tmp-<pid>-..." (atomic writes), or -1.
-long owner_pid(const std::string& name) {
-  std::string digits;
-  if (auto p = name.rfind(".partial-"); p != std::string::npos) digits = name.substr(p + 9);
-  else if (name.rfind(".tmp-", 0) == 0) digits = name.substr(5, name.find('-', 5) - 5);
-  if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos) return -1;
-  return std::stol(digits);
-}
 
 // Removes staging folders and temporary files left by killed processes.
 void remove_leftovers(const fs::path& out) {

@@ -1,6 +1,7 @@
 // The dsnake command on bad input: exactly one line on stderr naming the file and the JSON
 // path or element, exit code 2, and nothing in the output folder.
 #include "experiments/builtin.h"
+#include "experiments/output_folder.h"
 #include "framework/io/image_io.h"
 
 #include "tests/experiments/temp_dir_test.h"
@@ -11,6 +12,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 namespace dsnake {
@@ -197,6 +199,90 @@ TEST_F(CliTest, UnknownCommandLineOptionIsBadInput) {
   const CommandResult r = dsnake("run --frobnicate");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+}
+
+// Output safety (issue 22): dsnake writes only into a folder it owns and replaces only its own
+// files. `run` of a 2-iteration built-in into `out`, with extra arguments.
+class OutputFolderTest : public CliTest {
+ protected:
+  CommandResult run_into(const fs::path& out, const std::string& builtin, const std::string& extra = "") {
+    const fs::path file = experiment(builtin, [](nlohmann::json& j) { j["output"]["figures"] = false; });
+    return dsnake("run " + file.string() + " --quiet --out " + out.string() + " " + extra);
+  }
+  static void expect_refused(const CommandResult& r, const std::string& fragment) {
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_NE(r.err.find("--out"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(fragment), std::string::npos) << r.err;
+  }
+  // Every file under `dir` with its contents.
+  static std::map<std::string, std::string> snapshot(const fs::path& dir) {
+    std::map<std::string, std::string> files;
+    for (const auto& e : fs::recursive_directory_iterator(dir))
+      if (e.is_regular_file()) files[e.path().lexically_relative(dir).string()] = slurp(e.path().string());
+    return files;
+  }
+};
+
+TEST_F(OutputFolderTest, TheRootAFileAndAFolderOfTheUsersAreRefused) {
+  expect_refused(run_into("/", "default"), "root");
+  const fs::path file = write("notes.txt", "mine\n");
+  expect_refused(run_into(file, "default"), "a file, not a folder");
+  EXPECT_EQ(slurp(file.string()), "mine\n");
+  const fs::path thesis = dir_ / "thesis";
+  fs::create_directories(thesis / "chapters");
+  std::ofstream(thesis / "chapters" / "one.tex") << "text";
+  std::ofstream(thesis / "result.json") << "{\"not\": \"ours\"}";  // not a dsnake result
+  const auto before = snapshot(thesis);
+  expect_refused(run_into(thesis, "default"), "--force");
+  EXPECT_EQ(snapshot(thesis), before);
+  for (const auto& e : fs::directory_iterator(dir_))
+    EXPECT_EQ(e.path().filename().string().find("partial"), std::string::npos) << e.path();
+  // --force writes dsnake's files beside the user's, which stay as they were
+  const CommandResult forced = run_into(thesis, "default", "--force");
+  ASSERT_EQ(forced.exit_code, 0) << forced.err;
+  EXPECT_EQ(slurp((thesis / "chapters" / "one.tex").string()), "text");
+  EXPECT_TRUE(fs::exists(thesis / "final.txt"));
+  EXPECT_TRUE(fs::exists(thesis / kOutputManifest));
+}
+
+TEST_F(OutputFolderTest, ARunReplacesOnlyItsOwnFilesAndRemovesItsStaleOnes) {
+  const fs::path out = dir_ / "out";
+  ASSERT_EQ(run_into(out, "ellipsoid").exit_code, 0);
+  ASSERT_TRUE(fs::exists(out / "final.ply"));
+  // the user's files inside the output folder, one in a folder named like an output entry
+  fs::create_directories(out / "snapshots");
+  std::ofstream(out / "snapshots" / "thesis.tex") << "chapter 1";
+  std::ofstream(out / "notes.md") << "my notes";
+  // a 2D run into the former 3D folder: the 3D-only outputs go, the user's files stay
+  const CommandResult r = run_into(out, "default", "--set output.snapshot_every=1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_FALSE(fs::exists(out / "final.ply"));
+  EXPECT_TRUE(fs::exists(out / "final.txt"));
+  EXPECT_EQ(slurp((out / "snapshots" / "thesis.tex").string()), "chapter 1");
+  EXPECT_EQ(slurp((out / "notes.md").string()), "my notes");
+  EXPECT_FALSE(fs::is_empty(out / "snapshots"));
+  const auto result = nlohmann::json::parse(slurp((out / "result.json").string()));
+  EXPECT_EQ(result["config"]["dimension"], 2);
+}
+
+TEST_F(OutputFolderTest, AKilledRunsStagingFolderIsRemovedByTheNextRun) {
+  const fs::path out = dir_ / "out";
+  const fs::path stale = dir_ / "out.partial-999999999";  // no such process
+  fs::create_directories(stale / "snapshots");
+  std::ofstream(stale / "final.txt") << "half";
+  const fs::path other = dir_ / "other.partial-999999999";  // another folder's: not ours to clean
+  fs::create_directories(other);
+  ASSERT_EQ(run_into(out, "default").exit_code, 0);
+  EXPECT_FALSE(fs::exists(stale));
+  EXPECT_TRUE(fs::exists(other));
+  EXPECT_TRUE(fs::exists(out / "result.json"));
+}
+
+TEST_F(OutputFolderTest, AnUnwritableParentIsOneLineNamingOut) {
+  const fs::path blocker = write("blocker", "a file where a folder should be\n");
+  expect_refused(run_into(blocker / "out", "default"), "out");
+  EXPECT_EQ(slurp(blocker.string()), "a file where a folder should be\n");
 }
 
 }  // namespace
