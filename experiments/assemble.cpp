@@ -2,33 +2,22 @@
 
 #include "experiments/phantoms.h"
 #include "framework/core/errors.h"
+#include "framework/core/json_text.h"
 #include "framework/io/image_io.h"
 #include "framework/io/mesh_io.h"
 #include "remesh/pipeline.h"
 
+#include <cmath>
 #include <fstream>
 
 namespace dsnake {
 
 namespace {
 
-// Strips nlohmann's "[json.exception.x.y] " prefix from a message.
-std::string clean_json_message(const std::string& what) {
-  const auto p = what.find("] ");
-  return p == std::string::npos ? what : what.substr(p + 2);
-}
-
 // Reads {"targets": [[x, y(, z)] | null, ...]} with one entry per template vertex.
 template <int D>
 std::vector<std::optional<Point<D>>> read_targets(const std::string& path, int num_template_vertices) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path, "", "cannot open the correspondence file");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    throw InputError(path, "", clean_json_message(e.what()));
-  }
+  const nlohmann::json j = parse_json_text(read_input_text(path, "correspondence file"), path);
   JsonReader r(j, path, "");
   const auto& t = r.raw("targets");
   r.finish();
@@ -199,6 +188,22 @@ void express_in_image_frame(Experiment<D>& ex, const GroundTruthSpec& files) {
 
 }  // namespace
 
+// The placed template must lie near the image (issue 22: a template scaled by 1e200 ran, diverged
+// and crashed instead of being refused): every vertex within one image extent of the image's box,
+// in continuous voxel indices.
+template <int D>
+void check_placement(const Experiment<D>& ex, const std::string& file) {
+  const Grid<D>& g = ex.image.grid();
+  for (size_t v = 0; v < ex.initial.size(); ++v) {
+    const Point<D> c = g.to_continuous_index(ex.initial[v]);
+    for (int a = 0; a < D; ++a)
+      if (!std::isfinite(c[a]) || c[a] < -double(g.size[a]) || c[a] > 2.0 * g.size[a])
+        throw InputError(file, "template.transform",
+                         "the placed template lies outside the image: vertex " + std::to_string(v) +
+                             " is more than the image's extent beyond its border along axis " + std::to_string(a));
+  }
+}
+
 template <int D>
 Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   Experiment<D> ex;
@@ -219,6 +224,7 @@ Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   if (spec.tmpl.init) ex.init = initialize_template<D>(*spec.tmpl.init, ex.tmpl, ex.image, ex.initial, spec.file.path);
   ex.truth = assemble_truth(spec, phantom, ex.tmpl);
   express_in_image_frame(ex, spec.truth);
+  check_placement(ex, spec.file.path);
   ex.field = build_field(spec.field);
   ex.field_region = spec.field.region;
   ex.energies = assemble_energies(spec, ex.tmpl);
@@ -228,6 +234,7 @@ Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   ex.success = spec.success;
   ex.output = spec.output;
   ex.metrics = spec.metrics;
+  ex.watchdog = spec.watchdog;
   return ex;
 }
 

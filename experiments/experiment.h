@@ -88,6 +88,26 @@ struct OutputOptions {
   }
 };
 
+// "watchdog" (issue 22): when a snake run is stopped as diverged (framework/core/phase_driver.h,
+// Watchdog). A vertex moving more than max_move in one iteration, by a non-finite amount, or a
+// remeshed mesh of more than max_vertices vertices stops the run with status "diverged", the
+// last positions that passed, and exit code 3.
+struct WatchdogOptions {
+  double max_move = 0;         // mm per iteration; 0: the image's diagonal
+  int max_vertices = 1000000;  // after remeshing
+
+  template <class V>
+  void visit(V& v) {
+    v(max_move, Key{"max_move", "mm per iteration",
+                    "a vertex moving more than this in one iteration stops the run as diverged (0: the image's "
+                    "diagonal, farther than any meaningful move)",
+                    Range::at_least(0)});
+    v(max_vertices, Key{"max_vertices", "vertices",
+                        "remeshing that leaves more vertices than this stops the run as diverged (a runaway refinement)",
+                        Range::closed(3, 1e8)});
+  }
+};
+
 // How a phase moves the snake: the snake iteration of §3.1 or one global Ceres solve.
 enum class SolverKind { kSnake, kGlobal };
 template <>
@@ -121,6 +141,7 @@ struct Experiment {
   SuccessCriteria success;
   OutputOptions output;
   MetricsOptions metrics;
+  WatchdogOptions watchdog;
 };
 
 // Reads the file's sections (read_experiment_spec) and assembles the objects (assemble).

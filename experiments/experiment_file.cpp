@@ -2,6 +2,7 @@
 
 #include "experiments/builtin.h"
 #include "framework/core/errors.h"
+#include "framework/core/json_text.h"
 
 #include <cmath>
 #include <filesystem>
@@ -14,28 +15,25 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// Strips nlohmann's "[json.exception.x.y] " prefix from a message.
-std::string clean_json_message(const std::string& what) {
-  const auto p = what.find("] ");
-  return p == std::string::npos ? what : what.substr(p + 2);
+// An array index in a --set path: 1 to 9 decimal digits (no sign, no "0x", no fraction).
+bool is_index(const std::string& key) {
+  return !key.empty() && key.size() <= 9 && key.find_first_not_of("0123456789") == std::string::npos;
 }
 
-// Applies one "a.b[2].c=value" override to the document.
+// Applies one "a.b[2].c=value" override to the document. The path is read strictly: keys are
+// non-empty, separated by single dots, and an index is 1 to 9 digits in brackets; anything else
+// is an InputError naming the --set path (issue 22: "energies[0.5]" was applied to energies[0]).
 void apply_override(nlohmann::json& doc, const std::string& assignment, const std::string& file) {
   const auto eq = assignment.find('=');
-  if (eq == std::string::npos || eq == 0)
-    throw InputError("", "--set " + assignment, "expected key.path=value");
+  const std::string shown = assignment.substr(0, std::min<size_t>(eq, 200));
+  if (eq == std::string::npos || eq == 0) throw InputError("", "--set " + shown, "expected key.path=value");
   const std::string path = assignment.substr(0, eq), text = assignment.substr(eq + 1);
-  nlohmann::json value;
-  try {
-    value = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::exception&) {
-    value = text;  // a bare word is a string
-  }
+  nlohmann::json value = nlohmann::json::accept(text, /*ignore_comments=*/true) ? parse_json_text(text, "--set " + shown)
+                                                                               : nlohmann::json(text);  // a bare word
   nlohmann::json* node = &doc;
-  std::string token;
-  auto descend = [&](const std::string& key, bool is_index) {
-    if (is_index) {
+  auto bad = [&](const std::string& why) { return InputError("", "--set " + shown, why); };
+  auto descend = [&](const std::string& key, bool index) {
+    if (index) {
       if (!node->is_array()) throw InputError(file, path, "\"" + key + "\" indexes something that is not an array");
       const size_t i = std::stoul(key);
       if (i >= node->size()) throw InputError(file, path, "index " + key + " is out of range");
@@ -48,21 +46,27 @@ void apply_override(nlohmann::json& doc, const std::string& assignment, const st
   };
   size_t i = 0;
   while (i < path.size()) {
-    if (path[i] == '.') { ++i; continue; }
     if (path[i] == '[') {
       const auto close = path.find(']', i);
-      if (close == std::string::npos) throw InputError("", "--set " + path, "unclosed '['");
-      descend(path.substr(i + 1, close - i - 1), true);
+      if (close == std::string::npos) throw bad("unclosed '['");
+      const std::string key = path.substr(i + 1, close - i - 1);
+      if (!is_index(key)) throw bad("\"[" + key.substr(0, 40) + "]\" is not an index (1 to 9 digits)");
+      descend(key, true);
       i = close + 1;
-      continue;
+    } else {
+      const auto end = std::min(path.find_first_of(".[]", i), path.size());
+      const std::string key = path.substr(i, end - i);
+      if (key.empty()) throw bad("an empty key (a leading, doubled or trailing '.', or a ']' without '[')");
+      descend(key, is_index(key) && node->is_array());
+      i = end;
     }
-    const auto end = path.find_first_of(".[", i);
-    token = path.substr(i, end == std::string::npos ? std::string::npos : end - i);
-    const bool numeric = !token.empty() && token.find_first_not_of("0123456789") == std::string::npos;
-    descend(token, numeric && node->is_array());
-    i = end == std::string::npos ? path.size() : end;
+    if (i < path.size() && path[i] == ']') throw bad("a ']' without '['");
+    if (i < path.size() && path[i] == '.') {
+      ++i;
+      if (i == path.size() || path[i] == '.' || path[i] == '[') throw bad("an empty key after '.'");
+    }
   }
-  *node = value;
+  *node = std::move(value);
 }
 
 ExperimentFile finish_file(ExperimentFile f, const std::vector<std::string>& overrides) {
@@ -101,16 +105,10 @@ SuccessCriteria SuccessCriteria::defaults() {
 }
 
 ExperimentFile load_experiment_file(const std::string& path, const std::vector<std::string>& overrides) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path, "", fs::exists(path) ? "cannot read the experiment file" : "no such experiment file");
   ExperimentFile f;
   f.path = path;
   f.base_dir = fs::path(path).parent_path().string();
-  try {
-    f.document = nlohmann::json::parse(in, nullptr, true, /*ignore_comments=*/true);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(path, "", "JSON syntax error: " + clean_json_message(e.what()));
-  }
+  f.document = parse_json_text(read_input_text(path, "experiment file"), path);
   return finish_file(std::move(f), overrides);
 }
 

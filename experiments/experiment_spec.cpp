@@ -238,6 +238,11 @@ ExperimentSpec<D> read_experiment_spec(const ExperimentFile& file) {
     read_options(r, spec.metrics);
     r.finish();
   }
+  if (top.has("watchdog")) {
+    JsonReader r = top.child("watchdog");
+    read_options(r, spec.watchdog);
+    r.finish();
+  }
   top.finish();
   return spec;
 }

@@ -113,6 +113,7 @@ struct ExperimentSpec {
   SuccessCriteria success;
   OutputOptions output;
   MetricsOptions metrics;  // "metrics": how the surface distances are sampled
+  WatchdogOptions watchdog;  // "watchdog": when a run is stopped as diverged
 };
 
 // Reads and checks every section; throws InputError naming the file and the JSON path.

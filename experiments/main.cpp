@@ -23,6 +23,7 @@
 #include "experiments/sweep.h"
 #include "experiments/template_command.h"
 #include "framework/core/errors.h"
+#include "framework/core/json_text.h"
 
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -50,12 +51,19 @@ int run(const std::string& config, const std::vector<std::string>& overrides, co
   // --field-cache DIR is the field's "cache" key, for every run of a sweep alike.
   if (!field_cache.empty() && file.document.contains("field") && file.document["field"].is_object())
     file.document["field"]["cache"] = field_cache;
+  nlohmann::ordered_json result;
   if (file.dimension == 2) {
     auto ex = make_experiment<2>(file);
-    run_experiment(ex, options);
+    result = run_experiment(ex, options);
   } else {
     auto ex = make_experiment<3>(file);
-    run_experiment(ex, options);
+    result = run_experiment(ex, options);
+  }
+  // A run stopped by the watchdog wrote its outputs (the last positions that passed) but did not
+  // register anything: exit code 3, so that scripts and sweeps count it as failed.
+  if (result.value("status", "") == "diverged") {
+    if (!options.quiet) std::fprintf(stderr, "dsnake: the run diverged (result.json's \"divergence\"); exit code 3\n");
+    return 3;
   }
   return 0;
 }
@@ -63,8 +71,8 @@ int run(const std::string& config, const std::vector<std::string>& overrides, co
 // Checks an experiment file, or a sweep file (one with "base"): every run it expands to is built.
 int validate(const std::string& config, const std::vector<std::string>& overrides) {
   if (overrides.empty() && config.rfind("builtin:", 0) != 0) {
-    std::ifstream in(config);
-    const auto doc = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false, /*ignore_comments=*/true);
+    const std::string text = read_input_text(config, "experiment or sweep file");
+    const auto doc = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false, /*ignore_comments=*/true);
     if (doc.is_object() && doc.contains("base")) {
       const Sweep s = load_sweep(config, /*validate=*/true);
       std::printf("%s: valid sweep of %zu runs\n", config.c_str(), s.runs.size());

@@ -292,6 +292,19 @@ nlohmann::ordered_json guard_json(const MoveGuardReport& r) {
   return {{"shortened", r.shortened}, {"refused", r.refused}, {"checks", r.checks}};
 }
 
+// The numeric watchdog (issue 22): "watchdog.max_move" 0 is the image's diagonal in mm.
+template <int D>
+Watchdog watchdog_of(const Experiment<D>& ex) {
+  Watchdog w;
+  w.max_vertices = ex.watchdog.max_vertices;
+  w.max_move = ex.watchdog.max_move;
+  if (!(w.max_move > 0)) {
+    const Grid<D>& g = ex.image.grid();
+    w.max_move = (g.size.template cast<double>().cwiseProduct(g.spacing)).norm();
+  }
+  return w;
+}
+
 // Computes the field (and the potential of the global view, when the file asks for one), then
 // runs the phases with one phase driver whose minimizer the file's "solver" picks.
 template <int D>
@@ -337,6 +350,7 @@ void evolve(Experiment<D>& ex, const RunOptions& options, RunRecord<D>& rec) {
   }
   PhaseDriver<D> driver(context, std::move(ex.energies), std::move(minimizer));
   if (guarded(ex)) driver.set_move_guard(std::make_unique<CollisionGuard<D>>(ex.collision_guard));
+  driver.set_watchdog(watchdog_of(ex));
   rec.names = term_names(driver.energies());
   driver.add_observer(&rec.recorder);
   if (!options.quiet) driver.add_observer(&progress);
@@ -431,6 +445,17 @@ nlohmann::ordered_json metrics_json(const Metrics& m, bool finite) {
           {"self_intersections", finite ? nlohmann::ordered_json(m.self_intersections) : nlohmann::ordered_json(nullptr)}};
 }
 
+// The watchdog's report of a diverged phase: the reason, the iteration within the phase, the
+// vertex, the energy term ("energies[i]" and its type, or "remesh") and the move (mm; null when
+// not finite).
+nlohmann::ordered_json divergence_json(const Divergence& d) {
+  nlohmann::ordered_json j = {{"reason", d.reason}, {"phase_iteration", d.phase_iteration}};
+  j["vertex"] = d.vertex >= 0 ? nlohmann::ordered_json(d.vertex) : nlohmann::ordered_json(nullptr);
+  j["term"] = d.term_index >= 0 ? "energies[" + std::to_string(d.term_index) + "] (" + d.term + ")" : d.term;
+  j["move"] = std::isfinite(d.move) ? nlohmann::ordered_json(d.move) : nlohmann::ordered_json(nullptr);
+  return j;
+}
+
 // result.json's "phases": per phase its name, iterations, status, remeshing and mesh quality.
 template <int D>
 nlohmann::ordered_json phases_json(const Experiment<D>& ex, const RunRecord<D>& rec) {
@@ -447,6 +472,7 @@ nlohmann::ordered_json phases_json(const Experiment<D>& ex, const RunRecord<D>& 
     const auto quality = rec.recorder.mesh_quality.find(int(p));
     if (quality != rec.recorder.mesh_quality.end()) j["mesh_quality"] = quality->second;
     if (guarded(ex)) j["collision_guard"] = guard_json(ps.move_guard);
+    if (ps.divergence) j["divergence"] = divergence_json(*ps.divergence);
     phases.push_back(j);
   }
   return phases;
@@ -485,6 +511,11 @@ nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& 
   if (!rec.pose.is_null()) result["pose"] = rec.pose;
   result["success"] = rec.summary.status != EvolveStatus::kDiverged && ex.success.met(rec.metrics);
   result["status"] = to_string(rec.summary.status);
+  for (size_t p = 0; p < rec.summary.phases.size(); ++p)
+    if (const auto& d = rec.summary.phases[p].divergence) {
+      result["divergence"] = divergence_json(*d);
+      result["divergence"]["phase"] = ex.phase_names[p];
+    }
   result["iterations"] = rec.summary.iterations;
   result["vertices"] = {{"initial", rec.initial_vertices}, {"final", rec.snake.num_vertices()},
                         {"deformation", rec.snake.num_deformation_vertices()}};

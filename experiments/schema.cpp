@@ -208,7 +208,8 @@ json experiment_definition() {
       {"phases", {{"type", "array"}, {"minItems", 1}, {"items", phase_schema()}}},
       {"success", closed_object(options_schema<SuccessCriteria>(), {}, "thresholds of a successful run")},
       {"output", closed_object(options_schema<OutputOptions>())},
-      {"metrics", closed_object(options_schema<MetricsOptions>(), {}, "how the surface distances are sampled")}};
+      {"metrics", closed_object(options_schema<MetricsOptions>(), {}, "how the surface distances are sampled")},
+      {"watchdog", closed_object(options_schema<WatchdogOptions>(), {}, "when a snake run is stopped as diverged")}};
   return closed_object(props, {"dimension", "image", "template", "field", "energies", "phases"}, "an experiment file");
 }
 
@@ -278,7 +279,8 @@ std::string experiment_reference_markdown() {
   s += "#### type `perturb`\n\n" + key_table_markdown(options_rows<PerturbOptions>()) + "\n";
   s += "### `success`\n\n" + key_table_markdown(options_rows<SuccessCriteria>()) + "\n";
   s += "### `output`\n\n" + key_table_markdown(options_rows<OutputOptions>()) + "\n";
-  s += "### `metrics`\n\n" + key_table_markdown(options_rows<MetricsOptions>());
+  s += "### `metrics`\n\n" + key_table_markdown(options_rows<MetricsOptions>()) + "\n";
+  s += "### `watchdog`\n\n" + key_table_markdown(options_rows<WatchdogOptions>());
   return s;
 }
 

@@ -3,6 +3,7 @@
 #include "experiments/sweep.h"
 
 #include "experiments/output_folder.h"
+#include "framework/core/json_text.h"
 
 #include "experiments/experiment.h"
 #include "framework/core/atomic_file.h"
@@ -58,12 +59,6 @@ std::string value_text(const json& v) { return v.is_string() ? v.get<std::string
 bool safe_name(const std::string& s) {
   if (s.empty() || s[0] == '.' || s.size() > 64) return false;
   return std::all_of(s.begin(), s.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.'; });
-}
-
-// Strips nlohmann's "[json.exception.x.y] " prefix from a message.
-std::string clean_json_message(const std::string& what) {
-  const auto p = what.find("] ");
-  return p == std::string::npos ? what : what.substr(p + 2);
 }
 
 // The keys of an object in file order (nlohmann::json sorts them; ordered_json keeps them).
@@ -163,16 +158,9 @@ namespace {
 
 // The sweep file parsed twice: `doc` to read, `ordered` for the keys in file order.
 void parse_sweep_file(const std::string& path, json& doc, nlohmann::ordered_json& ordered) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path, "", fs::exists(path) ? "cannot read the sweep file" : "no such sweep file");
-  std::stringstream text;
-  text << in.rdbuf();
-  try {
-    doc = json::parse(text.str(), nullptr, true, /*ignore_comments=*/true);
-    ordered = nlohmann::ordered_json::parse(text.str(), nullptr, true, true);
-  } catch (const json::parse_error& e) {
-    throw InputError(path, "", "JSON syntax error: " + clean_json_message(e.what()));
-  }
+  const std::string text = read_input_text(path, "sweep file");
+  doc = parse_json_text(text, path);
+  ordered = parse_ordered_json_text(text, path);
 }
 
 // Everything a sweep file asks for, read and checked, before the expansion into runs.

@@ -2,11 +2,21 @@
 
 namespace dsnake {
 
+// One part of an error line: line breaks become spaces, and a part longer than kMaxPart
+// characters (a 50 MB string value) is cut, saying how long it was (issue 22: one short line).
+static std::string one_line(const std::string& part) {
+  constexpr size_t kMaxPart = 300;
+  std::string s = part.size() > kMaxPart ? part.substr(0, kMaxPart) + "... (" + std::to_string(part.size()) + " characters)" : part;
+  for (char& c : s)
+    if (c == '\n' || c == '\r') c = ' ';
+  return s;
+}
+
 static std::string compose(const std::string& file, const std::string& where, const std::string& message) {
   std::string s;
-  if (!file.empty()) s += file;
-  if (!where.empty()) s += (s.empty() ? "" : ": ") + where;
-  return s + (s.empty() ? "" : ": ") + message;
+  if (!file.empty()) s += one_line(file);
+  if (!where.empty()) s += (s.empty() ? "" : ": ") + one_line(where);
+  return s + (s.empty() ? "" : ": ") + one_line(message);
 }
 
 InputError::InputError(std::string file, std::string where, std::string message)

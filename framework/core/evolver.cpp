@@ -50,6 +50,7 @@ double SnakeStep<D>::step(PhaseDriver<D>& driver, Snake<D>& snake) {
   // Weighted average over the energies that govern each vertex (§3.1, §6).
   double max_move = 0.0;
   auto& q = snake.positions();
+  moves_.resize(n);
 #pragma omp parallel for reduction(max : max_move) schedule(static) if (n >= 256)
   for (int v = 0; v < n; ++v) {
     Point<D> sum = Point<D>::Zero();
@@ -64,8 +65,11 @@ double SnakeStep<D>::step(PhaseDriver<D>& driver, Snake<D>& snake) {
     }
     next_[v] = weight > 0 ? Point<D>(sum / weight) : q[v];
     const double move = (next_[v] - q[v]).norm();
-    max_move = std::isfinite(move) ? std::max(max_move, move) : INFINITY;
+    moves_[v] = std::isfinite(move) ? move : INFINITY;
+    max_move = std::max(max_move, moves_[v]);
   }
+  // The first vertex with the largest move (serial: the same vertex for any thread count).
+  worst_vertex_ = n > 0 ? static_cast<int>(std::max_element(moves_.begin(), moves_.end()) - moves_.begin()) : -1;
   // The move guard sees finite moves only (a diverged step is reported as it is).
   if (MoveGuard<D>* guard = driver.move_guard(); guard && std::isfinite(max_move)) {
     const MoveGuardReport r = guard->guard(snake, next_);
@@ -74,6 +78,21 @@ double SnakeStep<D>::step(PhaseDriver<D>& driver, Snake<D>& snake) {
   }
   q.swap(next_);
   return max_move;
+}
+
+template <int D>
+int SnakeStep<D>::blame_term(const Snake<D>& snake_before, int vertex) const {
+  if (vertex < 0 || vertex >= snake_before.num_vertices()) return -1;
+  const Point<D>& from = snake_before.positions()[vertex];
+  int worst = -1;
+  double farthest = -1;
+  for (size_t e = 0; e < proposals_.size(); ++e) {
+    if (int(proposals_[e].size()) <= vertex) continue;
+    const double d = (proposals_[e][vertex] - from).norm();
+    const double key = std::isfinite(d) ? d : INFINITY;
+    if (key > farthest) farthest = key, worst = static_cast<int>(e);
+  }
+  return worst;
 }
 
 template <int D>
@@ -92,15 +111,30 @@ PhaseSummary SnakeStep<D>::run_phase(PhaseDriver<D>& driver, Snake<D>& snake, co
     info.phase = phase_index;
     info.phase_iteration = it;
     info.max_displacement = move;
-    if (driver.trace_energy()) {
-      info.energy_terms = driver.energy_terms(snake);
-      for (double t : info.energy_terms)
-        if (std::isfinite(t)) info.total_energy += t;
-    }
-    if (!std::isfinite(move)) {
+    const Watchdog& watchdog = driver.watchdog();
+    if (!std::isfinite(move) || move > watchdog.max_move) {
+      // Back to the last positions that passed (next_ holds them after the swap in step()).
+      Divergence d;
+      d.reason = std::isfinite(move) ? "a vertex moved more than watchdog.max_move in one iteration"
+                                     : "a vertex moved by a non-finite amount";
+      d.phase_iteration = it;
+      d.vertex = worst_vertex_;
+      d.move = move;
+      snake.positions().swap(next_);
+      d.term_index = blame_term(snake, worst_vertex_);
+      if (d.term_index >= 0) d.term = driver.energies()[d.term_index].energy->type();
       ps.status = EvolveStatus::kDiverged;
+      ps.divergence = d;
+      if (driver.trace_energy()) {
+        info.energy_terms = driver.energy_terms(snake);
+        info.total_energy = finite_total(info.energy_terms);
+      }
       driver.report(info, snake);
       break;
+    }
+    if (driver.trace_energy()) {
+      info.energy_terms = driver.energy_terms(snake);
+      info.total_energy = finite_total(info.energy_terms);
     }
     bool converged = phase.tolerance > 0 && move < phase.tolerance;
     if (converged) ps.converged_on = "displacement";
@@ -112,6 +146,15 @@ PhaseSummary SnakeStep<D>::run_phase(PhaseDriver<D>& driver, Snake<D>& snake, co
     }
     if (phase.remesher && !converged && it % std::max(1, phase.every) == 0) last_reports = driver.remesh(snake, phase, it);
     driver.report(info, snake);
+    if (snake.num_vertices() > watchdog.max_vertices) {
+      Divergence d;
+      d.reason = "remeshing left " + std::to_string(snake.num_vertices()) + " vertices, more than watchdog.max_vertices";
+      d.phase_iteration = it;
+      d.term = "remesh";
+      ps.status = EvolveStatus::kDiverged;
+      ps.divergence = d;
+      break;
+    }
     if (converged) {
       ps.status = EvolveStatus::kConverged;
       break;

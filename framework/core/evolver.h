@@ -24,13 +24,19 @@ class SnakeStep final : public Minimizer<D> {
   double step(PhaseDriver<D>& driver, Snake<D>& snake);
   // The move guard's interventions since the current (or last) phase began.
   const MoveGuardReport& guard_report() const { return guard_report_; }
+  // The vertex with the largest (or a non-finite) move of the last step, and the energy term
+  // whose proposal for it moves farthest (or is not finite): the watchdog's report.
+  int last_worst_vertex() const { return worst_vertex_; }
+  int blame_term(const Snake<D>& snake_before, int vertex) const;
 
  private:
   std::vector<PointList<D>> proposals_;  // per energy, reused between iterations
   std::vector<Governs> governs_;           // per energy, for the averaging loop
   std::vector<std::span<const uint8_t>> masks_;  // per energy: governed_mask() (marked vertices)
-  PointList<D> next_;
+  PointList<D> next_;  // after step(): the positions before it
+  std::vector<double> moves_;  // per vertex, the last step's move (inf if not finite)
   MoveGuardReport guard_report_;
+  int worst_vertex_ = -1;
 };
 
 // The phase driver with the snake iteration.

@@ -9,7 +9,9 @@
 #include "framework/core/move_guard.h"
 #include "framework/core/remesher.h"
 
+#include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -63,6 +65,25 @@ struct IterationInfo {
 enum class EvolveStatus { kConverged, kIterationBudget, kDiverged };
 std::string to_string(EvolveStatus status);
 
+// The numeric watchdog (issue 22): the snake iteration stops as diverged when a vertex moves by
+// a non-finite amount or by more than max_move in one iteration, or when remeshing leaves more
+// than max_vertices vertices; the positions are then those of the last iteration that passed.
+struct Watchdog {
+  double max_move = std::numeric_limits<double>::infinity();  // mm per iteration
+  int max_vertices = std::numeric_limits<int>::max();
+};
+
+// Why a phase diverged: what was seen, at which iteration (within the phase), which vertex and
+// which energy term (its type and index; "remesh" for the vertex cap).
+struct Divergence {
+  std::string reason;
+  int phase_iteration = 0;
+  int vertex = -1;
+  std::string term;
+  int term_index = -1;
+  double move = 0;  // the offending move (inf or NaN when not finite)
+};
+
 struct PhaseSummary {
   int iterations = 0;
   EvolveStatus status = EvolveStatus::kIterationBudget;
@@ -73,6 +94,7 @@ struct PhaseSummary {
   double centroid_rate = 0;  // the windowed stop: the centroid's move per iteration in its last window (mm)
   std::vector<RemeshReport> remesh_reports;  // the last pass of each stage
   MoveGuardReport move_guard;                // the move guard's interventions in this phase
+  std::optional<Divergence> divergence;      // kDiverged by the snake iteration's watchdog
 };
 
 struct EvolveSummary {
@@ -118,6 +140,9 @@ class PhaseDriver {
   // SnakeStep (the global solve) do not use it.
   void set_move_guard(std::unique_ptr<MoveGuard<D>> guard) { move_guard_ = std::move(guard); }
   MoveGuard<D>* move_guard() const { return move_guard_.get(); }
+  // The numeric watchdog of the snake iteration (default: non-finite moves only).
+  void set_watchdog(const Watchdog& watchdog) { watchdog_ = watchdog; }
+  const Watchdog& watchdog() const { return watchdog_; }
 
   // Runs the phases on the snake in place.
   EvolveSummary run(Snake<D>& snake, std::vector<Phase<D>>& phases);
@@ -141,6 +166,7 @@ class PhaseDriver {
   std::unique_ptr<Minimizer<D>> minimizer_;
   std::vector<EvolverObserver<D>*> observers_;
   std::unique_ptr<MoveGuard<D>> move_guard_;
+  Watchdog watchdog_;
   std::vector<double> base_weights_;  // the energies' own weights (phases may override them)
   bool trace_energy_ = true;
   int iterations_ = 0;

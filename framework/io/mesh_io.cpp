@@ -7,6 +7,7 @@
 
 #include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
+#include "framework/core/json_text.h"
 
 #include <OpenMesh/Core/IO/MeshIO.hh>
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
@@ -312,12 +313,7 @@ Template<2> read_contour_txt(const std::string& path) {
 
 // {"points": [[x, y], ...], "landmarks": {"name": id}, "scalars": {...}}; other keys are errors.
 Template<2> read_contour_json(const std::string& path) {
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(read_text(path));
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(path, "", std::string("invalid JSON: ") + e.what());
-  }
+  const nlohmann::json j = parse_json_text(read_text(path), path);
   if (!j.is_object()) throw InputError(path, "", "expected a JSON object");
   for (const auto& [key, value] : j.items())
     if (key != "points" && key != "landmarks" && key != "scalars") throw InputError(path, key, "unknown key");

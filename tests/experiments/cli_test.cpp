@@ -14,6 +14,7 @@
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <sys/stat.h>
 
 namespace dsnake {
 namespace {
@@ -199,6 +200,87 @@ TEST_F(CliTest, UnknownCommandLineOptionIsBadInput) {
   const CommandResult r = dsnake("run --frobnicate");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+}
+
+// Hostile input files and --set paths (issue 22): each is one line naming the file or the --set
+// path, exit code 2, and no output folder. Rows: the arguments after "run", what the line says.
+TEST_F(CliTest, HostileFilesAndSetPathsAreOneLineAndExitTwo) {
+  std::string deep;
+  for (int k = 0; k < 100000; ++k) deep += "{\"a\":";
+  deep += "1";
+  deep += std::string(100000, '}');
+  const fs::path deep_file = write("deep.json", deep);
+  const fs::path deep_array = write("deep_array.json", std::string(5000, '[') + std::string(5000, ']'));
+  fs::create_directories(dir_ / "folder.json");
+  const fs::path fifo = dir_ / "fifo.json";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const std::string huge(100000, 'x');  // one shell argument holds at most 128 kB
+  const fs::path huge_key = experiment("default", [](nlohmann::json& j) { j[std::string(1 << 20, 'k')] = 1; });
+  const std::vector<std::pair<std::string, std::string>> rows = {
+      {deep_file.string(), "nested deeper than 64"},
+      {deep_array.string(), "nested deeper than 64"},
+      {(dir_ / "folder.json").string(), "found a folder"},
+      {fifo.string(), "found a pipe"},
+      {"builtin:default --set 'energies[x].alpha=1'", "--set energies[x].alpha"},
+      {"builtin:default --set 'energies[99999999999999999999].alpha=1'", "is not an index"},
+      {"builtin:default --set 'energies[].alpha=1'", "is not an index"},
+      {"builtin:default --set 'energies[0.5].alpha=7'", "\"[0.5]\" is not an index"},
+      {"builtin:default --set 'energies[0x1].alpha=7'", "\"[0x1]\" is not an index"},
+      {"builtin:default --set 'energies[-1].alpha=7'", "is not an index"},
+      {"builtin:default --set 'energies[0]..alpha=7'", "an empty key"},
+      {"builtin:default --set '.name=x'", "an empty key"},
+      {"builtin:default --set 'name.=x'", "an empty key"},
+      {"builtin:default --set 'energies]0[.alpha=1'", "without '['"},
+      {"builtin:default --set 'energies[0.alpha=1'", "unclosed '['"},
+      {"builtin:default --set 'energies[0].alpha=" + std::string(70, '[') + std::string(70, ']') + "'", "nested deeper than 64"},
+      {"builtin:default --set 'energies[0].alpha=\"" + huge + "\"'", "expected a number"},
+      {huge_key.string(), "characters)"},
+      {"builtin:ellipsoid --set template.transform.scale=1e200", "template.transform"},
+      {"builtin:default --set 'template.transform.translation=[1e300, 0]'", "outside the image"},
+  };
+  const fs::path out = dir_ / "out";
+  for (const auto& [args, fragment] : rows) {
+    const CommandResult r = dsnake("run " + args + " --out " + out.string());
+    const std::string row = args.substr(0, 80);
+    EXPECT_EQ(r.exit_code, 2) << row << ": " << r.err.substr(0, 300);
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << row << ": " << r.err.substr(0, 300);
+    EXPECT_NE(r.err.find(fragment), std::string::npos) << row << ": missing \"" << fragment << "\" in " << r.err.substr(0, 300);
+    EXPECT_LT(r.err.size(), 1000u) << row;
+    EXPECT_FALSE(fs::exists(out)) << row;
+  }
+  // validate on a pipe answers at once too
+  const CommandResult v = dsnake("validate " + fifo.string());
+  EXPECT_EQ(v.exit_code, 2);
+  EXPECT_NE(v.err.find("found a pipe"), std::string::npos) << v.err;
+}
+
+// The numeric watchdog (issue 22): a run whose forces send the snake to infinity stops as
+// diverged with exit code 3, writes the last finite state and its metrics, names the term, and
+// leaves no staging folder; the watchdog's bound and vertex cap are keys.
+TEST_F(CliTest, ADivergingRunStopsWithExitCodeThreeAndFiniteOutputs) {
+  const fs::path out = dir_ / "out";
+  const CommandResult r = dsnake("run builtin:default --set 'energies[1].tau=1e308' --out " + out.string());
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  const auto result = nlohmann::json::parse(slurp((out / "result.json").string()));
+  EXPECT_EQ(result["status"], "diverged");
+  EXPECT_EQ(result["success"], false);
+  EXPECT_EQ(result["divergence"]["term"], "energies[1] (external)");
+  EXPECT_EQ(result["divergence"]["phase_iteration"], 1);
+  EXPECT_TRUE(result["metrics"]["dice"].is_number());
+  const std::string final_txt = slurp((out / "final.txt").string());
+  EXPECT_EQ(final_txt.find("inf"), std::string::npos);
+  EXPECT_EQ(final_txt.find("nan"), std::string::npos);
+  for (const auto& e : fs::directory_iterator(dir_))
+    EXPECT_EQ(e.path().filename().string().find("partial"), std::string::npos) << e.path();
+  // A bound of 0.01 mm per iteration stops the ordinary run at its first iteration.
+  const CommandResult bounded = dsnake("run builtin:default --set watchdog.max_move=0.01 --quiet --out " + out.string());
+  EXPECT_EQ(bounded.exit_code, 3) << bounded.err;
+  const auto b = nlohmann::json::parse(slurp((out / "result.json").string()));
+  EXPECT_EQ(b["divergence"]["reason"], "a vertex moved more than watchdog.max_move in one iteration");
+  EXPECT_GT(b["divergence"]["move"].get<double>(), 0.01);
+  const CommandResult bad = dsnake("run builtin:default --set watchdog.max_vertices=2 --out " + (dir_ / "o2").string());
+  EXPECT_EQ(bad.exit_code, 2) << bad.err;
+  EXPECT_NE(bad.err.find("watchdog.max_vertices"), std::string::npos) << bad.err;
 }
 
 // Output safety (issue 22): dsnake writes only into a folder it owns and replaces only its own

@@ -289,14 +289,58 @@ TEST(Evolver, TheMoveGuardAdjustsMovesBeforeTheyAreMadeAndIsCounted) {
 
 TEST(Evolver, NonFiniteProposalsStopWithDivergedStatus) {
   std::vector<WeightedEnergy<2>> e;
+  e.push_back({1.0, std::make_unique<ConstantEnergy>(Point<2>(0, 0), Governs::kAllVertices)});
   e.push_back({1.0, std::make_unique<ConstantEnergy>(Point<2>(NAN, 0), Governs::kAllVertices)});
   Evolver<2> evolver({}, std::move(e));
   Snake<2> s = square_snake();
+  const PointList<2> start = s.positions();
   std::vector<Phase<2>> phases(2);
   const EvolveSummary summary = evolver.run(s, phases);
   EXPECT_EQ(summary.status, EvolveStatus::kDiverged);
   EXPECT_EQ(summary.iterations, 1);
-  EXPECT_EQ(summary.phases.size(), 1u);
+  ASSERT_EQ(summary.phases.size(), 1u);
+  // The watchdog's report names the first vertex, the NaN term, and the positions are the start's.
+  ASSERT_TRUE(summary.phases[0].divergence.has_value());
+  const Divergence& d = *summary.phases[0].divergence;
+  EXPECT_EQ(d.phase_iteration, 1);
+  EXPECT_EQ(d.vertex, 0);
+  EXPECT_EQ(d.term_index, 1);
+  EXPECT_EQ(d.term, "constant");
+  EXPECT_EQ(s.positions(), start);
+}
+
+// The watchdog (issue 22): a move larger than max_move stops the phase as diverged at the
+// last positions that passed; the vertex with the largest move and the term that moves it
+// farthest are named.
+TEST(Evolver, AMoveLargerThanTheWatchdogsBoundStopsTheRun) {
+  std::vector<WeightedEnergy<2>> e;
+  e.push_back({1.0, std::make_unique<HalfwayEnergy>()});
+  e.push_back({1.0, std::make_unique<ConstantEnergy>(Point<2>(40, 0), Governs::kAllVertices)});
+  Evolver<2> evolver({}, std::move(e));
+  Watchdog w;
+  w.max_move = 5.0;
+  evolver.set_watchdog(w);
+  Snake<2> s = square_snake();
+  std::vector<Phase<2>> phases(1);
+  phases[0].iterations = 50;
+  // Each step moves every vertex to the average of (q / 2) and (40, 0): the first steps move
+  // about 20 mm, more than the bound.
+  const EvolveSummary summary = evolver.run(s, phases);
+  EXPECT_EQ(summary.status, EvolveStatus::kDiverged);
+  ASSERT_TRUE(summary.phases[0].divergence.has_value());
+  const Divergence& d = *summary.phases[0].divergence;
+  EXPECT_EQ(d.phase_iteration, 1);
+  EXPECT_GT(d.move, 5.0);
+  EXPECT_EQ(d.vertex, 1);  // (-1, 1) and (-1, -1) move farthest; the first of them
+  EXPECT_EQ(d.term_index, 1);
+  EXPECT_EQ(s.positions(), square_snake().positions());
+  // The same run with the default watchdog (non-finite moves only) goes on to its budget.
+  std::vector<WeightedEnergy<2>> e2;
+  e2.push_back({1.0, std::make_unique<HalfwayEnergy>()});
+  e2.push_back({1.0, std::make_unique<ConstantEnergy>(Point<2>(40, 0), Governs::kAllVertices)});
+  Evolver<2> free_run({}, std::move(e2));
+  Snake<2> s2 = square_snake();
+  EXPECT_NE(free_run.run(s2, phases).status, EvolveStatus::kDiverged);
 }
 
 }  // namespace
