@@ -21,6 +21,9 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fcntl.h>
+#include <unistd.h>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
@@ -122,6 +125,52 @@ std::string read_bytes(const std::string& path, size_t max_bytes) {
   return s;
 }
 
+// Runs f with stderr sent to /dev/null: libpng and libjpeg print their own line ("libpng error:
+// Read Error") before OpenCV returns an empty image, and the user must see only ours (issue 22).
+template <class F>
+auto silenced(F&& f) {
+  std::fflush(stderr);
+  const int saved = ::dup(2);
+  const int null = ::open("/dev/null", O_WRONLY);
+  if (saved >= 0 && null >= 0) ::dup2(null, 2);
+  if (null >= 0) ::close(null);
+  struct Restore {
+    int fd;
+    ~Restore() {
+      if (fd >= 0) {
+        std::fflush(stderr);
+        ::dup2(fd, 2);
+        ::close(fd);
+      }
+    }
+  } restore{saved};
+  return f();
+}
+
+double image_memory_limit() {
+  if (const char* env = std::getenv("DSNAKE_MAX_IMAGE_BYTES")) {
+    char* end = nullptr;
+    const double v = std::strtod(env, &end);
+    if (end != env && v > 0) return v;
+  }
+  const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+  return pages > 0 && page > 0 ? double(pages) * double(page) : 1e12;
+}
+
+void check_declared_values(double values, const std::string& path, const std::string& key) {
+  const double bytes = values * sizeof(float), limit = image_memory_limit();
+  if (!(bytes <= limit))
+    throw InputError(path, key, "declares " + exact(values) + " values: " + exact(bytes / 1e9) +
+                                    " GB as float, more than the memory limit of " + exact(limit / 1e9) +
+                                    " GB (the machine's memory, or DSNAKE_MAX_IMAGE_BYTES)");
+}
+
+void check_inflatable(double declared, double stored, const std::string& path, const std::string& key) {
+  if (declared > kMaxInflateRatio * stored + 1024)
+    throw InputError(path, key, "declares " + exact(declared) + " bytes of data, more than deflate can expand the " +
+                                    exact(stored) + " compressed bytes the file holds to");
+}
+
 // Whole file (or its first max_bytes) through zlib's gz reader, which gunzips .gz files and
 // passes plain files through unchanged (NIfTI).
 std::string read_gz_bytes(const std::string& path, size_t max_bytes) {
@@ -163,7 +212,7 @@ namespace fs = std::filesystem;
 // A 2D grey image through OpenCV; colour is converted to grey, 8/16-bit and float kept.
 RawVolume read_opencv(const std::string& path) {
   require_exists(path);
-  const cv::Mat m = cv::imread(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
+  const cv::Mat m = silenced([&] { return cv::imread(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE); });
   if (m.empty()) throw InputError(path, "", "cannot decode the image");
   cv::Mat d;
   m.convertTo(d, CV_64F);
@@ -292,7 +341,7 @@ RawVolume read_volume(const std::string& path) {
   const std::string ext = extension_of(path);
   RawVolume v;
   if (ext == ".mha" || ext == ".mhd") v = read_meta(path);
-  else if (ext == ".nii" || ext == ".nii.gz") v = decode_nifti(read_gz_bytes(path), path, false);
+  else if (ext == ".nii" || ext == ".nii.gz") v = read_nifti(path);
   else if (ext == ".nrrd" || ext == ".nhdr") v = read_nrrd(path);
   else if (ext == ".inr" || ext == ".inr.gz") v = read_inr(path);
   else if (is_opencv_extension(ext)) return read_opencv(path);

@@ -66,6 +66,17 @@ std::string label_bytes(const std::vector<float>& values);
 // What writers store: label_bytes for a label map, else float_bytes.
 inline std::string stored_bytes(const std::vector<double>& values, bool label);
 
+// Limits from headers (issue 22): what a header declares is checked before anything is allocated.
+// Deflate expands at most ~1032-fold, so compressed data cannot hold more than this many times its
+// size; and the values as float must fit in the memory limit: the machine's physical memory, or
+// the environment's DSNAKE_MAX_IMAGE_BYTES (bytes) when set.
+inline constexpr double kMaxInflateRatio = 1100;
+double image_memory_limit();
+// InputError(path, key, ...) when `values` floats exceed the memory limit.
+void check_declared_values(double values, const std::string& path, const std::string& key);
+// InputError(path, key, ...) when `declared` bytes cannot come out of `stored` compressed bytes.
+void check_inflatable(double declared, double stored, const std::string& path, const std::string& key);
+
 // Lower-case extension, with ".nii.gz" kept whole.
 std::string extension_of(const std::string& path);
 
@@ -98,6 +109,9 @@ inline constexpr size_t kNiftiHeaderBytes = 348;
 // bytes; write float32 .nii or .nii.gz.
 RawVolume decode_nifti(const std::string& bytes, const std::string& path, bool header_only);
 void write_nifti(const RawVolume& v, const std::string& path);
+// Reads a .nii or .nii.gz: the header first, then no more bytes than it declares (a gzip bomb
+// behind a small header is not inflated), after the limits above.
+RawVolume read_nifti(const std::string& path);
 
 // NRRD (nrrd.cpp): read a .nrrd (attached data) or .nhdr (detached data file) completely, or
 // only its header's dimension; write float32 little-endian LPS NRRD, gzip-encoded when

@@ -9,6 +9,7 @@
 #include "framework/core/errors.h"
 
 #include <bit>
+#include <filesystem>
 #include <cerrno>
 #include <cmath>
 #include <sstream>
@@ -133,7 +134,17 @@ RawVolume inr_geometry(const InrHeader& h, const std::string& path) {
 // Reads a .inr or .inr.gz file completely (gunzipped by read_gz_bytes); the data length is
 // checked against XDIM x YDIM x ZDIM x VDIM x PIXSIZE before any voxel is decoded.
 RawVolume read_inr(const std::string& path) {
-  const std::string bytes = read_gz_bytes(path);
+  // The header first, then no more bytes than it declares (a gzip bomb is not inflated).
+  const std::string head = read_gz_bytes(path, 1 << 16);
+  const InrHeader hh = parse_inr_header(head, path);
+  const RawVolume g = inr_geometry(hh, path);
+  const double values = double(g.size[0]) * double(g.size[1]) * double(g.size[2]) * g.channels;
+  check_declared_values(values, path, "XDIM/YDIM/ZDIM");
+  const double declared = double(hh.data_start) + values * scalar_bytes(inr_type(hh, path));
+  std::error_code ec;
+  const double stored = double(std::filesystem::file_size(path, ec));
+  if (extension_of(path) == ".inr.gz" && !ec) check_inflatable(declared, stored, path, "XDIM/YDIM/ZDIM");
+  const std::string bytes = read_gz_bytes(path, size_t(declared));
   const InrHeader h = parse_inr_header(bytes, path);
   RawVolume v = inr_geometry(h, path);
   const Scalar type = inr_type(h, path);

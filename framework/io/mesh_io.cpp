@@ -11,6 +11,7 @@
 
 #include <OpenMesh/Core/IO/MeshIO.hh>
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+#include <OpenMesh/Core/System/omstream.hh>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -234,13 +235,45 @@ VtkPolyData read_vtk(const std::string& path) {
   return d;
 }
 
+// A PLY header's element counts against the file's size, before OpenMesh allocates them (issue
+// 22: a header declaring 2e9 vertices ended in bad_alloc): a vertex takes at least 3 bytes (three
+// 1-byte coordinates) and a face at least 4 (a count and three 1-byte indices), in ASCII more.
+void check_ply_header(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  if (!std::getline(in, line) || line.rfind("ply", 0) != 0) throw InputError(path, "", "not a PLY file (no 'ply' magic)");
+  std::error_code ec;
+  const double size = double(fs::file_size(path, ec));
+  double need = 0;
+  for (int n = 0; n < 10000 && std::getline(in, line); ++n) {
+    if (line.rfind("end_header", 0) == 0) break;
+    std::istringstream words(line);
+    std::string keyword, name;
+    double count = 0;
+    if (!(words >> keyword) || keyword != "element") continue;
+    if (!(words >> name >> count) || !(count >= 0))
+      throw InputError(path, "header", "unreadable element line '" + line.substr(0, 80) + "'");
+    need += count * (name == "face" ? 4.0 : name == "vertex" ? 3.0 : 0.0);
+    if (need > size)
+      throw InputError(path, "element " + name, "the header declares " + std::to_string(int64_t(std::min(count, 9e18))) + " '" + name +
+                                                    "' elements, more than the file's " + std::to_string(int64_t(size)) + " bytes can hold");
+  }
+}
+
 // PLY and STL through OpenMesh (STL vertices shared by several facets are merged on read).
+// OpenMesh's own messages are silenced: a failure is our one line.
 RawMesh read_openmesh(const std::string& path) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw InputError(path, "", "file not found");
+  if (extension_of(path) == ".ply") check_ply_header(path);
   OmMesh mesh;
   OpenMesh::IO::Options opt;
-  if (!OpenMesh::IO::read_mesh(mesh, path, opt)) throw InputError(path, "", "cannot read the mesh (OpenMesh failed)");
+  omerr().disable();
+  omlog().disable();
+  const bool read = OpenMesh::IO::read_mesh(mesh, path, opt);
+  omerr().enable();
+  omlog().enable();
+  if (!read) throw InputError(path, "", "cannot read the mesh (OpenMesh failed)");
   RawMesh m;
   for (const auto& v : mesh.vertices()) {
     const auto& p = mesh.point(v);

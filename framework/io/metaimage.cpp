@@ -185,6 +185,7 @@ RawVolume read_meta(const std::string& path) {
   const bool msb = meta_true(find_key(h, {"BinaryDataByteOrderMSB", "ElementByteOrderMSB"}));
   const bool swap = msb != (std::endian::native == std::endian::big);
   const bool compressed = meta_true(find_key(h, {"CompressedData"}));
+  check_declared_values(double(v.num_voxels()) * v.channels, path, "DimSize");
   const int64_t count = v.num_voxels() * v.channels;
   const size_t expected = size_t(count) * scalar_bytes(type);
 
@@ -211,6 +212,7 @@ RawVolume read_meta(const std::string& path) {
       const double n = meta_numbers(*cs, path, "CompressedDataSize", 1)[0];
       if (n >= 0 && n < double(data.size())) data.resize(size_t(n));
     }
+    check_inflatable(double(expected), double(data.size()), data_path, "CompressedData");
     data = inflate_bytes(data, expected, data_path);
   }
   if (data.size() < expected)

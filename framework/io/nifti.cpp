@@ -165,6 +165,7 @@ RawVolume decode_nifti(const std::string& bytes, const std::string& path, bool h
   if (!(vox_offset >= 0) || vox_offset > float(bytes.size()))
     throw InputError(path, "vox_offset", "data offset " + exact(vox_offset) + " lies outside the file");
   const int64_t count = v.num_voxels() * v.channels;
+  check_declared_values(double(count), path, "dim");
   const size_t expected = size_t(count) * scalar_bytes(type_it->second);
   const size_t available = bytes.size() - size_t(vox_offset);
   if (available < expected)
@@ -244,6 +245,20 @@ void write_nifti(const RawVolume& lps, const std::string& path) {
     append_stored_bytes(bytes, planar, lps.label);
   }
   write_file_atomically(path, extension_of(path) == ".nii" ? bytes : gzip_bytes(bytes, path));
+}
+
+RawVolume read_nifti(const std::string& path) {
+  const std::string head = read_gz_bytes(path, kNiftiHeaderBytes);
+  const RawVolume geometry = decode_nifti(head, path, true);
+  const bool swap = nifti_field<int32_t>(head, 0, false) != 348;
+  const double values = double(geometry.num_voxels()) * geometry.channels;
+  check_declared_values(values, path, "dim");
+  const double vox_offset = nifti_field<float>(head, 108, swap);
+  const double declared = (std::isfinite(vox_offset) && vox_offset > 0 ? vox_offset : 0) + values * 8;  // at most 8 bytes a value
+  std::error_code ec;
+  const double stored = double(std::filesystem::file_size(path, ec));
+  if (extension_of(path) == ".nii.gz" && !ec) check_inflatable(std::min(declared, values * 1 + 352), stored, path, "dim");
+  return decode_nifti(read_gz_bytes(path, size_t(std::min(declared, 9.0e18))), path, false);
 }
 
 }  // namespace dsnake::detail

@@ -28,8 +28,6 @@ namespace fs = std::filesystem;
 // Each size at most this (Grid<D> holds int sizes), and a whole data block at most 2^62 bytes.
 constexpr int64_t kMaxAxisSize = 2147483647;
 constexpr double kMaxDataBytes = 4.6e18;
-// Deflate inflates at most ~1032-fold: more claimed bytes than that cannot be in the file.
-constexpr double kMaxInflateRatio = 1100;
 
 // s without leading and trailing blanks.
 std::string strip(const std::string& s) {
@@ -436,6 +434,7 @@ RawVolume read_nrrd(const std::string& path) {
   const double count = double(v.size[0]) * double(v.size[1]) * double(v.size[2]) * v.channels;
   const double expected = count * scalar_bytes(type);
   if (expected > kMaxDataBytes) throw InputError(path, "sizes", "absurd sizes (" + exact(count) + " values)");
+  check_declared_values(count, path, "sizes");
   const std::string data = nrrd_data(h, bytes, path, expected);
   v.values = decode<float>(data.data(), int64_t(count), type, swap);
   return v;

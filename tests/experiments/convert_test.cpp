@@ -8,6 +8,7 @@
 #include "tests/experiments/temp_dir_test.h"
 
 #include <gtest/gtest.h>
+#include <zlib.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -130,6 +131,53 @@ TEST_F(ConvertTest, BadInputExitsTwoWithOneLineAndNoOutput) {
   expect_refused(kScans + "/cgal/images/liver.inr.gz", at("out.xyz"), {"out.xyz", "unknown"});
   expect_refused(at("in.abc"), at("out.mha"), {"in.abc", "unknown"});
   expect_refused(at("missing.nrrd"), at("out.mha"), {"missing.nrrd", "not found"});
+}
+
+// Limits from headers (issue 22): a header's sizes are checked against what the file can hold
+// and the memory limit before anything is allocated or inflated; library messages do not reach
+// stderr; each case is one line naming the file and the header key.
+TEST_F(ConvertTest, HeadersAreCheckedBeforeAnyAllocation) {
+  auto deflate = [](const std::string& raw) {
+    uLongf n = compressBound(raw.size());
+    std::string z(n, '\0');
+    compress2(reinterpret_cast<Bytef*>(z.data()), &n, reinterpret_cast<const Bytef*>(raw.data()), raw.size(), 9);
+    z.resize(n);
+    return z;
+  };
+  const std::string z = deflate(std::string(1 << 20, '\0'));
+  auto meta = [&](const std::string& dims) {
+    return "ObjectType = Image\nNDims = 3\nDimSize = " + dims + "\nElementType = MET_FLOAT\nCompressedData = True\n"
+           "CompressedDataSize = " + std::to_string(z.size()) + "\nElementDataFile = LOCAL\n" + z;
+  };
+  // 4 GB claimed from 1 kB of deflate data: more than deflate can expand to
+  std::ofstream(at("bomb.mha"), std::ios::binary) << meta("1024 1024 1024");
+  expect_refused(at("bomb.mha"), at("out.nrrd"), {"bomb.mha", "CompressedData", "deflate"});
+  // 34 GB as float: above the memory limit (here set to 100 MB)
+  std::ofstream(at("big.mha"), std::ios::binary) << meta("2048 2048 2048");
+  ::setenv("DSNAKE_MAX_IMAGE_BYTES", "100000000", 1);
+  expect_refused(at("big.mha"), at("out.nrrd"), {"big.mha", "DimSize", "memory limit"});
+  ::unsetenv("DSNAKE_MAX_IMAGE_BYTES");
+  // PLY: 2e9 vertices declared in a 200-byte file; garbage after a valid header: one line, ours
+  std::ofstream(at("huge.ply")) << "ply\nformat ascii 1.0\nelement vertex 2000000000\nproperty float x\nproperty float y\n"
+                                   "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n";
+  expect_refused(at("huge.ply"), at("out.off"), {"huge.ply", "element vertex", "2000000000"});
+  std::ofstream(at("garbage.ply"), std::ios::binary) << "ply\nformat binary_little_endian 1.0\nelement vertex 3\n"
+                                                        "property float x\nend_header\n\x01\x02";
+  expect_refused(at("garbage.ply"), at("out.off"), {"garbage.ply"});
+  // A truncated PNG: libpng's own line is not printed
+  const std::string png = slurp(std::string(DSNAKE_SOURCE_DIR) + "/docs/figures/real/lung.png");
+  ASSERT_GT(png.size(), 1000u);
+  std::ofstream(at("cut.png"), std::ios::binary) << png.substr(0, png.size() / 3);
+  expect_refused(at("cut.png"), at("out.nrrd"), {"cut.png", "cannot decode"});
+  // A gzipped INR whose header claims more than its deflate data can give
+  {
+    std::string header = "#INRIMAGE-4#{\nXDIM=2000\nYDIM=2000\nZDIM=500\nTYPE=float\nPIXSIZE=32 bits\nCPU=decm\n";
+    header += std::string(256 - header.size() - 4, '\n') + "##}\n";
+    gzFile f = gzopen(at("bomb.inr.gz").c_str(), "wb");
+    gzwrite(f, header.data(), unsigned(header.size()));
+    gzclose(f);
+    expect_refused(at("bomb.inr.gz"), at("out.nrrd"), {"bomb.inr.gz", "XDIM", "deflate"});
+  }
 }
 
 }  // namespace
