@@ -74,6 +74,13 @@ Template<D> assemble_template(const ExperimentSpec<D>& spec) {
     r.finish();
   } else {
     tmpl = read_template_file<D>(t.file);
+    // A template that crosses itself (a figure-eight contour, a mesh through itself) has no
+    // inside: refused (issue 22). A file's template only: the phantoms are simple by construction.
+    const int crossings = count_self_intersections<D>({tmpl.positions, tmpl.connectivity});
+    if (crossings > 0)
+      throw InputError(t.file, "", std::string("the template crosses itself (") + std::to_string(crossings) +
+                                       (D == 2 ? " pairs of crossing segments)" : " pairs of intersecting triangles)") +
+                                       ": a template must be a simple closed " + (D == 2 ? "curve" : "surface"));
   }
   if (tmpl.num_vertices() == 0) throw InputError(spec.file.path, "template", "empty template");
   for (const auto& [name, id] : t.landmarks) {

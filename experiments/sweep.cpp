@@ -237,6 +237,9 @@ std::vector<MethodSpec> read_methods(JsonReader& top, const nlohmann::ordered_js
   return methods;
 }
 
+// The most runs a sweep file may expand to (issue 22: a grid of 10^9 points hung the expansion).
+constexpr int64_t kMaxSweepRuns = 100000;
+
 // The top level of a sweep file, in the order its errors are reported; fills sweep.grid_keys.
 SweepPlan read_sweep_plan(Sweep& sweep, const json& doc, const nlohmann::ordered_json& ordered) {
   SweepPlan plan;
@@ -248,10 +251,18 @@ SweepPlan read_sweep_plan(Sweep& sweep, const json& doc, const nlohmann::ordered
   top.expect(!base.empty(), "base", "must name an experiment file");
   sweep.grid_keys = keys_in_file_order(ordered, "grid");
   plan.grid_values = read_grid(top, sweep.grid_keys);
+  double points = 1;  // in double: a product of many lists overflows size_t
+  for (const auto& v : plan.grid_values) points *= double(v.size());
+  if (points > double(kMaxSweepRuns))
+    top.fail("grid", "the grid has " + std::to_string(points) + " points, more than " + std::to_string(kMaxSweepRuns) + " runs");
   for (const auto& v : plan.grid_values) plan.grid_points *= v.size();
   read_levels(top, plan);
   plan.seeds = read_seeds(top, plan.seeds_given);
   plan.methods = read_methods(top, ordered, base);
+  const double runs = double(plan.methods.size()) * double(plan.grid_points) * double(plan.levels.size()) * double(plan.seeds.size());
+  if (runs > double(kMaxSweepRuns))
+    top.fail("grid", "methods x grid points x corruption levels x seeds make " + std::to_string(int64_t(runs)) +
+                         " runs, more than " + std::to_string(kMaxSweepRuns));
   if (top.has("success")) {
     const json& s = top.raw("success");
     if (!s.is_object()) top.fail("success", "expected an object of thresholds");

@@ -216,6 +216,10 @@ TEST_F(CliTest, HostileFilesAndSetPathsAreOneLineAndExitTwo) {
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
   const std::string huge(100000, 'x');  // one shell argument holds at most 128 kB
   const fs::path huge_key = experiment("default", [](nlohmann::json& j) { j[std::string(1 << 20, 'k')] = 1; });
+  // a figure-eight contour as the template
+  auto eight = nlohmann::json::parse(builtin_experiment_text("default"));
+  eight["template"] = {{"file", write("eight.txt", "40 40\n80 80\n80 40\n40 80\n").string()}};
+  const fs::path eight_experiment = write("eight.json", eight.dump());
   const std::vector<std::pair<std::string, std::string>> rows = {
       {deep_file.string(), "nested deeper than 64"},
       {deep_array.string(), "nested deeper than 64"},
@@ -236,6 +240,7 @@ TEST_F(CliTest, HostileFilesAndSetPathsAreOneLineAndExitTwo) {
       {"builtin:default --set 'energies[0].alpha=\"" + huge + "\"'", "expected a number"},
       {huge_key.string(), "characters)"},
       {"builtin:ellipsoid --set template.transform.scale=1e200", "template.transform"},
+      {eight_experiment.string(), "crosses itself"},
       {"builtin:default --set 'template.transform.translation=[1e300, 0]'", "outside the image"},
   };
   const fs::path out = dir_ / "out";

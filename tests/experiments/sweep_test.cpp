@@ -213,6 +213,13 @@ TEST_F(SweepTest, BadSweepFilesNameTheFileAndTheJsonPath) {
                {"run snake-g1-c0-s4-", "exp.json", "energies[0].alpha", "must be"});
   expect_error([](json& j) { j["corruptions"][2] = json::parse(R"([{"type": "noize"}])"); }, {"corruptions[2]", "corruption[0].type", "noize"});
   expect_error([](json& j) { j["methods"]["stiff"]["base"] = "no_such.json"; }, {"methods.stiff", "no_such.json"});
+  // Issue 22: a grid of 10^10 points is refused before it is expanded (it hung), and so is a
+  // product of methods, grid points, levels and seeds above 100 000 runs.
+  expect_error([](json& j) {
+    j["grid"] = json::object();
+    for (int k = 0; k < 10; ++k) j["grid"]["phases[0].iterations" + std::string(k, ' ')] = json::array({1, 2, 3, 4, 5, 6, 7, 8, 9, 10});
+  }, {"grid", "more than 100000"});
+  expect_error([](json& j) { j["seeds"] = json::parse(R"({"count": 100000})"); }, {"grid", "runs, more than 100000"});
 }
 
 // Hand-made results: results[i] for sweep.runs[i], success by method, level and seed.
