@@ -233,6 +233,12 @@ Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   express_in_image_frame(ex, spec.truth);
   check_placement(ex, spec.file.path);
   ex.field = build_field(spec.field);
+  try {  // the checks a field can make on the image's grid, so that `validate` reports them too
+    ex.field->check_grid(ex.image.grid());
+  } catch (const InputError& e) {
+    if (!e.file().empty()) throw;
+    throw InputError(spec.file.path, e.where(), e.message());
+  }
   ex.field_region = spec.field.region;
   ex.energies = assemble_energies(spec, ex.tmpl);
   ex.phases = assemble_phases(spec);

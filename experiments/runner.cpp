@@ -309,9 +309,6 @@ Watchdog watchdog_of(const Experiment<D>& ex) {
 // runs the phases with one phase driver whose minimizer the file's "solver" picks.
 template <int D>
 void evolve(Experiment<D>& ex, const RunOptions& options, RunRecord<D>& rec) {
-  if (!options.quiet)
-    std::fprintf(stderr, "dsnake: %s: computing the %s field on %s\n", ex.name.c_str(), ex.field->type().c_str(),
-                 D == 2 ? "the image" : "the volume");
   auto t = Clock::now();
   // The field on the region around the placed template (fields/region.h); the potential of the
   // global view is computed on the same voxels, as it is built from the field or its image.
@@ -319,7 +316,18 @@ void evolve(Experiment<D>& ex, const RunOptions& options, RunRecord<D>& rec) {
   const bool whole = rec.field_region.num_voxels() == ex.image.num_voxels();
   const Image<D> cropped = whole ? Image<D>() : crop(ex.image, rec.field_region);
   const Image<D>& field_image = whole ? ex.image : cropped;
-  ex.field->compute(field_image);
+  try {
+    ex.field->check_grid(field_image.grid());
+    if (!options.quiet)
+      std::fprintf(stderr, "dsnake: %s: computing the %s field on %s\n", ex.name.c_str(), ex.field->type().c_str(),
+                   D == 2 ? "the image" : "the volume");
+    ex.field->compute(field_image);
+  } catch (const InputError& e) {
+    // A field's own checks on the image (a VFC radius larger than the image, an unstable explicit
+    // step) know the key, not the file: the line names the experiment file (issue 22).
+    if (!e.file().empty()) throw;
+    throw InputError(ex.file.path, e.where(), e.message());
+  }
   rec.field_s = seconds_since(t);
   rec.snake = Snake<D>::from_template(ex.tmpl, ex.initial);
   rec.initial_vertices = rec.snake.num_vertices();

@@ -29,6 +29,7 @@ class CachedField final : public ExternalField<D> {
 
   std::string type() const override { return field_->type(); }
   void compute(const Image<D>& image) override;
+  void check_grid(const Grid<D>& grid) const override { field_->check_grid(grid); }
   Point<D> force(const Point<D>& x, const Point<D>& normal) const override { return field_->force(x, normal); }
   bool uses_normal() const override { return field_->uses_normal(); }
   bool has_potential() const override { return field_->has_potential(); }

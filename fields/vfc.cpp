@@ -195,14 +195,19 @@ Point<D> VfcField<D>::kernel(const Point<D>& d) const {
 }
 
 template <int D>
-void VfcField<D>::compute(const Image<D>& image) {
-  const Grid<D>& grid = image.grid();
+void VfcField<D>::check_grid(const Grid<D>& grid) const {
   double extent = 0;
   for (int a = 0; a < D; ++a) extent = std::max(extent, (grid.size[a] - 1) * grid.spacing[a]);
   if (options_.radius > extent)
     throw InputError("", "field.radius",
                      "VFC radius " + std::to_string(options_.radius) + " is larger than the image (largest extent " +
                          std::to_string(extent) + " in physical units)");
+}
+
+template <int D>
+void VfcField<D>::compute(const Image<D>& image) {
+  const Grid<D>& grid = image.grid();
+  check_grid(grid);
   timings_ = {};
   const EdgeMap<D> edges = compute_edge_map(image, options_.edge, false, "vfc");
   vectors_ = VectorField<D>(grid);

@@ -58,6 +58,7 @@ class VfcField final : public ExternalField<D> {
  public:
   using Options = VfcFieldOptions;
   static constexpr const char* kType = "vfc";
+  void check_grid(const Grid<D>& grid) const override;
   static constexpr const char* kSummary = "vector field convolution, Li & Acton 2007 (compared in D-Snake §2)";
 
   explicit VfcField(const VfcFieldOptions& options = {});

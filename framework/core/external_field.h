@@ -18,6 +18,9 @@ class ExternalField {
 
   // Computes the field from the image; may be slow (the field cache lives around it).
   virtual void compute(const Image<D>& image) = 0;
+  // Checks the options against the grid the field will be computed on, before any work (issue
+  // 22: a VFC radius larger than the image); InputError naming the key. Default: nothing to check.
+  virtual void check_grid(const Grid<D>& grid) const { (void)grid; }
 
   // The force at physical point x for a vertex with outward unit normal `normal` (only fields
   // with uses_normal(), such as DDGVF, look at it). Physical units per unit step.

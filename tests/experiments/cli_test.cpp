@@ -220,6 +220,10 @@ TEST_F(CliTest, HostileFilesAndSetPathsAreOneLineAndExitTwo) {
   auto eight = nlohmann::json::parse(builtin_experiment_text("default"));
   eight["template"] = {{"file", write("eight.txt", "40 40\n80 80\n80 40\n40 80\n").string()}};
   const fs::path eight_experiment = write("eight.json", eight.dump());
+  // a field check that needs the image (a VFC radius larger than it) names the experiment file
+  auto vfc = nlohmann::json::parse(builtin_experiment_text("default"));
+  vfc["field"] = {{"type", "vfc"}, {"radius", 10}};
+  const fs::path vfc_experiment = write("vfc.json", vfc.dump());
   const std::vector<std::pair<std::string, std::string>> rows = {
       {deep_file.string(), "nested deeper than 64"},
       {deep_array.string(), "nested deeper than 64"},
@@ -241,6 +245,7 @@ TEST_F(CliTest, HostileFilesAndSetPathsAreOneLineAndExitTwo) {
       {huge_key.string(), "characters)"},
       {"builtin:ellipsoid --set template.transform.scale=1e200", "template.transform"},
       {eight_experiment.string(), "crosses itself"},
+      {vfc_experiment.string() + " --set field.radius=5000", "vfc.json: field.radius: VFC radius"},
       {"builtin:default --set 'template.transform.translation=[1e300, 0]'", "outside the image"},
   };
   const fs::path out = dir_ / "out";
