@@ -7,8 +7,10 @@ namespace dsnake {
 static std::string one_line(const std::string& part) {
   constexpr size_t kMaxPart = 300;
   std::string s = part.size() > kMaxPart ? part.substr(0, kMaxPart) + "... (" + std::to_string(part.size()) + " characters)" : part;
-  for (char& c : s)
-    if (c == '\n' || c == '\r') c = ' ';
+  for (char& c : s) {
+    if (c == '\n' || c == '\r' || c == '\t') c = ' ';
+    else if ((c >= 0 && c < 0x20) || c == 0x7f) c = '?';  // a binary file's bytes: no terminal control codes
+  }
   return s;
 }
 

@@ -246,6 +246,22 @@ TEST_F(CliTest, HostileFilesAndSetPathsAreOneLineAndExitTwo) {
       {"builtin:ellipsoid --set template.transform.scale=1e200", "template.transform"},
       {eight_experiment.string(), "crosses itself"},
       {vfc_experiment.string() + " --set field.radius=5000", "vfc.json: field.radius: VFC radius"},
+      {write("empty.json", "").string(), "empty.json: JSON syntax error"},
+      {write("binary.json", std::string("\x01\x02\x1b[31m\x7f\n\xff", 9)).string(), "binary.json: JSON syntax error"},
+      {write("array.json", "[1, 2]").string(), "expected a JSON object"},
+      {write("dim4.json", "{\"dimension\": 4}").string(), "dimension: must be 2 or 3"},
+      {write("unclosed.json", "{\"dimension\": 2, \"image\": {\"phantom\": \"disk\"}").string(), "unclosed.json: JSON syntax error"},
+      {"builtin:default --set x", "expected key.path=value"},
+      {"builtin:default --set =1", "expected key.path=value"},
+      {"builtin:default --set 'phases[0].iterations=-5'", "phases[0].iterations: must be in"},
+      {"builtin:default --set 'phases[0].iterations=1e12'", "phases[0].iterations: expected an integer"},
+      {"builtin:default --set 'energies=[]'", "energies: expected a non-empty array"},
+      {"builtin:default --set name.first=1", "not an object"},
+      {"builtin:default --set 'phases[0]=7'", "phases[0]: expected a JSON object"},
+      {"builtin:default --set 'energies[0].weight=NaN'", "energies[0].weight: expected a number"},
+      {"builtin:default --set image.phantom=nosuch", "unknown 2D image phantom"},
+      {"builtin:default --set watchdog.max_move=-1", "watchdog.max_move"},
+      {"builtin:default --set watchdog.bogus=1", "watchdog.bogus: unknown key"},
       {"builtin:default --set 'template.transform.translation=[1e300, 0]'", "outside the image"},
   };
   const fs::path out = dir_ / "out";
@@ -256,6 +272,7 @@ TEST_F(CliTest, HostileFilesAndSetPathsAreOneLineAndExitTwo) {
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << row << ": " << r.err.substr(0, 300);
     EXPECT_NE(r.err.find(fragment), std::string::npos) << row << ": missing \"" << fragment << "\" in " << r.err.substr(0, 300);
     EXPECT_LT(r.err.size(), 1000u) << row;
+    EXPECT_EQ(r.err.find('\x1b'), std::string::npos) << row << ": a terminal control code in the line";
     EXPECT_FALSE(fs::exists(out)) << row;
   }
   // validate on a pipe answers at once too
