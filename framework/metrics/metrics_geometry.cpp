@@ -272,10 +272,10 @@ void FacetGrid<D>::build_tree() {
   struct Task {
     int node, first, count;
   };
-  std::vector<Task> todo{{0, 0, n}};
-  while (!todo.empty()) {
-    const Task t = todo.back();
-    todo.pop_back();
+  std::vector<Task> pending{{0, 0, n}};  // node ranges still to split
+  while (!pending.empty()) {
+    const Task t = pending.back();
+    pending.pop_back();
     Point<D> lo = Point<D>::Constant(kInfinity), hi = Point<D>::Constant(-kInfinity);
     Point<D> clo = lo, chi = hi;
     for (int k = t.first; k < t.first + t.count; ++k) {
@@ -303,8 +303,8 @@ void FacetGrid<D>::build_tree() {
     tree_.resize(tree_.size() + 2);
     tree_[t.node].first = left;
     tree_[t.node].count = 0;
-    todo.push_back({left + 1, t.first + half, t.count - half});
-    todo.push_back({left, t.first, half});
+    pending.push_back({left + 1, t.first + half, t.count - half});
+    pending.push_back({left, t.first, half});
   }
 }
 
