@@ -27,6 +27,8 @@ void apply_override(nlohmann::json& doc, const std::string& assignment, const st
   const auto eq = assignment.find('=');
   const std::string shown = assignment.substr(0, std::min<size_t>(eq, 200));
   if (eq == std::string::npos || eq == 0) throw InputError("", "--set " + shown, "expected key.path=value");
+  // JSON text is UTF-8; a byte that is not would make every later dump() throw (fuzzing, issue 22).
+  if (!is_valid_utf8(assignment)) throw InputError("", "--set " + shown, "is not valid UTF-8 text");
   const std::string path = assignment.substr(0, eq), text = assignment.substr(eq + 1);
   nlohmann::json value = nlohmann::json::accept(text, /*ignore_comments=*/true) ? parse_json_text(text, "--set " + shown)
                                                                                : nlohmann::json(text);  // a bare word

@@ -89,7 +89,7 @@ void write_field_png(const Image<2>& image, const VectorField<2>& field, const s
       }
   }
   write_via_temporary(path, [&](const std::string& tmp) {
-    if (!cv::imwrite(tmp, canvas)) throw std::runtime_error(path + ": cannot write figure");
+    if (!cv::imwrite(tmp, canvas)) throw OutputError(path, "OpenCV cannot write the figure");
   });
 }
 

@@ -63,9 +63,9 @@ void write_png(const cv::Mat& bgr, const std::string& png_path) {
     try {
       ok = cv::imwrite(tmp, bgr);
     } catch (const cv::Exception& e) {
-      throw std::runtime_error(png_path + ": cannot write figure (" + e.what() + ")");
+      throw OutputError(png_path, std::string("OpenCV: ") + e.what());
     }
-    if (!ok) throw std::runtime_error(png_path + ": cannot write figure (is the folder there and writable?)");
+    if (!ok) throw OutputError(png_path, "OpenCV cannot write the figure (is the folder there and writable?)");
   });
 }
 

@@ -22,6 +22,7 @@
 #include "experiments/schema.h"
 #include "experiments/sweep.h"
 #include "experiments/template_command.h"
+#include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
 #include "framework/core/json_text.h"
 
@@ -288,6 +289,9 @@ int main(int argc, char** argv) {
   } catch (const InputError& e) {
     std::fprintf(stderr, "dsnake: error: %s\n", e.what());
     return 2;
+  } catch (const OutputError& e) {  // a full disk, a read-only folder: not the input's fault
+    std::fprintf(stderr, "dsnake: error: %s\n", e.what());
+    return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dsnake: internal error: %s\n", e.what());
     return 1;

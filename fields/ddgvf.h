@@ -52,6 +52,8 @@ class DdgvfField final : public ExternalField<D> {
   const DdgvfFieldOptions& options() const { return options_; }
 
   // Edge map, image gradient, then 2D scalar GVF solves (one per axis and sign).
+  // An explicit solve's step that no image could make stable (validate refuses it).
+  void check_grid(const Grid<D>& grid) const override { check_explicit_step(grid, options_.solve); }
   void compute(const Image<D>& image) override;
   // Per axis a, the component of sign(normal_a) (n_a = 0 counts as +), linearly interpolated.
   Point<D> force(const Point<D>& x, const Point<D>& normal) const override;

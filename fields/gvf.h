@@ -39,6 +39,8 @@ class GvfField final : public ExternalField<D> {
   const GvfFieldOptions& options() const { return options_; }
 
   // Edge map, then the GVF solve starting from v = grad f. A constant image gives a zero field.
+  // An explicit solve's step that no image could make stable (validate refuses it).
+  void check_grid(const Grid<D>& grid) const override { check_explicit_step(grid, options_.solve); }
   void compute(const Image<D>& image) override;
   // v at x, linearly interpolated (the normal is not used).
   Point<D> force(const Point<D>& x, const Point<D>& normal) const override;

@@ -94,17 +94,14 @@ class AlignedFloats {
 // each vector clone (out-parameters: a Vec return would change the ABI outside AVX).
 [[gnu::always_inline]] inline void x_neighbours(const Vec& xprev, const Vec& c, const Vec& next, Vec& left,
                                                 Vec& right, Vec& x) {
-  const VecIndex halves = {4, 5, 6, 7, 8, 9, 10, 11}, to_right = {1, 2, 3, 8, 5, 6, 7, 12},
-                 to_left = {3, 8, 9, 10, 7, 12, 13, 14};
-  x = __builtin_shuffle(c, next, halves);
-  left = __builtin_shuffle(xprev, c, to_left);
-  right = __builtin_shuffle(c, x, to_right);
+  x = DSNAKE_SHUFFLE2(c, next, VecIndex, 4, 5, 6, 7, 8, 9, 10, 11);         // halves
+  left = DSNAKE_SHUFFLE2(xprev, c, VecIndex, 3, 8, 9, 10, 7, 12, 13, 14);   // to the left
+  right = DSNAKE_SHUFFLE2(c, x, VecIndex, 1, 2, 3, 8, 5, 6, 7, 12);         // to the right
 }
 
 // x for the vector before the row's first one (its ghost vector).
 [[gnu::always_inline]] inline void x_before(const Vec& ghost, const Vec& first, Vec& x) {
-  const VecIndex halves = {4, 5, 6, 7, 8, 9, 10, 11};
-  x = __builtin_shuffle(ghost, first, halves);
+  x = DSNAKE_SHUFFLE2(ghost, first, VecIndex, 4, 5, 6, 7, 8, 9, 10, 11);  // halves
 }
 
 // The five input rows of a voxel row at one time level and their weights times dt (a missing

@@ -90,6 +90,13 @@ GvfSolveStats solve_gvf(const Grid<D>& grid, std::vector<float> b,
                         const std::vector<const std::vector<float>*>& c, const std::vector<std::vector<float>*>& v,
                         const GvfSolveOptions& options, GvfWorkspace* workspace = nullptr);
 
+// Throws InputError naming "field.time_step" when an explicit step cannot be stable on `grid`,
+// whatever the image: dt >= 2 / (4 mu sum_a 1/h_a^2), the bound with b = 0 (solve_gvf's own
+// check adds the image's largest b and is tighter). Lets `dsnake validate` refuse such a step
+// before the image is read (issue 22); nothing to check for the multigrid solver or dt = 0.
+template <int D>
+void check_explicit_step(const Grid<D>& grid, const GvfSolveOptions& options);
+
 // The relative residual |b c - A v|_2 / |b c|_2 (1 when b c = 0 and v != 0, 0 when both vanish).
 template <int D>
 double gvf_relative_residual(const Grid<D>& grid, const std::vector<float>& b,

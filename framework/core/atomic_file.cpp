@@ -1,5 +1,8 @@
 #include "framework/core/atomic_file.h"
 
+#include <cerrno>
+#include <cstring>
+
 #include <atomic>
 #include <filesystem>
 #include <fstream>
@@ -9,6 +12,21 @@
 namespace dsnake {
 
 namespace fs = std::filesystem;
+
+// One line: a library's reason (OpenCV's exceptions) may span several.
+static std::string one_line(std::string s) {
+  for (char& c : s)
+    if (c == '\n' || c == '\r') c = ' ';
+  return s;
+}
+
+OutputError::OutputError(const std::string& file, const std::string& reason)
+    : std::runtime_error(one_line(file + ": cannot write (" + reason + ")")) {}
+
+// The system's reason for the last failed call (strerror(errno)), or `fallback` when errno is 0.
+static std::string system_reason(const std::string& fallback) {
+  return errno != 0 ? std::string(std::strerror(errno)) : fallback;
+}
 
 static std::string temporary_name(const std::string& path) {
   static std::atomic<int> counter{0};
@@ -24,7 +42,7 @@ void write_via_temporary(const std::string& path, const std::function<void(const
     write(tmp);
     std::error_code ec;
     fs::rename(tmp, path, ec);
-    if (ec) throw std::runtime_error(path + ": cannot write (" + ec.message() + ")");
+    if (ec) throw OutputError(path, ec.message());
   } catch (...) {
     std::error_code ec;
     fs::remove(tmp, ec);
@@ -34,11 +52,12 @@ void write_via_temporary(const std::string& path, const std::function<void(const
 
 void write_file_atomically(const std::string& path, const std::string& bytes) {
   write_via_temporary(path, [&](const std::string& tmp) {
+    errno = 0;
     std::ofstream out(tmp, std::ios::binary);
-    if (!out) throw std::runtime_error(path + ": cannot open for writing");
+    if (!out) throw OutputError(path, system_reason("cannot open for writing"));
     out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
     out.close();
-    if (!out) throw std::runtime_error(path + ": write failed");
+    if (!out) throw OutputError(path, system_reason("write failed"));  // a full disk: ENOSPC
   });
 }
 

@@ -3,11 +3,21 @@
 #pragma once
 
 #include <functional>
+#include <stdexcept>
 #include <string>
 
 namespace dsnake {
 
-// Writes `bytes` to `path` atomically. Throws std::runtime_error naming the path on failure.
+// An output that could not be written (a full disk, a read-only folder, a file size limit): names
+// the file and the system's reason, on one line. Not the input's fault: main.cpp prints it as a
+// "dsnake: error:" line with exit code 1; the writers here leave no partial file behind.
+class OutputError : public std::runtime_error {
+ public:
+  OutputError(const std::string& file, const std::string& reason);
+};
+
+// Writes `bytes` to `path` atomically. Throws OutputError (framework/core/errors.h) naming the
+// path and the system's reason (a full disk) on failure.
 void write_file_atomically(const std::string& path, const std::string& bytes);
 
 // For writers that need a file name (OpenMesh, OpenCV): `write` receives a temporary path in

@@ -32,17 +32,25 @@ Json parse_bounded(const std::string& text, const std::string& file) {
     return Json::parse(text, bounded, /*allow_exceptions=*/true, /*ignore_comments=*/true);
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError(file, "", "JSON syntax error: " + clean(e.what()));
+  } catch (const nlohmann::json::out_of_range& e) {  // "1e999": found by fuzzing (issue 22)
+    throw InputError(file, "", "JSON number out of range: " + clean(e.what()));
   }
 }
 
 }  // namespace
 
-std::string read_input_text(const std::string& path, const std::string& what, std::uintmax_t max_bytes) {
+void require_regular_file(const std::string& path, const std::string& what) {
   std::error_code ec;
   const fs::file_status st = fs::status(path, ec);
-  if (!fs::exists(st)) throw InputError(path, "", "no such " + what);
+  if (!fs::exists(st)) throw InputError(path, "", "file not found");
   if (fs::is_directory(st)) throw InputError(path, "", "expected the " + what + ", found a folder");
   if (!fs::is_regular_file(st)) throw InputError(path, "", "expected the " + what + ", found a pipe or a device (not read)");
+}
+
+std::string read_input_text(const std::string& path, const std::string& what, std::uintmax_t max_bytes) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw InputError(path, "", "no such " + what);
+  require_regular_file(path, what);
   const std::uintmax_t size = fs::file_size(path, ec);
   if (ec) throw InputError(path, "", "cannot read " + what + ": " + ec.message());
   if (size > max_bytes)
@@ -52,6 +60,28 @@ std::string read_input_text(const std::string& path, const std::string& what, st
   std::ostringstream text;
   text << in.rdbuf();
   return text.str();
+}
+
+bool is_valid_utf8(const std::string& text) {
+  const auto* p = reinterpret_cast<const unsigned char*>(text.data());
+  const size_t n = text.size();
+  for (size_t i = 0; i < n;) {
+    const unsigned c = p[i];
+    int extra = 0;
+    unsigned min = 0, cp = 0;
+    if (c < 0x80) { ++i; continue; }
+    if ((c & 0xE0) == 0xC0) { extra = 1; min = 0x80; cp = c & 0x1F; }
+    else if ((c & 0xF0) == 0xE0) { extra = 2; min = 0x800; cp = c & 0x0F; }
+    else if ((c & 0xF8) == 0xF0) { extra = 3; min = 0x10000; cp = c & 0x07; }
+    else return false;
+    for (int k = 1; k <= extra; ++k) {
+      if (i + size_t(k) >= n || (p[i + size_t(k)] & 0xC0) != 0x80) return false;
+      cp = (cp << 6) | (p[i + size_t(k)] & 0x3F);
+    }
+    if (cp < min || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF)) return false;
+    i += size_t(extra) + 1;
+  }
+  return true;
 }
 
 nlohmann::json parse_json_text(const std::string& text, const std::string& file) {

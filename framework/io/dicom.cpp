@@ -225,7 +225,9 @@ void check_pixel_data_complete(const gdcm::ImageReader& reader, size_t value_sta
   if (!ds.FindDataElement(kPixelData) || ts.IsEncapsulated() || ts == gdcm::TransferSyntax::DeflatedExplicitVRLittleEndian)
     return;
   const uint32_t length = ds.GetDataElement(kPixelData).GetVL();
-  const uintmax_t size = fs::file_size(path);
+  std::error_code ec;
+  const uintmax_t size = fs::file_size(path, ec);
+  if (ec) throw InputError(path, "", "cannot read the file size: " + ec.message());
   if (length != 0xffffffff && value_start + uintmax_t(length) > size)
     throw InputError(path, "PixelData", "truncated: the pixel data need " + std::to_string(length) +
                                             " bytes, the file holds only " + std::to_string(size - std::min<uintmax_t>(size, value_start)) +

@@ -6,6 +6,7 @@
 
 #include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
+#include "framework/core/json_text.h"
 #include "framework/io/dicom.h"
 #include "framework/io/image_io_detail.h"
 
@@ -103,10 +104,7 @@ bool is_opencv_extension(const std::string& ext) {
 }
 
 // InputError unless `path` is an existing regular file.
-void require_exists(const std::string& path) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) throw InputError(path, "", "file not found");
-}
+void require_exists(const std::string& path) { require_regular_file(path, "image file"); }
 
 // Whole file (or its first max_bytes) as it is on disk. MetaImage data must not go through
 // gzread, which would inflate raw data that happens to start with the gzip magic bytes.
@@ -210,9 +208,30 @@ namespace fs = std::filesystem;
 // ---------------------------------------------------------------- OpenCV (2D)
 
 // A 2D grey image through OpenCV; colour is converted to grey, 8/16-bit and float kept.
+// True if the file begins like PNG, JPEG, BMP or TIFF (BigTIFF too). OpenCV picks its decoder by
+// content, not by name, and some of its decoders (GDCM's for DICOM, found by fuzzing, issue 22)
+// abort the process on a malformed file: only these four formats are handed to it.
+bool has_raster_signature(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  char b[8] = {};
+  in.read(b, sizeof b);
+  const std::string head(b, size_t(in.gcount()));
+  auto starts = [&](const std::string& magic) { return head.compare(0, magic.size(), magic) == 0; };
+  return starts("\x89PNG\r\n\x1a\n") || starts("\xff\xd8\xff") || starts("BM") ||
+         starts(std::string("II*\0", 4)) || starts(std::string("MM\0*", 4)) || starts(std::string("II+\0", 4)) ||
+         starts(std::string("MM\0+", 4));
+}
+
 RawVolume read_opencv(const std::string& path) {
   require_exists(path);
-  const cv::Mat m = silenced([&] { return cv::imread(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE); });
+  if (!has_raster_signature(path))
+    throw InputError(path, "", "the content is not PNG, JPEG, BMP or TIFF (its first bytes do not match any of them)");
+  cv::Mat m;
+  try {
+    m = silenced([&] { return cv::imread(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE); });
+  } catch (const cv::Exception& e) {  // OpenCV's own checks (a BMP declaring 2^30 columns: fuzzing)
+    throw InputError(path, "", "cannot decode the image (OpenCV: " + e.err + ")");
+  }
   if (m.empty()) throw InputError(path, "", "cannot decode the image");
   cv::Mat d;
   m.convertTo(d, CV_64F);
@@ -232,7 +251,7 @@ void write_opencv(const RawVolume& v, const std::string& path) {
     for (int x = 0; x < m.cols; ++x)
       m.at<uint8_t>(y, x) = uint8_t(std::lround(std::clamp(double(v.data()[size_t(y) * m.cols + x]), 0.0, 255.0)));
   write_via_temporary(path, [&](const std::string& tmp) {
-    if (!cv::imwrite(tmp, m)) throw std::runtime_error(path + ": cannot write image");
+    if (!cv::imwrite(tmp, m)) throw OutputError(path, "OpenCV cannot write the image");
   });
 }
 

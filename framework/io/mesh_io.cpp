@@ -9,6 +9,7 @@
 #include "framework/core/errors.h"
 #include "framework/core/json_text.h"
 
+#include <Eigen/Geometry>
 #include <OpenMesh/Core/IO/MeshIO.hh>
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 #include <OpenMesh/Core/System/omstream.hh>
@@ -21,6 +22,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 
 namespace dsnake {
@@ -43,8 +45,7 @@ std::string extension_of(const std::string& path) {
 
 // Whole text file, or InputError when it is missing.
 std::string read_text(const std::string& path) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) throw InputError(path, "", "file not found");
+  require_regular_file(path, "mesh or contour file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "", "cannot open file");
   std::ostringstream ss;
@@ -83,7 +84,8 @@ std::vector<std::pair<int, std::string>> content_lines(const std::string& text) 
     ++no;
     const size_t hash = line.find('#');
     if (hash != std::string::npos) line.resize(hash);
-    if (line.find_first_not_of(" \t\r") != std::string::npos) lines.emplace_back(no, line);
+    // the same blanks as split_words' >> (a line of only '\v' is empty: found by fuzzing)
+    if (line.find_first_not_of(" \t\r\n\v\f") != std::string::npos) lines.emplace_back(no, line);
   }
   return lines;
 }
@@ -117,8 +119,11 @@ RawMesh read_off(const std::string& path) {
   if (words.size() < 2 || !parse_number(words[0], counts[0]) || !parse_number(words[1], counts[1]) || counts[0] < 0 ||
       counts[1] < 0)
     throw InputError(path, "counts", "expected the vertex and face counts");
+  // Counts are compared with the lines there are before any conversion to int (fuzzing: 1e300).
+  if (counts[0] != std::floor(counts[0]) || counts[1] != std::floor(counts[1]))
+    throw InputError(path, "counts", "the vertex and face counts must be whole numbers");
+  if (double(lines.size()) < double(first) + counts[0] + counts[1]) throw InputError(path, "", "unexpected end of file");
   const int nv = int(counts[0]), nf = int(counts[1]);
-  if (lines.size() < first + nv + nf) throw InputError(path, "", "unexpected end of file");
   const size_t line_of_counts = first - 1;
   for (int v = 0; v < nv; ++v) {
     const auto w = split_words(lines[line_of_counts + 1 + v].second);
@@ -131,12 +136,12 @@ RawMesh read_off(const std::string& path) {
   for (int f = 0; f < nf; ++f) {
     const auto w = split_words(lines[line_of_counts + 1 + nv + f].second);
     double k = 0;
-    if (w.empty() || !parse_number(w[0], k) || k < 3 || int(w.size()) < 1 + int(k))
+    if (w.empty() || !parse_number(w[0], k) || !(k >= 3) || double(w.size()) < 1 + k)
       throw InputError(path, "face " + std::to_string(f), "expected a vertex count >= 3 and the vertex indices");
     std::vector<int> poly;
     for (int i = 1; i <= int(k); ++i) {
       double id;
-      if (!parse_number(w[i], id) || id < 0 || id >= nv)
+      if (!parse_number(w[i], id) || id < 0 || id >= nv || id != std::floor(id))
         throw InputError(path, "face " + std::to_string(f), "vertex index '" + w[i] + "' out of range");
       poly.push_back(int(id));
     }
@@ -149,8 +154,9 @@ RawMesh read_off(const std::string& path) {
 RawMesh read_obj(const std::string& path) {
   RawMesh m;
   for (const auto& [no, line] : content_lines(read_text(path))) {
-    const auto w = split_words(line);
+    const auto w = split_words(line);  // not empty: content_lines keeps lines with a word
     const std::string where = "line " + std::to_string(no);
+    if (w.empty()) continue;
     if (w[0] == "v") {
       Point<3> p;
       for (int a = 0; a < 3; ++a)
@@ -162,8 +168,10 @@ RawMesh read_obj(const std::string& path) {
       std::vector<int> poly;
       for (size_t i = 1; i < w.size(); ++i) {
         double id;
-        if (!parse_number(w[i].substr(0, w[i].find('/')), id) || id == 0)
+        if (!parse_number(w[i].substr(0, w[i].find('/')), id) || id == 0 || id != std::floor(id))
           throw InputError(path, where, "bad vertex reference '" + w[i] + "'");
+        if (!(std::abs(id) <= double(m.points.size())))  // before the conversion to int (fuzzing: 1e300)
+          throw InputError(path, where, "vertex reference '" + w[i] + "' out of range");
         const int v = id > 0 ? int(id) - 1 : int(m.points.size()) + int(id);
         if (v < 0 || v >= int(m.points.size())) throw InputError(path, where, "vertex reference '" + w[i] + "' out of range");
         poly.push_back(v);
@@ -182,7 +190,8 @@ struct VtkPolyData {
 
 // Reads the geometry part of a legacy ASCII VTK POLYDATA file (attributes are skipped).
 VtkPolyData read_vtk(const std::string& path) {
-  std::istringstream in(read_text(path));
+  const std::string text = read_text(path);
+  std::istringstream in(text);
   std::string line;
   VtkPolyData d;
   if (!std::getline(in, line)) return d;
@@ -195,7 +204,10 @@ VtkPolyData read_vtk(const std::string& path) {
   auto count = [&](const std::string& key) {
     double d;
     std::string t;
-    if (!(in >> t) || !parse_number(t, d) || d < 0) throw InputError(path, key, "expected a count");
+    if (!(in >> t) || !parse_number(t, d) || !(d >= 0) || d != std::floor(d)) throw InputError(path, key, "expected a count");
+    // Nothing in the file takes less than a byte, so a count past its size is a lie: refused before
+    // any allocation or conversion (fuzzing: POINTS 1e300).
+    if (d > double(text.size())) throw InputError(path, key, "the count " + t + " is larger than the file");
     return int64_t(d);
   };
   while (in >> word) {
@@ -235,9 +247,12 @@ VtkPolyData read_vtk(const std::string& path) {
   return d;
 }
 
-// A PLY header's element counts against the file's size, before OpenMesh allocates them (issue
-// 22: a header declaring 2e9 vertices ended in bad_alloc): a vertex takes at least 3 bytes (three
-// 1-byte coordinates) and a face at least 4 (a count and three 1-byte indices), in ASCII more.
+// A PLY header, read strictly before OpenMesh sees the file (issue 22): every line is a format,
+// comment, obj_info, element or property line of known types, and end_header comes within 10 000
+// lines (without it OpenMesh's reader never returned: found by fuzzing). Element counts are
+// checked against the file's size before OpenMesh allocates them (a header declaring 2e9 vertices
+// ended in bad_alloc): a vertex takes at least 3 bytes (three 1-byte coordinates) and a face at
+// least 4 (a count and three 1-byte indices), in ASCII more.
 void check_ply_header(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::string line;
@@ -245,26 +260,93 @@ void check_ply_header(const std::string& path) {
   std::error_code ec;
   const double size = double(fs::file_size(path, ec));
   double need = 0;
-  for (int n = 0; n < 10000 && std::getline(in, line); ++n) {
-    if (line.rfind("end_header", 0) == 0) break;
+  bool in_element = false, format = false, ascii = false;
+  struct Element {
+    std::string name;
+    int64_t count = 0;
+    std::vector<bool> list;  // per property: a list (count, then items) or one value
+  };
+  std::vector<Element> elements;
+  static const std::set<std::string> kTypes = {"char",  "uchar",  "short",  "ushort", "int",    "uint",
+                                               "float", "double", "int8",   "uint8",  "int16",  "uint16",
+                                               "int32", "uint32", "float32", "float64"};
+  for (int n = 2; n < 10000 && std::getline(in, line); ++n) {
+    while (!line.empty() && std::isspace(static_cast<unsigned char>(line.back()))) line.pop_back();
+    const std::string where = "header line " + std::to_string(n);
+    auto bad = [&](const std::string& why) { return InputError(path, where, why + ": '" + line.substr(0, 80) + "'"); };
     std::istringstream words(line);
-    std::string keyword, name;
-    double count = 0;
-    if (!(words >> keyword) || keyword != "element") continue;
-    if (!(words >> name >> count) || !(count >= 0))
-      throw InputError(path, "header", "unreadable element line '" + line.substr(0, 80) + "'");
-    need += count * (name == "face" ? 4.0 : name == "vertex" ? 3.0 : 0.0);
-    if (need > size)
-      throw InputError(path, "element " + name, "the header declares " + std::to_string(int64_t(std::min(count, 9e18))) + " '" + name +
-                                                    "' elements, more than the file's " + std::to_string(int64_t(size)) + " bytes can hold");
+    std::string keyword, a, b, c, extra;
+    words >> keyword;
+    if (keyword == "end_header") {
+      if (!format) throw bad("no 'format' line before the end of the header");
+      if (!ascii) return;
+      // An ASCII body, line by line against the header (OpenMesh's ASCII reader looped without end
+      // on a face line of the wrong length: found by fuzzing). Counts are bounded by the file size.
+      int64_t line_no = n;
+      for (const Element& e : elements)
+        for (int64_t i = 0; i < e.count; ++i) {
+          std::string body;
+          do {
+            if (!std::getline(in, body))
+              throw InputError(path, "element " + e.name, "the file ends after " + std::to_string(i) + " of its " +
+                                                              std::to_string(e.count) + " lines");
+            ++line_no;
+          } while (body.find_first_not_of(" \t\r\n\v\f") == std::string::npos);
+          const auto w = split_words(body);
+          size_t k = 0;
+          bool ok = true;
+          double v = 0;
+          for (size_t p = 0; ok && p < e.list.size(); ++p) {
+            if (!e.list[p]) {
+              ok = k < w.size() && parse_number(w[k++], v);
+              continue;
+            }
+            ok = k < w.size() && parse_number(w[k++], v) && v >= 0 && v == std::floor(v) && v <= double(w.size() - k);
+            const int64_t items = ok ? int64_t(v) : 0;  // bounded by the words left on the line
+            for (int64_t j = 0; ok && j < items; ++j) ok = parse_number(w[k++], v);
+          }
+          if (!ok || k != w.size())
+            throw InputError(path, "line " + std::to_string(line_no),
+                             "does not match the header's '" + e.name + "' properties: '" + body.substr(0, 80) + "'");
+        }
+      return;
+    }
+    if (keyword == "comment" || keyword == "obj_info" || keyword.empty()) continue;
+    if (keyword == "format") {
+      if (!(words >> a >> b) || (words >> extra) ||
+          (a != "ascii" && a != "binary_little_endian" && a != "binary_big_endian"))
+        throw bad("expected 'format ascii|binary_little_endian|binary_big_endian 1.0'");
+      format = true;
+      ascii = a == "ascii";
+    } else if (keyword == "element") {
+      double count = 0;
+      if (!(words >> a >> count) || !(count >= 0) || (words >> extra))
+        throw bad("expected 'element NAME COUNT'");
+      need += count * (a == "face" ? 4.0 : a == "vertex" ? 3.0 : 0.0);
+      if (need > size)
+        throw InputError(path, "element " + a, "the header declares " + std::to_string(int64_t(std::min(count, 9e18))) + " '" + a +
+                                                   "' elements, more than the file's " + std::to_string(int64_t(size)) + " bytes can hold");
+      in_element = true;
+      elements.push_back({a, int64_t(count), {}});
+    } else if (keyword == "property") {
+      if (!in_element) throw bad("a property before any element");
+      std::string name;  // property TYPE NAME, or property list COUNT_TYPE ITEM_TYPE NAME
+      const bool ok = (words >> a) && (a == "list" ? (words >> b >> c >> name) && kTypes.count(b) && kTypes.count(c)
+                                                    : (words >> name) && kTypes.count(a) != 0);
+      if (!ok || (words >> extra)) throw bad("expected 'property TYPE NAME' or 'property list TYPE TYPE NAME'");
+      elements.back().list.push_back(a == "list");
+    } else {
+      throw bad("not a PLY header line");
+    }
   }
+  // OpenMesh's reader looks for end_header without end (issue 22: a hang found by fuzzing).
+  throw InputError(path, "header", "no 'end_header' line");
 }
 
 // PLY and STL through OpenMesh (STL vertices shared by several facets are merged on read).
 // OpenMesh's own messages are silenced: a failure is our one line.
 RawMesh read_openmesh(const std::string& path) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) throw InputError(path, "", "file not found");
+  require_regular_file(path, "mesh file");
   if (extension_of(path) == ".ply") check_ply_header(path);
   OmMesh mesh;
   OpenMesh::IO::Options opt;
@@ -295,7 +377,32 @@ InputError mesh_problem(const std::string& path, const std::string& problem) {
   return InputError(path, problem.substr(0, k), problem.substr(k + 1));
 }
 
-// Checks a read mesh (non-empty, finite, closed, manifold) and turns it outward.
+// The connected components of a mesh's triangles: a component index per triangle (vertices
+// joined by an edge share one), and the number of components.
+int triangle_components(int num_vertices, const std::vector<Triangle>& triangles, std::vector<int>& component) {
+  std::vector<int> parent(static_cast<size_t>(num_vertices));
+  for (int v = 0; v < num_vertices; ++v) parent[size_t(v)] = v;
+  auto root = [&](int v) {
+    while (parent[size_t(v)] != v) v = parent[size_t(v)] = parent[size_t(parent[size_t(v)])];
+    return v;
+  };
+  for (const auto& t : triangles)
+    for (int k = 1; k < 3; ++k) parent[size_t(root(t[k]))] = root(t[0]);
+  std::vector<int> index(static_cast<size_t>(num_vertices), -1);
+  int count = 0;
+  component.assign(triangles.size(), 0);
+  for (size_t i = 0; i < triangles.size(); ++i) {
+    int& c = index[size_t(root(triangles[i][0]))];
+    if (c < 0) c = count++;
+    component[i] = c;
+  }
+  return count;
+}
+
+// Checks a read mesh (non-empty, finite, closed, manifold) and turns it outward. Each connected
+// component is turned outward by the sign of its own enclosed volume; a mesh of several
+// components and an inward mesh are accepted with a warning line (issue 22: both were silent),
+// since either may be what the user meant (two lungs; a writer with the other convention).
 Template<3> mesh_template(const std::string& path, RawMesh m) {
   if (m.points.empty() || m.triangles.empty()) throw InputError(path, "", "empty template");
   for (size_t v = 0; v < m.points.size(); ++v)
@@ -306,9 +413,43 @@ Template<3> mesh_template(const std::string& path, RawMesh m) {
   t.connectivity = Connectivity::mesh(n, m.triangles);
   if (const std::string problem = t.connectivity.closed_manifold_problem(); !problem.empty())
     throw mesh_problem(path, problem);
-  if (signed_measure<3>(t.positions, t.connectivity) < 0) {
-    for (auto& tri : m.triangles) std::swap(tri[1], tri[2]);
+  std::vector<int> component;
+  const int components = triangle_components(n, m.triangles, component);
+  std::vector<double> volume(size_t(components), 0.0);  // six times each component's signed volume
+  std::vector<int> component_vertices(size_t(components), 0);
+  for (size_t i = 0; i < m.triangles.size(); ++i) {
+    const auto& tri = m.triangles[i];
+    const auto& a = t.positions[size_t(tri[0])];
+    volume[size_t(component[i])] += a.dot(t.positions[size_t(tri[1])].cross(t.positions[size_t(tri[2])]));
+  }
+  {
+    std::vector<char> seen(size_t(n), 0);
+    for (size_t i = 0; i < m.triangles.size(); ++i)
+      for (int k = 0; k < 3; ++k)
+        if (!seen[size_t(m.triangles[i][k])]) {
+          seen[size_t(m.triangles[i][k])] = 1;
+          ++component_vertices[size_t(component[i])];
+        }
+  }
+  if (components > 1) {
+    std::string sizes;
+    for (int c = 0; c < components && c < 8; ++c) sizes += (c ? ", " : "") + std::to_string(component_vertices[size_t(c)]);
+    if (components > 8) sizes += ", ...";
+    std::fprintf(stderr,
+                 "dsnake: warning: %s: the mesh has %d separate surfaces (%s vertices); each is registered as its "
+                 "own closed surface\n",
+                 path.c_str(), components, sizes.c_str());
+  }
+  int inward = 0;
+  for (int c = 0; c < components; ++c) inward += volume[size_t(c)] < 0;
+  if (inward > 0) {
+    for (size_t i = 0; i < m.triangles.size(); ++i)
+      if (volume[size_t(component[i])] < 0) std::swap(m.triangles[i][1], m.triangles[i][2]);
     t.connectivity = Connectivity::mesh(n, std::move(m.triangles));
+    std::fprintf(stderr,
+                 "dsnake: warning: %s: %s inward (negative enclosed volume); turned outward, vertex ids "
+                 "unchanged\n",
+                 path.c_str(), components == 1 ? "the mesh's triangles face" : "some surfaces' triangles face");
   }
   return t;
 }
@@ -426,7 +567,7 @@ void write_openmesh(const PointList<3>& points, const Connectivity& c, const std
       throw std::runtime_error(path + ": OpenMesh cannot store a non-manifold triangle");
   OpenMesh::IO::Options opt = OpenMesh::IO::Options::Binary;
   write_via_temporary(path, [&](const std::string& tmp) {
-    if (!OpenMesh::IO::write_mesh(mesh, tmp, opt, 17)) throw std::runtime_error(path + ": OpenMesh cannot write the mesh");
+    if (!OpenMesh::IO::write_mesh(mesh, tmp, opt, 17)) throw OutputError(path, "OpenMesh cannot write the mesh");
   });
 }
 

@@ -6,7 +6,9 @@
 //    polylines (.vtk) with per-vertex scalars.
 // Template vertex ids are the vertex indices / line numbers, from 0. A template mesh must be
 // non-empty, closed and manifold (InputError naming the file and the element otherwise); an
-// inward-oriented mesh is flipped to outward orientation (ids are unchanged).
+// inward-oriented mesh is flipped to outward orientation (ids are unchanged) and a mesh of
+// several separate surfaces is accepted, each surface turned outward on its own; either prints
+// one warning line naming the file.
 #pragma once
 
 #include "framework/core/shape.h"

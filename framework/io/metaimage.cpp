@@ -198,7 +198,8 @@ RawVolume read_meta(const std::string& path) {
     if (df.rfind("LIST", 0) == 0 || df.find('%') != std::string::npos)
       throw InputError(path, "ElementDataFile", "file lists and patterns are not supported");
     data_path = (fs::path(path).parent_path() / df).string();
-    if (!fs::is_regular_file(data_path))
+    std::error_code ec;  // a name too long for the system is "not found", not a filesystem_error (fuzzing, issue 22)
+    if (!fs::is_regular_file(data_path, ec))
       throw InputError(data_path, "", "data file not found (named by ElementDataFile in " + path + ")");
     data = read_bytes(data_path);
     if (const std::string* hs = find_key(h, {"HeaderSize"})) {

@@ -224,8 +224,16 @@ TEST_F(CliTest, HostileFilesAndSetPathsAreOneLineAndExitTwo) {
   auto vfc = nlohmann::json::parse(builtin_experiment_text("default"));
   vfc["field"] = {{"type", "vfc"}, {"radius", 10}};
   const fs::path vfc_experiment = write("vfc.json", vfc.dump());
+  const fs::path fifo_mesh = dir_ / "pipe.off", folder_image = dir_ / "folder.png";
+  ASSERT_EQ(::mkfifo(fifo_mesh.c_str(), 0600), 0);
+  fs::create_directories(folder_image);
   const std::vector<std::pair<std::string, std::string>> rows = {
+      {"builtin:ellipsoid --set 'template={\"file\": \"" + fifo_mesh.string() + "\"}'", "pipe.off: expected the mesh or contour file, found a pipe"},
+      {"builtin:default --set 'image={\"file\": \"" + folder_image.string() + "\"}'", "folder.png: expected the image file, found a folder"},
       {deep_file.string(), "nested deeper than 64"},
+      // found by fuzzing: a number past double's range, and --set text that is not UTF-8
+      {write("overflow.json", "{\"dimension\": 2, \"seed\": 1e999}").string(), "overflow.json: JSON number out of range"},
+      {"builtin:default --set \"$(printf 'name=caf\\351')\"", "is not valid UTF-8"},
       {deep_array.string(), "nested deeper than 64"},
       {(dir_ / "folder.json").string(), "found a folder"},
       {fifo.string(), "found a pipe"},
@@ -263,6 +271,11 @@ TEST_F(CliTest, HostileFilesAndSetPathsAreOneLineAndExitTwo) {
       {"builtin:default --set watchdog.max_move=-1", "watchdog.max_move"},
       {"builtin:default --set watchdog.bogus=1", "watchdog.bogus: unknown key"},
       {"builtin:default --set 'template.transform.translation=[1e300, 0]'", "outside the image"},
+      // an explicit GVF step that no image makes stable, refused at assembly (before the image's field)
+      {"builtin:default --set 'field={\"type\": \"gvf\", \"solver\": \"explicit\", \"time_step\": 100}'",
+       "default: field.time_step: explicit GVF step"},
+      {"builtin:ellipsoid --set 'field={\"type\": \"ddgvf\", \"solver\": \"explicit\", \"time_step\": 5}'",
+       "field.time_step: explicit GVF step"},
   };
   const fs::path out = dir_ / "out";
   for (const auto& [args, fragment] : rows) {
@@ -279,6 +292,39 @@ TEST_F(CliTest, HostileFilesAndSetPathsAreOneLineAndExitTwo) {
   const CommandResult v = dsnake("validate " + fifo.string());
   EXPECT_EQ(v.exit_code, 2);
   EXPECT_NE(v.err.find("found a pipe"), std::string::npos) << v.err;
+}
+
+// A full disk (issue 22: `field` left a complete-looking output): simulated by a file size limit
+// (ulimit -f, with SIGXFSZ ignored, so a write fails as it does with ENOSPC). The command exits 1
+// with one line naming the output and the system's reason, and leaves no file, temporary or not.
+TEST_F(CliTest, AFullDiskLeavesNoOutputAndOneLine) {
+  Grid<3> g;
+  g.size = GridIndex<3>(48, 48, 48);
+  Image<3> img(g, 0.0f);
+  for (int64_t i = 0; i < g.num_voxels(); ++i) img.data()[size_t(i)] = float((i * 7919) % 101);
+  write_image(img, (dir_ / "img.mha").string());
+  auto limited = [&](const std::string& args, int kilobytes) {
+    const std::string cmd = "trap '' XFSZ; ulimit -f " + std::to_string(kilobytes) + "; " + std::string(DSNAKE_EXE) +
+                            " " + args + " >" + (dir_ / "stdout.txt").string() + " 2>" + (dir_ / "stderr.txt").string();
+    const int status = std::system(("sh -c \"" + cmd + "\"").c_str());
+    return std::make_pair(WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp((dir_ / "stderr.txt").string()));
+  };
+  const auto [code, err] = limited("field --image " + (dir_ / "img.mha").string() + " --type gradient --out " +
+                                       (dir_ / "f.mha").string(), 300);
+  EXPECT_EQ(code, 1) << err;
+  EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+  EXPECT_NE(err.find("dsnake: error: " + (dir_ / "f.mha").string() + ": cannot write (File too large)"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir_ / "f.mha"));
+  // A run: result.json and the figures fail to fit; no output folder, no staging folder.
+  const auto [run_code, run_err] = limited("run builtin:default -q --out " + (dir_ / "out").string(), 2);
+  EXPECT_EQ(run_code, 1) << run_err;
+  EXPECT_NE(run_err.find("cannot write (File too large)"), std::string::npos) << run_err;
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
+  for (const auto& e : fs::directory_iterator(dir_)) {
+    const std::string name = e.path().filename().string();
+    EXPECT_EQ(name.find(".tmp-"), std::string::npos) << name;
+    EXPECT_EQ(name.find(".partial-"), std::string::npos) << name;
+  }
 }
 
 // The numeric watchdog (issue 22): a run whose forces send the snake to infinity stops as

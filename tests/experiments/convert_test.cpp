@@ -164,6 +164,41 @@ TEST_F(ConvertTest, HeadersAreCheckedBeforeAnyAllocation) {
   std::ofstream(at("garbage.ply"), std::ios::binary) << "ply\nformat binary_little_endian 1.0\nelement vertex 3\n"
                                                         "property float x\nend_header\n\x01\x02";
   expect_refused(at("garbage.ply"), at("out.off"), {"garbage.ply"});
+  // Found by fuzzing: a PLY header without end_header (OpenMesh's reader never returned) and a
+  // header line that is not PLY; DICOM bytes in a .png (OpenCV handed them to GDCM, which aborted).
+  std::ofstream(at("noend.ply")) << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                                    "property float-1 0 0\n0 1 0\n3 0 2 4\n";
+  expect_refused(at("noend.ply"), at("out.off"), {"noend.ply", "header line 6", "property TYPE NAME"});
+  std::ofstream(at("open.ply")) << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n";
+  expect_refused(at("open.ply"), at("out.off"), {"open.ply", "no 'end_header' line"});
+  std::ofstream(at("badtype.ply")) << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float128 x\nend_header\n1\n";
+  expect_refused(at("badtype.ply"), at("out.off"), {"badtype.ply", "header line 4", "property TYPE NAME"});
+  std::ofstream(at("dicom.png"), std::ios::binary) << "NT" + std::string(126, '\2') + "DICMID";
+  expect_refused(at("dicom.png"), at("out.nrrd"), {"dicom.png", "not PNG, JPEG, BMP or TIFF"});
+  // More fuzzing findings, replayed from the corpus: a BMP declaring 8 388 612 columns (OpenCV's
+  // exception), an OBJ whose only content on a line is a vertical tab (an empty word list was
+  // indexed), and OFF/OBJ/VTK counts and references of 1e300 (converted to int before any check).
+  const std::string corpus = std::string(DSNAKE_SOURCE_DIR) + "/tests/fuzz/corpus/";
+  fs::copy_file(corpus + "raster/crash_bmp_huge_width", at("wide.bmp"));
+  expect_refused(at("wide.bmp"), at("out.nrrd"), {"wide.bmp", "cannot decode the image (OpenCV"});
+  fs::copy_file(corpus + "mesh/crash_obj_vertical_tab_line", at("vt.obj"));
+  expect_refused(at("vt.obj"), at("out.off"), {"vt.obj", "empty template"});
+  fs::copy_file(corpus + "mesh/crash_ply_ascii_short_face_line", at("short.ply"));
+  expect_refused(at("short.ply"), at("out.off"), {"short.ply", "line 17", "does not match the header's 'face' properties"});
+  // ... while a well-formed ASCII PLY with comments, colours and a blank line still reads
+  std::ofstream(at("ok.ply")) << "ply\nformat ascii 1.0\ncomment made by hand\nelement vertex 4\nproperty float x\n"
+                                 "property float y\nproperty float z\nproperty uchar red\nelement face 4\n"
+                                 "property list uchar int vertex_indices\nend_header\n0 0 0 255\n1 0 0 0\n\n0 1 0 0\n"
+                                 "0 0 1 9\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+  EXPECT_EQ(convert(at("ok.ply"), at("ok.off")).exit_code, 0);
+  EXPECT_TRUE(fs::exists(at("ok.off")));
+  std::ofstream(at("big.off")) << "OFF\n1e300 1 0\n0 0 0\n3 0 0 0\n";
+  expect_refused(at("big.off"), at("out.obj"), {"big.off", "unexpected end of file"});
+  std::ofstream(at("far.obj")) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 1e300\n";
+  expect_refused(at("far.obj"), at("out.off"), {"far.obj", "line 4", "out of range"});
+  std::ofstream(at("big.vtk")) << "# vtk DataFile Version 3.0\nx\nASCII\nDATASET POLYDATA\nPOINTS 1e300 double\n"
+                                  "POLYGONS 1 4\n3 0 1 2\n";
+  expect_refused(at("big.vtk"), at("out.off"), {"big.vtk", "POINTS", "larger than the file"});
   // A truncated PNG: libpng's own line is not printed
   const std::string png = slurp(std::string(DSNAKE_SOURCE_DIR) + "/docs/figures/real/lung.png");
   ASSERT_GT(png.size(), 1000u);

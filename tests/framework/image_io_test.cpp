@@ -7,6 +7,8 @@
 #include "tests/framework/io_test_support.h"
 
 #include <gtest/gtest.h>
+
+#include <sys/stat.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -314,6 +316,15 @@ TEST(ImageIo, MissingFileIsReportedWithItsName) {
   fs::remove(dir + "/v.raw");
   const InputError e = expect_input_error([&] { read_image<3>(dir + "/v.mhd"); });
   EXPECT_EQ(e.file(), dir + "/v.raw");
+  // A data file name longer than the system allows (found by fuzzing, issue 22: a raw
+  // filesystem_error before), a folder and a pipe in place of the image.
+  write_file(dir + "/long.mha", "NDims = 2\nDimSize = 2 2\nElementType = MET_FLOAT\nElementDataFile = " +
+                                    std::string(1000, 'x') + "\n");
+  EXPECT_TRUE(contains(expect_input_error([&] { read_image<2>(dir + "/long.mha"); }).what(), "data file not found"));
+  fs::create_directories(dir + "/folder.nii");
+  EXPECT_TRUE(contains(expect_input_error([&] { read_image<3>(dir + "/folder.nii"); }).what(), "found a folder"));
+  ASSERT_EQ(::mkfifo((dir + "/pipe.mha").c_str(), 0600), 0);
+  EXPECT_TRUE(contains(expect_input_error([&] { read_image<3>(dir + "/pipe.mha"); }).what(), "found a pipe"));
 }
 
 TEST(ImageIo, TruncatedDataSaysHowManyBytes) {

@@ -1,6 +1,7 @@
 #include "framework/core/json_reader.h"
 
 #include "framework/core/errors.h"
+#include "framework/core/json_text.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -50,6 +51,19 @@ TEST(JsonReader, WrongTypesAndRangesNameThePath) {
   EXPECT_EQ(error_of([&] { r.require("gamma", beta); }), "exp.json: energies[0].gamma: is required");
   const auto arr = nlohmann::json::parse("[1]");
   EXPECT_EQ(error_of([&] { JsonReader(arr, "f.json", "field"); }), "f.json: field: expected a JSON object");
+}
+
+// Found by fuzzing (issue 22): a number past double's range was nlohmann's out_of_range, not our
+// one-line error; text that is not UTF-8 is refused before nlohmann's dump() can throw on it.
+TEST(JsonText, NumberOverflowIsAnInputErrorAndUtf8IsChecked) {
+  EXPECT_EQ(error_of([] { parse_json_text("{\"seed\": 5.5555E+555}", "exp.json"); }),
+            "exp.json: JSON number out of range: number overflow parsing '5.5555E+555'");
+  EXPECT_EQ(error_of([] { parse_ordered_json_text("[7e777]", "sweep.json"); }),
+            "sweep.json: JSON number out of range: number overflow parsing '7e777'");
+  EXPECT_TRUE(is_valid_utf8("plain ASCII, caf\xc3\xa9, \xe2\x82\xac, \xf0\x9f\x90\x8d"));
+  for (const char* bad : {"\xff", "a\xc3", "\xc0\xaf" /* overlong '/' */, "\xed\xa0\x80" /* surrogate */,
+                          "\xf4\x90\x80\x80" /* past U+10FFFF */, "\xe2\x82"})
+    EXPECT_FALSE(is_valid_utf8(bad)) << bad;
 }
 
 }  // namespace

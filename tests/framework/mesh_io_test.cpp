@@ -155,6 +155,44 @@ TEST(MeshIo, InwardMeshIsFlippedKeepingIds) {
   EXPECT_EQ(t.connectivity.closed_manifold_problem(), "");
 }
 
+// Issue 22: an inward mesh and a mesh of two surfaces are read with one warning line each, and
+// every surface is turned outward on its own (a one-sign flip of the whole mesh would leave the
+// second surface inward).
+TEST(MeshIo, TwoSurfacesOneInwardAreEachTurnedOutwardWithWarnings) {
+  const std::string dir = fresh_dir();
+  const TestMesh a = icosahedron();
+  TestMesh two = a;
+  const int n = int(a.points.size());
+  for (const auto& p : a.points) two.points.push_back(p + Point<3>(10, 0, 0));
+  for (auto t : a.triangles) {
+    std::swap(t[0], t[1]);  // the second surface inward
+    two.triangles.push_back({t[0] + n, t[1] + n, t[2] + n});
+  }
+  write(two, dir + "/two.off");
+  testing::internal::CaptureStderr();
+  const Template<3> t = read_mesh_template(dir + "/two.off");
+  const std::string warnings = testing::internal::GetCapturedStderr();
+  EXPECT_TRUE(contains(warnings, dir + "/two.off: the mesh has 2 separate surfaces (12, 12 vertices)")) << warnings;
+  EXPECT_TRUE(contains(warnings, "some surfaces' triangles face inward")) << warnings;
+  EXPECT_EQ(std::count(warnings.begin(), warnings.end(), '\n'), 2) << warnings;
+  EXPECT_EQ(t.positions, two.points);
+  const auto& tris = t.connectivity.triangles();
+  ASSERT_EQ(tris.size(), two.triangles.size());
+  std::vector<Triangle> first(tris.begin(), tris.begin() + a.triangles.size());
+  std::vector<Triangle> second;
+  for (size_t i = a.triangles.size(); i < tris.size(); ++i) second.push_back({tris[i][0] - n, tris[i][1] - n, tris[i][2] - n});
+  const double v0 = volume(a);
+  PointList<3> shifted;
+  for (const auto& p : a.points) shifted.push_back(p + Point<3>(10, 0, 0));
+  EXPECT_NEAR(signed_measure<3>(a.points, Connectivity::mesh(n, first)), v0, 1e-12 * v0);
+  EXPECT_NEAR(signed_measure<3>(shifted, Connectivity::mesh(n, second)), v0, 1e-9 * v0);
+  // An outward single surface: no line at all.
+  write(a, dir + "/one.off");
+  testing::internal::CaptureStderr();
+  read_mesh_template(dir + "/one.off");
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+}
+
 TEST(MeshIo, ReadsHandWrittenFilesWithQuadsAndTextureIndices) {
   const std::string dir = fresh_dir();
   // A unit cube of quads, with comments, texture/normal references and negative indices.

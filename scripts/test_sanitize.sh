@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# The sanitizer stage of CI (issue 22): builds the `sanitize` preset (clang 14, AddressSanitizer +
+# UndefinedBehaviorSanitizer, every error fatal; the libFuzzer targets) and runs, under it, the
+# unit and end-to-end tests and a replay of the fuzz corpus (tests/fuzz/corpus). The long
+# reproductions (the paper's robustness and figure tests, the real-scan templates and recipes)
+# are left to the release suite: under the sanitizers they would take most of CI's 90 minutes.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh sanitize
+LONG='Reproduction|PoseCapture|Template3d|Bunny|RealExperiments|UnitsTest|WorldOrientation|figure_scripts|viewer_files|experiment_schema'
+ctest --preset sanitize -j 2 -E "$LONG"
