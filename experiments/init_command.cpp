@@ -44,7 +44,12 @@ nlohmann::ordered_json recommended(const InitCommandOptions& o, const Grid<D>& g
   j["image"] = {{"file", fs::absolute(o.image).string()}};
   j["template"] = {{"file", fs::absolute(o.tmpl).string()}};
   if (!o.reference.empty()) j["template"]["reference_image"] = fs::absolute(o.reference).string();
-  j.erase("ground_truth");
+  // Without the recipe's ground truth. Not ordered_json::erase: nlohmann 3.11.2's ordered_map
+  // erase leaks the erased value (LeakSanitizer, issue 22; fixed upstream in 3.11.3).
+  nlohmann::ordered_json kept = nlohmann::ordered_json::object();
+  for (auto& [key, value] : j.items())
+    if (key != "ground_truth") kept[key] = std::move(value);
+  j = std::move(kept);
   if (!o.mask.empty())
     j["ground_truth"] = {{is_surface_file(o.mask, D) ? "surface" : "mask", fs::absolute(o.mask).string()}};
   const double h = grid.spacing.maxCoeff();

@@ -279,6 +279,12 @@ void check_ply_header(const std::string& path) {
     words >> keyword;
     if (keyword == "end_header") {
       if (!format) throw bad("no 'format' line before the end of the header");
+      // OpenMesh's header reader also looped on a version that is not a number and on a header
+      // without elements (fuzzing): a vertex element and a property on every element are required.
+      if (std::none_of(elements.begin(), elements.end(), [](const Element& e) { return e.name == "vertex"; }))
+        throw bad("no 'element vertex' line before the end of the header");
+      for (const Element& e : elements)
+        if (e.list.empty()) throw InputError(path, "element " + e.name, "has no property lines");
       if (!ascii) return;
       // An ASCII body, line by line against the header (OpenMesh's ASCII reader looped without end
       // on a face line of the wrong length: found by fuzzing). Counts are bounded by the file size.
@@ -313,7 +319,7 @@ void check_ply_header(const std::string& path) {
     }
     if (keyword == "comment" || keyword == "obj_info" || keyword.empty()) continue;
     if (keyword == "format") {
-      if (!(words >> a >> b) || (words >> extra) ||
+      if (!(words >> a >> b) || (words >> extra) || b != "1.0" ||
           (a != "ascii" && a != "binary_little_endian" && a != "binary_big_endian"))
         throw bad("expected 'format ascii|binary_little_endian|binary_big_endian 1.0'");
       format = true;
@@ -322,8 +328,8 @@ void check_ply_header(const std::string& path) {
       double count = 0;
       if (!(words >> a >> count) || !(count >= 0) || (words >> extra))
         throw bad("expected 'element NAME COUNT'");
-      need += count * (a == "face" ? 4.0 : a == "vertex" ? 3.0 : 0.0);
-      if (need > size)
+      need += count * (a == "face" ? 4.0 : a == "vertex" ? 3.0 : 1.0);  // every element takes a byte at least
+      if (need > size || count != std::floor(count))
         throw InputError(path, "element " + a, "the header declares " + std::to_string(int64_t(std::min(count, 9e18))) + " '" + a +
                                                    "' elements, more than the file's " + std::to_string(int64_t(size)) + " bytes can hold");
       in_element = true;

@@ -185,6 +185,12 @@ TEST_F(ConvertTest, HeadersAreCheckedBeforeAnyAllocation) {
   expect_refused(at("vt.obj"), at("out.off"), {"vt.obj", "empty template"});
   fs::copy_file(corpus + "mesh/crash_ply_ascii_short_face_line", at("short.ply"));
   expect_refused(at("short.ply"), at("out.off"), {"short.ply", "line 17", "does not match the header's 'face' properties"});
+  fs::copy_file(corpus + "mesh/crash_ply_bad_format_version", at("version.ply"));
+  expect_refused(at("version.ply"), at("out.off"), {"version.ply", "header line 2", "1.0'"});
+  fs::copy_file(corpus + "mesh/crash_ply_huge_other_element", at("other.ply"));
+  expect_refused(at("other.ply"), at("out.off"), {"other.ply", "element vert1x", "more than the file's"});
+  std::ofstream(at("novertex.ply")) << "ply\nformat ascii 1.0\nend_header\n";
+  expect_refused(at("novertex.ply"), at("out.off"), {"novertex.ply", "no 'element vertex' line"});
   // ... while a well-formed ASCII PLY with comments, colours and a blank line still reads
   std::ofstream(at("ok.ply")) << "ply\nformat ascii 1.0\ncomment made by hand\nelement vertex 4\nproperty float x\n"
                                  "property float y\nproperty float z\nproperty uchar red\nelement face 4\n"
