@@ -384,8 +384,9 @@ InputError mesh_problem(const std::string& path, const std::string& problem) {
 }
 
 // The connected components of a mesh's triangles: a component index per triangle (vertices
-// joined by an edge share one), and the number of components.
-int triangle_components(int num_vertices, const std::vector<Triangle>& triangles, std::vector<int>& component) {
+// joined by an edge share one), the vertices of each component, and the number of components.
+int triangle_components(int num_vertices, const std::vector<Triangle>& triangles, std::vector<int>& component,
+                        std::vector<int>& vertices_per_component) {
   std::vector<int> parent(static_cast<size_t>(num_vertices));
   for (int v = 0; v < num_vertices; ++v) parent[size_t(v)] = v;
   auto root = [&](int v) {
@@ -402,6 +403,9 @@ int triangle_components(int num_vertices, const std::vector<Triangle>& triangles
     if (c < 0) c = count++;
     component[i] = c;
   }
+  vertices_per_component.assign(size_t(count), 0);
+  for (int v = 0; v < num_vertices; ++v)
+    if (const int c = index[size_t(root(v))]; c >= 0) ++vertices_per_component[size_t(c)];
   return count;
 }
 
@@ -419,23 +423,13 @@ Template<3> mesh_template(const std::string& path, RawMesh m) {
   t.connectivity = Connectivity::mesh(n, m.triangles);
   if (const std::string problem = t.connectivity.closed_manifold_problem(); !problem.empty())
     throw mesh_problem(path, problem);
-  std::vector<int> component;
-  const int components = triangle_components(n, m.triangles, component);
+  std::vector<int> component, component_vertices;
+  const int components = triangle_components(n, m.triangles, component, component_vertices);
   std::vector<double> volume(size_t(components), 0.0);  // six times each component's signed volume
-  std::vector<int> component_vertices(size_t(components), 0);
   for (size_t i = 0; i < m.triangles.size(); ++i) {
     const auto& tri = m.triangles[i];
     const auto& a = t.positions[size_t(tri[0])];
     volume[size_t(component[i])] += a.dot(t.positions[size_t(tri[1])].cross(t.positions[size_t(tri[2])]));
-  }
-  {
-    std::vector<char> seen(size_t(n), 0);
-    for (size_t i = 0; i < m.triangles.size(); ++i)
-      for (int k = 0; k < 3; ++k)
-        if (!seen[size_t(m.triangles[i][k])]) {
-          seen[size_t(m.triangles[i][k])] = 1;
-          ++component_vertices[size_t(component[i])];
-        }
   }
   if (components > 1) {
     std::string sizes;
