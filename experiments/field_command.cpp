@@ -5,10 +5,10 @@
 #include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
 #include "framework/io/image_io.h"
+#include "framework/io/raster_codecs.h"
 
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -89,18 +89,23 @@ void write_field_png(const Image<2>& image, const VectorField<2>& field, const s
       }
   }
   write_via_temporary(path, [&](const std::string& tmp) {
-    if (!cv::imwrite(tmp, canvas)) throw OutputError(path, "OpenCV cannot write the figure");
+    if (!write_raster(tmp, canvas)) throw OutputError(path, "OpenCV cannot write the figure");
   });
 }
 
 template <int D>
 int run(const FieldCommandOptions& o) {
-  const Image<D> image = read_image<D>(o.image);
+  Image<D> image = read_image<D>(o.image);
   const nlohmann::json spec = field_spec(o);
   JsonReader reader(spec, "", "field");
   auto field = build_field<D>(read_field_spec<D>(reader));
   const auto t0 = std::chrono::steady_clock::now();
-  field->compute(image);
+  const bool figure = D == 2 && !o.no_png;
+  if (figure) {
+    field->compute(image);
+  } else {
+    field->compute_releasing(std::move(image));  // the image is not needed again (issue 21)
+  }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   write_vector_field(field->vectors(), o.out);
   std::printf("%s: %s field of %s (%.3f s) -> %s\n", o.image.c_str(), field->type().c_str(),

@@ -2,9 +2,9 @@
 
 #include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
+#include "framework/io/raster_codecs.h"
 
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -61,7 +61,7 @@ void write_png(const cv::Mat& bgr, const std::string& png_path) {
   write_via_temporary(png_path, [&](const std::string& tmp) {
     bool ok = false;
     try {
-      ok = cv::imwrite(tmp, bgr);
+      ok = write_raster(tmp, bgr);
     } catch (const cv::Exception& e) {
       throw OutputError(png_path, std::string("OpenCV: ") + e.what());
     }

@@ -32,7 +32,16 @@ DdgvfField<D>::DdgvfField(const DdgvfFieldOptions& options) : options_(checked(o
 
 template <int D>
 void DdgvfField<D>::compute(const Image<D>& image) {
-  const EdgeMap<D> edges = compute_edge_map(image, options_.edge, true, "ddgvf");
+  solve(compute_edge_map(image, options_.edge, true, "ddgvf"));
+}
+
+template <int D>
+void DdgvfField<D>::compute_releasing(Image<D>&& image) {
+  solve(compute_edge_map(std::move(image), options_.edge, true, "ddgvf"));
+}
+
+template <int D>
+void DdgvfField<D>::solve(const EdgeMap<D>& edges) {
   const Grid<D>& grid = edges.grid;
   const int64_t n = grid.num_voxels();
   vectors_ = VectorField<D>(grid);

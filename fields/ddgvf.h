@@ -55,6 +55,7 @@ class DdgvfField final : public ExternalField<D> {
   // An explicit solve's step that no image could make stable (validate refuses it).
   void check_grid(const Grid<D>& grid) const override { check_explicit_step(grid, options_.solve); }
   void compute(const Image<D>& image) override;
+  void compute_releasing(Image<D>&& image) override;
   // Per axis a, the component of sign(normal_a) (n_a = 0 counts as +), linearly interpolated.
   Point<D> force(const Point<D>& x, const Point<D>& normal) const override;
   bool uses_normal() const override { return true; }
@@ -69,6 +70,9 @@ class DdgvfField final : public ExternalField<D> {
   bool load_state(const Grid<D>& grid, const std::string& bytes) override;
 
  private:
+  // The 2 D directional solves from an edge map with the image gradient.
+  void solve(const EdgeMap<D>& edges);
+
   DdgvfFieldOptions options_;
   std::array<std::array<Image<D>, 2>, D> components_;
   VectorField<D> vectors_;

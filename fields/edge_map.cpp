@@ -9,18 +9,25 @@
 
 namespace dsnake {
 
+namespace {
+
+// The edge map; `owned` (the image itself, or null) is released once u holds its copy.
 template <int D>
-EdgeMap<D> compute_edge_map(const Image<D>& image, const EdgeMapOptions& options, bool with_image_gradient,
-                            const std::string& field_type) {
+EdgeMap<D> edge_map(const Image<D>& image, Image<D>* owned, const EdgeMapOptions& options, bool with_image_gradient,
+                    const std::string& field_type) {
   DSNAKE_ASSERT(options.sigma >= 0, "edge map: sigma >= 0");
   EdgeMap<D> out;
   out.grid = image.grid();
   const Grid<D>& grid = out.grid;
   const int64_t n = grid.num_voxels();
   DSNAKE_ASSERT(n > 0, "a non-empty image");
+  // The image's own scale, for the no-edge test below (read while the image is here).
+  double i_max = 0.0;
+  for (float v : image.data()) i_max = std::max(i_max, double(std::abs(v)));
   // Double precision buffers, each allocated only while it is needed (issue 21: the peak of a
   // field's computation is here): the smoothed image u, then f, then the float outputs.
   std::vector<double> u(image.data().begin(), image.data().end());
+  if (owned) std::vector<float>().swap(owned->data());
   gaussian_blur(grid, u, options.sigma);
   std::vector<double> f(n);
   if (with_image_gradient)
@@ -40,8 +47,6 @@ EdgeMap<D> compute_edge_map(const Image<D>& image, const EdgeMapOptions& options
 #pragma omp parallel for reduction(max : f_max) schedule(static)
   for (int64_t l = 0; l < n; ++l) f_max = std::max(f_max, f[l]);
   // Rounding noise of a constant image is not an edge (relative to the image's own scale).
-  double i_max = 0.0;
-  for (float v : image.data()) i_max = std::max(i_max, double(std::abs(v)));
   if (!(f_max > 1e-24 * std::max(1.0, i_max * i_max))) {
     std::fprintf(stderr, "warning: %s field: the image has no edges (constant after blurring); the field is zero\n",
                  field_type.c_str());
@@ -70,7 +75,23 @@ EdgeMap<D> compute_edge_map(const Image<D>& image, const EdgeMapOptions& options
   return out;
 }
 
+}  // namespace
+
+template <int D>
+EdgeMap<D> compute_edge_map(const Image<D>& image, const EdgeMapOptions& options, bool with_image_gradient,
+                            const std::string& field_type) {
+  return edge_map(image, static_cast<Image<D>*>(nullptr), options, with_image_gradient, field_type);
+}
+
+template <int D>
+EdgeMap<D> compute_edge_map(Image<D>&& image, const EdgeMapOptions& options, bool with_image_gradient,
+                            const std::string& field_type) {
+  return edge_map(image, &image, options, with_image_gradient, field_type);
+}
+
 template EdgeMap<2> compute_edge_map(const Image<2>&, const EdgeMapOptions&, bool, const std::string&);
 template EdgeMap<3> compute_edge_map(const Image<3>&, const EdgeMapOptions&, bool, const std::string&);
+template EdgeMap<2> compute_edge_map(Image<2>&&, const EdgeMapOptions&, bool, const std::string&);
+template EdgeMap<3> compute_edge_map(Image<3>&&, const EdgeMapOptions&, bool, const std::string&);
 
 }  // namespace dsnake

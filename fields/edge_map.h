@@ -40,5 +40,10 @@ struct EdgeMap {
 template <int D>
 EdgeMap<D> compute_edge_map(const Image<D>& image, const EdgeMapOptions& options, bool with_image_gradient,
                             const std::string& field_type);
+// The same, releasing the image's voxels once they are read (before the edge map's first
+// whole-volume buffer beyond the blurred copy): for ExternalField::compute_releasing.
+template <int D>
+EdgeMap<D> compute_edge_map(Image<D>&& image, const EdgeMapOptions& options, bool with_image_gradient,
+                            const std::string& field_type);
 
 }  // namespace dsnake

@@ -15,7 +15,16 @@ GvfField<D>::GvfField(const GvfFieldOptions& options) : options_(checked(options
 // is the image, b, the three components and one component's solver arrays.
 template <int D>
 void GvfField<D>::compute(const Image<D>& image) {
-  EdgeMap<D> edges = compute_edge_map(image, options_.edge, false, "gvf");
+  solve(compute_edge_map(image, options_.edge, false, "gvf"));
+}
+
+template <int D>
+void GvfField<D>::compute_releasing(Image<D>&& image) {
+  solve(compute_edge_map(std::move(image), options_.edge, false, "gvf"));
+}
+
+template <int D>
+void GvfField<D>::solve(EdgeMap<D>&& edges) {
   const Grid<D> grid = edges.grid;
   const int64_t n = grid.num_voxels();
   vectors_ = VectorField<D>();

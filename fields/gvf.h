@@ -42,6 +42,7 @@ class GvfField final : public ExternalField<D> {
   // An explicit solve's step that no image could make stable (validate refuses it).
   void check_grid(const Grid<D>& grid) const override { check_explicit_step(grid, options_.solve); }
   void compute(const Image<D>& image) override;
+  void compute_releasing(Image<D>&& image) override;
   // v at x, linearly interpolated (the normal is not used).
   Point<D> force(const Point<D>& x, const Point<D>& normal) const override;
   const VectorField<D>& vectors() const override { return vectors_; }
@@ -51,6 +52,9 @@ class GvfField final : public ExternalField<D> {
   bool load_state(const Grid<D>& grid, const std::string& bytes) override;
 
  private:
+  // The solve from an edge map (its arrays are consumed: grad f becomes the solution in place).
+  void solve(EdgeMap<D>&& edges);
+
   GvfFieldOptions options_;
   GvfSolveStats stats_;
   VectorField<D> vectors_;

@@ -7,6 +7,7 @@
 #include "framework/core/vector_clones.h"
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace dsnake::gvf_detail {
@@ -21,8 +22,9 @@ struct Level {
   double h[3] = {1, 1, 1};  // spacing per axis, physical units
   int factor[3] = {1, 1, 1};  // coarsening factor from this level to the next (1 or 2)
   std::vector<float> b;                  // weight |grad f|^2 (averaged on coarse levels)
-  std::vector<float> inv_diag;           // multigrid smoother: 1 / A_ii (0 for a voxel without weight)
-  std::vector<std::vector<float>> v, rhs, res;
+  std::vector<std::vector<float>> v, rhs;  // per field: the iterate and the right-hand side
+  std::vector<std::vector<float>> res;     // per field: rhs - A v, where a caller keeps it (residual_rows)
+
   int64_t size() const { return int64_t(nx) * ny * nz; }
 };
 
@@ -58,15 +60,32 @@ inline Level level_of(const Grid<D>& grid) {
   return L;
 }
 
-// The multigrid smoother (gvf_solver.cpp): L.inv_diag = 1 / A_ii (0 where A_ii is 0), and
-// `sweeps` red-black Gauss-Seidel sweeps on L.v with right-hand side L.rhs, colour `first`
-// first, in one pass over memory; the same result as the half-sweeps one after the other.
-// zero_start: L.v is taken as 0 on entry (not read); then_residual: L.res = rhs - A v after.
-void inverse_diagonal(Level& L, const Coupling& c);
-void smooth_sweeps(Level& L, const Coupling& c, int first, int sweeps, bool zero_start = false,
-                   bool then_residual = false);
-// L.res = rhs - A v, row by row (the residual the V-cycle restricts).
+// The multigrid smoother (gvf_solver.cpp): `sweeps` red-black Gauss-Seidel sweeps on L.v with
+// right-hand side L.rhs, colour `first` first, in one pass over memory; the same result as the
+// half-sweeps one after the other. 1 / A_ii is computed from L.b where it is used (no array).
+// zero_start: L.v is taken as 0 on entry (not read).
+void smooth_sweeps(Level& L, const Coupling& c, int first, int sweeps, bool zero_start = false);
+// L.res = rhs - A v, row by row (L.res sized by the caller).
 void residual_rows(Level& L, const Coupling& c);
+
+// Grid transfer along one axis between a level and the next coarser one (gvf_solver.cpp):
+// factor 2 coarsens cell-centred (even size) or vertex-centred (odd size), factor 1 is the identity.
+struct AxisTransfer {
+  std::vector<std::vector<std::pair<int, float>>> transpose, average;  // R = P^T / factor and R normalised, per coarse index
+  // Prolongation: fine i = w_near * coarse near + (1 - w_near) * coarse far.
+  std::vector<int> near, far;
+  std::vector<float> w_near;
+};
+struct Transfer {
+  AxisTransfer x, y, z;
+};
+// The transfers from F to C (F.factor set, C sized by it).
+Transfer transfer(const Level& F, const Level& C);
+// coarse = R fine (average = false: R = P^T / factor; true: R normalised to an average).
+void restrict_to(const Level& F, const Level& C, const Transfer& t, bool average, const float* fine, float* coarse);
+// coarse = R (F.rhs[k] - A F.v[k]) bit for bit as residual_rows then restrict_to(average = false),
+// without an array of F's size: the V-cycle's restriction (issue 21).
+void restrict_residual(const Level& F, const Coupling& c, const Level& C, const Transfer& t, int k, float* coarse);
 
 // The multigrid's grid transfers along a factor-2 x axis (gvf_solver.cpp), on one row. The
 // coarse row (prolongation) or fine row (restriction) comes extended by one value at each end

@@ -26,18 +26,36 @@ using namespace gvf_detail;
 typedef float Vec8 __attribute__((vector_size(32), aligned(4)));
 using Vec8Index = int __attribute__((vector_size(32)));
 
+// 1 / A_ii of voxel i of a row, computed where it is used rather than stored (issue 21: 4 bytes
+// per voxel): A_ii = b_i + the weights of the neighbours that exist (side: the y and z ones,
+// wl and wr: cx or 0 at the row's ends), summed in this order; 0 where A_ii is 0.
+[[gnu::always_inline]] inline float inverse_diagonal(float b, float side, float wl, float wr) {
+  const float diag = b + side + wl + wr;
+  return diag > 0.f ? 1.f / diag : 0.f;
+}
+// The vector loops below do the same for eight interior voxels (both x neighbours), lane by lane
+// (spelled out there: a function returning a vector would change the ABI outside the clones).
+
 // The first half-sweep from v = 0 on one row: rhs / A_ii on the voxels x % 2 == first (their
 // neighbours are all 0), 0 on the others (written, so that v need not be cleared beforehand).
+// b: the row's weights; side: the sum of its y and z neighbour weights.
 DSNAKE_VECTOR_CLONES
-void start_row(float* __restrict u0, const float* __restrict f, const float* __restrict inv, int nx, int first) {
+void start_row(float* __restrict u0, const float* __restrict f, const float* __restrict b, float side, float cx,
+               int nx, int first) {
+  auto one = [&](int i) {
+    const float inv = inverse_diagonal(b[i], side, i > 0 ? cx : 0.f, i < nx - 1 ? cx : 0.f);
+    u0[i] = (i & 1) == first ? f[i] * inv : 0.f;
+  };
+  one(0);
   const Vec8Index lane = {0, 1, 2, 3, 4, 5, 6, 7};
-  const Vec8Index store = (lane & 1) == first;  // lane l of a vector at i % 8 == 0
-  int i = 0;
-  for (; i + 8 <= nx; i += 8) {
-    const Vec8 v = *reinterpret_cast<const Vec8*>(f + i) * *reinterpret_cast<const Vec8*>(inv + i);
+  const Vec8Index store = (lane & 1) != first;  // lane l of a vector at i % 8 == 1
+  int i = 1;
+  for (; i + 8 <= nx - 1; i += 8) {
+    const Vec8 diag = *reinterpret_cast<const Vec8*>(b + i) + side + cx + cx;
+    const Vec8 v = *reinterpret_cast<const Vec8*>(f + i) * (diag > 0.f ? 1.f / diag : Vec8{});
     *reinterpret_cast<Vec8*>(u0 + i) = store ? v : Vec8{};
   }
-  for (; i < nx; ++i) u0[i] = (i & 1) == first ? f[i] * inv[i] : 0.f;
+  for (; i < nx; ++i) one(i);
 }
 
 // Red-black Gauss-Seidel on one row of one field, the voxels from `first` in steps of 2:
@@ -47,21 +65,22 @@ void start_row(float* __restrict u0, const float* __restrict f, const float* __r
 // pass leaves alone, so this equals the voxel-by-voxel sweep); the x neighbours come from
 // shuffles of the vectors already loaded, and each vector is loaded before the previous one is
 // stored. The first voxel and the last 8 to 15 (end voxels have one x neighbour) go one by one.
+// b: the row's weights (1 / A_ii is computed from them, see inverse_diagonal).
 DSNAKE_VECTOR_CLONES
-void smooth_row(float* u, const float* rhs, const float* __restrict inv_diag, const RowNeighbours& r, float cx,
-                int nx, int first) {
+void smooth_row(float* u, const float* rhs, const float* __restrict b, const RowNeighbours& r, float cx, int nx,
+                int first) {
   const float* __restrict f = rhs + r.row;
   float* __restrict u0 = u + r.row;
   const float *__restrict uym = u + r.ym, *__restrict uyp = u + r.yp, *__restrict uzm = u + r.zm,
               *__restrict uzp = u + r.zp;
-  const float* __restrict inv = inv_diag;
-  const float wym = r.wym, wyp = r.wyp, wzm = r.wzm, wzp = r.wzp;
+  const float wym = r.wym, wyp = r.wyp, wzm = r.wzm, wzp = r.wzp, side = wym + wyp + wzm + wzp;
   // One voxel with its own x weights; a voxel without weight (inv 0) is left alone.
   auto one = [&](int i, float wl, float wr) {
-    if (inv[i] == 0.f) return;
+    const float inv = inverse_diagonal(b[i], side, wl, wr);
+    if (inv == 0.f) return;
     const float s = f[i] + wym * uym[i] + wyp * uyp[i] + wzm * uzm[i] + wzp * uzp[i] +
                     (wl > 0 ? wl * u0[i - 1] : 0.f) + (wr > 0 ? wr * u0[i + 1] : 0.f);
-    u0[i] = s * inv[i];
+    u0[i] = s * inv;
   };
   if (nx == 1) {
     if (first == 0) one(0, 0.f, 0.f);
@@ -82,7 +101,8 @@ void smooth_row(float* u, const float* rhs, const float* __restrict inv_diag, co
       const Vec8 s = *reinterpret_cast<const Vec8*>(f + i) + cx * (left + right) +
                      wym * *reinterpret_cast<const Vec8*>(uym + i) + wyp * *reinterpret_cast<const Vec8*>(uyp + i) +
                      wzm * *reinterpret_cast<const Vec8*>(uzm + i) + wzp * *reinterpret_cast<const Vec8*>(uzp + i);
-      const Vec8 v = s * *reinterpret_cast<const Vec8*>(inv + i);
+      const Vec8 diag = *reinterpret_cast<const Vec8*>(b + i) + side + cx + cx;
+      const Vec8 v = s * (diag > 0.f ? 1.f / diag : Vec8{});
       *reinterpret_cast<Vec8*>(u0 + i) = store ? v : c;
       left = DSNAKE_SHUFFLE2(c, next, Vec8Index, 7, 8, 9, 10, 11, 12, 13, 14);
       c = next;
@@ -90,21 +110,21 @@ void smooth_row(float* u, const float* rhs, const float* __restrict inv_diag, co
   }
   for (i += (i & 1) != first ? 1 : 0; i < nx - 1; i += 2) {
     const float s = f[i] + cx * (u0[i - 1] + u0[i + 1]) + wym * uym[i] + wyp * uyp[i] + wzm * uzm[i] + wzp * uzp[i];
-    u0[i] = s * inv[i];
+    u0[i] = s * inverse_diagonal(b[i], side, cx, cx);
   }
   if (((nx - 1) & 1) == first) one(nx - 1, cx, 0.f);
 }
 
 // out = rhs - A u (kResidual) or out = A u on one row, A u = b u + sum over the existing
-// neighbours of w (u - u_nb); rhs is not read for A u. Each form keeps its own order of
+// neighbours of w (u - u_nb); rhs is not read for A u. u and rhs are whole arrays, b and out the
+// row's own (out need not be part of an array shaped like u). Each form keeps its own order of
 // operations. Always inlined, so that it compiles inside each caller's vector clones.
 template <bool kResidual>
-[[gnu::always_inline]] inline void stencil_row(const float* u, const float* rhs, float* res, const float* __restrict b,
-                                               const RowNeighbours& r, float cx, int nx) {
+[[gnu::always_inline]] inline void stencil_row(const float* u, const float* rhs, float* __restrict out,
+                                               const float* __restrict b, const RowNeighbours& r, float cx, int nx) {
   const float* __restrict f = kResidual ? rhs + r.row : nullptr;
   const float *__restrict u0 = u + r.row, *__restrict uym = u + r.ym, *__restrict uyp = u + r.yp,
               *__restrict uzm = u + r.zm, *__restrict uzp = u + r.zp;
-  float* __restrict out = res + r.row;
   const float wym = r.wym, wyp = r.wyp, wzm = r.wzm, wzp = r.wzp, side = wym + wyp + wzm + wzp;
   auto at = [&](int i, float lap_x, float wx) {
     if constexpr (kResidual)
@@ -129,37 +149,22 @@ template <bool kResidual>
   out[nx - 1] = at(nx - 1, cx * u0[nx - 2], cx);
 }
 
-// out = rhs - A u on one row.
+// out = rhs - A u on one row (out: the row's residual).
 DSNAKE_VECTOR_CLONES
-void residual_row(const float* u, const float* rhs, float* res, const float* __restrict b, const RowNeighbours& r,
+void residual_row(const float* u, const float* rhs, float* out, const float* __restrict b, const RowNeighbours& r,
                   float cx, int nx) {
-  stencil_row<true>(u, rhs, res, b, r, cx, nx);
+  stencil_row<true>(u, rhs, out, b, r, cx, nx);
 }
 
-// out = A u on one row (the product PCG needs).
+// out = A u on one row (the product PCG needs; out: the row's product).
 DSNAKE_VECTOR_CLONES
-void apply_row(const float* u, float* res, const float* __restrict b, const RowNeighbours& r, float cx, int nx) {
-  stencil_row<false>(u, nullptr, res, b, r, cx, nx);
+void apply_row(const float* u, float* out, const float* __restrict b, const RowNeighbours& r, float cx, int nx) {
+  stencil_row<false>(u, nullptr, out, b, r, cx, nx);
 }
 
 }  // namespace
 
 namespace gvf_detail {
-
-// 1 / A_ii per voxel: b plus the weights of the neighbours that exist (0 where that is 0).
-void inverse_diagonal(Level& L, const Coupling& c) {
-  L.inv_diag.resize(L.size());
-  const int64_t rows = int64_t(L.ny) * L.nz;
-#pragma omp parallel for schedule(static) if(L.size() >= kParallelMin)
-  for (int64_t yz = 0; yz < rows; ++yz) {
-    const RowNeighbours r = row_neighbours(L, c, int(yz % L.ny), int(yz / L.ny));
-    const float side = r.wym + r.wyp + r.wzm + r.wzp;
-    for (int x = 0; x < L.nx; ++x) {
-      const float diag = L.b[r.row + x] + side + (x > 0 ? c.cx : 0.f) + (x < L.nx - 1 ? c.cx : 0.f);
-      L.inv_diag[r.row + x] = diag > 0.f ? 1.f / diag : 0.f;
-    }
-  }
-}
 
 // `sweeps` Gauss-Seidel sweeps in two colours, `first` then the other (voxels with
 // (x + y + z) % 2 == colour), over all fields, in one pass over memory. Half-sweep h (colour
@@ -171,10 +176,9 @@ void inverse_diagonal(Level& L, const Coupling& c) {
 // colour of its neighbours, and that colour is at the state of half-sweep h - 1 whenever it is
 // read, so the result equals the half-sweeps run one after the other, whatever the thread count.
 // With zero_start, v is taken as 0 on entry (not read): the first half-sweep writes rhs / A_ii on
-// its colour and 0 on the other, as a sweep from a zeroed v would. With then_residual, one more
-// level after the sweeps writes L.res = rhs - A v (as residual() does, row by row).
-void smooth_sweeps(Level& L, const Coupling& c, int first, int sweeps, bool zero_start, bool then_residual) {
-  const int K = int(L.v.size()), H = 2 * sweeps + (then_residual ? 1 : 0);
+// its colour and 0 on the other, as a sweep from a zeroed v would.
+void smooth_sweeps(Level& L, const Coupling& c, int first, int sweeps, bool zero_start) {
+  const int K = int(L.v.size()), H = 2 * sweeps;
   const int64_t rows = int64_t(L.ny) * L.nz;
   const int64_t lag = L.nz > 1 ? L.ny : 1;  // rows between a row and its farthest neighbour
   auto update = [&](int64_t yz, int h) {
@@ -182,12 +186,11 @@ void smooth_sweeps(Level& L, const Coupling& c, int first, int sweeps, bool zero
     const RowNeighbours r = row_neighbours(L, c, y, z);
     const int parity = (first + h + y + z) & 1;
     for (int k = 0; k < K; ++k) {
-      if (then_residual && h == H - 1) {
-        residual_row(L.v[k].data(), L.rhs[k].data(), L.res[k].data(), L.b.data() + r.row, r, c.cx, L.nx);
-      } else if (zero_start && h == 0) {
-        start_row(L.v[k].data() + r.row, L.rhs[k].data() + r.row, L.inv_diag.data() + r.row, L.nx, parity);
+      if (zero_start && h == 0) {
+        start_row(L.v[k].data() + r.row, L.rhs[k].data() + r.row, L.b.data() + r.row, r.wym + r.wyp + r.wzm + r.wzp,
+                  c.cx, L.nx, parity);
       } else {
-        smooth_row(L.v[k].data(), L.rhs[k].data(), L.inv_diag.data() + r.row, r, c.cx, L.nx, parity);
+        smooth_row(L.v[k].data(), L.rhs[k].data(), L.b.data() + r.row, r, c.cx, L.nx, parity);
       }
     }
   };
@@ -227,9 +230,10 @@ double dot_chunk(const float* __restrict a, const float* __restrict b, int64_t n
   return s;
 }
 
-// res = rhs - A v for all fields. With `norms`, also returns the sums of squares of res and of
-// rhs (per row, then in row order: independent of the thread count).
-std::pair<double, double> residual(Level& L, const Coupling& c, bool norms = false) {
+// out = rhs - A v for all fields (out[k] of the level's size). With `norms`, also returns the sums
+// of squares of out and of rhs (per row, then in row order: independent of the thread count).
+std::pair<double, double> residual(const Level& L, const Coupling& c, std::vector<std::vector<float>>& out,
+                                   bool norms = false) {
   const int nx = L.nx, K = int(L.v.size());
   const int64_t rows = int64_t(L.ny) * L.nz;
   std::vector<double> rr(norms ? rows : 0), bb(norms ? rows : 0);
@@ -238,9 +242,9 @@ std::pair<double, double> residual(Level& L, const Coupling& c, bool norms = fal
     const RowNeighbours r = row_neighbours(L, c, int(yz % L.ny), int(yz / L.ny));
     double s2 = 0, b2 = 0;
     for (int k = 0; k < K; ++k) {
-      residual_row(L.v[k].data(), L.rhs[k].data(), L.res[k].data(), L.b.data() + r.row, r, c.cx, nx);
+      residual_row(L.v[k].data(), L.rhs[k].data(), out[k].data() + r.row, L.b.data() + r.row, r, c.cx, nx);
       if (norms) {
-        const float* res = L.res[k].data() + r.row;
+        const float* res = out[k].data() + r.row;
         const float* rhs = L.rhs[k].data() + r.row;
         s2 += dot_chunk(res, res, nx);
         b2 += dot_chunk(rhs, rhs, nx);
@@ -257,7 +261,7 @@ std::pair<double, double> residual(Level& L, const Coupling& c, bool norms = fal
 
 namespace gvf_detail {
 
-void residual_rows(Level& L, const Coupling& c) { residual(L, c); }
+void residual_rows(Level& L, const Coupling& c) { residual(L, c, L.res); }
 
 }  // namespace gvf_detail
 
@@ -270,12 +274,6 @@ namespace {
 // residual is restricted with R = P^T / factor, so that the V-cycle is a symmetric operator
 // (a valid preconditioner for conjugate gradients); b is restricted with R normalised to an
 // average. Factor 1: identity.
-struct AxisTransfer {
-  std::vector<std::vector<std::pair<int, float>>> transpose, average;  // per coarse index
-  // Prolongation: fine i = w_near * coarse near + (1 - w_near) * coarse far.
-  std::vector<int> near, far;
-  std::vector<float> w_near;
-};
 AxisTransfer axis_transfer(int n_fine, int n_coarse, int factor) {
   AxisTransfer t;
   t.near.resize(n_fine), t.far.resize(n_fine), t.w_near.resize(n_fine);
@@ -310,17 +308,14 @@ AxisTransfer axis_transfer(int n_fine, int n_coarse, int factor) {
 // Coarse cell count along an axis for the transfers above.
 int coarse_size(int n, int factor) { return factor == 1 ? n : (n % 2 == 0 ? n / 2 : (n + 1) / 2); }
 
-struct Transfer {
-  AxisTransfer x, y, z;
-};
+}  // namespace
+
+namespace gvf_detail {
+
 Transfer transfer(const Level& F, const Level& C) {
   return {axis_transfer(F.nx, C.nx, F.factor[0]), axis_transfer(F.ny, C.ny, F.factor[1]),
           axis_transfer(F.nz, C.nz, F.factor[2])};
 }
-
-}  // namespace
-
-namespace gvf_detail {
 
 // out = R row along x for a factor-2 axis (R = P^T / 2 of axis_transfer's weights), from the
 // fine row extended by one value at each end (ext[i + 1] = row[i]; the ends repeat the row's
@@ -341,6 +336,42 @@ void restrict_row_x2(float* __restrict out, const float* __restrict ext, int n_f
 
 namespace {
 
+// out = the x part of the restriction of `row` (a fine row already combined along y and z):
+// R = P^T / factor (average = false) or its normalised average. ext: scratch of nx + 2 floats.
+void restrict_x(const Level& F, const Level& C, const Transfer& t, bool average, std::vector<float>& row,
+                std::vector<float>& ext, float* out) {
+  if (!average && F.factor[0] == 2) {
+    const bool cell = F.nx % 2 == 0;
+    std::copy(row.begin(), row.end(), ext.begin() + 1);
+    ext[0] = cell ? row[0] : 0.f, ext[F.nx + 1] = cell ? row[F.nx - 1] : 0.f;
+    restrict_row_x2(out, ext.data(), F.nx, C.nx);
+  } else if (!average) {  // R = P^T / factor along x: scatter each fine value (in x order)
+    const float inv = 1.f / F.factor[0];
+    std::fill_n(out, C.nx, 0.f);
+    for (int x = 0; x < F.nx; ++x) {
+      const float w = t.x.w_near[x] * inv;
+      out[t.x.near[x]] += w * row[x];
+      out[t.x.far[x]] += (inv - w) * row[x];
+    }
+  } else {
+    for (int x = 0; x < C.nx; ++x) {
+      float s = 0;
+      for (const auto& [fx, wx] : t.x.average[x]) s += wx * row[fx];
+      out[x] = s;
+    }
+  }
+}
+
+// row += w * src over nx floats (the y/z part of a restriction).
+void add_scaled(std::vector<float>& row, float w, const float* __restrict src) {
+  float* __restrict dst = row.data();
+  for (size_t x = 0; x < row.size(); ++x) dst[x] += w * src[x];
+}
+
+}  // namespace
+
+namespace gvf_detail {
+
 // coarse = R fine (separable; R = P^T / factor or its normalised average): the y/z weights combine fine rows into one
 // (contiguous, vectorised), then the x weights pick from it.
 void restrict_to(const Level& F, const Level& C, const Transfer& t, bool average, const float* fine, float* coarse) {
@@ -355,38 +386,63 @@ void restrict_to(const Level& F, const Level& C, const Transfer& t, bool average
       const int z = int(zy / C.ny), y = int(zy % C.ny);
       std::fill(row.begin(), row.end(), 0.f);
       for (const auto& [fz, wz] : weights(t.z, z))
-        for (const auto& [fy, wy] : weights(t.y, y)) {
-          const float* __restrict src = fine + (int64_t(fz) * F.ny + fy) * F.nx;
-          const float w = wz * wy;
-          float* __restrict dst = row.data();
-          for (int x = 0; x < F.nx; ++x) dst[x] += w * src[x];
+        for (const auto& [fy, wy] : weights(t.y, y)) add_scaled(row, wz * wy, fine + (int64_t(fz) * F.ny + fy) * F.nx);
+      restrict_x(F, C, t, average, row, ext, coarse + (int64_t(z) * C.ny + y) * C.nx);
+    }
+  }
+}
+
+// coarse = R (rhs - A v) of field k, as residual_rows then restrict_to(average = false) would give
+// it bit for bit, but without a residual array of the fine level's size (issue 21: 4 bytes per
+// voxel at the finest level). The fine grid is cut into slabs along its outer axis (z planes; on
+// a single plane, rows). Each thread takes a run of coarse slabs in order; a coarse slab reads at
+// most four consecutive fine slabs (cell-centred: 2I - 1 .. 2I + 2), so the thread keeps the fine
+// residual slabs in a ring of four and computes each once (twice at the ends of its run). Every
+// coarse row is summed in restrict_to's order, so the result does not depend on the thread count.
+void restrict_residual(const Level& F, const Coupling& c, const Level& C, const Transfer& t, int k, float* coarse) {
+  const bool planes = F.nz > 1;
+  const AxisTransfer& outer = planes ? t.z : t.y;
+  const int coarse_slabs = planes ? C.nz : C.ny, rows_per_slab = planes ? F.ny : 1;
+  const int coarse_rows_per_slab = planes ? C.ny : 1;
+  const int64_t slab = int64_t(rows_per_slab) * F.nx;
+  static const std::vector<std::pair<int, float>> kOne = {{0, 1.f}};
+#pragma omp parallel if(F.size() >= kParallelMin)
+  {
+    thread_local std::vector<float> ring;  // kept across calls: no page faults per V-cycle
+    if (ring.size() < size_t(4 * slab)) ring.resize(4 * slab);
+    int tag[4] = {-1, -1, -1, -1};
+    std::vector<float> row(F.nx), ext(F.nx + 2);
+    const int T = omp_get_num_threads(), th = omp_get_thread_num();
+    const int begin = int(int64_t(coarse_slabs) * th / T), end = int(int64_t(coarse_slabs) * (th + 1) / T);
+    auto fine_slab = [&](int s) -> const float* {
+      float* dst = ring.data() + (s % 4) * slab;
+      if (tag[s % 4] != s) {
+        for (int q = 0; q < rows_per_slab; ++q) {
+          const int y = planes ? q : s, z = planes ? s : 0;
+          const RowNeighbours rn = row_neighbours(F, c, y, z);
+          residual_row(F.v[k].data(), F.rhs[k].data(), dst + int64_t(q) * F.nx, F.b.data() + rn.row, rn, c.cx, F.nx);
         }
-      float* out = coarse + (int64_t(z) * C.ny + y) * C.nx;
-      if (!average && F.factor[0] == 2) {
-        const bool cell = F.nx % 2 == 0;
-        std::copy(row.begin(), row.end(), ext.begin() + 1);
-        ext[0] = cell ? row[0] : 0.f, ext[F.nx + 1] = cell ? row[F.nx - 1] : 0.f;
-        restrict_row_x2(out, ext.data(), F.nx, C.nx);
-      } else if (!average) {  // R = P^T / factor along x: scatter each fine value (in x order)
-        const float inv = 1.f / F.factor[0];
-        std::fill_n(out, C.nx, 0.f);
-        for (int x = 0; x < F.nx; ++x) {
-          const float w = t.x.w_near[x] * inv;
-          out[t.x.near[x]] += w * row[x];
-          out[t.x.far[x]] += (inv - w) * row[x];
-        }
-      } else {
-        for (int x = 0; x < C.nx; ++x) {
-          float s = 0;
-          for (const auto& [fx, wx] : weights(t.x, x)) s += wx * row[fx];
-          out[x] = s;
-        }
+        tag[s % 4] = s;
+      }
+      return dst;
+    };
+    for (int S = begin; S < end; ++S) {
+      const float* slabs[4];
+      const auto& outer_w = outer.transpose[S];
+      for (size_t j = 0; j < outer_w.size(); ++j) slabs[j] = fine_slab(outer_w[j].first);
+      for (int Q = 0; Q < coarse_rows_per_slab; ++Q) {
+        std::fill(row.begin(), row.end(), 0.f);
+        const auto& inner_w = planes ? t.y.transpose[Q] : kOne;
+        for (size_t j = 0; j < outer_w.size(); ++j)
+          for (const auto& [q, wq] : inner_w) add_scaled(row, outer_w[j].second * wq, slabs[j] + int64_t(q) * F.nx);
+        const int64_t coarse_row = planes ? int64_t(S) * C.ny + Q : S;
+        restrict_x(F, C, t, false, row, ext, coarse + coarse_row * C.nx);
       }
     }
   }
 }
 
-}  // namespace
+}  // namespace gvf_detail
 
 namespace gvf_detail {
 
@@ -457,7 +513,7 @@ class Multigrid {
     levels_.push_back(finest_shape);
     for (;;) {
       Level& F = levels_.back();
-      alloc(F, K);
+      alloc(F, K, levels_.size() == 1);
       if (F.size() <= kCoarsestVoxels) break;
       const int n[3] = {F.nx, F.ny, F.nz};
       const double h_min = std::min({n[0] > 1 ? F.h[0] : 1e300, n[1] > 1 ? F.h[1] : 1e300, n[2] > 1 ? F.h[2] : 1e300});
@@ -486,13 +542,12 @@ class Multigrid {
            F.h[1] == shape.h[1] && F.h[2] == shape.h[2] && K == K_ && mu == mu_;
   }
 
-  // New weights b on the same grids (no allocation): b on every level (averaged down), 1 / A_ii,
-  // and the coarsest factorisation, exactly as a new hierarchy would compute them.
+  // New weights b on the same grids (no allocation): b on every level (averaged down) and the
+  // coarsest factorisation, exactly as a new hierarchy would compute them.
   void set_weights(std::vector<float> b) {
     levels_[0].b = std::move(b);
     for (size_t l = 0; l < levels_.size(); ++l) {
       Level& F = levels_[l];
-      inverse_diagonal(F, coupling(F, mu_));
       if (l + 1 < levels_.size()) {
         Level& C = levels_[l + 1];
         C.b.resize(C.size());
@@ -513,19 +568,20 @@ class Multigrid {
       solve_coarsest();
       return;
     }
-    smooth_sweeps(L, c, 0, kPreSmooth, true, true);  // v = 0 on entry
+    smooth_sweeps(L, c, 0, kPreSmooth, true);  // v = 0 on entry
     Level& C = levels_[l + 1];
-    for (size_t k = 0; k < L.v.size(); ++k) restrict_to(L, C, transfers_[l], false, L.res[k].data(), C.rhs[k].data());
+    for (size_t k = 0; k < L.v.size(); ++k) restrict_residual(L, c, C, transfers_[l], int(k), C.rhs[k].data());
     cycle(l + 1);
     for (size_t k = 0; k < L.v.size(); ++k) prolongate_add(L, C, transfers_[l], C.v[k].data(), L.v[k].data());
-    smooth_sweeps(L, c, 1, kPostSmooth, false, false);
+    smooth_sweeps(L, c, 1, kPostSmooth, false);
   }
 
  private:
-  static void alloc(Level& L, int K) {
+  // v and rhs per field; no residual array (restrict_residual). The finest level's rhs is left
+  // empty: the caller lends it its own right-hand side (solve_one_field's r).
+  static void alloc(Level& L, int K, bool finest) {
     L.v.assign(K, std::vector<float>(L.size()));
-    L.rhs.assign(K, std::vector<float>(L.size()));
-    L.res.assign(K, std::vector<float>(L.size()));
+    L.rhs.assign(K, std::vector<float>(finest ? 0 : L.size()));
   }
 
   // Dense A on the coarsest grid, LDL^T-factorised once (A is shared by all fields).
@@ -617,8 +673,10 @@ double update_and_norm(float* __restrict x, float* __restrict r, const float* __
 // exact coarsest solve). The V-cycle alone stalls where the coarse grids see the image border
 // differently from the fine one (odd sizes, masked DDGVF weights); CG removes those few slow
 // modes. c may be x itself (GVF's initial guess is its source): c is read only before x changes.
-// The right-hand side b c is released once the first residual is known, so the finest level
-// holds four arrays (z, A p, r, p) besides x. Returns the iterations and |r|^2, |b c|^2.
+// The finest level holds three arrays besides x, b and 1 / A_ii (issue 21): r (lent to the
+// V-cycle as its right-hand side), p, and the level's v, which holds z = M r and then A p (z is
+// spent once p = z + beta p). b c lives in p's storage until the first residual is known. The
+// workspace keeps r and p for the next field. Returns the iterations and |r|^2, |b c|^2.
 struct FieldSolve {
   int iterations = 0;
   double r2 = 0, f2 = 0;
@@ -629,17 +687,17 @@ FieldSolve solve_one_field(Multigrid& mg, const std::vector<float>& c, std::vect
   const std::vector<float>& b = L.b;
   const int64_t n = L.size(), rows = int64_t(L.ny) * L.nz;
   const Coupling cp = coupling(L, o.mu);
-  L.v[0] = x;
-  L.rhs[0].resize(n);
-#pragma omp parallel for schedule(static) if(n >= kParallelMin)
-  for (int64_t l = 0; l < n; ++l) L.rhs[0][l] = b[l] * c[l];
-  FieldSolve st;
-  std::tie(st.r2, st.f2) = residual(L, cp, true);
-  std::vector<float>().swap(L.rhs[0]);  // b c is not needed again
   ws.r.resize(1), ws.p.resize(1);
   std::vector<float>& r = ws.r[0];
   std::vector<float>& p = ws.p[0];
-  r.swap(L.res[0]), L.res[0].resize(n), p.resize(n);
+  r.resize(n), p.resize(n);  // allocated by the first field, reused by the others
+  L.v[0] = x;
+  L.rhs[0].swap(p);  // b c, in p's storage
+#pragma omp parallel for schedule(static) if(n >= kParallelMin)
+  for (int64_t l = 0; l < n; ++l) L.rhs[0][l] = b[l] * c[l];
+  FieldSolve st;
+  std::tie(st.r2, st.f2) = residual(L, cp, ws.r, true);  // r = b c - A x
+  L.rhs[0].swap(p);  // b c is not needed again
   auto converged = [&] {
     const double relative = st.f2 > 0 ? std::sqrt(st.r2 / st.f2) : (st.r2 > 0 ? 1.0 : 0.0);
     return o.tolerance > 0 && relative <= o.tolerance;
@@ -656,19 +714,20 @@ FieldSolve solve_one_field(Multigrid& mg, const std::vector<float>& c, std::vect
   std::vector<double> row_pap(rows);
   p = L.v[0];
   double rz = dot(r, L.v[0]);
+  std::vector<float>& ap = L.v[0];  // z is spent once p is updated
   while (st.iterations < max_it) {
-    // ap = A p (in L.res), then x += alpha p, r -= alpha ap.
+    // ap = A p, then x += alpha p, r -= alpha ap.
     // With p.ap per row while the row is in cache (summed in row order: thread-independent).
 #pragma omp parallel for schedule(static) if(n >= kParallelMin)
     for (int64_t yz = 0; yz < rows; ++yz) {
       const RowNeighbours rn = row_neighbours(L, cp, int(yz % L.ny), int(yz / L.ny));
-      apply_row(p.data(), L.res[0].data(), b.data() + rn.row, rn, cp.cx, L.nx);
-      row_pap[yz] = dot_chunk(p.data() + rn.row, L.res[0].data() + rn.row, L.nx);
+      apply_row(p.data(), ap.data() + rn.row, b.data() + rn.row, rn, cp.cx, L.nx);
+      row_pap[yz] = dot_chunk(p.data() + rn.row, ap.data() + rn.row, L.nx);
     }
     double pap = 0;
     for (int64_t yz = 0; yz < rows; ++yz) pap += row_pap[yz];
     const float alpha = float(pap > 0 ? rz / pap : 0.0);
-    st.r2 = update_and_norm(x.data(), r.data(), p.data(), L.res[0].data(), alpha, n);
+    st.r2 = update_and_norm(x.data(), r.data(), p.data(), ap.data(), alpha, n);
     ++st.iterations;
     if (converged() || st.iterations == max_it) break;
     precondition();
@@ -758,7 +817,7 @@ double gvf_relative_residual(const Grid<D>& grid, const std::vector<float>& b,
     L.rhs[k].resize(L.size());
     for (int64_t l = 0; l < L.size(); ++l) L.rhs[k][l] = b[l] * (*c[k])[l];
   }
-  const auto [r2, f2] = residual(L, coupling(L, mu), true);
+  const auto [r2, f2] = residual(L, coupling(L, mu), L.res, true);
   return f2 > 0 ? std::sqrt(r2 / f2) : (r2 > 0 ? 1.0 : 0.0);
 }
 

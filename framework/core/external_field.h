@@ -18,6 +18,10 @@ class ExternalField {
 
   // Computes the field from the image; may be slow (the field cache lives around it).
   virtual void compute(const Image<D>& image) = 0;
+  // compute(image) for a caller that has no further use for the image: a field may release it
+  // as soon as it has read it, so that the image's 4 bytes per voxel are not held through the
+  // solve (issue 21; `dsnake field`). The result is the same bits. Default: compute(image).
+  virtual void compute_releasing(Image<D>&& image) { compute(image); }
   // Checks the options against the grid the field will be computed on, before any work (issue
   // 22: a VFC radius larger than the image); InputError naming the key. Default: nothing to check.
   virtual void check_grid(const Grid<D>& grid) const { (void)grid; }

@@ -9,6 +9,7 @@
 #include "framework/core/json_text.h"
 #include "framework/io/dicom.h"
 #include "framework/io/image_io_detail.h"
+#include "framework/io/raster_codecs.h"
 
 #include <Eigen/LU>
 #include <Eigen/SVD>
@@ -228,7 +229,7 @@ RawVolume read_opencv(const std::string& path) {
     throw InputError(path, "", "the content is not PNG, JPEG, BMP or TIFF (its first bytes do not match any of them)");
   cv::Mat m;
   try {
-    m = silenced([&] { return cv::imread(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE); });
+    m = silenced([&] { return read_raster(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE); });
   } catch (const cv::Exception& e) {  // OpenCV's own checks (a BMP declaring 2^30 columns: fuzzing)
     throw InputError(path, "", "cannot decode the image (OpenCV: " + e.err + ")");
   }
@@ -251,7 +252,7 @@ void write_opencv(const RawVolume& v, const std::string& path) {
     for (int x = 0; x < m.cols; ++x)
       m.at<uint8_t>(y, x) = uint8_t(std::lround(std::clamp(double(v.data()[size_t(y) * m.cols + x]), 0.0, 255.0)));
   write_via_temporary(path, [&](const std::string& tmp) {
-    if (!cv::imwrite(tmp, m)) throw OutputError(path, "OpenCV cannot write the image");
+    if (!write_raster(tmp, m)) throw OutputError(path, "OpenCV cannot write the image");
   });
 }
 

@@ -62,12 +62,15 @@ void every_energy_conforms(const Template<D>& t) {
     PointList<D> out(snake.num_vertices(), Point<D>::Constant(NAN));
     energy->propose(snake, out);
     const auto mask = energy->governed_mask();
-    if (energy->governs() == Governs::kMarkedVertices) EXPECT_EQ(int(mask.size()), snake.num_vertices());
+    if (energy->governs() == Governs::kMarkedVertices) {
+      EXPECT_EQ(int(mask.size()), snake.num_vertices());
+    }
     for (int v = 0; v < snake.num_vertices(); ++v) {
       const Governs g = energy->governs();
       if (g == Governs::kAllVertices || (g == Governs::kDeformationVertices && snake.is_deformation_vertex(v)) ||
-          (g == Governs::kMarkedVertices && mask[v]))
+          (g == Governs::kMarkedVertices && mask[v])) {
         EXPECT_TRUE(out[v].allFinite()) << "vertex " << v;
+      }
     }
   }
 }

@@ -1,6 +1,7 @@
 // GVF: the multigrid and explicit solvers reach the same fixed point; the field points at the
 // edge of a disk or ball from inside and outside; it is spacing-aware and thread-count
 // independent; a constant image gives a zero field; mu <= 0 is a configuration error.
+#include "fields/ddgvf.h"
 #include "fields/gvf.h"
 #include "fields/gvf_solver.h"
 #include "fields/registry.h"
@@ -208,6 +209,32 @@ TEST(GvfField, IndependentOfThreadCount) {
     omp_set_num_threads(threads);
     for (int64_t l = 0; l < image.num_voxels(); ++l) ASSERT_EQ(one.vectors()[l], two.vectors()[l]) << enum_name(solver) << l;
   }
+}
+
+// compute_releasing (issue 21: `dsnake field` frees the image once the edge map has read it)
+// gives the same bits as compute and leaves the image empty; so does DDGVF's, on every
+// directional component.
+TEST(GvfField, ComputeReleasingGivesTheSameBitsAndFreesTheImage) {
+  const Image<3> image = ball(2.5, 48, Point<3>(24, 24, 24), 12.0);
+  GvfField<3> kept(GvfFieldOptions{}), released(GvfFieldOptions{});
+  kept.compute(image);
+  Image<3> copy = image;
+  released.compute_releasing(std::move(copy));
+  EXPECT_TRUE(copy.data().empty());
+  ASSERT_EQ(kept.vectors().data().size(), released.vectors().data().size());
+  EXPECT_EQ(0, std::memcmp(kept.vectors().data().data(), released.vectors().data().data(),
+                           kept.vectors().data().size() * sizeof(float)));
+  DdgvfField<3> d_kept(DdgvfFieldOptions{}), d_released(DdgvfFieldOptions{});
+  d_kept.compute(image);
+  Image<3> d_copy = image;
+  d_released.compute_releasing(std::move(d_copy));
+  EXPECT_TRUE(d_copy.data().empty());
+  const Point<3> normals[2] = {Point<3>(0.6, -0.8, 0.0), Point<3>(-0.36, 0.48, -0.8)};
+  for (int64_t l = 0; l < image.num_voxels(); l += 7)
+    for (const Point<3>& n : normals) {
+      const Point<3> x = image.grid().to_physical(image.grid().index(l)) + Point<3>::Constant(0.3);
+      ASSERT_EQ(d_kept.force(x, n), d_released.force(x, n)) << l;
+    }
 }
 
 TEST(GvfField, ConstantImageGivesZeroFieldWithWarning) {

@@ -49,7 +49,9 @@ void expect_every_field_computes_from_defaults(int size, double radius) {
       const Point<D> f = field->force(x, n);
       ASSERT_TRUE(f.allFinite()) << name << " at " << x.transpose();
       largest = std::max(largest, f.norm());
-      if (field->has_potential()) ASSERT_TRUE(std::isfinite(field->potential(x))) << name;
+      if (field->has_potential()) {
+        ASSERT_TRUE(std::isfinite(field->potential(x))) << name;
+      }
     }
     EXPECT_GT(largest, 0) << name << ": a zero field on an image with an edge";
   }
