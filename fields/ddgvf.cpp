@@ -40,14 +40,22 @@ void DdgvfField<D>::compute_releasing(Image<D>&& image) {
   solve(compute_edge_map(std::move(image), options_.edge, true, "ddgvf"));
 }
 
+// Memory (issue 21): f is released at once (DDGVF does not use it); each multigrid solve starts
+// from its masked source written straight into its component (the solver reads a source only
+// before its field changes) and takes its masked weights by move; the summed vectors are
+// allocated once the edge map is gone.
 template <int D>
-void DdgvfField<D>::solve(const EdgeMap<D>& edges) {
-  const Grid<D>& grid = edges.grid;
+void DdgvfField<D>::solve(EdgeMap<D>&& edges) {
+  const Grid<D> grid = edges.grid;
   const int64_t n = grid.num_voxels();
-  vectors_ = VectorField<D>(grid);
+  vectors_ = VectorField<D>();
   for (auto& axis : components_)
     for (auto& c : axis) c = Image<D>(grid);
-  if (edges.f_max == 0) return;  // no edges: zero components (warned by compute_edge_map)
+  if (edges.f_max == 0) {  // no edges: zero components (warned by compute_edge_map)
+    vectors_ = VectorField<D>(grid);
+    return;
+  }
+  std::vector<float>().swap(edges.f);
   const float p = options_.polarity == DdgvfPolarity::kDarkInside ? 1.f : -1.f;
   std::vector<float> b(n);
 #pragma omp parallel for schedule(static)
@@ -64,21 +72,20 @@ void DdgvfField<D>::solve(const EdgeMap<D>& edges) {
   std::vector<std::exception_ptr> errors(2 * D);
 #pragma omp parallel num_threads(threads) if(threads > 1)
   {
-    std::vector<float> b_masked(n), source(n);
     GvfWorkspace workspace;  // this thread's solves share one multigrid hierarchy
 #pragma omp for schedule(dynamic, 1)
     for (int job = 0; job < 2 * D; ++job) {
       const int a = job / 2, sign = job % 2;
       const float s = sign == 0 ? p : -p;
+      std::vector<float>& u = components_[a][sign].data();  // the initial guess is the source, as for GVF
+      std::vector<float> b_masked(n);
       for (int64_t l = 0; l < n; ++l) {
         const bool on = s * edges.grad_image[a][l] > 0.f;
         b_masked[l] = on ? b[l] : 0.f;
-        source[l] = on ? edges.grad_f[a][l] : 0.f;
+        u[l] = on ? edges.grad_f[a][l] : 0.f;
       }
-      std::vector<float>& u = components_[a][sign].data();
-      u = source;  // initial guess, as for GVF
       try {
-        solve_gvf(grid, b_masked, {&source}, {&u}, options_.solve, &workspace);
+        solve_gvf(grid, std::move(b_masked), {&u}, {&u}, options_.solve, &workspace);
       } catch (...) {
         errors[job] = std::current_exception();
       }
@@ -86,6 +93,9 @@ void DdgvfField<D>::solve(const EdgeMap<D>& edges) {
   }
   for (const std::exception_ptr& e : errors)
     if (e) std::rethrow_exception(e);
+  edges = EdgeMap<D>();
+  std::vector<float>().swap(b);
+  vectors_ = VectorField<D>(grid);
 #pragma omp parallel for schedule(static)
   for (int64_t l = 0; l < n; ++l)
     for (int a = 0; a < D; ++a) vectors_.at(l)[a] = float(double(components_[a][0][l]) + components_[a][1][l]);

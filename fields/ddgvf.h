@@ -70,8 +70,8 @@ class DdgvfField final : public ExternalField<D> {
   bool load_state(const Grid<D>& grid, const std::string& bytes) override;
 
  private:
-  // The 2 D directional solves from an edge map with the image gradient.
-  void solve(const EdgeMap<D>& edges);
+  // The 2 D directional solves from an edge map with the image gradient (its arrays are consumed).
+  void solve(EdgeMap<D>&& edges);
 
   DdgvfFieldOptions options_;
   std::array<std::array<Image<D>, 2>, D> components_;

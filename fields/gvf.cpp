@@ -10,9 +10,9 @@ template <int D>
 GvfField<D>::GvfField(const GvfFieldOptions& options) : options_(checked(options, kType)) {}
 
 // Memory (issue 21): the sources grad f are solved in place (they are the initial guess, and
-// the multigrid solver reads a source only before its field changes), f is released before the
-// solve, b is moved into the solver, and the stored vectors are allocated after it, so the peak
-// is the image, b, the three components and one component's solver arrays.
+// both solvers read a source only before its field changes), f is released before the solve, b
+// is moved into the solver, and the stored vectors are allocated after it, so the peak is b, the
+// three components and one component's solver arrays (and the image, unless compute_releasing).
 template <int D>
 void GvfField<D>::compute(const Image<D>& image) {
   solve(compute_edge_map(image, options_.edge, false, "gvf"));
@@ -42,12 +42,9 @@ void GvfField<D>::solve(EdgeMap<D>&& edges) {
     for (int a = 0; a < D; ++a) s += edges.grad_f[a][l] * edges.grad_f[a][l];
     b[l] = s;
   }
-  const bool in_place = options_.solve.solver == GvfSolver::kMultigrid;
-  std::array<std::vector<float>, D> copy;
-  if (!in_place) copy = edges.grad_f;  // the explicit solver reads c at every iteration
   std::vector<const std::vector<float>*> c;
   std::vector<std::vector<float>*> out;
-  for (int a = 0; a < D; ++a) c.push_back(&edges.grad_f[a]), out.push_back(in_place ? &edges.grad_f[a] : &copy[a]);
+  for (int a = 0; a < D; ++a) c.push_back(&edges.grad_f[a]), out.push_back(&edges.grad_f[a]);
   stats_ = solve_gvf(grid, std::move(b), c, out, options_.solve);
   vectors_ = VectorField<D>(grid);
   for (int a = 0; a < D; ++a) {

@@ -83,8 +83,9 @@ class GvfWorkspace {
 
 // Solves for v (in: initial guess; out: solution), given b and the sources c (same sizes as the
 // grid). b is taken by value: a caller that moves it in lets the solver keep it without a copy
-// (issue 21). The multigrid solver reads c[k] only before v[k] changes, so v[k] may be c[k]. Throws InputError naming "field.time_step" if an explicit step is unstable. The
-// multigrid solver reuses `workspace` if given.
+// (issue 21). Both solvers read c[k] only before v[k] changes (the explicit one copies b c into
+// its own arrays first), so v[k] may be c[k]. Throws InputError naming "field.time_step" if an
+// explicit step is unstable. The multigrid solver reuses `workspace` if given.
 template <int D>
 GvfSolveStats solve_gvf(const Grid<D>& grid, std::vector<float> b,
                         const std::vector<const std::vector<float>*>& c, const std::vector<std::vector<float>*>& v,
