@@ -16,6 +16,8 @@
 #                 of its 300-vertex template on the 25.5 M-voxel truth (needs data/real/liver,
 #                 from experiments/real/make_3d_inputs.py); result.json's metrics_s beside
 #   collapsed_metrics  the same template shrunk 100 times about its centroid
+#   field_types   dsnake field of every field type (gradient, distance, gvf, ddgvf, vfc) on the
+#                 same volume, 1 thread: peak bytes per voxel of each (not in the default list)
 #
 # Usage: experiments/bench/whole_process.sh [CASE ...]    (env: REPEATS, DSNAKE, WORK)
 set -euo pipefail
@@ -91,6 +93,11 @@ run_case() {
         --set template.transform.scale=$scale --set output.figures=false --set output.result_mask=false \
         --field-cache "$WORK/cache"
       echo "                   last run: metrics $(timing metrics_s) s in-process" ;;
+    field_types)
+      for t in gradient distance gvf ddgvf vfc; do
+        measure "field_$t" "" "$DSNAKE" field --image "$WORK/ellipsoid.mha" --type "$t" --out "$WORK/$t.mha" -j 1
+        echo "                   peak bytes per voxel: $(awk -v kb="$LAST_RSS_KB" 'BEGIN {printf "%.1f", kb * 1024 / (230 * 300 * 80)}')"
+      done ;;
     *) echo "whole_process: unknown case $1" >&2; exit 2 ;;
   esac
 }
