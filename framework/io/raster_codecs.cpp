@@ -16,8 +16,10 @@ namespace {
 
 using ReadFn = cv::Mat (*)(const cv::String&, int);
 using WriteFn = bool (*)(const cv::String&, cv::InputArray, const std::vector<int>&);
-static_assert(std::is_same_v<decltype(static_cast<ReadFn>(&cv::imread)), ReadFn>);
-static_assert(std::is_same_v<decltype(static_cast<WriteFn>(&cv::imwrite)), WriteFn>);
+// The pointer types are exactly OpenCV's declarations (a different signature fails to compile;
+// decltype does not odr-use the functions, so nothing is linked).
+static_assert(std::is_same_v<decltype(&cv::imread), ReadFn>);
+static_assert(std::is_same_v<decltype(&cv::imwrite), WriteFn>);
 
 // The library (its soname, from CMake) and the two functions, or why they could not be found.
 struct Codecs {
