@@ -106,9 +106,9 @@ std::string field_cache_key(const Image<D>& image, const std::string& type, cons
   Hash128 h;
   // The generation tag changes whenever a field's numerics change (2: the GVF solvers' padded
   // kernels and fused multigrid passes, last bits; 3: single-precision vectors, GVF's fields
-  // solved one after another), so that a cache never serves a field that
-  // this build would not compute bit for bit.
-  const std::string head = "dsnake-field-cache-3 D=" + std::to_string(D) + " type=" + type + " " + parameters;
+  // solved one after another; 4: W-cycles in the multigrid preconditioner), so that a cache
+  // never serves a field that this build would not compute bit for bit.
+  const std::string head = "dsnake-field-cache-4 D=" + std::to_string(D) + " type=" + type + " " + parameters;
   h.words(head.data(), head.size());
   const Grid<D>& g = image.grid();
   for (int a = 0; a < D; ++a) {

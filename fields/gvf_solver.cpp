@@ -271,7 +271,7 @@ namespace {
 // cells 2I, 2I + 1, at I - 1/4 and I + 1/4 in coarse units); an odd axis vertex-centred (coarse
 // node I = fine node 2I, the ends stay the ends). Either way the coarse grid is uniform with
 // twice the spacing and covers the same extent. Prolongation P is linear interpolation; the
-// residual is restricted with R = P^T / factor, so that the V-cycle is a symmetric operator
+// residual is restricted with R = P^T / factor, so that the cycle is a symmetric operator
 // (a valid preconditioner for conjugate gradients); b is restricted with R normalised to an
 // average. Factor 1: identity.
 AxisTransfer axis_transfer(int n_fine, int n_coarse, int factor) {
@@ -408,7 +408,7 @@ void restrict_residual(const Level& F, const Coupling& c, const Level& C, const 
   static const std::vector<std::pair<int, float>> kOne = {{0, 1.f}};
 #pragma omp parallel if(F.size() >= kParallelMin)
   {
-    thread_local std::vector<float> ring;  // kept across calls: no page faults per V-cycle
+    thread_local std::vector<float> ring;  // kept across calls: no page faults per cycle
     if (ring.size() < size_t(4 * slab)) ring.resize(4 * slab);
     int tag[4] = {-1, -1, -1, -1};
     std::vector<float> row(F.nx), ext(F.nx + 2);
@@ -503,7 +503,7 @@ void prolongate_add(const Level& F, const Level& C, const Transfer& t, const flo
 }
 
 constexpr int64_t kCoarsestVoxels = 400;  // dense direct solve below this size
-constexpr int kPreSmooth = 2, kPostSmooth = 2;  // red-black sweeps per V-cycle and level
+constexpr int kPreSmooth = 2, kPostSmooth = 2;  // red-black sweeps per cycle and level
 
 // The multigrid hierarchy for one solve: levels, and the coarsest grid's factorisation.
 class Multigrid {
@@ -559,19 +559,33 @@ class Multigrid {
 
   std::vector<Level>& levels() { return levels_; }
 
-  // One V(2,2) cycle from level l with initial guess 0: v is overwritten, not read (the
-  // first smoothing half-sweep starts from 0 without clearing v).
-  void cycle(size_t l) {
+  // One cycle from level l: pre-smoothing (colours 0, 1), the coarse-grid correction, post-
+  // smoothing (colours 1, 0, the adjoint order, so that the cycle is a symmetric operator). With
+  // zero_start the initial guess is 0: v is overwritten, not read (the first smoothing half-sweep
+  // starts from 0 without clearing v); otherwise the cycle improves v. The coarse grid is
+  // visited twice (a W-cycle) where it halves all three axes (about an eighth of this level's
+  // voxels) and is not the coarsest (whose exact solve a second visit
+  // would repeat). The rediscretised coarse grids see the image's sharp weights b (edges,
+  // DDGVF's masks) only in average; with V-cycles PCG removed what they missed at about 0.4
+  // per iteration (lung DDGVF: 7 iterations to 1e-4, 4 with W-cycles), and the extra visits
+  // cost 1/4 + 1/16 + ... of the finest level's pass (BM_DdgvfField3d 3.46 -> 2.89 s, 1
+  // thread). Where a level shrinks only 4 times (2D, semi-coarsening) they would cost as much
+  // as the finest level, on grids too small for two threads: 2D GVF went from 6 to 4 iterations
+  // but 36 -> 40 ms on 1 thread and 21 -> 31 ms on 2 (BM_GvfMultigridConverged2d), so those
+  // levels keep V-cycles.
+  void cycle(size_t l, bool zero_start = true) {
     Level& L = levels_[l];
     const Coupling c = coupling(L, mu_);
     if (l + 1 == levels_.size()) {
       solve_coarsest();
       return;
     }
-    smooth_sweeps(L, c, 0, kPreSmooth, true);  // v = 0 on entry
+    smooth_sweeps(L, c, 0, kPreSmooth, zero_start);
     Level& C = levels_[l + 1];
     for (size_t k = 0; k < L.v.size(); ++k) restrict_residual(L, c, C, transfers_[l], int(k), C.rhs[k].data());
-    cycle(l + 1);
+    const bool all_axes = L.nz > 1 && L.factor[0] == 2 && L.factor[1] == 2 && L.factor[2] == 2;
+    const int visits = (l + 2 < levels_.size() && all_axes) ? 2 : 1;
+    for (int visit = 0; visit < visits; ++visit) cycle(l + 1, visit == 0);
     for (size_t k = 0; k < L.v.size(); ++k) prolongate_add(L, C, transfers_[l], C.v[k].data(), L.v[k].data());
     smooth_sweeps(L, c, 1, kPostSmooth, false);
   }
@@ -668,13 +682,13 @@ double update_and_norm(float* __restrict x, float* __restrict r, const float* __
   return s;
 }
 
-// Conjugate gradients on A x = b c for one field, preconditioned by one multigrid V-cycle per
+// Conjugate gradients on A x = b c for one field, preconditioned by one multigrid W-cycle per
 // iteration (a symmetric positive definite preconditioner: symmetric smoothing, R = P^T / factor,
-// exact coarsest solve). The V-cycle alone stalls where the coarse grids see the image border
+// exact coarsest solve). Cycles alone stall where the coarse grids see the image border
 // differently from the fine one (odd sizes, masked DDGVF weights); CG removes those few slow
 // modes. c may be x itself (GVF's initial guess is its source): c is read only before x changes.
 // The finest level holds three arrays besides x, b and 1 / A_ii (issue 21): r (lent to the
-// V-cycle as its right-hand side), p, and the level's v, which holds z = M r and then A p (z is
+// cycle as its right-hand side), p, and the level's v, which holds z = M r and then A p (z is
 // spent once p = z + beta p). b c lives in p's storage until the first residual is known. The
 // workspace keeps r and p for the next field. Returns the iterations and |r|^2, |b c|^2.
 struct FieldSolve {
@@ -702,7 +716,7 @@ FieldSolve solve_one_field(Multigrid& mg, const std::vector<float>& c, std::vect
     const double relative = st.f2 > 0 ? std::sqrt(st.r2 / st.f2) : (st.r2 > 0 ? 1.0 : 0.0);
     return o.tolerance > 0 && relative <= o.tolerance;
   };
-  // z = M r: a V-cycle from zero with r as right-hand side; z is left in L.v.
+  // z = M r: a cycle from zero with r as right-hand side; z is left in L.v.
   auto precondition = [&] {
     L.rhs[0].swap(r);  // the cycle takes v as 0
     mg.cycle(0);
@@ -744,7 +758,7 @@ FieldSolve solve_one_field(Multigrid& mg, const std::vector<float>& c, std::vect
 
 // The K fields one after another on one hierarchy (built for a single field), each with its own
 // stopping test |r_k| <= tolerance |b c_k|, so that the memory is that of one field (issue 21:
-// K fields sharing the V-cycles' passes held 5 K full-grid arrays). Every field meeting the test
+// K fields sharing the cycles' passes held 5 K full-grid arrays). Every field meeting the test
 // implies the joint one, |r| <= tolerance |b c|; the stats give the most iterations any field
 // took and the joint relative residual.
 GvfSolveStats solve_multigrid_pcg(Level shape, std::vector<float>&& b,

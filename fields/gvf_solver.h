@@ -6,10 +6,11 @@
 // Written as A v = b c with A = diag(b) - mu Lap (symmetric, positive semi-definite).
 // Two solvers reach the same discrete fixed point:
 //  - "explicit": Xu & Prince's iteration v += dt (mu Lap v - b (v - c)), the reference;
-//  - "multigrid": V-cycles with red-black Gauss-Seidel, coarsening the axes whose spacing is
-//    finest (semi-coarsening for anisotropic voxels), exact dense solve on the coarsest grid.
+//  - "multigrid": conjugate gradients preconditioned by one multigrid W-cycle per iteration
+//    (red-black Gauss-Seidel, coarsening the axes whose spacing is finest: semi-coarsening for
+//    anisotropic voxels; exact dense solve on the coarsest grid).
 // Both stop at a relative residual |b c - A v|_2 / |b c|_2 <= tolerance or after a number of
-// iterations (V-cycles). The multigrid solver takes the K fields one after another, each to
+// iterations (explicit steps or PCG iterations). The multigrid solver takes the K fields one after another, each to
 // |b c_k - A v_k| <= tolerance |b c_k| (which implies the joint test), so that its memory is
 // that of one field (issue 21). Float arrays (x fastest); OpenMP over z-slabs (2D: rows), and the
 // explicit solver runs blocks of up to 10 iterations as a wavefront over tiles (each tile
@@ -39,17 +40,17 @@ struct GvfSolveOptions {
   double mu = 0.2;          // diffusion weight (physical units: mm^2 per unit b)
   GvfSolver solver = GvfSolver::kMultigrid;
   double tolerance = 1e-4;  // relative residual to stop at; 0: run all iterations
-  int iterations = 0;       // max iterations (explicit) or V-cycles (multigrid); 0: 100000 / 100
+  int iterations = 0;       // max iterations (explicit) or PCG iterations (multigrid); 0: 100000 / 100
   double time_step = 0.0;   // explicit only: 0 = 0.9 x the stability bound
 
   // JSON: "mu", "solver", "tolerance", "iterations", "time_step" (flattened into the field's object).
   template <class V>
   void visit(V& v) {
     v(mu, Key{"mu", "mm^2 per unit b", "diffusion weight of the GVF equation mu Lap v - b (v - c) = 0", Range::greater_than(0)});
-    v(solver, Key{"solver", "", "multigrid V-cycles (default) or Xu & Prince's explicit iteration (the reference)"});
+    v(solver, Key{"solver", "", "multigrid-preconditioned conjugate gradients (default) or Xu & Prince's explicit iteration (the reference)"});
     v(tolerance, Key{"tolerance", "1 (relative residual)", "stop at |b c - A v| / |b c| <= tolerance (0: run all iterations)",
                      Range::closed_open(0, 1)});
-    v(iterations, Key{"iterations", "iterations or V-cycles", "cap on explicit iterations or V-cycles (0: 100000 / 100)",
+    v(iterations, Key{"iterations", "iterations", "cap on explicit iterations or PCG iterations, one multigrid cycle each (0: 100000 / 100)",
                       Range::at_least(0)});
     v(time_step, Key{"time_step", "1 / unit of b", "explicit solver's step dt (0: 0.9 x the stability bound)",
                      Range::at_least(0)});
@@ -60,7 +61,7 @@ struct GvfSolveOptions {
 };
 
 struct GvfSolveStats {
-  int iterations = 0;              // iterations or V-cycles done
+  int iterations = 0;              // explicit or PCG iterations done
   double relative_residual = 0.0;  // at the end (explicit: of the last iterate's update)
   double time_step = 0.0;          // explicit: the step used
 };

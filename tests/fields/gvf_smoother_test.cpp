@@ -106,7 +106,7 @@ TEST(GvfSmoother, FusedSweepsEqualSweepsOneAtATimeOnAnyThreadCount) {
   }
 }
 
-// The V-cycle's pre-smoothing pass: starting from v = 0 without reading v (here full of NaN)
+// The cycle's pre-smoothing pass: starting from v = 0 without reading v (here full of NaN)
 // gives bit for bit the sweeps from a zeroed v, on 1 and 2 threads.
 TEST(GvfSmoother, ZeroStartEqualsSweepsFromAZeroedIterate) {
   for (const Shape& sh : {Shape{53, 41, 19}, Shape{211, 190, 1}, Shape{16, 5, 4}, Shape{9, 1, 1}}) {
@@ -127,7 +127,7 @@ TEST(GvfSmoother, ZeroStartEqualsSweepsFromAZeroedIterate) {
   }
 }
 
-// The V-cycle's restriction of the residual without a fine residual array (issue 21) gives bit
+// The cycle's restriction of the residual without a fine residual array (issue 21) gives bit
 // for bit the residual rows followed by the restriction, on 1 and 2 threads, for every kind of
 // axis: even (cell-centred), odd (vertex-centred) and not coarsened, in 3D, on one plane and on
 // one row. The restriction itself is checked against P^T / 2 in the x-row tests below.

@@ -80,8 +80,9 @@ TEST(GvfField, MultigridReachesTheExplicitFixedPoint) {
 }
 
 // The multigrid-preconditioned solver stays a fast solver on even (cell-centred coarsening)
-// and odd (vertex-centred) grids in 2D and 3D, with anisotropic spacing: 1e-6 in at most 10
-// iterations (7 measured on each). The transfers themselves are tested in gvf_smoother_test.
+// and odd (vertex-centred) grids in 2D and 3D, with anisotropic spacing: 1e-6 in at most 6
+// iterations in 3D (5 or 6 measured with W-cycles; V-cycles took 7) and 10 in 2D (V-cycles: 7
+// measured). The transfers themselves are tested in gvf_smoother_test.
 TEST(GvfField, MultigridConvergesInAFewCyclesOnEvenAndOddGrids) {
   GvfFieldOptions o;
   o.solve.mu = 0.2;
@@ -91,11 +92,53 @@ TEST(GvfField, MultigridConvergesInAFewCyclesOnEvenAndOddGrids) {
     GvfField<3> field3(o);
     field3.compute(ball(n == 48 ? 2.0 : 2.5, n, Point<3>(n / 2.0 + 0.3, n / 2.0 - 0.2, n / 2.0), n / 4.0));
     EXPECT_LE(field3.stats().relative_residual, 1e-6);
-    EXPECT_LE(field3.stats().iterations, 10) << "3D, " << n << " voxels a side";
+    EXPECT_LE(field3.stats().iterations, 6) << "3D, " << n << " voxels a side";
     GvfField<2> field2(o);
     field2.compute(disk(2 * n, Point<2>(n + 0.3, n - 0.4), n / 2.0));
     EXPECT_LE(field2.stats().relative_residual, 1e-6);
     EXPECT_LE(field2.stats().iterations, 10) << "2D, " << 2 * n << " pixels a side";
+  }
+}
+
+// A DDGVF-like component: the weights b = |grad f|^2 of a ball's edge and the source df/dx, both
+// masked to where the image grows along +x (half the shell, with sharp cuts). The coarse grids
+// see such weights only in average; the W-cycle (a second visit of each coarse grid) keeps PCG
+// at 1e-6 within 6 iterations on even and odd grids (5 and 6 measured; V-cycles took 8 and 7).
+TEST(GvfSolve, MultigridConvergesOnMaskedWeights) {
+  for (int n : {48, 49}) {
+    const Image<3> image = ball(1.0, n, Point<3>(n / 2.0 + 0.3, n / 2.0 - 0.2, n / 2.0), n / 4.0, 1.0);
+    const Grid<3>& grid = image.grid();
+    const GridIndex<3> size = grid.size;
+    // Central differences with clamped ends, per voxel.
+    auto gradient = [&](const std::vector<float>& a, int64_t l) {
+      const GridIndex<3> i = grid.index(l);
+      Point<3> g;
+      for (int k = 0; k < 3; ++k) {
+        GridIndex<3> lo = i, hi = i;
+        lo[k] = std::max(i[k] - 1, 0), hi[k] = std::min(i[k] + 1, size[k] - 1);
+        g[k] = (a[grid.linear(hi)] - a[grid.linear(lo)]) / 2.0;
+      }
+      return g;
+    };
+    const int64_t m = grid.num_voxels();
+    std::vector<float> f(m), b(m), c(m);
+    for (int64_t l = 0; l < m; ++l) f[l] = float(gradient(image.data(), l).squaredNorm());
+    for (int64_t l = 0; l < m; ++l) {
+      const bool on = gradient(image.data(), l).x() > 0;
+      const Point<3> gf = gradient(f, l);
+      b[l] = on ? float(100 * gf.squaredNorm()) : 0.f;
+      c[l] = on ? float(10 * gf.x()) : 0.f;
+    }
+    ASSERT_GT(*std::max_element(b.begin(), b.end()), 0.f);
+    GvfSolveOptions o;
+    o.tolerance = 1e-6;
+    std::vector<float> v = c;
+    const GvfSolveStats st = solve_gvf(grid, b, {&c}, {&v}, o);
+    EXPECT_LE(st.relative_residual, 1e-6) << n;
+    EXPECT_LE(st.iterations, 6) << n;
+    // The true residual, recomputed: PCG's recurred residual drifts from it in float arrays
+    // (3.4e-6 and 3.5e-6 measured).
+    EXPECT_LE(gvf_relative_residual(grid, b, {&c}, {&v}, o.mu), 1e-5) << n;
   }
 }
 
@@ -293,3 +336,4 @@ TEST(GvfField, UnstableExplicitStepNamesTheKey) {
 
 }  // namespace
 }  // namespace dsnake
+
