@@ -40,9 +40,10 @@ void DdgvfField<D>::compute_releasing(Image<D>&& image) {
   solve(compute_edge_map(std::move(image), options_.edge, true, "ddgvf"));
 }
 
-// Memory (issue 21): f is released at once (DDGVF does not use it); each multigrid solve starts
+// Memory (issue 21): b is written over f (DDGVF does not use f); each multigrid solve starts
 // from its masked source written straight into its component (the solver reads a source only
-// before its field changes) and takes its masked weights by move; the summed vectors are
+// before its field changes) and takes its masked weights by move, written into the previous
+// solve's weights (GvfWorkspace::take_weights: no fresh pages per solve); the summed vectors are
 // allocated once the edge map is gone.
 template <int D>
 void DdgvfField<D>::solve(EdgeMap<D>&& edges) {
@@ -55,9 +56,9 @@ void DdgvfField<D>::solve(EdgeMap<D>&& edges) {
     vectors_ = VectorField<D>(grid);
     return;
   }
-  std::vector<float>().swap(edges.f);
+  std::vector<float> b = std::move(edges.f);  // f's pages hold b (no fresh buffer to page in)
+  b.resize(n);
   const float p = options_.polarity == DdgvfPolarity::kDarkInside ? 1.f : -1.f;
-  std::vector<float> b(n);
 #pragma omp parallel for schedule(static)
   for (int64_t l = 0; l < n; ++l) {
     float s = 0;
@@ -78,7 +79,8 @@ void DdgvfField<D>::solve(EdgeMap<D>&& edges) {
       const int a = job / 2, sign = job % 2;
       const float s = sign == 0 ? p : -p;
       std::vector<float>& u = components_[a][sign].data();  // the initial guess is the source, as for GVF
-      std::vector<float> b_masked(n);
+      std::vector<float> b_masked = workspace.take_weights();  // the last solve's pages, if any
+      b_masked.resize(n);
       for (int64_t l = 0; l < n; ++l) {
         const bool on = s * edges.grad_image[a][l] > 0.f;
         b_masked[l] = on ? b[l] : 0.f;

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <map>
 #include <tuple>
+#include <utility>
 
 namespace dsnake {
 
@@ -649,6 +650,10 @@ struct GvfWorkspace::Impl {
 };
 GvfWorkspace::GvfWorkspace() : impl_(std::make_unique<Impl>()) {}
 GvfWorkspace::~GvfWorkspace() = default;
+std::vector<float> GvfWorkspace::take_weights() {
+  if (!impl_->multigrid) return {};
+  return std::exchange(impl_->multigrid->levels()[0].b, {});
+}
 
 namespace {
 

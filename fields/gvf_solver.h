@@ -75,6 +75,11 @@ class GvfWorkspace {
   ~GvfWorkspace();
   GvfWorkspace(const GvfWorkspace&) = delete;
   GvfWorkspace& operator=(const GvfWorkspace&) = delete;
+  // The finest weights b of the last multigrid solve, handed back to the caller (empty if there
+  // are none): DDGVF writes its next component's masked weights into them, so that each solve
+  // does not page in a fresh volume-sized buffer (issue 21). The hierarchy then needs new
+  // weights, which the next solve gives it.
+  std::vector<float> take_weights();
   struct Impl;
   Impl& impl() { return *impl_; }
 

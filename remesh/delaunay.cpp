@@ -95,11 +95,12 @@ int best_second_flip(const EditMesh& m, const Quad& q, int& x, int& w) {
       const int g = m.face_with_edge(v, u);
       if (g < 0) continue;
       const int p = opp(corner.f, u, v), r = opp(g, v, u);
-      if (p == r || val(u) <= 3 || val(v) <= 3 || m.has_edge(p, r) || (p == q.c && r == q.d) || (p == q.d && r == q.c))
-        continue;
+      if (p == r || val(u) <= 3 || val(v) <= 3) continue;
       const int before = valence_dev(val(u)) + valence_dev(val(v)) + valence_dev(val(p)) + valence_dev(val(r));
       const int after = valence_dev(val(u) - 1) + valence_dev(val(v) - 1) + valence_dev(val(p) + 1) + valence_dev(val(r) + 1);
-      if (before - after > best) best = before - after, x = u, w = v;
+      // The edge searches last, for the flips that would beat the best so far (most do not).
+      if (before - after <= best || m.has_edge(p, r) || (p == q.c && r == q.d) || (p == q.d && r == q.c)) continue;
+      best = before - after, x = u, w = v;
     }
   return best;
 }

@@ -143,7 +143,8 @@ TEST(GvfSolve, MultigridConvergesOnMaskedWeights) {
 }
 
 // A workspace kept across solves (DDGVF's components) gives the same bits as fresh solves, for
-// different weights on one grid and after a solve on a grid of another size.
+// different weights on one grid and after a solve on a grid of another size, also after its
+// weights were taken back (GvfWorkspace::take_weights).
 TEST(GvfSolve, WorkspaceGivesTheSameBitsAsFreshSolves) {
   auto system = [](int n, unsigned seed, Grid<3>& grid, std::vector<float>& b, std::vector<float>& c) {
     grid.size = GridIndex<3>(n, n + 3, n / 2);
@@ -168,6 +169,10 @@ TEST(GvfSolve, WorkspaceGivesTheSameBitsAsFreshSolves) {
     EXPECT_EQ(a.relative_residual, w.relative_residual) << n << " " << seed;
     EXPECT_EQ(std::memcmp(fresh.data(), reused.data(), fresh.size() * sizeof(float)), 0) << n << " " << seed;
     EXPECT_LE(w.relative_residual, 1e-6);
+    // The weights come back unchanged (DDGVF reuses their pages); the next solve on this
+    // workspace, without them, still gives the fresh solve's bits.
+    EXPECT_EQ(workspace.take_weights(), b) << n << " " << seed;
+    EXPECT_TRUE(workspace.take_weights().empty());
   }
 }
 
