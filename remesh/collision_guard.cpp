@@ -193,6 +193,50 @@ void SweptGrid<D>::pairs(const std::vector<uint8_t>& moved, std::vector<std::arr
   for (const auto& f : found) out.insert(out.end(), f.begin(), f.end());
 }
 
+// Whether the kept pairs cover this iteration: the same facets, and every vertex at q(t) and at
+// the proposed q(t+1) within its allowed box (the later rounds' positions lie between the two,
+// so within it too).
+template <int D, class Cache>
+bool covers(const Cache& cache, const std::vector<Facet<D>>& facets, const PointList<D>& q, const PointList<D>& p) {
+  if (facets != cache.facets || cache.allowed_lo.size() != p.size()) return false;
+  for (size_t v = 0; v < p.size(); ++v) {
+    const Point<D> lo = q[v].cwiseMin(p[v]), hi = q[v].cwiseMax(p[v]);
+    if ((lo.array() < cache.allowed_lo[v].array()).any() || (hi.array() > cache.allowed_hi[v].array()).any())
+      return false;
+  }
+  return true;
+}
+
+// A broad phase over this iteration's swept boxes widened by a margin, a quarter of their mean
+// extent (the pairs then grow by about half, and the list lasts while the vertices move less
+// than that), keeping every pair whose widened boxes overlap. Each vertex may then range over
+// the box of its positions at q(t) and q(t+1) widened by the margin: a facet's later swept box
+// lies in its widened box.
+template <int D, class Cache>
+void rebuild(Cache& cache, const std::vector<Facet<D>>& facets, const PointList<D>& q, const PointList<D>& p,
+             std::vector<Box<D>> boxes) {
+  ++cache.builds;
+  cache.facets = facets;
+  const int nf = static_cast<int>(facets.size());
+  double extent = 0;
+  for (const Box<D>& b : boxes) extent += (b.hi - b.lo).maxCoeff();
+  const double margin = nf > 0 ? 0.25 * extent / nf : 0.0;
+  cache.allowed_lo.resize(q.size());
+  cache.allowed_hi.resize(q.size());
+  for (size_t v = 0; v < q.size(); ++v) {
+    cache.allowed_lo[v] = q[v].cwiseMin(p[v]).array() - margin;
+    cache.allowed_hi[v] = q[v].cwiseMax(p[v]).array() + margin;
+  }
+  for (Box<D>& b : boxes) {
+    // swept_box grows a box by a relative 1e-9 of its extent and magnitude: a box of positions
+    // within the margin grows by at most this much more.
+    const double slack = 1e-8 * (1 + (b.hi - b.lo).maxCoeff() + b.hi.cwiseAbs().maxCoeff() + 3 * margin);
+    b.lo.array() -= margin + slack;
+    b.hi.array() += margin + slack;
+  }
+  SweptGrid<D>(boxes).pairs(std::vector<uint8_t>(nf, 1), cache.pairs);
+}
+
 }  // namespace
 
 template <int D>
@@ -220,7 +264,12 @@ MoveGuardReport CollisionGuard<D>::guard(const Snake<D>& snake, PointList<D>& p)
     boxes[f] = swept_box<D>(q, p, facets_[f]);
     for (int v : facets_[f]) changed_[f] |= moved_[v];
   }
-  SweptGrid<D>(boxes).pairs(changed_, pairs_);
+  // The pairs whose swept boxes overlap, out of the kept list (rebuilt if it no longer covers
+  // them): the same set as a broad phase over the swept boxes themselves.
+  if (!covers<D>(cache_, facets_, q, p)) rebuild<D>(cache_, facets_, q, p, boxes);
+  pairs_.clear();
+  for (const auto& pair : cache_.pairs)
+    if ((changed_[pair[0]] | changed_[pair[1]]) && overlap(boxes[pair[0]], boxes[pair[1]])) pairs_.push_back(pair);
   const PointList<D> wanted = p;  // the proposed positions before any step back
   level_.assign(n, 0);
   std::vector<uint8_t> hit(pairs_.size());

@@ -10,8 +10,9 @@
 // (half its move, then a quarter, ...; refused after `halvings`), and the pairs around the
 // vertices that stepped back are tested again, until no new conflict is left. Since a vertex
 // only steps back along its own move and q(t) itself has no new conflict, this ends without one.
-// Cost: one broad phase per iteration over the facets' swept boxes (the box of each facet at
-// q(t) and at q(t+1)), then one exact test per close pair; the later rounds test only the
+// Cost: a broad phase over the facets' boxes widened by a margin, kept while no vertex leaves
+// its margin (a Verlet list), the swept boxes (the box of each facet at q(t) and at q(t+1))
+// of its pairs, then one exact test per close pair; the later rounds test only the
 // pairs around the vertices that stepped back. Deterministic, the same bits with any thread
 // count.
 #pragma once
@@ -52,6 +53,24 @@ class CollisionGuard final : public MoveGuard<D> {
   std::vector<std::array<int, 2>> pairs_;
   std::vector<uint8_t> moved_, changed_;
   std::vector<int> level_;
+  // The broad phase's pairs, kept across iterations (a Verlet list, issue 21): every pair of
+  // facets whose swept boxes, widened by a margin on every side, overlapped when the list was
+  // built. While every vertex of the same facets stays in its allowed box (its positions then,
+  // widened by the margin), at q(t) and at q(t+1), each swept box lies in its widened box, so
+  // the pairs whose swept boxes overlap are among these: they are picked out by the same box
+  // test, and the result is the same as with a broad phase per iteration. Rebuilt when a
+  // vertex leaves its box or the facets change.
+  struct PairCache {
+    std::vector<std::array<int, D>> facets;
+    std::vector<std::array<int, 2>> pairs;
+    PointList<D> allowed_lo, allowed_hi;
+    int64_t builds = 0;
+  };
+  PairCache cache_;
+
+ public:
+  // Broad phases run so far (a diagnostic for tests: not every iteration needs one).
+  int64_t broad_phases() const { return cache_.builds; }
 };
 
 }  // namespace dsnake

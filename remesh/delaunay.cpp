@@ -176,6 +176,9 @@ bool is_neutral_move(const EditMesh& m, const Quad& q) {
 // best_second_flip), or if that fails, a second neutral flip at the first's four vertices and
 // then such a third. All kept, or all undone. Returns true if kept.
 bool move_defect(EditMesh& m, const Quad& q, double cos_max_dihedral, double floor_key, int& rejected) {
+  // The first flip's angle test (checked_flip's first) before the search for a second flip:
+  // about half the candidates fail it (lung phantom, issue 21).
+  if (!flip_keeps_angles(m, q.a, q.b, q.c, q.d, floor_key)) return false;
   int x = -1, w = -1;
   const bool second = best_second_flip(m, q, x, w) > 0;
   Triangle t1, t2, u1, u2, v1, v2;
