@@ -76,7 +76,8 @@ void ExternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   const PolarityProbe& probe = probe_;
 #pragma omp parallel for schedule(static) if (n >= 256)
   for (int v = 0; v < n; ++v) {
-    if (prefetch && v + kPrefetchAhead < n) field.prefetch(q[v + kPrefetchAhead]);
+    if (prefetch && v + kPrefetchAhead < n)
+      field.prefetch(q[v + kPrefetchAhead], with_normals ? normals[v + kPrefetchAhead] : Point<D>::Zero());
     const Point<D> normal = with_normals ? normals[v] : Point<D>::Zero();
     Point<D> f = field.force(q[v], normal);
     if (polarised) f *= polarity_factor(smoothed, probe, q[v], normals[v], f);

@@ -118,6 +118,20 @@ Point<D> DdgvfField<D>::force(const Point<D>& x, const Point<D>& normal) const {
 }
 
 template <int D>
+void DdgvfField<D>::prefetch(const Point<D>& x, const Point<D>& normal) const {
+  if (vectors_.empty()) return;
+  const auto stencil = vectors_.grid().stencil(x);
+  for (int a = 0; a < D; ++a) {
+    const float* u = components_[a][normal[a] >= 0 ? 0 : 1].data().data();
+    // The stencil's voxels come in pairs along x (one line, or two when the pair straddles one).
+    for (size_t k = 0; k < stencil.voxel.size(); k += 2) {
+      __builtin_prefetch(u + stencil.voxel[k]);
+      __builtin_prefetch(u + stencil.voxel[k + 1]);
+    }
+  }
+}
+
+template <int D>
 std::string DdgvfField<D>::save_state() const {
   StateWriter w("dsnake-ddgvf-2");
   w.grid(vectors_.grid());

@@ -59,8 +59,8 @@ class DdgvfField final : public ExternalField<D> {
   // Per axis a, the component of sign(normal_a) (n_a = 0 counts as +), linearly interpolated.
   Point<D> force(const Point<D>& x, const Point<D>& normal) const override;
   bool uses_normal() const override { return true; }
-  // force() reads the signed components chosen by the normal, not vectors(): no prefetch hint.
-  void prefetch(const Point<D>&) const override {}
+  // The voxels force(x, normal) reads: per axis, those of the component chosen by the normal.
+  void prefetch(const Point<D>& x, const Point<D>& normal) const override;
   // The polarity-blind field, sum of both signs per axis (for figures).
   const VectorField<D>& vectors() const override { return vectors_; }
   // Component of axis a and sign s (0: +, 1: -) on the grid.

@@ -31,6 +31,7 @@ class CachedField final : public ExternalField<D> {
   void compute(const Image<D>& image) override;
   void check_grid(const Grid<D>& grid) const override { field_->check_grid(grid); }
   Point<D> force(const Point<D>& x, const Point<D>& normal) const override { return field_->force(x, normal); }
+  void prefetch(const Point<D>& x, const Point<D>& normal) const override { field_->prefetch(x, normal); }
   bool uses_normal() const override { return field_->uses_normal(); }
   bool has_potential() const override { return field_->has_potential(); }
   double potential(const Point<D>& x) const override { return field_->potential(x); }

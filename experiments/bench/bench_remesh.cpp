@@ -6,6 +6,7 @@
 // (seeded), with every 4th vertex a deformation vertex: the state of a snake mid-evolution.
 // Run: build/release/experiments/bench/bench_remesh --benchmark_repetitions=5
 //        --benchmark_report_aggregates_only=true
+#include "remesh/collision_guard.h"
 #include "remesh/delaunay.h"
 #include "remesh/pass.h"
 #include "remesh/quality.h"
@@ -128,6 +129,41 @@ const Snake<3>& cached_settled_torus(int vertices) {
   }
   return it->second;
 }
+
+// The collision guard (remesh/collision_guard.h) on one snake step of the 7000-vertex torus:
+// every vertex moves across the surface (away from the tube's core circle) by 0.02 mean edges,
+// outward for 10 steps, then inward for 10 (a snake near convergence). kept:1 keeps one guard
+// across the steps, whose broad phase's pairs last while no vertex leaves its margin (issue 21);
+// kept:0 takes a new guard per step (a broad phase each time, as before). broad_phases counts
+// the broad phases run.
+void BM_CollisionGuard(benchmark::State& state) {
+  omp_set_num_threads(static_cast<int>(state.range(1)));
+  const bool kept = state.range(0) != 0;
+  Snake<3> s = cached_torus(7000);
+  const double step = 0.02 * mean_edge(s);
+  CollisionGuard<3> guard;
+  PointList<3> p(s.num_vertices());
+  int64_t t = 0, fresh_broad_phases = 0;
+  for (auto _ : state) {
+    const double sign = (t++ / 10) % 2 == 0 ? 1.0 : -1.0;
+    for (int v = 0; v < s.num_vertices(); ++v) {
+      const Point<3>& x = s.positions()[v];
+      const Point<3> core = 30 * Point<3>(x.x(), x.y(), 0).normalized();
+      p[v] = x + sign * step * (x - core).normalized();
+    }
+    if (kept) {
+      guard.guard(s, p);
+    } else {
+      CollisionGuard<3> fresh;
+      fresh.guard(s, p);
+      fresh_broad_phases += fresh.broad_phases();
+    }
+    s.positions().swap(p);
+  }
+  state.counters["broad_phases"] = static_cast<double>(kept ? guard.broad_phases() : fresh_broad_phases);
+}
+BENCHMARK(BM_CollisionGuard)->ArgsProduct({{0, 1}, {1, 2}})->ArgNames({"kept", "threads"})
+    ->Unit(benchmark::kMillisecond)->UseRealTime();
 
 #define DSNAKE_REMESH_BENCH(name, which)                                                     \
   void name(benchmark::State& state) { run(state, which); }                                 \

@@ -30,9 +30,12 @@ class ExternalField {
   // with uses_normal(), such as DDGVF, look at it). Physical units per unit step.
   virtual Point<D> force(const Point<D>& x, const Point<D>& normal) const = 0;
   virtual bool uses_normal() const { return false; }
-  // A hint that force(x, .) follows soon: prefetches what it will read (by default the voxels
-  // of vectors() around x). Never changes a result.
-  virtual void prefetch(const Point<D>& x) const { vectors().prefetch(x); }
+  // A hint that force(x, normal) follows soon: prefetches what it will read (by default the
+  // voxels of vectors() around x). Never changes a result.
+  virtual void prefetch(const Point<D>& x, const Point<D>& normal) const {
+    (void)normal;
+    vectors().prefetch(x);
+  }
 
   // A potential P with force = -grad P, P >= 0, when the field has one; NaN otherwise.
   virtual bool has_potential() const { return false; }

@@ -7,6 +7,7 @@
 #include "framework/core/errors.h"
 
 #include <cmath>
+#include <limits>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <omp.h>
@@ -148,6 +149,21 @@ TEST(DdgvfField, IndependentOfThreadCount) {
   omp_set_num_threads(threads);
   for (int a = 0; a < 3; ++a)
     for (int s = 0; s < 2; ++s) ASSERT_EQ(one.component(a, s).data(), two.component(a, s).data());
+}
+
+// The prefetch hint (the voxels force() will read, chosen by the normal) is safe anywhere: before
+// compute(), outside the grid, at a non-finite point; and changes no force.
+TEST(DdgvfField, PrefetchIsSafeAnywhereAndChangesNothing) {
+  DdgvfField<3> field;
+  const Point<3> n(0.6, -0.8, 0.0);
+  field.prefetch(Point<3>(1, 2, 3), n);  // before compute(): nothing to fetch
+  field.compute(ball());
+  const Point<3> x(10.3, 12.7, 15.2);
+  const Point<3> before = field.force(x, n);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (const Point<3>& p : {x, Point<3>(-50, 1e6, 3), Point<3>(nan, 0, nan), Point<3>(0, 0, 0)})
+    for (const Point<3>& normal : {n, Point<3>(-1, 1, -1), Point<3>(nan, nan, nan)}) field.prefetch(p, normal);
+  EXPECT_EQ(field.force(x, n), before);
 }
 
 TEST(DdgvfField, RegistryReadsPolarity) {
