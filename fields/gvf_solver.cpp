@@ -565,8 +565,8 @@ class Multigrid {
   // zero_start the initial guess is 0: v is overwritten, not read (the first smoothing half-sweep
   // starts from 0 without clearing v); otherwise the cycle improves v. The coarse grid is
   // visited twice (a W-cycle) where it halves all three axes (about an eighth of this level's
-  // voxels) and is not the coarsest (whose exact solve a second visit
-  // would repeat). The rediscretised coarse grids see the image's sharp weights b (edges,
+  // voxels) and is not the coarsest (whose exact solve a second visit would repeat). The
+  // rediscretised coarse grids see the image's sharp weights b (edges,
   // DDGVF's masks) only in average; with V-cycles PCG removed what they missed at about 0.4
   // per iteration (lung DDGVF: 7 iterations to 1e-4, 4 with W-cycles), and the extra visits
   // cost 1/4 + 1/16 + ... of the finest level's pass (BM_DdgvfField3d 3.46 -> 2.89 s, 1
