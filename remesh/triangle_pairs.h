@@ -117,6 +117,9 @@ inline bool pair_conflicts(const Triangle& ta, const std::array<Point<3>, 3>& pa
   Point<3> xa = pa[oa] - u, xb = pb[ob] - u;
   xa -= xa.dot(e) * e;
   xb -= xb.dot(e) * e;
+  // Most pairs open wide (a cosine <= 0, far from the fold): decided without the norms, as the
+  // division below would decide them (norm() is the root of squaredNorm(), 0 only where it is 0).
+  if (xa.dot(xb) <= 0 && xa.squaredNorm() != 0 && xb.squaredNorm() != 0) return false;
   const double na = xa.norm(), nb = xb.norm();
   if (na == 0 || nb == 0) return true;
   return xa.dot(xb) / (na * nb) > kFoldCos;

@@ -91,11 +91,21 @@ void sample_triangle(const Point<3>& a, const Point<3>& b, const Point<3>& c, do
     }
 }
 
+template <int D>
+std::vector<double> longest_edges(const FacetSurface<D>& s);
+inline int64_t pieces(double longest, double h);
+
 // Vertices (weight 0: they count for the Hausdorff distance only) and facet samples, batched
 // in blocks about `block` wide.
 template <int D>
 Samples<D> sample_surface(const FacetSurface<D>& s, double h, double block) {
   Samples<D> out;
+  // The count is known (as surface_spacing counts it): sized once, not regrown (up to a million
+  // samples, 32 bytes each, whose regrowth copies and pages in several times as much).
+  int64_t count = int64_t(s.vertices.size());
+  for (double l : longest_edges(s)) count += D == 2 ? pieces(l, h) : pieces(l, h) * pieces(l, h);
+  out.points.reserve(count);
+  out.weights.reserve(count);
   for (const auto& v : s.vertices) {
     out.begin_batch();
     out.add(v, 0.0);
