@@ -236,8 +236,6 @@ void write_figures(const Experiment<D>& ex, const Snake<D>& snake, const fs::pat
 
 }  // namespace
 
-std::string dsnake_version() { return DSNAKE_VERSION; }
-
 namespace {
 
 // What a run produced, for the output files and result.json.

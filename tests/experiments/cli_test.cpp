@@ -94,6 +94,37 @@ TEST_F(CliTest, TheImageCodecsAreNotLinked) {
   EXPECT_EQ(r.out.find("libopencv_imgcodecs"), std::string::npos) << r.out;
 }
 
+// The version names the commit the binary was built from (written at build time, not when
+// CMake configured): "<project version>+<git describe --always --dirty>" in a git checkout,
+// with "-dirty" exactly when tracked files differ from that commit.
+TEST_F(CliTest, TheVersionNamesTheCommitItWasBuiltFrom) {
+  const CommandResult v = dsnake("--version");
+  ASSERT_EQ(v.exit_code, 0);
+  const std::string version = v.out.substr(0, v.out.find('\n'));
+  const std::string git = "git -C " + std::string(DSNAKE_SOURCE_DIR);
+  const std::string head_file = (dir_ / "head.txt").string(), status_file = (dir_ / "status.txt").string();
+  const bool checkout = std::system((git + " rev-parse HEAD >" + head_file + " 2>/dev/null").c_str()) == 0;
+  if (!checkout) {  // sources without git: the project version alone
+    EXPECT_EQ(version.find('+'), std::string::npos) << version;
+    return;
+  }
+  ASSERT_EQ(std::system((git + " status --porcelain --untracked-files=no >" + status_file).c_str()), 0);
+  const std::string head = slurp(head_file).substr(0, 40);
+  const bool dirty = !slurp(status_file).empty();
+  const size_t plus = version.find('+');
+  ASSERT_NE(plus, std::string::npos) << version;
+  std::string described = version.substr(plus + 1);
+  const std::string suffix = "-dirty";
+  const bool says_dirty = described.size() > suffix.size() && described.ends_with(suffix);
+  EXPECT_EQ(says_dirty, dirty) << version;
+  if (says_dirty) described.resize(described.size() - suffix.size());
+  // "<hash>", or "<tag>-<n>-g<hash>" after a tag.
+  const size_t g = described.rfind("-g");
+  const std::string hash = g == std::string::npos ? described : described.substr(g + 2);
+  ASSERT_GE(hash.size(), 7u) << version;
+  EXPECT_EQ(head.substr(0, hash.size()), hash) << version << " built from another commit than HEAD " << head;
+}
+
 TEST_F(CliTest, HelpOnEveryCommand) {
   for (const std::string args : {"--help", "run --help", "validate --help"}) {
     const CommandResult r = dsnake(args);
