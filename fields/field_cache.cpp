@@ -124,35 +124,52 @@ CachedField<D>::CachedField(std::unique_ptr<ExternalField<D>> field, std::string
                             bool compressed)
     : field_(std::move(field)), dir_(std::move(dir)), parameters_(std::move(parameters)), compressed_(compressed) {}
 
+// The entry for this image and these parameters (path_), loaded into the field if it is there
+// and fits.
 template <int D>
-void CachedField<D>::compute(const Image<D>& image) {
+bool CachedField<D>::load_entry(const Image<D>& image) {
   loaded_ = false;
   path_ = (std::filesystem::path(dir_) / (field_->type() + "-" + field_cache_key(image, field_->type(), parameters_) +
                                           ".field"))
               .string();
-  {
-    std::ifstream in(path_, std::ios::binary);
-    if (in) {
-      std::ostringstream bytes;
-      bytes << in.rdbuf();
-      // No field stores more than 64 bytes a voxel (DDGVF: 2 D floats and D vector floats).
-      const uint64_t max_bytes = uint64_t(image.num_voxels()) * 64 + (uint64_t(1) << 20);
-      if (field_->load_state(image.grid(), inflated(std::move(bytes).str(), max_bytes))) {
-        loaded_ = true;
-        return;
-      }
-      std::fprintf(stderr, "warning: field cache entry %s does not fit; recomputing\n", path_.c_str());
-    }
-  }
-  field_->compute(image);
+  std::ifstream in(path_, std::ios::binary);
+  if (!in) return false;
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  // No field stores more than 64 bytes a voxel (DDGVF: 2 D floats and D vector floats).
+  const uint64_t max_bytes = uint64_t(image.num_voxels()) * 64 + (uint64_t(1) << 20);
+  if (field_->load_state(image.grid(), inflated(std::move(bytes).str(), max_bytes))) return loaded_ = true;
+  std::fprintf(stderr, "warning: field cache entry %s does not fit; recomputing\n", path_.c_str());
+  return false;
+}
+
+// The computed field into the entry at path_ (a field that cannot be cached stores nothing).
+template <int D>
+void CachedField<D>::store_entry() const {
   const std::string state = field_->save_state();
-  if (state.empty()) return;  // this field cannot be cached
+  if (state.empty()) return;
   try {
     std::filesystem::create_directories(dir_);
     write_file_atomically(path_, compressed_ ? deflated(state) : state);
   } catch (const std::exception& e) {  // a cache that cannot be written only costs time
     std::fprintf(stderr, "warning: cannot store the field in the cache: %s\n", e.what());
   }
+}
+
+template <int D>
+void CachedField<D>::compute(const Image<D>& image) {
+  if (load_entry(image)) return;
+  field_->compute(image);
+  store_entry();
+}
+
+// The key is read from the image first; on a miss the wrapped field may release the image as it
+// computes (as without a cache).
+template <int D>
+void CachedField<D>::compute_releasing(Image<D>&& image) {
+  if (load_entry(image)) return;
+  field_->compute_releasing(std::move(image));
+  store_entry();
 }
 
 template class CachedField<2>;

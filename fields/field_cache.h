@@ -29,6 +29,7 @@ class CachedField final : public ExternalField<D> {
 
   std::string type() const override { return field_->type(); }
   void compute(const Image<D>& image) override;
+  void compute_releasing(Image<D>&& image) override;
   void check_grid(const Grid<D>& grid) const override { field_->check_grid(grid); }
   Point<D> force(const Point<D>& x, const Point<D>& normal) const override { return field_->force(x, normal); }
   void prefetch(const Point<D>& x, const Point<D>& normal) const override { field_->prefetch(x, normal); }
@@ -45,6 +46,9 @@ class CachedField final : public ExternalField<D> {
   const ExternalField<D>& field() const { return *field_; }
 
  private:
+  bool load_entry(const Image<D>& image);
+  void store_entry() const;
+
   std::unique_ptr<ExternalField<D>> field_;
   std::string dir_, parameters_, path_;
   bool loaded_ = false;

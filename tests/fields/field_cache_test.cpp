@@ -76,6 +76,31 @@ TEST(FieldCache, SecondComputeLoadsIdenticalField) {
   std::filesystem::remove_all(dir);
 }
 
+// compute_releasing through the cache: on a miss the wrapped field releases the image as it
+// would without a cache (GVF drops its voxels) and the entry is stored; on a hit the entry
+// loads; both give the bits of a plain compute.
+TEST(FieldCache, ComputeReleasingReleasesTheImageOnAMissAndLoadsOnAHit) {
+  const std::string dir = fresh_dir("releasing");
+  const std::string json = R"({"type": "gvf", "mu": 0.2, "cache": ")" + dir + R"("})";
+  auto plain = make<2>(R"({"type": "gvf", "mu": 0.2})");
+  plain->compute(disk(1.0f));
+  for (int pass = 0; pass < 2; ++pass) {
+    auto field = make<2>(json);
+    auto* cached = dynamic_cast<CachedField<2>*>(field.get());
+    ASSERT_NE(cached, nullptr);
+    Image<2> image = disk(1.0f);
+    field->compute_releasing(std::move(image));
+    EXPECT_EQ(cached->loaded_from_cache(), pass == 1);
+    if (pass == 0) EXPECT_TRUE(image.data().empty()) << "the image is released on a miss";
+    EXPECT_TRUE(std::filesystem::exists(cached->entry_path()));
+    ASSERT_EQ(field->vectors().num_voxels(), plain->vectors().num_voxels());
+    for (int64_t l = 0; l < plain->vectors().num_voxels(); ++l)
+      for (int a = 0; a < 2; ++a)
+        ASSERT_EQ(field->vectors().at(l)[a], plain->vectors().at(l)[a]) << "voxel " << l << ", pass " << pass;
+  }
+  std::filesystem::remove_all(dir);
+}
+
 TEST(FieldCache, CorruptEntryIsRecomputed) {
   const std::string dir = fresh_dir("corrupt");
   const std::string json = R"({"type": "gvf", "cache": ")" + dir + R"("})";
