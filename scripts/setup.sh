@@ -27,4 +27,14 @@ scripts/fetch_bunny.sh || echo "setup: warning: the bunny was not fetched; only 
 # committed; sources and licences in the script). The tests need them, so a failure stops here.
 scripts/fetch_scans.sh
 cmake --preset "$PRESET" >/dev/null
+# CMake starts a build folder's cache afresh when its compiler changes (a build/sanitize first
+# configured with g++, then with the preset's clang) and then drops the preset's other variables:
+# that build would have no sanitizers, silently. A second configure applies them.
+want_type=Release
+[ "$PRESET" = sanitize ] && want_type=Debug
+if ! grep -qx "CMAKE_BUILD_TYPE:STRING=$want_type" "build/$PRESET/CMakeCache.txt"; then
+  cmake --preset "$PRESET" >/dev/null
+  grep -qx "CMAKE_BUILD_TYPE:STRING=$want_type" "build/$PRESET/CMakeCache.txt" ||
+    { echo "setup: build/$PRESET is not configured as the $PRESET preset says; remove that folder and run again" >&2; exit 1; }
+fi
 cmake --build --preset "$PRESET"
