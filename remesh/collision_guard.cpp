@@ -24,17 +24,8 @@ struct Box {
   Point<D> lo, hi;
 };
 
-// Whether facets a and b conflict at positions x (the remeshing stages' pair tests, in 3D).
-bool facets_conflict(const PointList<3>& x, const Facet<3>& a, const Facet<3>& b) {
-  const std::array<Point<3>, 3> pa = {x[a[0]], x[a[1]], x[a[2]]}, pb = {x[b[0]], x[b[1]], x[b[2]]};
-  const Point<3> loa = pa[0].cwiseMin(pa[1]).cwiseMin(pa[2]), hia = pa[0].cwiseMax(pa[1]).cwiseMax(pa[2]);
-  const Point<3> lob = pb[0].cwiseMin(pb[1]).cwiseMin(pb[2]), hib = pb[0].cwiseMax(pb[1]).cwiseMax(pb[2]);
-  return remesh_detail::pair_conflicts(a, pa, loa, hia, b, pb, lob, hib);
-}
-
-// A facet's corners at one set of positions and their bounding box, gathered once per round so
-// that each of the facet's pair tests reads them from one place (a facet is in about ten pairs);
-// the tests compute the same as facets_conflict above.
+// A facet's corners at one set of positions and their bounding box. The guard gathers them once
+// per round (a facet is in about ten pairs); facets_conflict gathers them per call.
 struct Corners3 {
   std::array<Point<3>, 3> x;
   Point<3> lo, hi;
@@ -45,6 +36,14 @@ Corners3 corners(const PointList<3>& x, const Facet<3>& f) {
   c.lo = c.x[0].cwiseMin(c.x[1]).cwiseMin(c.x[2]);
   c.hi = c.x[0].cwiseMax(c.x[1]).cwiseMax(c.x[2]);
   return c;
+}
+
+// Whether facets a and b (corners ca, cb) conflict: the remeshing stages' pair tests, in 3D.
+bool facets_conflict(const Facet<3>& a, const Corners3& ca, const Facet<3>& b, const Corners3& cb) {
+  return remesh_detail::pair_conflicts(a, ca.x, ca.lo, ca.hi, b, cb.x, cb.lo, cb.hi);
+}
+bool facets_conflict(const PointList<3>& x, const Facet<3>& a, const Facet<3>& b) {
+  return facets_conflict(a, corners(x, a), b, corners(x, b));
 }
 
 // 2D: segments that share no vertex must not touch (neighbours along the polygon are free).
@@ -323,9 +322,7 @@ MoveGuardReport CollisionGuard<D>::guard(const Snake<D>& snake, PointList<D>& p)
       if (!(changed_[a] | changed_[b])) continue;
       ++tests;
       if constexpr (D == 3) {
-        const Corners3 &ca = at_p[a], &cb = at_p[b];
-        hit[i] = remesh_detail::pair_conflicts(facets_[a], ca.x, ca.lo, ca.hi, facets_[b], cb.x, cb.lo, cb.hi) &&
-                 !facets_conflict(q, facets_[a], facets_[b]);
+        hit[i] = facets_conflict(facets_[a], at_p[a], facets_[b], at_p[b]) && !facets_conflict(q, facets_[a], facets_[b]);
       } else {
         hit[i] = facets_conflict(p, facets_[a], facets_[b]) && !facets_conflict(q, facets_[a], facets_[b]);
       }

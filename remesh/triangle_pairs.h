@@ -119,10 +119,11 @@ inline bool pair_conflicts(const Triangle& ta, const std::array<Point<3>, 3>& pa
   xb -= xb.dot(e) * e;
   // Most pairs open wide (a cosine <= 0, far from the fold): decided without the norms, as the
   // division below would decide them (norm() is the root of squaredNorm(), 0 only where it is 0).
-  if (xa.dot(xb) <= 0 && xa.squaredNorm() != 0 && xb.squaredNorm() != 0) return false;
+  const double dot = xa.dot(xb);
+  if (dot <= 0 && xa.squaredNorm() != 0 && xb.squaredNorm() != 0) return false;
   const double na = xa.norm(), nb = xb.norm();
   if (na == 0 || nb == 0) return true;
-  return xa.dot(xb) / (na * nb) > kFoldCos;
+  return dot / (na * nb) > kFoldCos;
 }
 
 }  // namespace dsnake::remesh_detail

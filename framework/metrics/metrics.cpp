@@ -92,8 +92,9 @@ void sample_triangle(const Point<3>& a, const Point<3>& b, const Point<3>& c, do
 }
 
 template <int D>
+int64_t sample_count(const FacetSurface<D>& s, const std::vector<double>& longest, double h);
+template <int D>
 std::vector<double> longest_edges(const FacetSurface<D>& s);
-inline int64_t pieces(double longest, double h);
 
 // Vertices (weight 0: they count for the Hausdorff distance only) and facet samples, batched
 // in blocks about `block` wide.
@@ -102,8 +103,7 @@ Samples<D> sample_surface(const FacetSurface<D>& s, double h, double block) {
   Samples<D> out;
   // The count is known (as surface_spacing counts it): sized once, not regrown (up to a million
   // samples, 32 bytes each, whose regrowth copies and pages in several times as much).
-  int64_t count = int64_t(s.vertices.size());
-  for (double l : longest_edges(s)) count += D == 2 ? pieces(l, h) : pieces(l, h) * pieces(l, h);
+  const int64_t count = sample_count(s, longest_edges(s), h);
   out.points.reserve(count);
   out.weights.reserve(count);
   for (const auto& v : s.vertices) {
@@ -139,19 +139,23 @@ inline int64_t pieces(double longest, double h) {
   return std::max<int64_t>(1, static_cast<int64_t>(std::ceil(longest / h)));
 }
 
+// The number of samples sample_surface(s, h, .) makes (longest: longest_edges(s)).
+template <int D>
+int64_t sample_count(const FacetSurface<D>& s, const std::vector<double>& longest, double h) {
+  int64_t n = int64_t(s.vertices.size());
+  for (double l : longest) {
+    const int64_t k = pieces(l, h);
+    n += D == 2 ? k : k * k;
+  }
+  return n;
+}
+
 // The spacing at which sample_surface(s, .) gives at most max_samples samples (bounded_spacing).
 template <int D>
 double surface_spacing(const FacetSurface<D>& s, double finest, int64_t max_samples) {
   const std::vector<double> longest = longest_edges(s);
   const double coarsest = longest.empty() ? finest : std::max(finest, *std::max_element(longest.begin(), longest.end()));
-  return bounded_spacing(finest, coarsest, max_samples, [&](double h) {
-    int64_t n = int64_t(s.vertices.size());
-    for (double l : longest) {
-      const int64_t k = pieces(l, h);
-      n += D == 2 ? k : k * k;
-    }
-    return n;
-  });
+  return bounded_spacing(finest, coarsest, max_samples, [&](double h) { return sample_count(s, longest, h); });
 }
 
 // A mask's boundary faces as facets, and per face its lowest corner's vertex and its axis (the
