@@ -17,6 +17,7 @@
 #include "experiments/convert_command.h"
 #include "experiments/experiment.h"
 #include "experiments/field_command.h"
+#include "experiments/heap_settings.h"
 #include "experiments/init_command.h"
 #include "experiments/runner.h"
 #include "experiments/schema.h"
@@ -33,7 +34,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <malloc.h>
 #include <filesystem>
 #include <omp.h>
 #include <unistd.h>
@@ -259,25 +259,12 @@ void exec_with_process_settings(char** argv) {
   if (changed) execv("/proc/self/exe", argv);
 }
 
-// Volume-sized buffers go back to the system when freed (issue 21). glibc serves a block above
-// its mmap threshold with mmap and unmaps it on free, but after such a free it raises the
-// threshold to that block's size (up to 32 MB), so that later volume-sized buffers (a float
-// array of a 230 x 300 x 80 volume is 22 MB) come from the heap, where a freed block below the
-// top stays resident: `dsnake field` peaked 52 MB of resident memory above its peak heap. A fixed
-// threshold (which also turns the dynamic one off) of 4 MB keeps every such buffer mmap'd, on
-// huge pages (above); smaller blocks, such as a mesh's arrays, still come from the heap. A
-// threshold the user set in GLIBC_TUNABLES is kept.
-void fix_mmap_threshold() {
-  const char* tunables = std::getenv("GLIBC_TUNABLES");
-  if (tunables && std::strstr(tunables, "mmap_threshold")) return;
-  mallopt(M_MMAP_THRESHOLD, 4 << 20);
-}
 
 }  // namespace
 
 int main(int argc, char** argv) {
   exec_with_process_settings(argv);
-  fix_mmap_threshold();
+  configure_heap(std::getenv("GLIBC_TUNABLES"));
   CLI::App app{"dsnake: register a template shape to an image or a volume with snake forces "
                "(D-Snake, Levi & Gotsman)"};
   app.require_subcommand(1);
