@@ -8,6 +8,7 @@
 
 #include <cstdlib>
 #include <cstring>
+#include <vector>
 
 namespace dsnake {
 namespace {
@@ -18,6 +19,17 @@ void start_from_a_trimmed_heap() { malloc_trim(0); }
 
 // Touches every page of a block, as a buffer that is filled would.
 void touch(void* p, std::size_t bytes) { std::memset(p, 1, bytes); }
+
+// `count` blocks of `bytes` in a row, each touched, then freed from the last to the first.
+void allocate_touch_and_free(int count, std::size_t bytes) {
+  std::vector<void*> blocks(count);
+  for (void*& p : blocks) {
+    p = std::malloc(bytes);
+    ASSERT_NE(p, nullptr);
+    touch(p, bytes);
+  }
+  for (int i = count - 1; i >= 0; --i) std::free(blocks[i]);
+}
 
 TEST(HeapSettings, BlocksFromFourMegabytesOnAreMappedAndSmallerOnesComeFromTheHeap) {
   configure_heap(nullptr);
@@ -49,23 +61,10 @@ TEST(HeapSettings, AFreedHeapTopBelowThirtyTwoMegabytesStaysResident) {
   // Three 3 MB blocks in a row, freed: they merge with the heap's top, which glibc's 128 kB trim
   // threshold would give back to the system at once (its next growth then faults every page again).
   const std::size_t bytes = 3u << 20;
-  void* blocks[3];
-  for (void*& p : blocks) {
-    p = std::malloc(bytes);
-    ASSERT_NE(p, nullptr);
-    touch(p, bytes);
-  }
-  for (int i = 2; i >= 0; --i) std::free(blocks[i]);
+  allocate_touch_and_free(3, bytes);
   EXPECT_GE(mallinfo2().keepcost, 3 * bytes) << "the heap's free top was trimmed";
   // Above the threshold the top is trimmed as before: the resident free heap stays bounded.
-  const std::size_t big = 3u << 20;
-  void* many[16];
-  for (void*& p : many) {
-    p = std::malloc(big);
-    ASSERT_NE(p, nullptr);
-    touch(p, big);
-  }
-  for (int i = 15; i >= 0; --i) std::free(many[i]);
+  allocate_touch_and_free(16, bytes);
   EXPECT_LE(mallinfo2().keepcost, kHeapTrimThreshold + (1u << 20)) << "more than the trim threshold kept";
 }
 
