@@ -222,6 +222,27 @@ bool covers(const Cache& cache, const std::vector<Facet<D>>& facets, const Point
   return true;
 }
 
+// 3D: the kept pairs' certificates (remesh_detail::shared_vertex_radius) at positions x, which
+// become the reference that the vertices' drift is measured from.
+template <int D, class Cache>
+void certify(Cache& cache, const PointList<D>& x) {
+  cache.expired = 0, cache.certified = 0;
+  if constexpr (D == 3) {
+    cache.reference = x;
+    const int64_t m = static_cast<int64_t>(cache.single_shared.size());
+    cache.radius.resize(cache.pairs.size());
+#pragma omp parallel for schedule(static) if (m >= 4096)
+    for (int64_t k = 0; k < m; ++k) {
+      const int64_t i = cache.single_shared[k];
+      const auto& fa = cache.facets[cache.pairs[i][0]];
+      const auto& fb = cache.facets[cache.pairs[i][1]];
+      cache.radius[i] = remesh_detail::shared_vertex_radius(fa, {x[fa[0]], x[fa[1]], x[fa[2]]}, fb,
+                                                            {x[fb[0]], x[fb[1]], x[fb[2]]});
+    }
+    for (int64_t k = 0; k < m; ++k) cache.certified += cache.radius[cache.single_shared[k]] > 0;
+  }
+}
+
 // A broad phase over this iteration's swept boxes widened by a margin, a quarter of their mean
 // extent (the pairs then grow by about half, and the list lasts while the vertices move less
 // than that), keeping every pair whose widened boxes overlap. Each vertex may then range over
@@ -263,6 +284,19 @@ void rebuild(Cache& cache, const std::vector<Facet<D>>& facets, const PointList<
   for (int f = 0, begin = 0; f < nf; begin = start[f++])  // start[f]: now the end of f's pairs
     std::sort(sorted.begin() + begin, sorted.begin() + start[f]);
   cache.pairs.swap(sorted);
+  // 3D: the pairs that share exactly one vertex, the only ones with certificates.
+  cache.single_shared.clear();
+  cache.radius.assign(D == 3 ? cache.pairs.size() : 0, 0.0);
+  if constexpr (D == 3) {
+    for (size_t i = 0; i < cache.pairs.size(); ++i) {
+      const auto& fa = facets[cache.pairs[i][0]];
+      const auto& fb = facets[cache.pairs[i][1]];
+      int shared = 0;
+      for (int u : fa) shared += (u == fb[0]) + (u == fb[1]) + (u == fb[2]);
+      if (shared == 1) cache.single_shared.push_back(static_cast<int64_t>(i));
+    }
+  }
+  certify<D>(cache, q);
 }
 
 }  // namespace
@@ -294,10 +328,56 @@ MoveGuardReport CollisionGuard<D>::guard(const Snake<D>& snake, PointList<D>& p)
   }
   // The pairs whose swept boxes overlap, out of the kept list (rebuilt if it no longer covers
   // them): the same set as a broad phase over the swept boxes themselves.
-  if (!covers<D>(cache_, facets_, q, p)) rebuild<D>(cache_, facets_, q, p, boxes);
+  if (!covers<D>(cache_, facets_, q, p)) {
+    rebuild<D>(cache_, facets_, q, p, boxes);
+  } else if (cache_.expired > cache_.certified) {
+    // The exact tests of certified pairs whose certificates ran out have cost, since these
+    // certificates were made, about as much as making them again: renew them (rent or buy).
+    certify<D>(cache_, q);
+  }
+  // 3D: how far each facet's vertices are from the reference, at q(t) and at q(t+1) (the later
+  // rounds' positions lie between the two, so no farther); a pair with a certificate larger
+  // than both of its facets' drifts cannot conflict and is not tested.
+  const bool certified = D == 3 && !cache_.radius.empty();
+  if (certified) {
+    vertex_drift_.resize(n);
+    drift_.resize(nf);
+#pragma omp parallel if (nf >= 8192)
+    {
+#pragma omp for schedule(static)
+      for (int v = 0; v < n; ++v)
+        vertex_drift_[v] = std::sqrt(
+            std::max((q[v] - cache_.reference[v]).squaredNorm(), (p[v] - cache_.reference[v]).squaredNorm()));
+#pragma omp for schedule(static)
+      for (int f = 0; f < nf; ++f) {
+        double d = 0;
+        for (int v : facets_[f]) d = std::max(d, vertex_drift_[v]);
+        drift_[f] = d;
+      }
+    }
+  }
+  // The kept pairs to test, in their order: filtered in contiguous chunks (one per thread),
+  // joined in chunk order.
+  const int64_t kept = static_cast<int64_t>(cache_.pairs.size());
+  const int chunks = kept >= 32768 ? omp_get_max_threads() : 1;
+  std::vector<std::vector<std::array<int, 2>>> chunk_pairs(chunks);
+  int64_t expired = 0;
+#pragma omp parallel for schedule(static) num_threads(chunks) reduction(+ : expired) if (chunks > 1)
+  for (int c = 0; c < chunks; ++c) {
+    std::vector<std::array<int, 2>>& out = chunk_pairs[c];
+    for (int64_t i = kept * c / chunks, end = kept * (c + 1) / chunks; i < end; ++i) {
+      const auto& pair = cache_.pairs[i];
+      if (!(changed_[pair[0]] | changed_[pair[1]])) continue;
+      if (certified && cache_.radius[i] > 0) {
+        if (std::max(drift_[pair[0]], drift_[pair[1]]) < cache_.radius[i]) continue;
+        ++expired;
+      }
+      if (overlap(boxes[pair[0]], boxes[pair[1]])) out.push_back(pair);
+    }
+  }
+  cache_.expired += expired;
   pairs_.clear();
-  for (const auto& pair : cache_.pairs)
-    if ((changed_[pair[0]] | changed_[pair[1]]) && overlap(boxes[pair[0]], boxes[pair[1]])) pairs_.push_back(pair);
+  for (const auto& c : chunk_pairs) pairs_.insert(pairs_.end(), c.begin(), c.end());
   const PointList<D> wanted = p;  // the proposed positions before any step back
   level_.assign(n, 0);
   std::vector<uint8_t> hit(pairs_.size());

@@ -13,7 +13,14 @@
 // Cost: a broad phase over the facets' boxes widened by a margin, kept while no vertex leaves
 // its margin (a Verlet list), the swept boxes (the box of each facet at q(t) and at q(t+1))
 // of its pairs, then one exact test per close pair; the later rounds test only the
-// pairs around the vertices that stepped back. Deterministic, the same bits with any thread
+// pairs around the vertices that stepped back. In 3D, a pair of triangles that share one vertex
+// (three quarters of the adjacent pairs, which every step would test) carries a certificate: a
+// radius within which its vertices may move from where the certificate was made without the
+// pair being able to conflict (remesh_detail::shared_vertex_radius, with its proof); it is not
+// tested while they stay within it. Certificates are made with the broad phase and made again
+// once the tests of those that ran out have cost as much as making them. The exact tests are
+// skipped only where they could not find a conflict, so the steps are the same as with every
+// pair tested; `checks` counts the tests made. Deterministic, the same bits with any thread
 // count.
 #pragma once
 
@@ -60,13 +67,24 @@ class CollisionGuard final : public MoveGuard<D> {
   // the pairs whose swept boxes overlap are among these: they are picked out by the same box
   // test, and the result is the same as with a broad phase per iteration. Rebuilt when a
   // vertex leaves its box or the facets change.
+  // 3D: per pair, a radius within which its vertices may move from `reference` (the positions
+  // at the build) without the pair being able to conflict (0: none); such pairs are not tested
+  // while their vertices stay within it (collision_guard.cpp, shared_vertex_radius).
   struct PairCache {
     std::vector<std::array<int, D>> facets;
     std::vector<std::array<int, 2>> pairs;
+    std::vector<double> radius;
+    std::vector<int64_t> single_shared;  // the pairs that share exactly one vertex
+    PointList<D> reference;
+    // Pairs with a certificate; the tests since it was made of those whose certificate ran out.
+    int64_t certified = 0, expired = 0;
     PointList<D> allowed_lo, allowed_hi;
     int64_t builds = 0;
   };
   PairCache cache_;
+  // Scratch: per vertex, how far it is from the certificates' reference (at q(t) or q(t+1),
+  // whichever is farther); per facet, the farthest of its vertices.
+  std::vector<double> vertex_drift_, drift_;
 
  public:
   // Broad phases run so far (a diagnostic for tests: not every iteration needs one).

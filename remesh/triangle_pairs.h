@@ -126,4 +126,44 @@ inline bool pair_conflicts(const Triangle& ta, const std::array<Point<3>, 3>& pa
   return dot / (na * nb) > kFoldCos;
 }
 
+
+// A certificate for triangles A and B (vertex ids ta, tb, positions pa, pb) that share exactly
+// one vertex v, the pairs a guard tests most (about three quarters of a mesh's adjacent
+// pairs): a radius r such that, while each of their five vertices stays within r of its
+// position here, the pair cannot conflict (pair_conflicts is false). 0: no certificate.
+// Proof: take a plane through v with unit normal n, with A's other corners at heights
+// n . (a - v) >= d_a > 0 and B's at n . (b - v) <= -d_b < 0. Moving each vertex by less than r
+// changes each height by less than r, so A's opposite edge stays above d_a - r while B (the
+// convex hull of v and its other corners) stays below r: they are apart while r <= d_a / 2.
+// Likewise B's opposite edge and A while r <= d_b / 2. r = min(d_a, d_b) / 2 less a twentieth of
+// the pair's longest edge, so that a pair within its certificate is apart by at least a tenth
+// of that edge: far more than the exact test's tolerances (1e-12 in barycentric coordinates,
+// near-misses count as hits) and its rounding could bridge. n: the plane between the directions
+// from v to the midpoints of the opposite edges.
+inline double shared_vertex_radius(const Triangle& ta, const std::array<Point<3>, 3>& pa, const Triangle& tb,
+                                   const std::array<Point<3>, 3>& pb) {
+  int shared = 0, ia = -1;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (ta[i] == tb[j]) ++shared, ia = i;
+  if (shared != 1) return 0;
+  const Point<3>& o = pa[ia];
+  const Point<3> a1 = pa[(ia + 1) % 3] - o, a2 = pa[(ia + 2) % 3] - o;
+  Point<3> b[2];
+  for (int j = 0, k = 0; j < 3; ++j)
+    if (tb[j] != ta[ia]) b[k++] = pb[j] - o;
+  const Point<3> ma = 0.5 * (a1 + a2), mb = 0.5 * (b[0] + b[1]);
+  const double la = ma.norm(), lb = mb.norm();
+  if (!(la > 0) || !(lb > 0)) return 0;
+  const Point<3> n = ma / la - mb / lb;
+  const double nn = n.norm();
+  if (!(nn > 1e-6)) return 0;
+  const Point<3> u = n / nn;
+  const double da = std::min(u.dot(a1), u.dot(a2)), db = std::min(-u.dot(b[0]), -u.dot(b[1]));
+  const double longest = std::sqrt(std::max({a1.squaredNorm(), a2.squaredNorm(), (a2 - a1).squaredNorm(),
+                                             b[0].squaredNorm(), b[1].squaredNorm(), (b[1] - b[0]).squaredNorm()}));
+  const double r = 0.5 * std::min(da, db) - 0.05 * longest;
+  return std::isfinite(r) && r > 0 ? r : 0;
+}
+
 }  // namespace dsnake::remesh_detail
