@@ -222,15 +222,15 @@ bool covers(const Cache& cache, const std::vector<Facet<D>>& facets, const Point
   return true;
 }
 
-// 3D: the kept pairs' certificates (remesh_detail::shared_vertex_radius) at positions x, which
-// become the reference that the vertices' drift is measured from.
+// 3D: the certificates (remesh_detail::shared_vertex_radius) of the kept pairs that share one
+// vertex (cache.radius is sized by the build), at positions x, which become the reference that
+// the vertices' drift is measured from.
 template <int D, class Cache>
 void certify(Cache& cache, const PointList<D>& x) {
   cache.expired = 0, cache.certified = 0;
   if constexpr (D == 3) {
     cache.reference = x;
     const int64_t m = static_cast<int64_t>(cache.single_shared.size());
-    cache.radius.resize(cache.pairs.size());
 #pragma omp parallel for schedule(static) if (m >= 4096)
     for (int64_t k = 0; k < m; ++k) {
       const int64_t i = cache.single_shared[k];
@@ -288,13 +288,9 @@ void rebuild(Cache& cache, const std::vector<Facet<D>>& facets, const PointList<
   cache.single_shared.clear();
   cache.radius.assign(D == 3 ? cache.pairs.size() : 0, 0.0);
   if constexpr (D == 3) {
-    for (size_t i = 0; i < cache.pairs.size(); ++i) {
-      const auto& fa = facets[cache.pairs[i][0]];
-      const auto& fb = facets[cache.pairs[i][1]];
-      int shared = 0;
-      for (int u : fa) shared += (u == fb[0]) + (u == fb[1]) + (u == fb[2]);
-      if (shared == 1) cache.single_shared.push_back(static_cast<int64_t>(i));
-    }
+    for (size_t i = 0; i < cache.pairs.size(); ++i)
+      if (remesh_detail::shared_corners(facets[cache.pairs[i][0]], facets[cache.pairs[i][1]]) == 1)
+        cache.single_shared.push_back(static_cast<int64_t>(i));
   }
   certify<D>(cache, q);
 }
@@ -338,7 +334,7 @@ MoveGuardReport CollisionGuard<D>::guard(const Snake<D>& snake, PointList<D>& p)
   // 3D: how far each facet's vertices are from the reference, at q(t) and at q(t+1) (the later
   // rounds' positions lie between the two, so no farther); a pair with a certificate larger
   // than both of its facets' drifts cannot conflict and is not tested.
-  const bool certified = D == 3 && !cache_.radius.empty();
+  const bool certified = D == 3 && cache_.certified > 0;
   if (certified) {
     vertex_drift_.resize(n);
     drift_.resize(nf);

@@ -126,6 +126,12 @@ inline bool pair_conflicts(const Triangle& ta, const std::array<Point<3>, 3>& pa
   return dot / (na * nb) > kFoldCos;
 }
 
+// How many corners triangles a and b share (0 to 3).
+inline int shared_corners(const Triangle& a, const Triangle& b) {
+  int shared = 0;
+  for (int u : a) shared += (u == b[0]) + (u == b[1]) + (u == b[2]);
+  return shared;
+}
 
 // A certificate for triangles A and B (vertex ids ta, tb, positions pa, pb) that share exactly
 // one vertex v, the pairs a guard tests most (about three quarters of a mesh's adjacent
@@ -142,11 +148,9 @@ inline bool pair_conflicts(const Triangle& ta, const std::array<Point<3>, 3>& pa
 // from v to the midpoints of the opposite edges.
 inline double shared_vertex_radius(const Triangle& ta, const std::array<Point<3>, 3>& pa, const Triangle& tb,
                                    const std::array<Point<3>, 3>& pb) {
-  int shared = 0, ia = -1;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      if (ta[i] == tb[j]) ++shared, ia = i;
-  if (shared != 1) return 0;
+  if (shared_corners(ta, tb) != 1) return 0;
+  int ia = 0;
+  while (ta[ia] != tb[0] && ta[ia] != tb[1] && ta[ia] != tb[2]) ++ia;
   const Point<3>& o = pa[ia];
   const Point<3> a1 = pa[(ia + 1) % 3] - o, a2 = pa[(ia + 2) % 3] - o;
   Point<3> b[2];
