@@ -69,7 +69,7 @@ void ExternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   const double tau = options_.tau * force_scale_;
   const PointList<D>& normals = normals_;
   // only a field larger than the caches gains from prefetching; a small one pays for the hint
-  const bool prefetch = field.vectors().num_voxels() * int64_t(sizeof(Point<D>)) > kPrefetchMinBytes;
+  const bool prefetch = field.num_voxels() * int64_t(sizeof(Point<D>)) > kPrefetchMinBytes;
   const bool unit = options_.normalize == ForceNormalization::kUnit;
   const double floor = unit_floor_;
   const Image<D>& smoothed = smoothed_.image();

@@ -22,13 +22,15 @@
 #include "framework/core/errors.h"
 
 #include <algorithm>
+#include <cmath>
 #include <exception>
+#include <mutex>
 #include <omp.h>
 
 namespace dsnake {
 
 template <int D>
-DdgvfField<D>::DdgvfField(const DdgvfFieldOptions& options) : options_(checked(options, kType)) {}
+DdgvfField<D>::DdgvfField(const DdgvfFieldOptions& options) : options_(checked(options, kType)) { reset_vectors(); }
 
 template <int D>
 void DdgvfField<D>::compute(const Image<D>& image) {
@@ -40,25 +42,29 @@ void DdgvfField<D>::compute_releasing(Image<D>&& image) {
   solve(compute_edge_map(std::move(image), options_.edge, true, "ddgvf"));
 }
 
-// Memory (issue 21): b is written over f (DDGVF does not use f); each multigrid solve starts
-// from its masked source written straight into its component (the solver reads a source only
-// before its field changes) and takes its masked weights by move, written into the previous
-// solve's weights (GvfWorkspace::take_weights: no fresh pages per solve); the summed vectors are
-// allocated once the edge map is gone.
+// Memory (issue 21): b is written over f (DDGVF does not use f); the image gradient is kept as
+// its signs (a byte per voxel); each multigrid solve starts from its masked source written
+// straight into its component (the solver reads a source only before its field changes) and
+// takes its masked weights by move, written into the previous solve's weights
+// (GvfWorkspace::take_weights: no fresh pages per solve). A component is allocated when its
+// solve starts, and the second solve of an axis masks grad f_a in place and keeps its buffer as
+// its component: the edge map's gradient and the components are never more than 2 D volumes
+// together. The summed vectors are made only when asked for (vectors()).
 template <int D>
 void DdgvfField<D>::solve(EdgeMap<D>&& edges) {
   const Grid<D> grid = edges.grid;
   const int64_t n = grid.num_voxels();
-  vectors_ = VectorField<D>();
+  reset_vectors();
   for (auto& axis : components_)
-    for (auto& c : axis) c = Image<D>(grid);
+    for (auto& c : axis) c = Image<D>();
   if (edges.f_max == 0) {  // no edges: zero components (warned by compute_edge_map)
-    vectors_ = VectorField<D>(grid);
+    for (auto& axis : components_)
+      for (auto& c : axis) c = Image<D>(grid);
     return;
   }
   std::vector<float> b = std::move(edges.f);  // f's pages hold b (no fresh buffer to page in)
   b.resize(n);
-  const float p = options_.polarity == DdgvfPolarity::kDarkInside ? 1.f : -1.f;
+  const unsigned p = options_.polarity == DdgvfPolarity::kDarkInside ? 0u : 1u;
 #pragma omp parallel for schedule(static)
   for (int64_t l = 0; l < n; ++l) {
     float s = 0;
@@ -68,45 +74,92 @@ void DdgvfField<D>::solve(EdgeMap<D>&& edges) {
   // The 2 D scalar solves are independent: with several threads they run side by side, each on
   // one thread (a solve's result does not depend on its thread count), which avoids the
   // per-sweep synchronisation of splitting each solve. An exception (a bad explicit time step)
-  // cannot leave a parallel region: it is kept and rethrown after it.
+  // cannot leave a parallel region: it is kept and rethrown after it. Per axis, the first job to
+  // take the axis's lock copies its masked source out of grad f_a; the second masks grad f_a in
+  // place once the first has read it (the lock orders the two) and takes it as its component.
   const int threads = std::min(omp_get_max_threads(), 2 * D);
   std::vector<std::exception_ptr> errors(2 * D);
+  std::array<omp_lock_t, D> axis_lock;
+  std::array<int, D> sources_made{};
+  for (auto& lock : axis_lock) omp_init_lock(&lock);
+  const std::vector<uint8_t>& signs = edges.gradient_signs;
 #pragma omp parallel num_threads(threads) if(threads > 1)
   {
     GvfWorkspace workspace;  // this thread's solves share one multigrid hierarchy
 #pragma omp for schedule(dynamic, 1)
     for (int job = 0; job < 2 * D; ++job) {
       const int a = job / 2, sign = job % 2;
-      const float s = sign == 0 ? p : -p;
-      std::vector<float>& u = components_[a][sign].data();  // the initial guess is the source, as for GVF
+      // "on" where s p dI/dx_a > 0 (ddgvf.cpp's header): the sign bit of axis a that agrees.
+      const unsigned bit = 1u << (2 * a + (unsigned(sign) ^ p));
+      std::vector<float> u;  // the initial guess is the source, as for GVF
+      omp_set_lock(&axis_lock[a]);
+      std::vector<float>& g = edges.grad_f[a];
+      if (sources_made[a] == 0) {
+        u.resize(n);
+        for (int64_t l = 0; l < n; ++l) u[l] = (signs[l] & bit) ? g[l] : 0.f;
+      } else {
+        for (int64_t l = 0; l < n; ++l)
+          if (!(signs[l] & bit)) g[l] = 0.f;
+        u = std::move(g);
+      }
+      ++sources_made[a];
+      omp_unset_lock(&axis_lock[a]);
       std::vector<float> b_masked = workspace.take_weights();  // the last solve's pages, if any
       b_masked.resize(n);
-      for (int64_t l = 0; l < n; ++l) {
-        const bool on = s * edges.grad_image[a][l] > 0.f;
-        b_masked[l] = on ? b[l] : 0.f;
-        u[l] = on ? edges.grad_f[a][l] : 0.f;
-      }
+      for (int64_t l = 0; l < n; ++l) b_masked[l] = (signs[l] & bit) ? b[l] : 0.f;
       try {
         solve_gvf(grid, std::move(b_masked), {&u}, {&u}, options_.solve, &workspace);
       } catch (...) {
         errors[job] = std::current_exception();
       }
+      components_[a][sign] = Image<D>(grid, std::move(u));
     }
   }
+  for (auto& lock : axis_lock) omp_destroy_lock(&lock);
   for (const std::exception_ptr& e : errors)
     if (e) std::rethrow_exception(e);
-  edges = EdgeMap<D>();
-  std::vector<float>().swap(b);
-  vectors_ = VectorField<D>(grid);
+}
+
+// The polarity-blind sum of both signs per axis, made on first use (figures, `dsnake field`, the
+// force's largest magnitude): a run that only samples forces never holds these D volumes.
+template <int D>
+const VectorField<D>& DdgvfField<D>::vectors() const {
+  std::call_once(*vectors_made_, [this] {
+    const Grid<D>& grid = components_[0][0].grid();
+    const int64_t n = grid.num_voxels();
+    VectorField<D> v(grid);
 #pragma omp parallel for schedule(static)
-  for (int64_t l = 0; l < n; ++l)
-    for (int a = 0; a < D; ++a) vectors_.at(l)[a] = float(double(components_[a][0][l]) + components_[a][1][l]);
+    for (int64_t l = 0; l < n; ++l)
+      for (int a = 0; a < D; ++a) v.at(l)[a] = float(double(components_[a][0][l]) + components_[a][1][l]);
+    vectors_ = std::move(v);
+  });
+  return vectors_;
+}
+
+template <int D>
+double DdgvfField<D>::largest_vector_norm() const {
+  const int64_t n = num_voxels();
+  double m2 = 0.0;  // max of squares: exact in any reduction order (as max_force_magnitude)
+#pragma omp parallel for reduction(max : m2) schedule(static) if (n >= (int64_t(1) << 16))
+  for (int64_t l = 0; l < n; ++l) {
+    Point<D> f;  // vectors()'s floats, in double, summed as VectorField's squaredNorm sums them
+    for (int a = 0; a < D; ++a) f[a] = float(double(components_[a][0][l]) + components_[a][1][l]);
+    const double s = f.squaredNorm();
+    if (std::isfinite(s)) m2 = std::max(m2, s);
+  }
+  return std::sqrt(m2);
+}
+
+template <int D>
+void DdgvfField<D>::reset_vectors() {
+  vectors_ = VectorField<D>();
+  vectors_made_ = std::make_unique<std::once_flag>();
 }
 
 template <int D>
 Point<D> DdgvfField<D>::force(const Point<D>& x, const Point<D>& normal) const {
-  DSNAKE_ASSERT(!vectors_.empty(), "compute() before force()");
-  const auto stencil = vectors_.grid().stencil(x);
+  DSNAKE_ASSERT(!components_[0][0].data().empty(), "compute() before force()");
+  const auto stencil = components_[0][0].grid().stencil(x);
   Point<D> f;
   for (int a = 0; a < D; ++a) {
     const Image<D>& u = components_[a][normal[a] >= 0 ? 0 : 1];
@@ -119,8 +172,8 @@ Point<D> DdgvfField<D>::force(const Point<D>& x, const Point<D>& normal) const {
 
 template <int D>
 void DdgvfField<D>::prefetch(const Point<D>& x, const Point<D>& normal) const {
-  if (vectors_.empty()) return;
-  const auto stencil = vectors_.grid().stencil(x);
+  if (components_[0][0].data().empty()) return;
+  const auto stencil = components_[0][0].grid().stencil(x);
   for (int a = 0; a < D; ++a) {
     const float* u = components_[a][normal[a] >= 0 ? 0 : 1].data().data();
     // The stencil's voxels come in pairs along x (one line, or two when the pair straddles one).
@@ -134,7 +187,7 @@ void DdgvfField<D>::prefetch(const Point<D>& x, const Point<D>& normal) const {
 template <int D>
 std::string DdgvfField<D>::save_state() const {
   StateWriter w("dsnake-ddgvf-2");
-  w.grid(vectors_.grid());
+  w.grid(components_[0][0].grid());
   for (const auto& axis : components_)
     for (const auto& c : axis) w.array(c.data());
   return std::move(w).bytes();
@@ -154,9 +207,7 @@ bool DdgvfField<D>::load_state(const Grid<D>& grid, const std::string& bytes) {
     }
   if (!r.ok()) return false;
   components_ = std::move(comps);
-  vectors_ = VectorField<D>(grid);
-  for (int64_t l = 0; l < grid.num_voxels(); ++l)
-    for (int a = 0; a < D; ++a) vectors_.at(l)[a] = float(double(components_[a][0][l]) + components_[a][1][l]);
+  reset_vectors();
   return true;
 }
 

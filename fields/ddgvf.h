@@ -10,6 +10,8 @@
 #include "framework/core/external_field.h"
 
 #include <array>
+#include <memory>
+#include <mutex>
 #include <string>
 
 namespace dsnake {
@@ -62,7 +64,11 @@ class DdgvfField final : public ExternalField<D> {
   // The voxels force(x, normal) reads: per axis, those of the component chosen by the normal.
   void prefetch(const Point<D>& x, const Point<D>& normal) const override;
   // The polarity-blind field, sum of both signs per axis (for figures).
-  const VectorField<D>& vectors() const override { return vectors_; }
+  // Made on first use (issue 21: a run that only samples forces does not hold it).
+  const VectorField<D>& vectors() const override;
+  int64_t num_voxels() const override { return components_[0][0].num_voxels(); }
+  // max |F| of vectors(), computed from the components without making them (the same value).
+  double largest_vector_norm() const override;
   // Component of axis a and sign s (0: +, 1: -) on the grid.
   const Image<D>& component(int axis, int sign) const { return components_[axis][sign]; }
 
@@ -73,9 +79,13 @@ class DdgvfField final : public ExternalField<D> {
   // The 2 D directional solves from an edge map with the image gradient (its arrays are consumed).
   void solve(EdgeMap<D>&& edges);
 
+  // Drops the summed vectors; the next vectors() makes them from the components.
+  void reset_vectors();
+
   DdgvfFieldOptions options_;
   std::array<std::array<Image<D>, 2>, D> components_;
-  VectorField<D> vectors_;
+  mutable VectorField<D> vectors_;
+  mutable std::unique_ptr<std::once_flag> vectors_made_;
 };
 
 }  // namespace dsnake

@@ -13,7 +13,7 @@ namespace {
 
 // The edge map; `owned` (the image itself, or null) is released once u holds its copy.
 template <int D>
-EdgeMap<D> edge_map(const Image<D>& image, Image<D>* owned, const EdgeMapOptions& options, bool with_image_gradient,
+EdgeMap<D> edge_map(const Image<D>& image, Image<D>* owned, const EdgeMapOptions& options, bool with_gradient_signs,
                     const std::string& field_type) {
   DSNAKE_ASSERT(options.sigma >= 0, "edge map: sigma >= 0");
   EdgeMap<D> out;
@@ -30,17 +30,19 @@ EdgeMap<D> edge_map(const Image<D>& image, Image<D>* owned, const EdgeMapOptions
   if (owned) std::vector<float>().swap(owned->data());
   gaussian_blur(grid, u, options.sigma);
   std::vector<double> f(n);
-  if (with_image_gradient)
-    for (int a = 0; a < D; ++a) out.grad_image[a].resize(n);
+  if (with_gradient_signs) out.gradient_signs.resize(n);
 #pragma omp parallel for schedule(static)
   for (int64_t l = 0; l < n; ++l) {
     double sum = 0.0;
+    unsigned signs = 0;
     for (int a = 0; a < D; ++a) {
       const double g = partial_derivative(grid, u, l, a);
       sum += g * g;
-      if (with_image_gradient) out.grad_image[a][l] = static_cast<float>(g);
+      const float rounded = static_cast<float>(g);  // the sign of the float the masks were made of
+      signs |= (rounded > 0.f ? 1u : 0u) << (2 * a) | (rounded < 0.f ? 1u : 0u) << (2 * a + 1);
     }
     f[l] = sum;
+    if (with_gradient_signs) out.gradient_signs[l] = static_cast<uint8_t>(signs);
   }
   std::vector<double>().swap(u);
   double f_max = 0.0;  // max is exact: the reduction order does not matter
@@ -53,8 +55,8 @@ EdgeMap<D> edge_map(const Image<D>& image, Image<D>* owned, const EdgeMapOptions
     out.f.assign(n, 0.0f);
     for (int a = 0; a < D; ++a) {
       out.grad_f[a].assign(n, 0.0f);
-      if (with_image_gradient) out.grad_image[a].assign(n, 0.0f);
     }
+    if (with_gradient_signs) out.gradient_signs.assign(n, 0);
     out.f_max = 0.0;
     return out;
   }
@@ -78,15 +80,15 @@ EdgeMap<D> edge_map(const Image<D>& image, Image<D>* owned, const EdgeMapOptions
 }  // namespace
 
 template <int D>
-EdgeMap<D> compute_edge_map(const Image<D>& image, const EdgeMapOptions& options, bool with_image_gradient,
+EdgeMap<D> compute_edge_map(const Image<D>& image, const EdgeMapOptions& options, bool with_gradient_signs,
                             const std::string& field_type) {
-  return edge_map(image, static_cast<Image<D>*>(nullptr), options, with_image_gradient, field_type);
+  return edge_map(image, static_cast<Image<D>*>(nullptr), options, with_gradient_signs, field_type);
 }
 
 template <int D>
-EdgeMap<D> compute_edge_map(Image<D>&& image, const EdgeMapOptions& options, bool with_image_gradient,
+EdgeMap<D> compute_edge_map(Image<D>&& image, const EdgeMapOptions& options, bool with_gradient_signs,
                             const std::string& field_type) {
-  return edge_map(image, &image, options, with_image_gradient, field_type);
+  return edge_map(image, &image, options, with_gradient_signs, field_type);
 }
 
 template EdgeMap<2> compute_edge_map(const Image<2>&, const EdgeMapOptions&, bool, const std::string&);

@@ -1,6 +1,6 @@
 // The edge map shared by the diffused fields (GVF, DDGVF, VFC, distance): f = |grad(G_sigma*I)|^2,
-// optionally normalised to [0, 1], its gradient grad f and (for DDGVF) the gradient of the
-// blurred image. Levi & Gotsman, D-Snake, §2; Xu & Prince 1998. Float arrays, one per
+// optionally normalised to [0, 1], its gradient grad f and (for DDGVF) the sign of each
+// component of the gradient of the blurred image. Levi & Gotsman, D-Snake, §2; Xu & Prince 1998. Float arrays, one per
 // component (structure of arrays), laid out on the image grid (x fastest), in physical units.
 #pragma once
 
@@ -8,6 +8,7 @@
 #include "framework/core/options.h"
 
 #include <array>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -31,19 +32,22 @@ struct EdgeMap {
   Grid<D> grid;
   std::vector<float> f;                          // the edge map, one value per voxel
   std::array<std::vector<float>, D> grad_f;      // d f / d x_a, 1/mm
-  std::array<std::vector<float>, D> grad_image;  // d (G_sigma*I) / d x_a (only if asked for)
+  // Only if asked for (DDGVF's masks): per voxel, bit 2a set where d (G_sigma*I) / d x_a > 0 and
+  // bit 2a + 1 where it is < 0, both clear where it is 0, the derivative rounded to float as
+  // before (one byte per voxel instead of D floats: issue 21).
+  std::vector<uint8_t> gradient_signs;
   double f_max = 0.0;                            // max f after normalisation (0: no edges)
 };
 
 // Builds the edge map of `image`. A constant image (f = 0 everywhere) prints a warning naming
 // `field_type` on stderr; the caller then returns a zero field. Thread-count independent.
 template <int D>
-EdgeMap<D> compute_edge_map(const Image<D>& image, const EdgeMapOptions& options, bool with_image_gradient,
+EdgeMap<D> compute_edge_map(const Image<D>& image, const EdgeMapOptions& options, bool with_gradient_signs,
                             const std::string& field_type);
 // The same, releasing the image's voxels once they are read (before the edge map's first
 // whole-volume buffer beyond the blurred copy): for ExternalField::compute_releasing.
 template <int D>
-EdgeMap<D> compute_edge_map(Image<D>&& image, const EdgeMapOptions& options, bool with_image_gradient,
+EdgeMap<D> compute_edge_map(Image<D>&& image, const EdgeMapOptions& options, bool with_gradient_signs,
                             const std::string& field_type);
 
 }  // namespace dsnake

@@ -37,6 +37,8 @@ class CachedField final : public ExternalField<D> {
   bool has_potential() const override { return field_->has_potential(); }
   double potential(const Point<D>& x) const override { return field_->potential(x); }
   const VectorField<D>& vectors() const override { return field_->vectors(); }
+  int64_t num_voxels() const override { return field_->num_voxels(); }
+  double largest_vector_norm() const override { return field_->largest_vector_norm(); }
   std::string save_state() const override { return field_->save_state(); }
   bool load_state(const Grid<D>& grid, const std::string& bytes) override { return field_->load_state(grid, bytes); }
 

@@ -5,6 +5,7 @@
 
 #include "framework/core/image.h"
 
+#include <cstdint>
 #include <limits>
 #include <string>
 
@@ -43,6 +44,12 @@ class ExternalField {
 
   // The sampled vectors on the image grid (for figures and `dsnake field`).
   virtual const VectorField<D>& vectors() const = 0;
+  // The number of voxels the field is sampled on (by default those of vectors()).
+  virtual int64_t num_voxels() const { return vectors().num_voxels(); }
+  // The largest |F| over the voxels of vectors(), for a field that can tell it without making
+  // them (DDGVF makes its vectors on demand, issue 21); NaN: max_force_magnitude
+  // (force_strength.h) reads vectors().
+  virtual double largest_vector_norm() const { return std::numeric_limits<double>::quiet_NaN(); }
 
   // Field cache support (fields/field_cache.h): the computed state as bytes, and back, so that
   // a second compute() on the same image and parameters loads instead of computing. A field

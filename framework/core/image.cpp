@@ -1,5 +1,7 @@
 #include "framework/core/image.h"
 
+#include "framework/core/errors.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -101,6 +103,11 @@ typename Grid<D>::Stencil Grid<D>::stencil(const Point<D>& x) const {
 
 template <int D>
 Image<D>::Image(const Grid<D>& grid, float value) : grid_(grid), data_(grid.num_voxels(), value) {}
+
+template <int D>
+Image<D>::Image(const Grid<D>& grid, std::vector<float>&& data) : grid_(grid), data_(std::move(data)) {
+  DSNAKE_ASSERT(int64_t(data_.size()) == grid_.num_voxels(), "one value per voxel of the grid");
+}
 
 template <int D>
 double Image<D>::sample(const Point<D>& x) const {

@@ -54,6 +54,8 @@ class Image {
  public:
   Image() = default;
   explicit Image(const Grid<D>& grid, float value = 0.0f);
+  // Adopts `data` as the voxels of `grid` (one value per voxel, x fastest) without a copy.
+  Image(const Grid<D>& grid, std::vector<float>&& data);
 
   const Grid<D>& grid() const { return grid_; }
   const GridIndex<D>& size() const { return grid_.size; }

@@ -2,9 +2,11 @@
 // one that agrees (two objects of opposite polarity); a ball attracts outward normals in 3D;
 // the polarity option flips the roles; the field is thread-count independent and cacheable.
 #include "fields/ddgvf.h"
+#include "fields/edge_map.h"
 #include "fields/gvf_solver.h"
 #include "fields/registry.h"
 #include "framework/core/errors.h"
+#include "framework/core/force_strength.h"
 
 #include <cmath>
 #include <limits>
@@ -164,6 +166,53 @@ TEST(DdgvfField, PrefetchIsSafeAnywhereAndChangesNothing) {
   for (const Point<3>& p : {x, Point<3>(-50, 1e6, 3), Point<3>(nan, 0, nan), Point<3>(0, 0, 0)})
     for (const Point<3>& normal : {n, Point<3>(-1, 1, -1), Point<3>(nan, nan, nan)}) field.prefetch(p, normal);
   EXPECT_EQ(field.force(x, n), before);
+}
+
+// The masks' signs (edge_map.h): I = x - 2 z has dI/dx = 1 > 0 (bit 0), dI/dy = 0 (bits 2 and 3
+// clear) and dI/dz = -2 < 0 (bit 5) at every voxel, the border's one-sided differences included.
+TEST(DdgvfField, MasksAreTheSignsOfTheImageGradient) {
+  Grid<3> grid;
+  grid.size = GridIndex<3>(8, 6, 5);
+  Image<3> image(grid);
+  for (int64_t l = 0; l < image.num_voxels(); ++l) {
+    const GridIndex<3> i = grid.index(l);
+    image[l] = float(i.x() - 2 * i.z());
+  }
+  const EdgeMap<3> with = compute_edge_map(image, EdgeMapOptions{0.0, true}, true, "test");
+  ASSERT_EQ(with.gradient_signs.size(), size_t(image.num_voxels()));
+  for (uint8_t s : with.gradient_signs) ASSERT_EQ(s, 1 | 32);
+  EXPECT_TRUE(compute_edge_map(image, EdgeMapOptions{0.0, true}, false, "test").gradient_signs.empty());
+}
+
+// vectors() is made on first use (issue 21) as the float sum of each axis's two components, and
+// made anew after another compute(); the largest |F| the field tells without making them is the
+// one max_force_magnitude reads off vectors().
+TEST(DdgvfField, VectorsAreMadeOnDemandAsTheSumOfTheComponents) {
+  DdgvfFieldOptions o;
+  o.polarity = DdgvfPolarity::kBrightInside;
+  o.edge.normalize = false;  // a dimmer image, weaker forces
+  DdgvfField<3> field(o);
+  Image<3> first = ball();
+  field.compute(first);
+  const double told = field.largest_vector_norm();
+  for (int round = 0; round < 2; ++round) {
+    const VectorField<3>& v = field.vectors();
+    ASSERT_EQ(v.num_voxels(), field.num_voxels());
+    double m2 = 0;
+    for (int64_t l = 0; l < v.num_voxels(); ++l) {
+      for (int a = 0; a < 3; ++a)
+        ASSERT_EQ(v.at(l)[a], float(double(field.component(a, 0)[l]) + field.component(a, 1)[l])) << l;
+      m2 = std::max(m2, v[l].squaredNorm());
+    }
+    EXPECT_EQ(field.largest_vector_norm(), std::sqrt(m2));
+    EXPECT_GT(std::sqrt(m2), 0.0);
+    // A dimmer ball on the same field: other components, so other vectors.
+    for (float& x : first.data()) x *= 0.5f;
+    field.compute(first);
+  }
+  EXPECT_NE(field.largest_vector_norm(), told);  // the components were made anew
+  // max_force_magnitude takes the field's own figure; a field without one is read off vectors().
+  EXPECT_EQ(max_force_magnitude(field), field.largest_vector_norm());
 }
 
 TEST(DdgvfField, RegistryReadsPolarity) {
