@@ -290,27 +290,42 @@ std::vector<double> nearest_distances(const FacetGrid<D>& grid, const Samples<D>
   return d;
 }
 
+// One direction: each sample's distance to the other surface, with the sample's weight. The
+// sample points are dropped once measured, so that the two surfaces' points (up to a million
+// each) are not held while the pooled distances are sorted (issue 21).
+struct DirectedDistances {
+  std::vector<double> weights, distances;
+};
+template <int D>
+DirectedDistances directed_distances(const FacetGrid<D>& target, Samples<D>&& samples) {
+  DirectedDistances r;
+  r.distances = nearest_distances(target, samples);
+  r.weights = std::move(samples.weights);
+  samples = Samples<D>();
+  return r;
+}
+
 // Symmetric summary of the two directed distance sets. HD95 is the weighted 95th percentile of
 // the pooled distances, each direction's weights scaled to total 1/2 (as the mean does), so a
 // finely staircased mask boundary does not outweigh the other surface.
-template <int D>
-SurfaceDistances summarize(const Samples<D>& sa, const std::vector<double>& da,
-                           const Samples<D>& sb, const std::vector<double>& db) {
-  if (da.empty() || db.empty()) return {kInfinity, kInfinity, kInfinity};
+SurfaceDistances summarize(const DirectedDistances& a, const DirectedDistances& b) {
+  if (a.distances.empty() || b.distances.empty()) return {kInfinity, kInfinity, kInfinity};
+  const std::vector<double>& da = a.distances;
+  const std::vector<double>& db = b.distances;
   std::vector<std::pair<double, double>> pooled;  // (distance, weight)
   pooled.reserve(da.size() + db.size());
   SurfaceDistances r;
   r.mean = 0;
   for (int side = 0; side < 2; ++side) {
-    const Samples<D>& s = side ? sb : sa;
+    const std::vector<double>& weights = side ? b.weights : a.weights;
     const std::vector<double>& d = side ? db : da;
     double total = 0;
-    for (double w : s.weights) total += w;
+    for (double w : weights) total += w;
     const bool unweighted = !(total > 0);  // degenerate surface: count samples instead
     if (unweighted) total = double(d.size());
     double sum = 0;
     for (size_t i = 0; i < d.size(); ++i) {
-      const double w = (unweighted ? 1.0 : s.weights[i]) / (2 * total);
+      const double w = (unweighted ? 1.0 : weights[i]) / (2 * total);
       sum += w * d[i];
       pooled.emplace_back(d[i], w);
       r.hausdorff = std::max(r.hausdorff, d[i]);
@@ -345,12 +360,6 @@ SurfaceDistances summarize(const Samples<D>& sa, const std::vector<double>& da,
   return r;
 }
 
-// Distances between two sampled surfaces (their facet grids and samples), both directions.
-template <int D>
-SurfaceDistances distances_between(const FacetGrid<D>& grid_a, const Samples<D>& sa,
-                                   const FacetGrid<D>& grid_b, const Samples<D>& sb) {
-  return summarize<D>(sa, nearest_distances(grid_b, sa), sb, nearest_distances(grid_a, sb));
-}
 
 // The width of the sample batches queried against `target`: two of its cells (batches wider
 // than four fall back to one query per point).
@@ -574,8 +583,12 @@ SurfaceDistances surface_distances(SurfaceRef<D> a, SurfaceRef<D> b, double samp
   DSNAKE_ASSERT(sample_spacing > 0, "sample spacing is positive");
   const FacetSurface<D> fa = facets_of(a), fb = facets_of(b);
   const FacetGrid<D> ga(fa), gb(fb);
-  return distances_between(ga, sample_surface(fa, surface_spacing(fa, sample_spacing, max_samples), batch_block(gb)),
-                           gb, sample_surface(fb, surface_spacing(fb, sample_spacing, max_samples), batch_block(ga)));
+  // One surface's samples at a time (directed_distances).
+  const DirectedDistances da =
+      directed_distances(gb, sample_surface(fa, surface_spacing(fa, sample_spacing, max_samples), batch_block(gb)));
+  const DirectedDistances db =
+      directed_distances(ga, sample_surface(fb, surface_spacing(fb, sample_spacing, max_samples), batch_block(ga)));
+  return summarize(da, db);
 }
 
 template <int D>
@@ -585,10 +598,12 @@ SurfaceDistances surface_distances_to_mask(SurfaceRef<D> a, const Image<D>& mask
   const FacetSurface<D> fa = facets_of(a);
   const MaskBoundary<D> boundary = mask_boundary(mask);
   const Point<D>& spacing = mask.spacing();
-  const Samples<D> sb = sample_mask_boundary(boundary, spacing, mask_spacing(boundary, spacing, sample_spacing, max_samples));
   const FacetGrid<D> ga(fa), gb(boundary.surface);
-  return distances_between(ga, sample_surface(fa, surface_spacing(fa, sample_spacing, max_samples), batch_block(gb)),
-                           gb, sb);
+  const DirectedDistances da =
+      directed_distances(gb, sample_surface(fa, surface_spacing(fa, sample_spacing, max_samples), batch_block(gb)));
+  const DirectedDistances db = directed_distances(
+      ga, sample_mask_boundary(boundary, spacing, mask_spacing(boundary, spacing, sample_spacing, max_samples)));
+  return summarize(da, db);
 }
 
 template <int D>
