@@ -11,6 +11,27 @@ namespace dsnake {
 
 namespace {
 
+// The grid's rows along x (x fastest), for loops that take each voxel's index from its row
+// rather than by dividing its linear index (partial_derivative_at).
+template <int D>
+struct RowAxes {
+  explicit RowAxes(const Grid<D>& grid) {
+    int64_t s = 1;
+    for (int a = 0; a < D; ++a) size[a] = grid.size[a], stride[a] = s, s *= grid.size[a];
+    rows = s / size[0];
+  }
+  // The index of the first voxel of row `row` (x = 0).
+  GridIndex<D> row_index(int64_t row) const {
+    GridIndex<D> i;
+    i[0] = 0;
+    for (int a = 1; a < D; ++a) i[a] = static_cast<int>(row % size[a]), row /= size[a];
+    return i;
+  }
+  std::array<int, D> size;
+  std::array<int64_t, D> stride;
+  int64_t rows = 0;
+};
+
 // The edge map; `owned` (the image itself, or null) is released once u holds its copy.
 template <int D>
 EdgeMap<D> edge_map(const Image<D>& image, Image<D>* owned, const EdgeMapOptions& options, bool with_gradient_signs,
@@ -31,18 +52,23 @@ EdgeMap<D> edge_map(const Image<D>& image, Image<D>* owned, const EdgeMapOptions
   gaussian_blur(grid, u, options.sigma);
   std::vector<double> f(n);
   if (with_gradient_signs) out.gradient_signs.resize(n);
+  const RowAxes<D> axes(grid);
 #pragma omp parallel for schedule(static)
-  for (int64_t l = 0; l < n; ++l) {
-    double sum = 0.0;
-    unsigned signs = 0;
-    for (int a = 0; a < D; ++a) {
-      const double g = partial_derivative(grid, u, l, a);
-      sum += g * g;
-      const float rounded = static_cast<float>(g);  // the sign of the float the masks were made of
-      signs |= (rounded > 0.f ? 1u : 0u) << (2 * a) | (rounded < 0.f ? 1u : 0u) << (2 * a + 1);
+  for (int64_t row = 0; row < axes.rows; ++row) {
+    GridIndex<D> i = axes.row_index(row);
+    for (i[0] = 0; i[0] < axes.size[0]; ++i[0]) {
+      const int64_t l = row * axes.size[0] + i[0];
+      double sum = 0.0;
+      unsigned signs = 0;
+      for (int a = 0; a < D; ++a) {
+        const double g = partial_derivative_at(u.data(), l, axes.stride[a], i[a], axes.size[a], grid.spacing[a]);
+        sum += g * g;
+        const float rounded = static_cast<float>(g);  // the sign of the float the masks were made of
+        signs |= (rounded > 0.f ? 1u : 0u) << (2 * a) | (rounded < 0.f ? 1u : 0u) << (2 * a + 1);
+      }
+      f[l] = sum;
+      if (with_gradient_signs) out.gradient_signs[l] = static_cast<uint8_t>(signs);
     }
-    f[l] = sum;
-    if (with_gradient_signs) out.gradient_signs[l] = static_cast<uint8_t>(signs);
   }
   std::vector<double>().swap(u);
   double f_max = 0.0;  // max is exact: the reduction order does not matter
@@ -70,9 +96,15 @@ EdgeMap<D> edge_map(const Image<D>& image, Image<D>* owned, const EdgeMapOptions
   out.f.resize(n);
   for (int a = 0; a < D; ++a) out.grad_f[a].resize(n);
 #pragma omp parallel for schedule(static)
-  for (int64_t l = 0; l < n; ++l) {
-    out.f[l] = static_cast<float>(f[l]);
-    for (int a = 0; a < D; ++a) out.grad_f[a][l] = static_cast<float>(partial_derivative(grid, f, l, a));
+  for (int64_t row = 0; row < axes.rows; ++row) {
+    GridIndex<D> i = axes.row_index(row);
+    for (i[0] = 0; i[0] < axes.size[0]; ++i[0]) {
+      const int64_t l = row * axes.size[0] + i[0];
+      out.f[l] = static_cast<float>(f[l]);
+      for (int a = 0; a < D; ++a)
+        out.grad_f[a][l] =
+            static_cast<float>(partial_derivative_at(f.data(), l, axes.stride[a], i[a], axes.size[a], grid.spacing[a]));
+    }
   }
   return out;
 }

@@ -79,11 +79,7 @@ double partial_derivative_of(const Grid<D>& grid, const std::vector<T>& u, int64
   const int size = grid.size[axis];
   if (size < 2) return 0.0;
   const int64_t stride = axis_stride(grid, axis);
-  const int i = static_cast<int>((l / stride) % size);
-  const double h = grid.spacing[axis];
-  if (i == 0) return (double(u[l + stride]) - double(u[l])) / h;
-  if (i == size - 1) return (double(u[l]) - double(u[l - stride])) / h;
-  return (double(u[l + stride]) - double(u[l - stride])) / (2.0 * h);
+  return partial_derivative_at(u.data(), l, stride, static_cast<int>((l / stride) % size), size, grid.spacing[axis]);
 }
 
 }  // namespace

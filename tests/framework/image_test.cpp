@@ -172,5 +172,32 @@ TEST(ImageFilters, GradientOfALinearImageIsItsSlope) {
   for (int64_t l = 0; l < g.num_voxels(); ++l) EXPECT_NEAR((grad[l] - Point<3>(2, -1, 0.5)).norm(), 0, 1e-4);
 }
 
+// partial_derivative_at (the row loops' form, no divisions) gives partial_derivative's bits at
+// every voxel, borders and single-voxel axes included, on doubles and on floats; and the
+// one-sided and central differences have their hand-computed values.
+TEST(ImageFilters, PartialDerivativeAtEqualsPartialDerivativeBitForBit) {
+  Grid<3> g;
+  g.size = {5, 1, 3};
+  g.spacing = {0.5, 2.0, 3.0};
+  std::vector<double> u(g.num_voxels());
+  for (size_t l = 0; l < u.size(); ++l) u[l] = std::sin(0.7 * double(l) + 0.3) * (1 + double(l) * double(l));
+  const std::vector<float> uf(u.begin(), u.end());
+  int64_t stride[3] = {1, 5, 5};
+  for (int64_t l = 0; l < g.num_voxels(); ++l) {
+    const GridIndex<3> i = g.index(l);
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_EQ(partial_derivative_at(u.data(), l, stride[a], i[a], g.size[a], g.spacing[a]),
+                partial_derivative(g, u, l, a)) << l << " " << a;
+      EXPECT_EQ(partial_derivative_at(uf.data(), l, stride[a], i[a], g.size[a], g.spacing[a]),
+                partial_derivative(g, uf, l, a)) << l << " " << a;
+    }
+  }
+  const double v[3] = {1.0, 4.0, 2.0};  // along x at spacing 0.5: one-sided 6 and -4, central 1
+  EXPECT_EQ(partial_derivative_at(v, 0, 1, 0, 3, 0.5), 6.0);
+  EXPECT_EQ(partial_derivative_at(v, 1, 1, 1, 3, 0.5), 1.0);
+  EXPECT_EQ(partial_derivative_at(v, 2, 1, 2, 3, 0.5), -4.0);
+  EXPECT_EQ(partial_derivative_at(v, 0, 1, 0, 1, 0.5), 0.0);  // a single-voxel axis
+}
+
 }  // namespace
 }  // namespace dsnake
