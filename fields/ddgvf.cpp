@@ -130,7 +130,7 @@ const VectorField<D>& DdgvfField<D>::vectors() const {
     VectorField<D> v(grid);
 #pragma omp parallel for schedule(static)
     for (int64_t l = 0; l < n; ++l)
-      for (int a = 0; a < D; ++a) v.at(l)[a] = float(double(components_[a][0][l]) + components_[a][1][l]);
+      for (int a = 0; a < D; ++a) v.at(l)[a] = summed(a, l);
     vectors_ = std::move(v);
   });
   return vectors_;
@@ -143,7 +143,7 @@ double DdgvfField<D>::largest_vector_norm() const {
 #pragma omp parallel for reduction(max : m2) schedule(static) if (n >= (int64_t(1) << 16))
   for (int64_t l = 0; l < n; ++l) {
     Point<D> f;  // vectors()'s floats, in double, summed as VectorField's squaredNorm sums them
-    for (int a = 0; a < D; ++a) f[a] = float(double(components_[a][0][l]) + components_[a][1][l]);
+    for (int a = 0; a < D; ++a) f[a] = summed(a, l);
     const double s = f.squaredNorm();
     if (std::isfinite(s)) m2 = std::max(m2, s);
   }

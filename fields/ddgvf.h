@@ -81,6 +81,8 @@ class DdgvfField final : public ExternalField<D> {
 
   // Drops the summed vectors; the next vectors() makes them from the components.
   void reset_vectors();
+  // Axis a of vectors() at voxel l: both signs' components summed in double, rounded to float.
+  float summed(int a, int64_t l) const { return float(double(components_[a][0][l]) + components_[a][1][l]); }
 
   DdgvfFieldOptions options_;
   std::array<std::array<Image<D>, 2>, D> components_;

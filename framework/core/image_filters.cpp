@@ -77,7 +77,6 @@ void blur_axis(const Grid<D>& grid, int axis, double sigma_voxels, const std::ve
 template <int D, class T>
 double partial_derivative_of(const Grid<D>& grid, const std::vector<T>& u, int64_t l, int axis) {
   const int size = grid.size[axis];
-  if (size < 2) return 0.0;
   const int64_t stride = axis_stride(grid, axis);
   return partial_derivative_at(u.data(), l, stride, static_cast<int>((l / stride) % size), size, grid.spacing[axis]);
 }

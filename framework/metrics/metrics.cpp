@@ -360,7 +360,6 @@ SurfaceDistances summarize(const DirectedDistances& a, const DirectedDistances& 
   return r;
 }
 
-
 // The width of the sample batches queried against `target`: two of its cells (batches wider
 // than four fall back to one query per point).
 template <int D>
