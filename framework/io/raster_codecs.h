@@ -19,7 +19,9 @@ namespace dsnake {
 cv::Mat read_raster(const std::string& path, int flags);
 
 // cv::imwrite(path, image); false if OpenCV cannot write it. Throws OutputError naming `path` if
-// the codec library cannot be loaded.
+// the codec library cannot be loaded. PNG files of 8-bit grey or BGR, or 16-bit grey, images (the
+// figures, 2D results) are written with libpng instead, with OpenCV's default settings and the same
+// pixels, so that writing a figure does not load the codec library.
 bool write_raster(const std::string& path, const cv::Mat& image);
 
 }  // namespace dsnake
