@@ -157,7 +157,7 @@ void render(Phantom<D>& ph, const PhantomCanvas<D>& c, const std::function<bool(
     ph.image[l] = static_cast<float>(c.background + frac * (c.foreground - c.background));
     ph.mask[l] = inside(x) ? 1.0f : 0.0f;
   }
-  ph.image = gaussian_blur(ph.image, c.blur);
+  ph.image = gaussian_blur(std::move(ph.image), c.blur);
 }
 
 // Paints a solid tube (the points within `radius` of segment a-b) at grey level `level` over
@@ -247,7 +247,7 @@ void render_surface(Phantom<D>& ph, const PhantomCanvas<D>& c, const PaperImageS
     }
   }
   for (const auto& tube : shape.tubes) paint_tube(ph.image, c, tube, shape.tube_level);
-  ph.image = gaussian_blur(ph.image, c.blur);
+  ph.image = gaussian_blur(std::move(ph.image), c.blur);
 }
 
 Template<2> polygon_template(PointList<2> p) {

@@ -18,6 +18,9 @@ template <int D>
 void gaussian_blur(const Grid<D>& grid, std::vector<double>& values, double sigma);
 template <int D>
 Image<D> gaussian_blur(const Image<D>& image, double sigma);
+// The same, reusing the image's own storage for the result (no second float volume).
+template <int D>
+Image<D> gaussian_blur(Image<D>&& image, double sigma);
 
 // d u / d x_axis at voxel l in physical units: central differences inside, one-sided at the
 // border, 0 along an axis of a single voxel.
