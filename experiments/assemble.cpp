@@ -46,8 +46,9 @@ Template<D> read_template_file(const std::string& path) {
   else return read_mesh_template(path);
 }
 
-// The image (a file or a rendered phantom), then the corruptions in order. Returns the phantom,
-// whose truth the experiment takes unless files override it.
+// The image (a file or a rendered phantom), then the corruptions in order. Returns the phantom
+// (its image moved into `image`: a volume is not copied), whose truth the experiment takes
+// unless files override it.
 template <int D>
 std::optional<Phantom<D>> assemble_image(const ExperimentSpec<D>& spec, Image<D>& image) {
   std::optional<Phantom<D>> phantom;
@@ -55,7 +56,7 @@ std::optional<Phantom<D>> assemble_image(const ExperimentSpec<D>& spec, Image<D>
     JsonReader r(spec.image.phantom->object, spec.image.phantom->file, spec.image.phantom->path);
     phantom = make_phantom<D>(r);
     r.finish();
-    image = phantom->image;
+    image = std::move(phantom->image);
   } else {
     image = read_image<D>(spec.image.file);
   }
@@ -104,14 +105,14 @@ Image<D> read_reference_image(const ExperimentSpec<D>& spec) {
   }
 }
 
-// Ground truth: the phantom's own, then explicit files override.
+// Ground truth: the phantom's own (moved, not copied), then explicit files override.
 template <int D>
-GroundTruth<D> assemble_truth(const ExperimentSpec<D>& spec, const std::optional<Phantom<D>>& phantom,
+GroundTruth<D> assemble_truth(const ExperimentSpec<D>& spec, std::optional<Phantom<D>>&& phantom,
                               const Template<D>& tmpl) {
   GroundTruth<D> truth;
   if (phantom) {
-    truth.mask = phantom->mask;
-    truth.surface = phantom->surface;
+    truth.mask = std::move(phantom->mask);
+    truth.surface = std::move(phantom->surface);
     if (spec.tmpl.phantom) truth.targets = phantom_targets<D>(spec.image.phantom->object, spec.tmpl.phantom->object, tmpl);
   }
   const GroundTruthSpec& files = spec.truth;
@@ -221,7 +222,7 @@ Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   ex.collision_guard = spec.collision_guard;
   ex.global = spec.global;
   ex.potential = spec.potential;
-  const std::optional<Phantom<D>> phantom = assemble_image(spec, ex.image);
+  std::optional<Phantom<D>> phantom = assemble_image(spec, ex.image);
   ex.image_is_file_as_read = !spec.image.phantom && spec.image.corruptions.empty();
   ex.tmpl = assemble_template(spec);
   const PlacementSpec<D>& t = spec.tmpl.transform;
@@ -229,7 +230,7 @@ Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   if (!spec.tmpl.reference_image.empty()) ex.reference_image = read_reference_image(spec);
   // The pre-alignment in world coordinates, after the placement (template_init.h).
   if (spec.tmpl.init) ex.init = initialize_template<D>(*spec.tmpl.init, ex.tmpl, ex.image, ex.initial, spec.file.path);
-  ex.truth = assemble_truth(spec, phantom, ex.tmpl);
+  ex.truth = assemble_truth(spec, std::move(phantom), ex.tmpl);
   express_in_image_frame(ex, spec.truth);
   check_placement(ex, spec.file.path);
   ex.field = build_field(spec.field);
