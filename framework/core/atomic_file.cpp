@@ -51,11 +51,15 @@ void write_via_temporary(const std::string& path, const std::function<void(const
 }
 
 void write_file_atomically(const std::string& path, const std::string& bytes) {
+  write_file_atomically(path, std::vector<std::string_view>{bytes});
+}
+
+void write_file_atomically(const std::string& path, const std::vector<std::string_view>& parts) {
   write_via_temporary(path, [&](const std::string& tmp) {
     errno = 0;
     std::ofstream out(tmp, std::ios::binary);
     if (!out) throw OutputError(path, system_reason("cannot open for writing"));
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    for (const std::string_view part : parts) out.write(part.data(), static_cast<std::streamsize>(part.size()));
     out.close();
     if (!out) throw OutputError(path, system_reason("write failed"));  // a full disk: ENOSPC
   });

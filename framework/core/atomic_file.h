@@ -5,6 +5,8 @@
 #include <functional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <vector>
 
 namespace dsnake {
 
@@ -19,6 +21,9 @@ class OutputError : public std::runtime_error {
 // Writes `bytes` to `path` atomically. Throws OutputError (framework/core/errors.h) naming the
 // path and the system's reason (a full disk) on failure.
 void write_file_atomically(const std::string& path, const std::string& bytes);
+// The same for a file made of `parts` one after another (a header and an image's own values),
+// without joining them in memory first.
+void write_file_atomically(const std::string& path, const std::vector<std::string_view>& parts);
 
 // For writers that need a file name (OpenMesh, OpenCV): `write` receives a temporary path in
 // the same folder that keeps the final extension (".../.tmp-<pid>-<n>-name.ply"); it is renamed

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace dsnake::detail {
@@ -120,8 +121,17 @@ RawVolume read_nrrd(const std::string& path);
 int nrrd_dimension(const std::string& path);
 void write_nrrd(const RawVolume& v, const std::string& path, bool compress);
 
-// gzip-wrapped deflate of `data` (nrrd.cpp; NRRD's gzip encoding and .inr.gz).
-std::string gzip_bytes(const std::string& data, const std::string& path);
+// gzip-wrapped deflate of `parts` one after another (nrrd.cpp; NRRD's gzip encoding, .nii.gz
+// and .inr.gz), at zlib's fastest level.
+std::string gzip_bytes(const std::vector<std::string_view>& parts, const std::string& path);
+inline std::string gzip_bytes(const std::string& data, const std::string& path) {
+  return gzip_bytes(std::vector<std::string_view>{data}, path);
+}
+
+// The bytes of `values` as they are in memory (float32, the host's little-endian order).
+inline std::string_view float_view(const std::vector<float>& values) {
+  return {reinterpret_cast<const char*>(values.data()), values.size() * sizeof(float)};
+}
 
 // INRIMAGE-4 (inr.cpp): read a .inr or .inr.gz completely, or only its header's dimension;
 // write float32 little-endian (CPU=decm) .inr, or gzipped .inr.gz.

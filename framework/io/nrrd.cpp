@@ -379,29 +379,43 @@ std::string nrrd_data(const NrrdHeader& h, const std::string& bytes, const std::
 
 }  // namespace
 
-// gzip-wrapped deflate of `data` (NRRD's gzip encoding, .inr.gz).
-std::string gzip_bytes(const std::string& data, const std::string& path) {
+// gzip-wrapped deflate of `parts`, one after another (NRRD's gzip encoding, .nii.gz, .inr.gz),
+// at zlib's fastest level, as nibabel writes .nii.gz by default: a volume's file is written at
+// every run (result_mask.nii.gz), and level 6 took 2.5 to 3 times as long for files a third of
+// the size (the lung phantom's 21 MB image: 0.078 s for 77 kB against 0.028 s for 188 kB). The
+// output grows as it is filled instead of being sized to deflateBound (about the input's size),
+// so that only the compressed bytes' memory is touched (issue 21).
+std::string gzip_bytes(const std::vector<std::string_view>& parts, const std::string& path) {
   z_stream zs{};
-  if (deflateInit2(&zs, Z_DEFAULT_COMPRESSION, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK)
+  if (deflateInit2(&zs, Z_BEST_SPEED, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK)
     throw std::runtime_error(path + ": zlib initialisation failed");
-  std::string out(deflateBound(&zs, uLong(data.size())), '\0');
+  size_t total = 0;
+  for (const std::string_view part : parts) total += part.size();
+  const size_t bound = size_t(deflateBound(&zs, uLong(total)));
+  std::string out(std::min(bound, size_t(1) << 16), '\0');
   // zlib counts in 32-bit uInt: feed and drain at most 1 GiB at a time, so that volumes larger
-  // than 4 GiB compress too (total_in/total_out are uLong, 64-bit here).
+  // than 4 GiB compress too (total_out is uLong, 64-bit here).
   constexpr size_t kChunk = size_t(1) << 30;
-  int ret = Z_OK;
-  while (ret != Z_STREAM_END) {
-    const size_t in_pos = size_t(zs.total_in), out_pos = size_t(zs.total_out);
-    const size_t in_n = std::min(kChunk, data.size() - in_pos);
-    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data.data() + in_pos));
-    zs.avail_in = uInt(in_n);
-    zs.next_out = reinterpret_cast<Bytef*>(out.data() + out_pos);
-    zs.avail_out = uInt(std::min(kChunk, out.size() - out_pos));
-    ret = deflate(&zs, in_pos + in_n == data.size() ? Z_FINISH : Z_NO_FLUSH);
-    if (ret == Z_STREAM_ERROR || (ret == Z_BUF_ERROR && size_t(zs.total_out) == out.size())) {
-      deflateEnd(&zs);
-      throw std::runtime_error(path + ": gzip compression failed");
+  // Deflates `n` bytes at `in` (with Z_FINISH: then until the stream ends), growing `out`.
+  auto feed = [&](const char* in, size_t n, int flush) {
+    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in));
+    zs.avail_in = uInt(n);
+    for (;;) {
+      const size_t out_pos = size_t(zs.total_out);
+      if (out_pos == out.size()) out.resize(out.size() + std::min(out.size(), kChunk));  // doubling, 1 GiB at most
+      zs.next_out = reinterpret_cast<Bytef*>(out.data() + out_pos);
+      zs.avail_out = uInt(std::min(kChunk, out.size() - out_pos));
+      const int ret = deflate(&zs, flush);
+      if (ret == Z_STREAM_ERROR) {
+        deflateEnd(&zs);
+        throw std::runtime_error(path + ": gzip compression failed");
+      }
+      if (flush == Z_FINISH ? ret == Z_STREAM_END : zs.avail_in == 0 && zs.avail_out > 0) return;
     }
-  }
+  };
+  for (const std::string_view part : parts)
+    for (size_t at = 0; at < part.size(); at += kChunk) feed(part.data() + at, std::min(kChunk, part.size() - at), Z_NO_FLUSH);
+  feed(nullptr, 0, Z_FINISH);
   out.resize(size_t(zs.total_out));
   deflateEnd(&zs);
   return out;
