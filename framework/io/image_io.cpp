@@ -69,13 +69,6 @@ std::vector<T> decode(const char* data, int64_t count, Scalar s, bool swap) {
 template std::vector<float> decode<float>(const char*, int64_t, Scalar, bool);
 template std::vector<double> decode<double>(const char*, int64_t, Scalar, bool);
 
-// Values as little-endian float32 bytes (the format every writer stores).
-std::string float_bytes(const std::vector<float>& values) {
-  std::string out(values.size() * 4, '\0');
-  std::memcpy(out.data(), values.data(), out.size());
-  return out;
-}
-
 // Values rounded and clamped to [0, 255], one byte each (label maps).
 std::string label_bytes(const std::vector<float>& values) {
   std::string out(values.size(), '\0');

@@ -58,14 +58,17 @@ double load(const char* p, bool swap) {
 template <class T>
 std::vector<T> decode(const char* data, int64_t count, Scalar s, bool swap);
 
-// Values as little-endian float32 bytes (the format every writer stores).
-std::string float_bytes(const std::vector<float>& values);
-
 // Values rounded and clamped to [0, 255], one byte each (label maps).
 std::string label_bytes(const std::vector<float>& values);
 
-// What writers store: label_bytes for a label map, else float_bytes.
-inline std::string stored_bytes(const std::vector<double>& values, bool label);
+// What writers store: for a label map its label_bytes (made in `converted`), else the values'
+// own float32 bytes as they are in memory (little-endian here), without a copy (issue 21). The
+// view lives as long as `values` and `converted`.
+inline std::string_view stored_view(const std::vector<float>& values, bool label, std::string& converted) {
+  if (!label) return {reinterpret_cast<const char*>(values.data()), values.size() * sizeof(float)};
+  converted = label_bytes(values);
+  return converted;
+}
 
 // Limits from headers (issue 22): what a header declares is checked before anything is allocated.
 // Deflate expands at most ~1032-fold, so compressed data cannot hold more than this many times its
@@ -124,34 +127,11 @@ void write_nrrd(const RawVolume& v, const std::string& path, bool compress);
 // gzip-wrapped deflate of `parts` one after another (nrrd.cpp; NRRD's gzip encoding, .nii.gz
 // and .inr.gz), at zlib's fastest level.
 std::string gzip_bytes(const std::vector<std::string_view>& parts, const std::string& path);
-inline std::string gzip_bytes(const std::string& data, const std::string& path) {
-  return gzip_bytes(std::vector<std::string_view>{data}, path);
-}
-
-// The bytes of `values` as they are in memory (float32, the host's little-endian order).
-inline std::string_view float_view(const std::vector<float>& values) {
-  return {reinterpret_cast<const char*>(values.data()), values.size() * sizeof(float)};
-}
 
 // INRIMAGE-4 (inr.cpp): read a .inr or .inr.gz completely, or only its header's dimension;
 // write float32 little-endian (CPU=decm) .inr, or gzipped .inr.gz.
 RawVolume read_inr(const std::string& path);
 int inr_dimension(const std::string& path);
 void write_inr(const RawVolume& v, const std::string& path);
-
-inline std::string stored_bytes(const std::vector<float>& values, bool label) {
-  return label ? label_bytes(values) : float_bytes(values);
-}
-
-// Appends what stored_bytes gives to `out` (one allocation: a file's header then its data).
-inline void append_stored_bytes(std::string& out, const std::vector<float>& values, bool label) {
-  const size_t at = out.size();
-  if (label) {
-    out += label_bytes(values);
-    return;
-  }
-  out.resize(at + values.size() * sizeof(float));
-  std::memcpy(out.data() + at, values.data(), values.size() * sizeof(float));
-}
 
 }  // namespace dsnake::detail

@@ -181,10 +181,10 @@ void write_inr(const RawVolume& v, const std::string& path) {
        exact(v.origin[1]) + "\nZO=" + exact(v.ndims == 3 ? v.origin[2] : 0.0) + "\n";
   const size_t total = (h.size() + sizeof(kInrEnd) - 1 + kInrBlock - 1) / kInrBlock * kInrBlock;
   h += std::string(total - h.size() - (sizeof(kInrEnd) - 1), '\n') + kInrEnd;
-  std::string file = h;
-  append_stored_bytes(file, v.data(), false);
-  if (extension_of(path) == ".inr.gz") file = gzip_bytes(file, path);
-  write_file_atomically(path, file);
+  std::string converted;
+  const std::vector<std::string_view> parts{h, stored_view(v.data(), false, converted)};
+  if (extension_of(path) == ".inr.gz") write_file_atomically(path, gzip_bytes(parts, path));
+  else write_file_atomically(path, parts);
 }
 
 }  // namespace dsnake::detail

@@ -227,16 +227,16 @@ RawVolume read_meta(const std::string& path) {
 // plus a .raw/.zraw data file beside it.
 void write_meta(const RawVolume& v, const std::string& path, bool compress) {
   const bool local = extension_of(path) == ".mha";
-  std::string data;  // compressed: the stream; an uncompressed .mha appends the values to its header
-  if (compress || !local) data = stored_bytes(v.data(), v.label);
+  std::string converted, z;
+  std::string_view data = stored_view(v.data(), v.label, converted);  // the values, or their zlib stream
   if (compress) {
     uLongf n = compressBound(data.size());
-    std::string z(n, '\0');
+    z.assign(n, '\0');
     if (compress2(reinterpret_cast<Bytef*>(z.data()), &n, reinterpret_cast<const Bytef*>(data.data()), data.size(),
                   Z_DEFAULT_COMPRESSION) != Z_OK)
       throw std::runtime_error(path + ": zlib compression failed");
     z.resize(n);
-    data = std::move(z);
+    data = z;
   }
   auto list = [&](const std::array<double, 3>& a) {
     std::string s;
@@ -256,15 +256,12 @@ void write_meta(const RawVolume& v, const std::string& path, bool compress) {
   if (v.channels > 1) h += "ElementNumberOfChannels = " + std::to_string(v.channels) + "\n";
   h += v.label ? "ElementType = MET_UCHAR\n" : "ElementType = MET_FLOAT\n";
   if (local) {
-    std::string file = h + "ElementDataFile = LOCAL\n";
-    if (compress) file += data;
-    else append_stored_bytes(file, v.data(), v.label);
-    write_file_atomically(path, file);
+    write_file_atomically(path, {h + "ElementDataFile = LOCAL\n", data});
     return;
   }
   const fs::path p(path);
   const std::string data_name = p.stem().string() + (compress ? ".zraw" : ".raw");
-  write_file_atomically((p.parent_path() / data_name).string(), data);
+  write_file_atomically((p.parent_path() / data_name).string(), {data});
   write_file_atomically(path, h + "ElementDataFile = " + data_name + "\n");
 }
 

@@ -231,25 +231,17 @@ void write_nifti(const RawVolume& lps, const std::string& path) {
     put<float>(h, 280 + 16 * k + 12, float(v.origin[k]));
   }
   std::memcpy(h.data() + 344, "n+1", 4);
-  // The values are written from the image's own floats (no copy of a volume, issue 21); a label
-  // map's bytes and a vector field's planar components are made first.
-  std::string converted;
-  std::string_view values;
-  if (v.channels == 1 && !lps.label) {
-    values = float_view(lps.data());
-  } else if (v.channels == 1) {
-    converted = label_bytes(lps.data());
-    values = converted;
-  } else {  // NIfTI keeps components slowest (one volume per component); RawVolume interleaves them
+  // NIfTI keeps components slowest (one volume per component); RawVolume interleaves them.
+  std::vector<float> planar;
+  if (v.channels > 1) {
     const int64_t n = v.num_voxels();
     const std::vector<float>& interleaved = lps.data();
-    std::vector<float> planar(interleaved.size());
+    planar.resize(interleaved.size());
     for (int c = 0; c < v.channels; ++c)
       for (int64_t i = 0; i < n; ++i) planar[c * n + i] = interleaved[i * v.channels + c];
-    append_stored_bytes(converted, planar, lps.label);
-    values = converted;
   }
-  const std::vector<std::string_view> parts{h, values};
+  std::string converted;
+  const std::vector<std::string_view> parts{h, stored_view(v.channels > 1 ? planar : lps.data(), lps.label, converted)};
   if (extension_of(path) == ".nii") write_file_atomically(path, parts);
   else write_file_atomically(path, gzip_bytes(parts, path));
 }

@@ -478,21 +478,17 @@ void write_nrrd(const RawVolume& v, const std::string& path, bool compress) {
   h += std::string("\nkinds:") + (vec ? " vector" : "") + (n == 3 ? " domain domain domain" : " domain domain");
   h += "\nendian: little\nencoding: " + std::string(compress ? "gzip" : "raw") + "\n";
   h += "space origin: " + vector_text(v.origin, n) + "\n";
-  if (!compress && extension_of(path) != ".nhdr") {  // one allocation: the header, then the values
-    std::string file = h + "\n";
-    append_stored_bytes(file, v.data(), v.label);
-    write_file_atomically(path, file);
-    return;
-  }
-  std::string data = stored_bytes(v.data(), v.label);
-  if (compress) data = gzip_bytes(data, path);
-  if (extension_of(path) != ".nhdr") {
-    write_file_atomically(path, h + "\n" + data);
+  std::string converted;
+  const std::string_view values = stored_view(v.data(), v.label, converted);
+  const std::string gzipped = compress ? gzip_bytes({values}, path) : std::string();
+  const std::string_view data = compress ? std::string_view(gzipped) : values;
+  if (extension_of(path) != ".nhdr") {  // the header, then the values (attached)
+    write_file_atomically(path, {h + "\n", data});
     return;
   }
   const fs::path p(path);
   const std::string data_name = p.stem().string() + (compress ? ".raw.gz" : ".raw");
-  write_file_atomically((p.parent_path() / data_name).string(), data);
+  write_file_atomically((p.parent_path() / data_name).string(), {data});
   write_file_atomically(path, h + "data file: " + data_name + "\n");
 }
 

@@ -3,14 +3,13 @@
 
 #include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
+#include "framework/io/image_io_detail.h"
 
 #include <dlfcn.h>
 #include <png.h>
 #include <zlib.h>
 #include <opencv2/imgcodecs.hpp>  // declarations only: checks the signatures below, links nothing
 
-#include <algorithm>
-#include <cctype>
 #include <csetjmp>
 #include <cstdio>
 #include <memory>
@@ -53,14 +52,6 @@ const Codecs& codecs() {
     return c;
   }();
   return loaded;
-}
-
-// Whether `path` names a PNG file (its extension, in any case).
-bool is_png_path(const std::string& path) {
-  if (path.size() < 4) return false;
-  std::string ext = path.substr(path.size() - 4);
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  return ext == ".png";
 }
 
 // libpng reports errors by longjmp: the message is kept for the caller's false.
@@ -116,7 +107,7 @@ cv::Mat read_raster(const std::string& path, int flags) {
 
 bool write_raster(const std::string& path, const cv::Mat& image) {
   const int type = image.type();
-  if (is_png_path(path) && !image.empty() && (type == CV_8UC1 || type == CV_8UC3 || type == CV_16UC1))
+  if (detail::extension_of(path) == ".png" && !image.empty() && (type == CV_8UC1 || type == CV_8UC3 || type == CV_16UC1))
     return write_png_with_libpng(path, image);
   const Codecs& c = codecs();
   if (!c.write) throw OutputError(path, c.error);

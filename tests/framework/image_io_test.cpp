@@ -113,6 +113,34 @@ TEST(ImageIo, CompressedMetaImageRoundTrip) {
   expect_same_image(im, read_image<3>(dir + "/w.mhd"));
 }
 
+// A label map (ImageWriteOptions::label) in every format that stores one, raw and compressed:
+// one byte per voxel, the values rounded and clamped to [0, 255], the geometry kept. The
+// uncompressed files hold exactly header + one byte per voxel.
+TEST(ImageIo, LabelMapsRoundTripAsBytesInEveryFormat) {
+  const std::string dir = fresh_dir();
+  const Image<3> source = test_volume();
+  Image<3> labels(source.grid());
+  const float values[] = {-3.f, 0.4f, 1.6f, 7.f, 254.6f, 300.f};
+  for (int64_t i = 0; i < labels.num_voxels(); ++i) labels[i] = values[i % 6];
+  Image<3> expected(source.grid());
+  const float stored[] = {0.f, 0.f, 2.f, 7.f, 255.f, 255.f};
+  for (int64_t i = 0; i < expected.num_voxels(); ++i) expected[i] = stored[i % 6];
+  for (const bool compress : {false, true})
+    for (const std::string ext : {".mha", ".mhd", ".nrrd", ".nhdr", ".nii", ".nii.gz"}) {
+      if (compress && (ext == ".nii" || ext == ".nii.gz")) continue;  // NIfTI compresses by its name
+      const std::string path = dir + "/l" + (compress ? "z" : "") + ext;
+      write_image(labels, path, ImageWriteOptions{.compress = compress, .label = true});
+      expect_same_image(expected, read_image<3>(path), ext.starts_with(".nii"));  // NIfTI: float geometry
+    }
+  const int64_t n = labels.num_voxels();
+  EXPECT_EQ(fs::file_size(dir + "/l.nii"), size_t(352 + n));
+  EXPECT_EQ(fs::file_size(dir + "/l.raw"), size_t(n));
+  const std::string mha = read_file(dir + "/l.mha");
+  ASSERT_TRUE(contains(mha, "ElementType = MET_UCHAR\nElementDataFile = LOCAL\n"));
+  EXPECT_EQ(mha.size() - (mha.find("LOCAL\n") + 6), size_t(n));
+  EXPECT_TRUE(contains(read_file(dir + "/lz.mha"), "CompressedData = True"));
+}
+
 // A MetaImage as another program writes it: big-endian MET_SHORT, zlib-compressed by the test,
 // ElementSize and Position instead of ElementSpacing and Offset, and a TransformMatrix that swaps
 // two axes.
