@@ -5,6 +5,7 @@
 #include "framework/core/image_filters.h"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cstdint>
 #include <cmath>
@@ -54,70 +55,116 @@ double half_smallest_spacing(const Grid<D>& grid) {
   return 0.5 * grid.spacing.minCoeff();
 }
 
-// The median of the voxels' gradient magnitudes by selection in two passes, without a copy of
-// the volume (issue 21: 8 B per voxel and an nth_element over all of them on a CT): pass 1
-// counts the magnitudes per bucket of the top bits of their IEEE-754 pattern (monotone for
-// non-negative doubles) and finds the bucket holding the median's rank; pass 2 gathers that
-// bucket's values and selects within them. The same value as an nth_element over all voxels,
-// for any thread count (integer counts; the selected value does not depend on the order).
-constexpr int kNoiseBucketShift = 46;  // 18 bits: sign, exponent and 6 mantissa bits
-constexpr int64_t kNoiseBuckets = int64_t(1) << (64 - kNoiseBucketShift);
+// The voxels' gradient magnitudes |grad I| (partial_derivative's central differences, in double
+// precision), visited row by row (x fastest) as visit(magnitude) over the rows of this thread's
+// share of an enclosing parallel region: partial_derivative_at's arithmetic, so the same bits,
+// without dividing each voxel's linear index.
+template <int D, class Visit>
+void for_each_gradient_magnitude(const Image<D>& image, Visit&& visit) {
+  const Grid<D>& grid = image.grid();
+  const float* u = image.data().data();
+  std::array<int64_t, D> stride;
+  int64_t s = 1;
+  for (int a = 0; a < D; ++a) stride[a] = s, s *= grid.size[a];
+  const int nx = grid.size[0];
+  const int64_t rows = s / nx;
+#pragma omp for schedule(static) nowait
+  for (int64_t row = 0; row < rows; ++row) {
+    std::array<int, D> i{};
+    int64_t rest = row;
+    for (int a = 1; a < D; ++a) i[a] = static_cast<int>(rest % grid.size[a]), rest /= grid.size[a];
+    for (i[0] = 0; i[0] < nx; ++i[0]) {
+      const int64_t l = row * nx + i[0];
+      double sum = 0.0;
+      for (int a = 0; a < D; ++a) {
+        const double d = partial_derivative_at(u, l, stride[a], i[a], grid.size[a], grid.spacing[a]);
+        sum += d * d;
+      }
+      visit(std::sqrt(sum));
+    }
+  }
+}
+
+// The median of the voxels' gradient magnitudes by radix selection on their IEEE-754 patterns
+// (monotone for non-negative doubles), without a copy of the volume (issue 21): each pass counts,
+// among the voxels whose pattern begins with the bits found so far, the next 16 bits, and keeps
+// the digit that holds the median's rank; once the voxels that share the found bits are at most
+// `gather_max`, they are gathered and selected (nth_element). So a noisy image takes two passes
+// over the volume, and one whose magnitudes are mostly equal (a phantom, a label map: most of
+// them 0) at most four, never holding more than gather_max values (the first version gathered
+// the whole first bucket: 583 MB and per-thread copies of up to 512 MB each on a 512 x 512 x 300
+// phantom). The same value as an nth_element over all voxels, for any thread count (integer
+// counts; the selected value does not depend on the order).
+constexpr int kNoiseDigitBits = 16;
+constexpr int64_t kNoiseDigits = int64_t(1) << kNoiseDigitBits;
+
+namespace detail {
+
+template <int D>
+double gradient_noise_level(const Image<D>& image, int64_t gather_max) {
+  if (image.empty()) return 0.0;
+  const int64_t n = image.num_voxels();
+  auto key = [](double m) { return std::bit_cast<uint64_t>(m); };
+  uint64_t prefix = 0;  // the selected pattern's first `known` bits
+  int known = 0;
+  int64_t rank = n / 2;   // the element nth_element(begin, begin + n / 2, end) places, among...
+  int64_t candidates = n;  // ...the voxels whose pattern begins with prefix
+  double largest = 0.0;
+  std::vector<int64_t> count(kNoiseDigits);
+  while (known < 64 && (known == 0 || candidates > gather_max)) {
+    const int shift = 64 - known - kNoiseDigitBits;
+    std::fill(count.begin(), count.end(), 0);
+#pragma omp parallel if (n >= 65536)
+    {
+      std::vector<int64_t> mine(kNoiseDigits, 0);
+      double top = 0.0;
+      for_each_gradient_magnitude(image, [&](double m) {
+        const uint64_t k = key(m);
+        top = std::max(top, m);
+        if (known == 0 || (k >> (64 - known)) == prefix) ++mine[(k >> shift) & (kNoiseDigits - 1)];
+      });
+#pragma omp critical(dsnake_noise_level)
+      {
+        for (int64_t d = 0; d < kNoiseDigits; ++d) count[d] += mine[d];
+        largest = std::max(largest, top);
+      }
+    }
+    int64_t digit = 0;
+    for (; digit < kNoiseDigits - 1 && count[digit] <= rank; ++digit) rank -= count[digit];
+    prefix = (prefix << kNoiseDigitBits) | uint64_t(digit);
+    known += kNoiseDigitBits;
+    candidates = count[digit];
+  }
+  double median;
+  if (known == 64) {
+    median = std::bit_cast<double>(prefix);
+  } else {
+    std::vector<double> gathered;
+    gathered.reserve(candidates);
+#pragma omp parallel if (n >= 65536)
+    {
+      std::vector<double> mine;
+      for_each_gradient_magnitude(image, [&](double m) {
+        if ((key(m) >> (64 - known)) == prefix) mine.push_back(m);
+      });
+#pragma omp critical(dsnake_noise_level)
+      gathered.insert(gathered.end(), mine.begin(), mine.end());
+    }
+    auto mid = gathered.begin() + rank;
+    std::nth_element(gathered.begin(), mid, gathered.end());
+    median = *mid;
+  }
+  return std::max(median, 0.01 * largest);
+}
+
+template double gradient_noise_level<2>(const Image<2>&, int64_t);
+template double gradient_noise_level<3>(const Image<3>&, int64_t);
+
+}  // namespace detail
 
 template <int D>
 double gradient_noise_level(const Image<D>& image) {
-  if (image.empty()) return 0.0;
-  const std::vector<float>& u = image.data();  // differenced in double, without a copy
-  const Grid<D>& grid = image.grid();
-  const int64_t n = static_cast<int64_t>(u.size());
-  auto magnitude = [&](int64_t l) {
-    double s = 0.0;
-    for (int a = 0; a < D; ++a) {
-      const double d = partial_derivative(grid, u, l, a);
-      s += d * d;
-    }
-    return std::sqrt(s);
-  };
-  auto bucket = [](double m) { return static_cast<int64_t>(std::bit_cast<uint64_t>(m) >> kNoiseBucketShift); };
-  std::vector<int64_t> count(kNoiseBuckets, 0);
-  double largest = 0.0;
-#pragma omp parallel if (n >= 65536)
-  {
-    std::vector<int64_t> mine(kNoiseBuckets, 0);
-    double top = 0.0;
-#pragma omp for schedule(static) nowait
-    for (int64_t l = 0; l < n; ++l) {
-      const double m = magnitude(l);
-      top = std::max(top, m);
-      ++mine[bucket(m)];
-    }
-#pragma omp critical(dsnake_noise_level)
-    {
-      for (int64_t b = 0; b < kNoiseBuckets; ++b) count[b] += mine[b];
-      largest = std::max(largest, top);
-    }
-  }
-  const int64_t rank = n / 2;  // the element nth_element(begin, begin + n / 2, end) places
-  int64_t below = 0, chosen = 0;
-  for (; chosen < kNoiseBuckets; ++chosen) {
-    if (below + count[chosen] > rank) break;
-    below += count[chosen];
-  }
-  std::vector<double> in_bucket;
-  in_bucket.reserve(count[chosen]);
-#pragma omp parallel if (n >= 65536)
-  {
-    std::vector<double> mine;
-#pragma omp for schedule(static) nowait
-    for (int64_t l = 0; l < n; ++l) {
-      const double m = magnitude(l);
-      if (bucket(m) == chosen) mine.push_back(m);
-    }
-#pragma omp critical(dsnake_noise_level)
-    in_bucket.insert(in_bucket.end(), mine.begin(), mine.end());
-  }
-  auto mid = in_bucket.begin() + (rank - below);
-  std::nth_element(in_bucket.begin(), mid, in_bucket.end());
-  return std::max(*mid, 0.01 * largest);
+  return detail::gradient_noise_level(image, kNoiseGatherMax);
 }
 
 // Walks the ray until the first edge (a local maximum of |dI/du| above the floor), then reads

@@ -68,6 +68,16 @@ double half_smallest_spacing(const Grid<D>& grid);
 template <int D>
 double gradient_noise_level(const Image<D>& image);
 
+// At most this many magnitudes are held at once by gradient_noise_level (32 MB).
+constexpr int64_t kNoiseGatherMax = int64_t(1) << 22;
+
+namespace detail {
+// gradient_noise_level holding at most gather_max magnitudes at once (exposed for tests, which
+// force the passes that a large image takes on a small one).
+template <int D>
+double gradient_noise_level(const Image<D>& image, int64_t gather_max);
+}  // namespace detail
+
 // The polarity rule's search along a force (energies/external.h): the ray's step h and length in
 // mm, the derivative an edge must exceed (intensity per mm) and the sign of dI/dn a right edge has.
 struct PolarityProbe {

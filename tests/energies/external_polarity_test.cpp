@@ -119,8 +119,11 @@ TEST(ExternalPolarity, SameBitsForOneAndTwoThreads) {
 }
 
 // The polarity rule's noise level is the median of the voxels' gradient magnitudes (or 1% of the
-// largest): the two-pass bucket selection gives the value an nth_element over all voxels gives,
-// at 1 and 2 threads, on a noisy volume, on one with many equal magnitudes and on a constant one.
+// largest): the radix selection gives the value an nth_element over all voxels gives, at 1 and 2
+// threads, on a noisy volume, on one with many equal magnitudes and on a constant one, whether
+// it gathers after the first pass (the default bound) or refines 16 bits at a time: down to a
+// few values, or to all 64 bits without gathering (bound 0; the constant and the stepped volume
+// then take four passes, as a large phantom does).
 TEST(GradientNoiseLevel, EqualsTheMedianOfAllMagnitudes) {
   Grid<3> g;
   g.size = {67, 41, 30};  // > 65536 voxels: the parallel passes
@@ -139,19 +142,23 @@ TEST(GradientNoiseLevel, EqualsTheMedianOfAllMagnitudes) {
   };
   std::mt19937 rng(3);
   std::normal_distribution<float> noise(0.0f, 5.0f);
-  Image<3> noisy(g), steps(g), flat(g, 7.0f);
+  Image<3> noisy(g), steps(g), ramp(g), flat(g, 7.0f);
   for (int64_t l = 0; l < g.num_voxels(); ++l) {
     noisy[l] = 100.0f * (l % 67 > 30) + noise(rng);
     steps[l] = float((l / 67) % 41 > 20 ? 10 : 0);  // most magnitudes 0, a few equal ones
+    ramp[l] = 0.25f * float(l % 67);                  // the same non-zero magnitude everywhere
   }
-  for (const Image<3>* img : {&noisy, &steps, &flat}) {
+  for (const Image<3>* img : {&noisy, &steps, &ramp, &flat}) {
     const double expected = reference(*img);
     for (const int threads : {1, 2}) {
       omp_set_num_threads(threads);
       EXPECT_EQ(gradient_noise_level(*img), expected) << threads;
+      for (const int64_t gather_max : {int64_t(0), int64_t(1), int64_t(50), int64_t(5000)})
+        EXPECT_EQ(detail::gradient_noise_level(*img, gather_max), expected) << threads << " " << gather_max;
     }
   }
   EXPECT_GT(reference(noisy), 0.0);
+  EXPECT_GT(reference(ramp), 0.0);
 }
 
 }  // namespace
