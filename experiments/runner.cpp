@@ -312,14 +312,20 @@ void evolve(Experiment<D>& ex, const RunOptions& options, RunRecord<D>& rec) {
   // global view is computed on the same voxels, as it is built from the field or its image.
   rec.field_region = region_of_interest(ex.image.grid(), ex.initial, ex.field_region);
   const bool whole = rec.field_region.num_voxels() == ex.image.num_voxels();
-  const Image<D> cropped = whole ? Image<D>() : crop(ex.image, rec.field_region);
+  Image<D> cropped = whole ? Image<D>() : crop(ex.image, rec.field_region);
   const Image<D>& field_image = whole ? ex.image : cropped;
+  // The cropped copy is the field's to release (issue 21: a volume less through the run) unless
+  // the global view's potential is also built from it; then it goes once that is built.
+  const bool field_takes_crop = !whole && !ex.potential;
   try {
     ex.field->check_grid(field_image.grid());
     if (!options.quiet)
       std::fprintf(stderr, "dsnake: %s: computing the %s field on %s\n", ex.name.c_str(), ex.field->type().c_str(),
                    D == 2 ? "the image" : "the volume");
-    ex.field->compute(field_image);
+    if (field_takes_crop)
+      ex.field->compute_releasing(std::move(cropped));
+    else
+      ex.field->compute(field_image);
   } catch (const InputError& e) {
     // A field's own checks on the image (a VFC radius larger than the image, an unstable explicit
     // step) know the key, not the file: the line names the experiment file (issue 22).
@@ -337,6 +343,7 @@ void evolve(Experiment<D>& ex, const RunOptions& options, RunRecord<D>& rec) {
     potential = make_potential<D>(*ex.potential, field_image, ex.field.get());
     rec.potential_s = seconds_since(t);
   }
+  cropped = Image<D>();
   // The energies sample the whole image (the polarity rule's noise floor is a median over all
   // of it; on the field's region alone it is another number, and the rat lung's recipe Dice fell
   // from 0.9505 to 0.9488), and share its smoothed copies: one blur per sigma (issue 21).
