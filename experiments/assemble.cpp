@@ -105,13 +105,15 @@ Image<D> read_reference_image(const ExperimentSpec<D>& spec) {
   }
 }
 
-// Ground truth: the phantom's own (moved, not copied), then explicit files override.
+// Ground truth: the phantom's own (its surface moved, its mask as bytes), then explicit files
+// override.
 template <int D>
 GroundTruth<D> assemble_truth(const ExperimentSpec<D>& spec, std::optional<Phantom<D>>&& phantom,
                               const Template<D>& tmpl) {
   GroundTruth<D> truth;
   if (phantom) {
-    truth.mask = std::move(phantom->mask);
+    truth.mask = BinaryMask<D>(phantom->mask);  // a byte per voxel; the phantom's floats go now
+    phantom->mask = Image<D>();
     truth.surface = std::move(phantom->surface);
     if (spec.tmpl.phantom) truth.targets = phantom_targets<D>(spec.image.phantom->object, spec.tmpl.phantom->object, tmpl);
   }
@@ -183,9 +185,7 @@ void express_in_image_frame(Experiment<D>& ex, const GroundTruthSpec& files) {
     Grid<D> m = ex.truth.mask->grid();
     m.origin = g.to_frame(m.origin);
     m.direction.setIdentity();
-    Image<D> in_frame(m);
-    in_frame.data() = std::move(ex.truth.mask->data());
-    ex.truth.mask = std::move(in_frame);
+    ex.truth.mask = BinaryMask<D>(m, std::move(ex.truth.mask->data()));
   }
   for (auto& p : ex.initial) p = g.to_frame(p);
   if (ex.truth.surface)

@@ -157,8 +157,21 @@ Image<D> VectorField<D>::component(int axis) const {
 
 template struct Grid<2>;
 template struct Grid<3>;
+template <int D>
+BinaryMask<D>::BinaryMask(const Grid<D>& grid, std::vector<uint8_t>&& inside) : grid_(grid), inside_(std::move(inside)) {
+  DSNAKE_ASSERT(static_cast<int64_t>(inside_.size()) == grid_.num_voxels(), "one value per voxel");
+}
+
+template <int D>
+BinaryMask<D>::BinaryMask(const Image<D>& image) : grid_(image.grid()), inside_(image.data().size()) {
+  const std::vector<float>& v = image.data();
+  for (size_t l = 0; l < v.size(); ++l) inside_[l] = v[l] != 0.0f;
+}
+
 template class Image<2>;
 template class Image<3>;
+template class BinaryMask<2>;
+template class BinaryMask<3>;
 template class VectorField<2>;
 template class VectorField<3>;
 

@@ -78,6 +78,31 @@ class Image {
   std::vector<float> data_;
 };
 
+// A mask on a grid, one byte per voxel (inside or not): a ground truth's mask, which a run holds
+// from start to end, in a quarter of an Image's memory (issue 21: 225 MB less on a
+// 512 x 512 x 300 volume). Made from an image, a voxel is inside where the image is non-zero.
+template <int D>
+class BinaryMask {
+ public:
+  BinaryMask() = default;
+  // Adopts `inside` (one value per voxel of `grid`, x fastest; non-zero = inside).
+  BinaryMask(const Grid<D>& grid, std::vector<uint8_t>&& inside);
+  // Inside where `image` is non-zero; implicit, as a mask is read and made as an image.
+  BinaryMask(const Image<D>& image);  // NOLINT(google-explicit-constructor)
+
+  const Grid<D>& grid() const { return grid_; }
+  const Point<D>& spacing() const { return grid_.spacing; }
+  int64_t num_voxels() const { return static_cast<int64_t>(inside_.size()); }
+  bool operator[](int64_t i) const { return inside_[i] != 0; }
+  bool at(const GridIndex<D>& idx) const { return inside_[grid_.linear(idx)] != 0; }
+  const std::vector<uint8_t>& data() const { return inside_; }
+  std::vector<uint8_t>& data() { return inside_; }
+
+ private:
+  Grid<D> grid_;
+  std::vector<uint8_t> inside_;
+};
+
 // One D-vector per voxel, stored as D interleaved floats: 12 bytes a voxel in 3D instead of the
 // 24 of Point<D> (issue 21). Every field's solver works in float, and the vectors are what a run
 // keeps for its whole evolution. Sampling converts to double before interpolating, so a field

@@ -173,7 +173,7 @@ struct MaskBoundary {
 // physical units: segments in 2D, squares split into two triangles in 3D. Face corners sit
 // half a voxel from the centres; each corner becomes one vertex.
 template <int D>
-MaskBoundary<D> mask_boundary(const Image<D>& mask) {
+MaskBoundary<D> mask_boundary(const BinaryMask<D>& mask) {
   const Grid<D>& g = mask.grid();
   MaskBoundary<D> out;
   std::unordered_map<int64_t, int> corner_vertex;
@@ -188,10 +188,10 @@ MaskBoundary<D> mask_boundary(const Image<D>& mask) {
   auto inside = [&](const GridIndex<D>& idx) {
     for (int a = 0; a < D; ++a)
       if (idx[a] < 0 || idx[a] >= g.size[a]) return false;
-    return mask.at(idx) != 0.0f;
+    return mask.at(idx);
   };
   for (int64_t l = 0; l < g.num_voxels(); ++l) {
-    if (mask[l] == 0.0f) continue;
+    if (!mask[l]) continue;
     const GridIndex<D> idx = g.index(l);
     for (int a = 0; a < D; ++a)
       for (int side = 0; side < 2; ++side) {
@@ -517,11 +517,11 @@ VoxelRange<D> voxels_around(const PointList<D>& points, const Grid<D>& g) {
 
 // The box of the mask's non-zero voxels (empty when there are none).
 template <int D>
-VoxelRange<D> nonzero_voxels(const Image<D>& mask) {
+VoxelRange<D> nonzero_voxels(const BinaryMask<D>& mask) {
   const Grid<D>& g = mask.grid();
   GridIndex<D> lo = g.size, hi = GridIndex<D>::Constant(-1);
   for (int64_t l = 0; l < g.num_voxels(); ++l) {
-    if (mask[l] == 0.0f) continue;
+    if (!mask[l]) continue;
     const GridIndex<D> idx = g.index(l);
     lo = lo.cwiseMin(idx), hi = hi.cwiseMax(idx);
   }
@@ -591,7 +591,7 @@ SurfaceDistances surface_distances(SurfaceRef<D> a, SurfaceRef<D> b, double samp
 }
 
 template <int D>
-SurfaceDistances surface_distances_to_mask(SurfaceRef<D> a, const Image<D>& mask, double sample_spacing,
+SurfaceDistances surface_distances_to_mask(SurfaceRef<D> a, const BinaryMask<D>& mask, double sample_spacing,
                                            int64_t max_samples) {
   DSNAKE_ASSERT(sample_spacing > 0, "sample spacing is positive");
   const FacetSurface<D> fa = facets_of(a);
@@ -613,27 +613,38 @@ Image<D> rasterize_interior(SurfaceRef<D> s, const Grid<D>& grid) {
 }
 
 template <int D>
-double dice_against_mask(SurfaceRef<D> s, const Image<D>& mask) {
+double dice_against_mask(SurfaceRef<D> s, const BinaryMask<D>& mask) {
   DSNAKE_ASSERT(int(s.points.size()) == s.connectivity.num_vertices(), "one position per vertex");
   DSNAKE_ASSERT(s.connectivity.is_polygon() == (D == 2), "polygon in 2D, mesh in 3D");
   const Grid<D>& g = mask.grid();
   const VoxelRange<D> truth = nonzero_voxels(mask), box = union_of(truth, voxels_around(s.points, g));
   int64_t in_mask = 0, in_snake = 0, both = 0;
-  for (int64_t l = 0; l < mask.num_voxels(); ++l) in_mask += mask[l] != 0.0f;
+  for (int64_t l = 0; l < mask.num_voxels(); ++l) in_mask += mask[l];
   if (box.num_voxels() > 0) {
     const Image<D> inside = rasterize(s, g, box);
     const Grid<D>& sub = inside.grid();
     const int nx = box.size[0];
     for (int64_t row = 0; row < inside.num_voxels(); row += nx) {  // a row of the box along x
       const float* in_row = inside.data().data() + row;
-      const float* mask_row = mask.data().data() + g.linear(sub.index(row) + box.lo);
+      const uint8_t* mask_row = mask.data().data() + g.linear(sub.index(row) + box.lo);
       for (int i = 0; i < nx; ++i) {
         in_snake += in_row[i] != 0.0f;
-        both += in_row[i] != 0.0f && mask_row[i] != 0.0f;
+        both += in_row[i] != 0.0f && mask_row[i] != 0;
       }
     }
   }
   return in_mask + in_snake == 0 ? 1.0 : 2.0 * double(both) / double(in_mask + in_snake);
+}
+
+template <int D>
+SurfaceDistances surface_distances_to_mask(SurfaceRef<D> a, const Image<D>& mask, double sample_spacing,
+                                           int64_t max_samples) {
+  return surface_distances_to_mask(a, BinaryMask<D>(mask), sample_spacing, max_samples);
+}
+
+template <int D>
+double dice_against_mask(SurfaceRef<D> s, const Image<D>& mask) {
+  return dice_against_mask(s, BinaryMask<D>(mask));
 }
 
 template <int D>
@@ -705,7 +716,7 @@ Metrics compute_metrics(const Snake<D>& snake, const GroundTruth<D>& truth, cons
   Metrics m;
   const SurfaceRef<D> shape{snake.positions(), snake.connectivity()};
   const bool has_inside = truth.mask && std::any_of(truth.mask->data().begin(), truth.mask->data().end(),
-                                                    [](float v) { return v != 0.0f; });
+                                                    [](uint8_t v) { return v != 0; });
   double h = options.sample_spacing;
   if (!(h > 0)) h = truth.mask ? truth.mask->spacing().minCoeff() / 5.0 : 0.2;
   const int64_t cap = options.max_samples;
@@ -736,8 +747,10 @@ Metrics compute_metrics(const Snake<D>& snake, const GroundTruth<D>& truth, cons
 #define DSNAKE_INSTANTIATE_METRICS(D)                                                            \
   template std::vector<double> distances_to_surface<D>(SurfaceRef<D>, const PointList<D>&);      \
   template SurfaceDistances surface_distances<D>(SurfaceRef<D>, SurfaceRef<D>, double, int64_t);          \
+  template SurfaceDistances surface_distances_to_mask<D>(SurfaceRef<D>, const BinaryMask<D>&, double, int64_t); \
   template SurfaceDistances surface_distances_to_mask<D>(SurfaceRef<D>, const Image<D>&, double, int64_t); \
   template Image<D> rasterize_interior<D>(SurfaceRef<D>, const Grid<D>&);                        \
+  template double dice_against_mask<D>(SurfaceRef<D>, const BinaryMask<D>&);                     \
   template double dice_against_mask<D>(SurfaceRef<D>, const Image<D>&);                          \
   template double dice<D>(const Image<D>&, const Image<D>&);                                     \
   template CorrespondenceError correspondence_error<D>(const Snake<D>&,                          \

@@ -26,7 +26,7 @@ struct SurfaceRef {  // a closed polygon or mesh, by reference
 
 template <int D>
 struct GroundTruth {
-  std::optional<Image<D>> mask;                   // non-zero = inside, any grid
+  std::optional<BinaryMask<D>> mask;              // any grid (from an image: non-zero = inside)
   std::optional<Template<D>> surface;             // closed contour / mesh
   std::vector<std::optional<Point<D>>> targets;   // per template id; empty if unknown
 };
@@ -51,6 +51,10 @@ std::vector<double> distances_to_surface(SurfaceRef<D> s, const PointList<D>& po
 
 // Distances between a surface and the boundary of a mask (the faces between inside and
 // outside voxels), for when the ground truth has a mask and no surface.
+template <int D>
+SurfaceDistances surface_distances_to_mask(SurfaceRef<D> a, const BinaryMask<D>& mask, double sample_spacing,
+                                           int64_t max_samples = INT64_MAX);
+// The same with the mask given as an image (non-zero = inside).
 template <int D>
 SurfaceDistances surface_distances_to_mask(SurfaceRef<D> a, const Image<D>& mask, double sample_spacing,
                                            int64_t max_samples = INT64_MAX);
@@ -112,6 +116,8 @@ double bounded_spacing(double finest, double coarsest, int64_t max_samples,
 
 // Dice of the snake's interior against the mask, exactly as dice(rasterize_interior(s, grid),
 // mask), computed on the box of voxels that holds both (cost follows the object, not the grid).
+template <int D>
+double dice_against_mask(SurfaceRef<D> s, const BinaryMask<D>& mask);
 template <int D>
 double dice_against_mask(SurfaceRef<D> s, const Image<D>& mask);
 

@@ -51,6 +51,34 @@ TEST(Image, IndexRoundTrip) {
   EXPECT_EQ(g.linear(GridIndex<3>(1, 2, 3)), 1 + 3 * (2 + 4 * 3));
 }
 
+// A ground truth's mask: made from an image, a voxel is inside where the image is non-zero (the
+// metrics' rule for masks given as images: negative, fractional and NaN values count, -0 does
+// not), one byte per voxel, on the image's grid; made from bytes, it adopts them.
+TEST(BinaryMask, IsInsideWhereTheImageIsNonZero) {
+  Grid<2> g;
+  g.size = {3, 2};
+  g.spacing = {0.5, 2.0};
+  g.origin = {1.0, -3.0};
+  Image<2> img(g);
+  const float values[6] = {0.0f, -0.0f, 1.0f, -2.5f, 1e-30f, std::nanf("")};
+  for (int l = 0; l < 6; ++l) img[l] = values[l];
+  const BinaryMask<2> mask = img;
+  EXPECT_TRUE(mask.grid().same_geometry(g));
+  ASSERT_EQ(mask.num_voxels(), 6);
+  const bool inside[6] = {false, false, true, true, true, true};
+  for (int l = 0; l < 6; ++l) {
+    EXPECT_EQ(mask[l], inside[l]) << l;
+    EXPECT_EQ(mask.data()[l], inside[l] ? 1 : 0) << l;
+    EXPECT_EQ(mask.at(g.index(l)), inside[l]) << l;
+  }
+  EXPECT_EQ(mask.data().capacity(), 6u);  // a byte per voxel
+  std::vector<uint8_t> bytes = {0, 7, 0, 0, 1, 0};
+  const uint8_t* storage = bytes.data();
+  const BinaryMask<2> adopted(g, std::move(bytes));
+  EXPECT_EQ(adopted.data().data(), storage);
+  EXPECT_TRUE(adopted[1] && adopted[4] && !adopted[0] && !adopted[5]);
+}
+
 TEST(VectorField, SamplesEachComponentLinearly) {
   Grid<2> g;
   g.size = {5, 5};
