@@ -7,6 +7,8 @@
 #   field         dsnake field, converged multigrid GVF on the 230 x 300 x 80 ellipsoid of the
 #                 in-process benchmark (BM_GvfMultigridConverged3d), 1 thread
 #   lung_j1       experiments/paper/lung_dsnake.json end to end, 1 thread
+#   lung_j1_warm  the same, each run right after first_touch (below) has touched and freed 450 MB:
+#                 the memory the run maps is still backed by the host (not in the default list)
 #   lung_j2       the same, 2 threads
 #   lung_busy_j1  the same, 1 thread, while another process keeps one core busy
 #   lung_busy_j2  the same, 2 threads, while another process keeps one core busy
@@ -16,14 +18,26 @@
 #                 of its 300-vertex template on the 25.5 M-voxel truth (needs data/real/liver,
 #                 from experiments/real/make_3d_inputs.py); result.json's metrics_s beside
 #   collapsed_metrics  the same template shrunk 100 times about its centroid
+#   first_touch   not dsnake: the machine's cost, at that moment, of touching 320 MB of fresh
+#                 memory (the lung run's peak), REPEATS times 3 s apart (freed memory goes back
+#                 to the host after about 2 s), and of touching it again right after
+#                 (experiments/bench/first_touch.cpp). It moves the lung's figures by tenths of
+#                 a second from one hour to the next; run first and last by default.
 #   field_types   dsnake field of every field type (gradient, distance, gvf, ddgvf, vfc) on the
 #                 same volume, 1 thread: peak bytes per voxel of each (not in the default list)
 #
-# Usage: experiments/bench/whole_process.sh [CASE ...]    (env: REPEATS, DSNAKE, WORK)
+# Every run starts GAP seconds (default 3) after the one before: on a virtual machine that hands
+# freed memory back to its host (free page reporting, after about 2 s), a run that starts right
+# after another finds the other's pages still backed and runs faster than a user's single run
+# (the lung with -j 1: 0.7-0.9 s faster, its system time 0.73-0.97 -> 0.11-0.29 s; GAP=0 gives
+# those figures).
+#
+# Usage: experiments/bench/whole_process.sh [CASE ...]    (env: REPEATS, DSNAKE, WORK, GAP)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 DSNAKE=${DSNAKE:-build/release/experiments/dsnake}
 REPEATS=${REPEATS:-5}
+GAP=${GAP:-3}
 WORK=${WORK:-/tmp/dsnake-whole-process}
 mkdir -p "$WORK"
 [ -f "$WORK/ellipsoid.mha" ] || /usr/bin/python3 experiments/bench/make_volumes.py "$WORK"
@@ -41,6 +55,8 @@ measure() {
   local times=()
   for i in $(seq "$REPEATS"); do
     rm -rf "$WORK/out"
+    sleep "$GAP"  # the run before's freed memory goes back to the host: every run starts cold
+    if [ -n "${BEFORE_EACH:-}" ]; then $BEFORE_EACH > /dev/null; fi
     if ! /usr/bin/time -v -o "$WORK/time.txt" "$@" > "$WORK/stdout.txt" 2> "$WORK/stderr.txt"; then
       echo "whole_process: $name failed:" >&2
       tail -5 "$WORK/stderr.txt" >&2
@@ -76,6 +92,12 @@ run_case() {
         "$DSNAKE" field --image "$WORK/ellipsoid.mha" --type gvf --out "$WORK/gvf.mha" -j 1
       echo "                   peak bytes per voxel: $(awk -v kb="$LAST_RSS_KB" 'BEGIN {printf "%.1f", kb * 1024 / (230 * 300 * 80)}')" ;;
     lung_j1) measure lung_j1 "" "$DSNAKE" run experiments/paper/lung_dsnake.json --out "$WORK/out" -j 1 --quiet ;;
+    lung_j1_warm)
+      # Right after first_touch has touched and freed 450 MB (not timed): the run's memory is
+      # still backed by the host, as it would be on a machine that does not hand freed memory
+      # back; the difference to lung_j1 is what this machine charges for the run's fresh pages.
+      BEFORE_EACH="build/release/experiments/bench/first_touch 450" measure lung_j1_warm "memory still backed" \
+        "$DSNAKE" run experiments/paper/lung_dsnake.json --out "$WORK/out" -j 1 --quiet ;;
     lung_j2) measure lung_j2 "" "$DSNAKE" run experiments/paper/lung_dsnake.json --out "$WORK/out" -j 2 --quiet ;;
     lung_busy_j1)
       start_hog; measure lung_busy_j1 "one core busy" "$DSNAKE" run experiments/paper/lung_dsnake.json --out "$WORK/out" -j 1 --quiet; stop_hog ;;
@@ -93,6 +115,14 @@ run_case() {
         --set template.transform.scale=$scale --set output.figures=false --set output.result_mask=false \
         --field-cache "$WORK/cache"
       echo "                   last run: metrics $(timing metrics_s) s in-process" ;;
+    first_touch)
+      local probe=build/release/experiments/bench/first_touch
+      for i in $(seq "$REPEATS"); do sleep 3; "$probe" 320; done | /usr/bin/python3 -c '
+import re, statistics, sys
+rows = [tuple(map(float, re.findall(r"\(([\d.]+) s/GB\)", l))) for l in sys.stdin if "first touch" in l]
+fresh = [r[0] for r in rows]; again = [r[1] for r in rows]
+print(f"first_touch        fresh memory {statistics.median(fresh):.2f} s/GB (min {min(fresh):.2f}, max {max(fresh):.2f}), "
+      f"again right after {statistics.median(again):.2f} s/GB  n={len(rows)}  (the machine, not dsnake: 320 MB)")' ;;
     field_types)
       for t in gradient distance gvf ddgvf vfc; do
         measure "field_$t" "" "$DSNAKE" field --image "$WORK/ellipsoid.mha" --type "$t" --out "$WORK/$t.mha" -j 1
@@ -103,6 +133,6 @@ run_case() {
 }
 
 CASES=("$@")
-[ ${#CASES[@]} -gt 0 ] || CASES=(field lung_j1 lung_j2 lung_busy_j1 lung_busy_j2 ct liver_metrics collapsed_metrics)
-echo "whole_process: $(nproc) cores, REPEATS=$REPEATS, $($DSNAKE --version 2>/dev/null | head -1)"
+[ ${#CASES[@]} -gt 0 ] || CASES=(first_touch field lung_j1 lung_j2 lung_busy_j1 lung_busy_j2 ct liver_metrics collapsed_metrics first_touch)
+echo "whole_process: $(nproc) cores, REPEATS=$REPEATS, GAP=$GAP s, $($DSNAKE --version 2>/dev/null | head -1)"
 for c in "${CASES[@]}"; do run_case "$c"; done
