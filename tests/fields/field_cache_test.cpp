@@ -91,7 +91,9 @@ TEST(FieldCache, ComputeReleasingReleasesTheImageOnAMissAndLoadsOnAHit) {
     Image<2> image = disk(1.0f);
     field->compute_releasing(std::move(image));
     EXPECT_EQ(cached->loaded_from_cache(), pass == 1);
-    if (pass == 0) EXPECT_TRUE(image.data().empty()) << "the image is released on a miss";
+    if (pass == 0) {
+      EXPECT_TRUE(image.data().empty()) << "the image is released on a miss";
+    }
     EXPECT_TRUE(std::filesystem::exists(cached->entry_path()));
     ASSERT_EQ(field->vectors().num_voxels(), plain->vectors().num_voxels());
     for (int64_t l = 0; l < plain->vectors().num_voxels(); ++l)
