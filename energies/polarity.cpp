@@ -5,7 +5,6 @@
 #include "framework/core/image_filters.h"
 
 #include <algorithm>
-#include <array>
 #include <bit>
 #include <cstdint>
 #include <cmath>
@@ -63,21 +62,16 @@ template <int D, class Visit>
 void for_each_gradient_magnitude(const Image<D>& image, Visit&& visit) {
   const Grid<D>& grid = image.grid();
   const float* u = image.data().data();
-  std::array<int64_t, D> stride;
-  int64_t s = 1;
-  for (int a = 0; a < D; ++a) stride[a] = s, s *= grid.size[a];
-  const int nx = grid.size[0];
-  const int64_t rows = s / nx;
+  const GridRows<D> rows(grid);
+  const int nx = rows.size[0];
 #pragma omp for schedule(static) nowait
-  for (int64_t row = 0; row < rows; ++row) {
-    std::array<int, D> i{};
-    int64_t rest = row;
-    for (int a = 1; a < D; ++a) i[a] = static_cast<int>(rest % grid.size[a]), rest /= grid.size[a];
+  for (int64_t row = 0; row < rows.rows; ++row) {
+    GridIndex<D> i = rows.row_index(row);
     for (i[0] = 0; i[0] < nx; ++i[0]) {
       const int64_t l = row * nx + i[0];
       double sum = 0.0;
       for (int a = 0; a < D; ++a) {
-        const double d = partial_derivative_at(u, l, stride[a], i[a], grid.size[a], grid.spacing[a]);
+        const double d = partial_derivative_at(u, l, rows.stride[a], i[a], rows.size[a], grid.spacing[a]);
         sum += d * d;
       }
       visit(std::sqrt(sum));

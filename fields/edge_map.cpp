@@ -11,27 +11,6 @@ namespace dsnake {
 
 namespace {
 
-// The grid's rows along x (x fastest), for loops that take each voxel's index from its row
-// rather than by dividing its linear index (partial_derivative_at).
-template <int D>
-struct RowAxes {
-  explicit RowAxes(const Grid<D>& grid) {
-    int64_t s = 1;
-    for (int a = 0; a < D; ++a) size[a] = grid.size[a], stride[a] = s, s *= grid.size[a];
-    rows = s / size[0];
-  }
-  // The index of the first voxel of row `row` (x = 0).
-  GridIndex<D> row_index(int64_t row) const {
-    GridIndex<D> i;
-    i[0] = 0;
-    for (int a = 1; a < D; ++a) i[a] = static_cast<int>(row % size[a]), row /= size[a];
-    return i;
-  }
-  std::array<int, D> size;
-  std::array<int64_t, D> stride;
-  int64_t rows = 0;
-};
-
 // The edge map; `owned` (the image itself, or null) is released once u holds its copy.
 template <int D>
 EdgeMap<D> edge_map(const Image<D>& image, Image<D>* owned, const EdgeMapOptions& options, bool with_gradient_signs,
@@ -52,7 +31,7 @@ EdgeMap<D> edge_map(const Image<D>& image, Image<D>* owned, const EdgeMapOptions
   gaussian_blur(grid, u, options.sigma);
   std::vector<double> f(n);
   if (with_gradient_signs) out.gradient_signs.resize(n);
-  const RowAxes<D> axes(grid);
+  const GridRows<D> axes(grid);
 #pragma omp parallel for schedule(static)
   for (int64_t row = 0; row < axes.rows; ++row) {
     GridIndex<D> i = axes.row_index(row);

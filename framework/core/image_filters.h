@@ -5,6 +5,7 @@
 
 #include "framework/core/image.h"
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -41,6 +42,27 @@ inline double partial_derivative_at(const T* u, int64_t l, int64_t stride, int i
   if (i == size - 1) return (double(u[l]) - double(u[l - stride])) / h;
   return (double(u[l + stride]) - double(u[l - stride])) / (2.0 * h);
 }
+
+// A grid's rows along x (x fastest), for loops that take each voxel's index along every axis
+// from its row rather than by dividing its linear index (partial_derivative_at).
+template <int D>
+struct GridRows {
+  explicit GridRows(const Grid<D>& grid) {
+    int64_t s = 1;
+    for (int a = 0; a < D; ++a) size[a] = grid.size[a], stride[a] = s, s *= grid.size[a];
+    rows = size[0] > 0 ? s / size[0] : 0;
+  }
+  // The index of the first voxel of row `row` (x = 0); its voxels are row * size[0] + x.
+  GridIndex<D> row_index(int64_t row) const {
+    GridIndex<D> i;
+    i[0] = 0;
+    for (int a = 1; a < D; ++a) i[a] = static_cast<int>(row % size[a]), row /= size[a];
+    return i;
+  }
+  std::array<int, D> size;
+  std::array<int64_t, D> stride;
+  int64_t rows = 0;
+};
 
 // The gradient of an image, by partial_derivative on every axis.
 template <int D>
