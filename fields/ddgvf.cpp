@@ -200,10 +200,9 @@ bool DdgvfField<D>::load_state(const Grid<D>& grid, const std::string& bytes) {
   std::array<std::array<Image<D>, 2>, D> comps;
   for (auto& axis : comps)
     for (auto& c : axis) {
-      c = Image<D>(grid);
       std::vector<float> a = r.array<float>();
-      if (a.size() != c.data().size()) return false;
-      c.data() = std::move(a);
+      if (int64_t(a.size()) != grid.num_voxels()) return false;
+      c = Image<D>(grid, std::move(a));
     }
   if (!r.ok()) return false;
   components_ = std::move(comps);

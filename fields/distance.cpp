@@ -125,8 +125,7 @@ bool DistanceField<D>::load_state(const Grid<D>& grid, const std::string& bytes)
   std::vector<float> d = r.array<float>();
   VectorField<D> v = r.vectors(grid);
   if (!r.ok() || int64_t(d.size()) != grid.num_voxels()) return false;
-  distance_ = Image<D>(grid);
-  distance_.data() = std::move(d);
+  distance_ = Image<D>(grid, std::move(d));
   vectors_ = std::move(v);
   return true;
 }

@@ -95,8 +95,10 @@ void require_exists(const std::string& path);
 std::string read_bytes(const std::string& path, size_t max_bytes = std::string::npos);
 
 // Whole file (or its first max_bytes) through zlib's gz reader, which gunzips .gz files and
-// passes plain files through unchanged (NIfTI).
-std::string read_gz_bytes(const std::string& path, size_t max_bytes = std::string::npos);
+// passes plain files through unchanged (NIfTI). `expected_bytes`: the length the caller expects
+// (a header's data size; 0: unknown), read straight into a buffer of that size instead of one
+// grown by doubling; a longer or shorter file is read as it is.
+std::string read_gz_bytes(const std::string& path, size_t max_bytes = std::string::npos, size_t expected_bytes = 0);
 
 // Formats a double so that reading it back gives the same double.
 std::string exact(double v);

@@ -14,6 +14,8 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string>
+#include <string_view>
 
 namespace dsnake::detail {
 
@@ -93,7 +95,7 @@ bool meta_true(const std::string* value) {
 }
 
 // zlib- or gzip-wrapped deflate data, inflated up to `expected` bytes.
-std::string inflate_bytes(const std::string& in, size_t expected, const std::string& path) {
+std::string inflate_bytes(std::string_view in, size_t expected, const std::string& path) {
   std::string out(expected, '\0');
   z_stream zs{};
   if (inflateInit2(&zs, 15 + 32) != Z_OK) throw std::runtime_error("zlib initialisation failed");
@@ -189,11 +191,14 @@ RawVolume read_meta(const std::string& path) {
   const int64_t count = v.num_voxels() * v.channels;
   const size_t expected = size_t(count) * scalar_bytes(type);
 
-  // The data: after the header (LOCAL) or in a file beside the header.
+  // The data: after the header (LOCAL) or in a file beside the header. A view into the bytes
+  // read (no copies of a volume's data before it is decoded, issue 21); `owned` holds the data
+  // file's bytes or the inflated stream.
   const std::string& df = h.keys.at("ElementDataFile");
-  std::string data_path = path, data;
+  std::string data_path = path, owned;
+  std::string_view data;
   if (df == "LOCAL") {
-    data = bytes.substr(h.data_start);
+    data = std::string_view(bytes).substr(h.data_start);
   } else {
     if (df.rfind("LIST", 0) == 0 || df.find('%') != std::string::npos)
       throw InputError(path, "ElementDataFile", "file lists and patterns are not supported");
@@ -201,20 +206,22 @@ RawVolume read_meta(const std::string& path) {
     std::error_code ec;  // a name too long for the system is "not found", not a filesystem_error (fuzzing, issue 22)
     if (!fs::is_regular_file(data_path, ec))
       throw InputError(data_path, "", "data file not found (named by ElementDataFile in " + path + ")");
-    data = read_bytes(data_path);
+    owned = read_bytes(data_path);
+    data = owned;
     if (const std::string* hs = find_key(h, {"HeaderSize"})) {
       const double skip = meta_numbers(*hs, path, "HeaderSize", 1)[0];
       if (skip == -1 && !compressed && data.size() >= expected) data = data.substr(data.size() - expected);
-      else if (skip > 0) data = skip < double(data.size()) ? data.substr(size_t(skip)) : std::string();
+      else if (skip > 0) data = skip < double(data.size()) ? data.substr(size_t(skip)) : std::string_view();
     }
   }
   if (compressed) {
     if (const std::string* cs = find_key(h, {"CompressedDataSize"})) {
       const double n = meta_numbers(*cs, path, "CompressedDataSize", 1)[0];
-      if (n >= 0 && n < double(data.size())) data.resize(size_t(n));
+      if (n >= 0 && n < double(data.size())) data = data.substr(0, size_t(n));
     }
     check_inflatable(double(expected), double(data.size()), data_path, "CompressedData");
-    data = inflate_bytes(data, expected, data_path);
+    owned = inflate_bytes(data, expected, data_path);
+    data = owned;
   }
   if (data.size() < expected)
     throw InputError(data_path, "ElementDataFile", "data holds " + std::to_string(data.size()) + " bytes, expected " +

@@ -297,6 +297,12 @@ std::string gunzip_up_to(const std::string& in, size_t limit, const std::string&
   zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
   zs.avail_in = static_cast<uInt>(in.size());
   std::string out;
+  // Address space for the whole (not touched until filled), so that the chunks do not regrow
+  // and copy the buffer; without it if the system refuses that much.
+  try {
+    out.reserve(limit);
+  } catch (const std::exception&) {
+  }
   int ret = Z_OK;
   while (out.size() < limit && ret != Z_STREAM_END) {
     const size_t chunk = std::min<size_t>(limit - out.size(), size_t(1) << 22);
@@ -317,7 +323,7 @@ std::string gunzip_up_to(const std::string& in, size_t limit, const std::string&
 
 // The bytes of `path`'s data: attached after the header or in the `data file`, past `line skip`
 // lines (and for raw data `byte skip` bytes); `where` is set to the file they came from.
-std::string nrrd_stored_bytes(const NrrdHeader& h, const std::string& bytes, const std::string& path,
+std::string nrrd_stored_bytes(const NrrdHeader& h, std::string&& bytes, const std::string& path,
                               std::string& where) {
   const std::string* df = nrrd_field(h, "data file");
   std::string data;
@@ -335,7 +341,8 @@ std::string nrrd_stored_bytes(const NrrdHeader& h, const std::string& bytes, con
   } else {
     if (h.data_start == std::string::npos)
       throw InputError(path, "data file", "missing: no 'data file' field and no data after the header");
-    data = bytes.substr(h.data_start);
+    data = std::move(bytes);  // the header dropped in place: no second copy of a volume's bytes
+    data.erase(0, h.data_start);
   }
   if (const std::string* ls = nrrd_field(h, "line skip")) {
     const int64_t n = nrrd_integer(*ls, path, "line skip", 0, 1 << 20);
@@ -352,7 +359,7 @@ std::string nrrd_stored_bytes(const NrrdHeader& h, const std::string& bytes, con
 
 // The data block of exactly `expected` bytes (decoded from the encoding, `byte skip` applied),
 // or an InputError naming the field whose numbers the data does not hold.
-std::string nrrd_data(const NrrdHeader& h, const std::string& bytes, const std::string& path, double expected) {
+std::string nrrd_data(const NrrdHeader& h, std::string&& bytes, const std::string& path, double expected) {
   const std::string encoding = lower(required_field(h, "encoding", path));
   const bool gz = encoding == "gzip" || encoding == "gz";
   if (!gz && encoding != "raw")
@@ -361,7 +368,7 @@ std::string nrrd_data(const NrrdHeader& h, const std::string& bytes, const std::
   if (const std::string* bs = nrrd_field(h, "byte skip"))
     skip = nrrd_integer(*bs, path, "byte skip", gz ? 0 : -1, int64_t(1) << 40);
   std::string where;
-  std::string data = nrrd_stored_bytes(h, bytes, path, where);
+  std::string data = nrrd_stored_bytes(h, std::move(bytes), path, where);
   const std::string in_file = where == path ? "" : " in " + where;
   if (gz) {
     if (expected + double(skip) > kMaxInflateRatio * double(data.size()) + 1024)
@@ -374,7 +381,9 @@ std::string nrrd_data(const NrrdHeader& h, const std::string& bytes, const std::
     throw InputError(path, "sizes", "sizes and type need " + exact(expected) + " bytes of data, found " +
                                         std::to_string(std::max<int64_t>(0, int64_t(data.size()) - skip)) + in_file +
                                         " (truncated data or wrong sizes)");
-  return data.substr(size_t(skip), size_t(expected));
+  data.erase(0, size_t(skip));
+  data.resize(size_t(expected));
+  return data;
 }
 
 }  // namespace
@@ -434,7 +443,7 @@ std::string vector_text(const std::array<double, 3>& a, int n) {
 
 // Reads a .nrrd or .nhdr file completely.
 RawVolume read_nrrd(const std::string& path) {
-  const std::string bytes = read_bytes(path);
+  std::string bytes = read_bytes(path);
   const NrrdHeader h = parse_nrrd_header(bytes, path);
   RawVolume v = nrrd_geometry(h, path);
   const Scalar type = nrrd_type(required_field(h, "type", path), path);
@@ -449,7 +458,7 @@ RawVolume read_nrrd(const std::string& path) {
   const double expected = count * scalar_bytes(type);
   if (expected > kMaxDataBytes) throw InputError(path, "sizes", "absurd sizes (" + exact(count) + " values)");
   check_declared_values(count, path, "sizes");
-  const std::string data = nrrd_data(h, bytes, path, expected);
+  const std::string data = nrrd_data(h, std::move(bytes), path, expected);
   v.values = decode<float>(data.data(), int64_t(count), type, swap);
   return v;
 }

@@ -1,6 +1,7 @@
 // Round trips and error reports of framework/image_io: MetaImage (raw, separate .raw, zlib),
 // NIfTI-1 (.nii, .nii.gz, scaled integer types, big-endian headers), PNG, vector fields.
 #include "framework/io/image_io.h"
+#include "framework/io/image_io_detail.h"
 
 #include "framework/core/errors.h"
 
@@ -290,6 +291,65 @@ TEST(ImageIo, NiftiAppliesSlopeAndInterceptToUint8AndInt16) {
     EXPECT_EQ(a[i], float(2 * (i * 20) + 1)) << i;
     EXPECT_EQ(b[i], float(2 * (i * 1000 - 6000) + 1)) << i;
   }
+}
+
+// Issue 21: scaled values are decoded a block of 65536 at a time (not all at once in double);
+// a volume of several blocks, whose last one is partial, in .nii and .nii.gz, and a vector
+// field whose components cross the blocks' borders, read as before.
+TEST(ImageIo, NiftiDecodesScaledVolumesAndVectorFieldsOfSeveralBlocks) {
+  const std::string dir = fresh_dir();
+  const int16_t nx = 61, ny = 47, nz = 53;  // 151951 voxels: two blocks and a partial third
+  const int64_t n = int64_t(nx) * ny * nz;
+  std::string payload;
+  auto stored = [](int64_t i) { return int16_t(i * 7919 % 65536 - 32768); };
+  for (int64_t i = 0; i < n; ++i) {
+    const int16_t v = stored(i);
+    payload.append(reinterpret_cast<const char*>(&v), 2);
+  }
+  std::string file = nifti_by_hand(4, 16, 0.5f, -1024.f, payload, false);
+  const int16_t dim[4] = {3, nx, ny, nz};
+  std::memcpy(file.data() + 40, dim, sizeof dim);
+  write_file(dir + "/ct.nii", file);
+  gzFile gz = gzopen((dir + "/ct.nii.gz").c_str(), "wb1");
+  ASSERT_NE(gz, nullptr);
+  ASSERT_EQ(gzwrite(gz, file.data(), unsigned(file.size())), int(file.size()));
+  gzclose(gz);
+  for (const std::string name : {"/ct.nii", "/ct.nii.gz"}) {
+    SCOPED_TRACE(name);
+    const Image<3> im = read_image<3>(dir + name);
+    ASSERT_EQ(im.size(), GridIndex<3>(nx, ny, nz));
+    int64_t wrong = 0;
+    for (int64_t i = 0; i < n; ++i) wrong += im[i] != float(double(stored(i)) * 0.5 - 1024.0);
+    EXPECT_EQ(wrong, 0);
+  }
+  Grid<3> g;
+  g.size = GridIndex<3>(nx, ny, 8);  // 3 components of 22936 voxels: the first block ends in the third
+  VectorField<3> f(g);
+  for (int64_t i = 0; i < f.num_voxels(); ++i) f[i] = Point<3>(i, -0.5 * i, 0.25 * (i % 13));
+  write_vector_field(f, dir + "/f.nii");
+  EXPECT_EQ(read_vector_field<3>(dir + "/f.nii").data(), f.data());
+}
+
+// read_gz_bytes with the length a header gives: the same bytes as without it, whether the file
+// holds exactly that, less or more, gzipped or not, within max_bytes.
+TEST(ImageIo, ReadingWithAnExpectedLengthGivesTheFileAsItIs) {
+  const std::string dir = fresh_dir();
+  std::string content;
+  for (int i = 0; i < 3'000'000; ++i) content.push_back(char(i * 131 % 251));
+  write_file(dir + "/plain.bin", content);
+  gzFile gz = gzopen((dir + "/packed.gz").c_str(), "wb1");
+  ASSERT_NE(gz, nullptr);
+  ASSERT_EQ(gzwrite(gz, content.data(), unsigned(content.size())), int(content.size()));
+  gzclose(gz);
+  for (const std::string name : {"/plain.bin", "/packed.gz"})
+    for (const size_t expected : {size_t(0), size_t(1), size_t(1'000'000), content.size(), content.size() + 12345,
+                                  size_t(1) << 40}) {
+      SCOPED_TRACE(name + " expecting " + std::to_string(expected));
+      EXPECT_TRUE(detail::read_gz_bytes(dir + name, std::string::npos, expected) == content);
+      EXPECT_TRUE(detail::read_gz_bytes(dir + name, 2'500'000, expected) == content.substr(0, 2'500'000));
+    }
+  EXPECT_TRUE(detail::read_bytes(dir + "/plain.bin") == content);
+  EXPECT_TRUE(detail::read_bytes(dir + "/plain.bin", 777) == content.substr(0, 777));
 }
 
 TEST(ImageIo, NiftiReadsByteSwappedHeaderAndData) {
