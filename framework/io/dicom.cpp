@@ -20,6 +20,7 @@
 #include <gdcmUIDs.h>
 
 #include <algorithm>
+#include <numeric>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -373,16 +374,16 @@ void check_same_grid(const Slice& s, const Slice& first) {
 // Sorts the slices along the normal (row x column) and returns the slice spacing from their
 // positions; InputError when two share a position or one is off its place on the evenly spaced
 // grid by more than 10 % of the spacing (a missing slice, or uneven spacing).
-double sort_along_normal(std::vector<Slice>& slices, const std::string& folder) {
-  const Vec3 normal = cross(row_direction(slices[0].header), column_direction(slices[0].header));
-  auto depth = [&](const Slice& s) { return dot(s.header.position, normal); };
-  std::sort(slices.begin(), slices.end(), [&](const Slice& a, const Slice& b) { return depth(a) < depth(b); });
+double sort_along_normal(std::vector<SliceHeader>& slices, const std::string& folder) {
+  const Vec3 normal = cross(row_direction(slices[0]), column_direction(slices[0]));
+  auto depth = [&](const SliceHeader& s) { return dot(s.position, normal); };
+  std::sort(slices.begin(), slices.end(), [&](const SliceHeader& a, const SliceHeader& b) { return depth(a) < depth(b); });
   const size_t n = slices.size();
   const double spacing = (depth(slices[n - 1]) - depth(slices[0])) / double(n - 1);
-  auto name = [](const Slice& s) { return fs::path(s.header.path).filename().string(); };
+  auto name = [](const SliceHeader& s) { return fs::path(s.path).filename().string(); };
   for (size_t i = 1; i < n; ++i)
     if (depth(slices[i]) - depth(slices[i - 1]) <= 1e-6 * std::max(1.0, spacing))
-      throw InputError(slices[i].header.path, "ImagePositionPatient",
+      throw InputError(slices[i].path, "ImagePositionPatient",
                        "same position along the slice normal as " + name(slices[i - 1]) +
                            " (two slices at one place: several echoes, phases or acquisitions in one series?)");
   for (size_t i = 1; i + 1 < n; ++i) {
@@ -433,25 +434,41 @@ RawVolume volume_of_file(const std::string& path) {
 }
 
 // A series of single-frame files as one 3D volume: checked, sorted along the normal, stacked.
+// The files are read and checked in the folder's order; each slice's voxels go straight to
+// their place in the volume, found by sorting the headers first (the same sort, so the same
+// order), so that a series needs its volume's memory and one slice's, not twice the volume's
+// (issue 21: a 300-slice CT held 315 MB of slices and their 315 MB copy at once).
 RawVolume volume_of_series(const DicomSource& src) {
   const std::vector<SliceHeader> headers = select_series(src);
   if (headers.size() == 1) return volume_of_file(headers[0].path);
-  std::vector<Slice> slices;
-  for (const SliceHeader& h : headers) {
-    slices.push_back(read_slice(h.path));
-    if (slices.back().header.frames > 1)
-      throw InputError(h.path, "NumberOfFrames", "a multi-frame file in a series of several files; read the file alone");
-    check_same_grid(slices.back(), slices.front());
-  }
-  const double slice_spacing = sort_along_normal(slices, src.path);
-  const SliceHeader& first = slices.front().header;
+  const Vec3 normal = cross(row_direction(headers[0]), column_direction(headers[0]));
+  std::vector<size_t> order(headers.size());  // order[k]: the file at place k along the normal
+  std::iota(order.begin(), order.end(), size_t(0));
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return dot(headers[a].position, normal) < dot(headers[b].position, normal);
+  });
+  std::vector<size_t> place(headers.size());
+  for (size_t k = 0; k < order.size(); ++k) place[order[k]] = k;
   RawVolume v;
-  v.size = {slices[0].columns, slices[0].rows, int64_t(slices.size())};
-  v.spacing = {first.pixel_spacing[0], first.pixel_spacing[1], slice_spacing};
-  v.origin = first.position;
-  v.axes = {row_direction(first), column_direction(first), cross(row_direction(first), column_direction(first))};
-  v.values.reserve(size_t(v.num_voxels()));
-  for (const Slice& s : slices) v.values.insert(v.values.end(), s.values.begin(), s.values.end());
+  Slice first;
+  for (size_t i = 0; i < headers.size(); ++i) {
+    Slice s = read_slice(headers[i].path);
+    if (s.header.frames > 1)
+      throw InputError(headers[i].path, "NumberOfFrames", "a multi-frame file in a series of several files; read the file alone");
+    if (i == 0) {
+      first.header = s.header, first.columns = s.columns, first.rows = s.rows;
+      v.size = {s.columns, s.rows, int64_t(headers.size())};
+      v.values.resize(size_t(v.num_voxels()));
+    }
+    check_same_grid(s, first);
+    std::copy(s.values.begin(), s.values.end(), v.values.begin() + std::ptrdiff_t(place[i] * s.values.size()));
+  }
+  std::vector<SliceHeader> sorted = headers;
+  const double slice_spacing = sort_along_normal(sorted, src.path);
+  const SliceHeader& front = sorted.front();
+  v.spacing = {front.pixel_spacing[0], front.pixel_spacing[1], slice_spacing};
+  v.origin = front.position;
+  v.axes = {row_direction(front), column_direction(front), cross(row_direction(front), column_direction(front))};
   return v;
 }
 
