@@ -14,6 +14,9 @@
 #   lung_busy_j2  the same, 2 threads, while another process keeps one core busy
 #   ct            experiments/bench/ct_lung.json: a 512 x 512 x 300 lung phantom, a 506-vertex
 #                 template refined to about 7000 vertices, 2 threads
+#   ct_read       dsnake convert of a CT-sized scan as converters write it (512 x 512 x 300 int16
+#                 .nii.gz with scl_slope and scl_inter, experiments/bench/make_volumes.py --ct) to
+#                 .mha: reading, decoding and writing a real scan's volume, 1 thread
 #   liver_metrics the liver case's recipe (experiments/real/liver) with 0 iterations: the metrics
 #                 of its 300-vertex template on the 25.5 M-voxel truth (needs data/real/liver,
 #                 from experiments/real/make_3d_inputs.py); result.json's metrics_s beside
@@ -40,7 +43,7 @@ REPEATS=${REPEATS:-5}
 GAP=${GAP:-3}
 WORK=${WORK:-/tmp/dsnake-whole-process}
 mkdir -p "$WORK"
-[ -f "$WORK/ellipsoid.mha" ] || /usr/bin/python3 experiments/bench/make_volumes.py "$WORK"
+[ -f "$WORK/ellipsoid.mha" ] && [ -f "$WORK/ct_scan.nii.gz" ] || /usr/bin/python3 experiments/bench/make_volumes.py "$WORK" --ct
 
 HOG=""
 start_hog() { (while :; do :; done) & HOG=$!; }
@@ -54,7 +57,7 @@ measure() {
   shift 2
   local times=()
   for i in $(seq "$REPEATS"); do
-    rm -rf "$WORK/out"
+    rm -rf "$WORK/out" && mkdir -p "$WORK/out"
     sleep "$GAP"  # the run before's freed memory goes back to the host: every run starts cold
     if [ -n "${BEFORE_EACH:-}" ]; then $BEFORE_EACH > /dev/null; fi
     if ! /usr/bin/time -v -o "$WORK/time.txt" "$@" > "$WORK/stdout.txt" 2> "$WORK/stderr.txt"; then
@@ -105,6 +108,8 @@ run_case() {
       start_hog; measure lung_busy_j2 "one core busy" "$DSNAKE" run experiments/paper/lung_dsnake.json --out "$WORK/out" -j 2 --quiet; stop_hog ;;
     ct) measure ct "" "$DSNAKE" run experiments/bench/ct_lung.json --out "$WORK/out" -j 2 --quiet
         echo "                   last run: $(/usr/bin/python3 -c 'import json,sys; r=json.load(open(sys.argv[1])); print("vertices", r["vertices"], "timings", {k: round(v, 2) for k, v in r["timings"].items()})' "$WORK/out/result.json")" ;;
+    ct_read)
+      measure ct_read "$(( 512 * 512 * 300 )) voxels, int16 -> float32" "$DSNAKE" convert "$WORK/ct_scan.nii.gz" "$WORK/out/ct_scan.mha" ;;
     liver_metrics|collapsed_metrics)
       if [ ! -f data/real/liver/truth.mha ]; then echo "$1: skipped: data/real/liver missing (experiments/real/make_3d_inputs.py)"; return; fi
       local scale=1
@@ -133,6 +138,6 @@ print(f"first_touch        fresh memory {statistics.median(fresh):.2f} s/GB (min
 }
 
 CASES=("$@")
-[ ${#CASES[@]} -gt 0 ] || CASES=(first_touch field lung_j1 lung_j2 lung_busy_j1 lung_busy_j2 ct liver_metrics collapsed_metrics first_touch)
+[ ${#CASES[@]} -gt 0 ] || CASES=(first_touch field lung_j1 lung_j2 lung_busy_j1 lung_busy_j2 ct ct_read liver_metrics collapsed_metrics first_touch)
 echo "whole_process: $(nproc) cores, REPEATS=$REPEATS, GAP=$GAP s, $($DSNAKE --version 2>/dev/null | head -1)"
 for c in "${CASES[@]}"; do run_case "$c"; done
