@@ -174,6 +174,18 @@ void check_inflatable(double declared, double stored, const std::string& path, c
                                     exact(stored) + " compressed bytes the file holds to");
 }
 
+void reserve_plausible(std::string& s, size_t bytes) {
+  static const size_t half_memory = [] {
+    const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+    return pages > 0 && page > 0 ? size_t(pages) * size_t(page) / 2 : size_t(1) << 30;
+  }();
+  if (bytes > half_memory) return;
+  try {
+    s.reserve(bytes);
+  } catch (const std::exception&) {  // (std::bad_alloc: the system refuses) grown as it is filled
+  }
+}
+
 // Whole file (or its first max_bytes) through zlib's gz reader, which gunzips .gz files and
 // passes plain files through unchanged (NIfTI).
 std::string read_gz_bytes(const std::string& path, size_t max_bytes, size_t expected_bytes) {
@@ -184,10 +196,7 @@ std::string read_gz_bytes(const std::string& path, size_t max_bytes, size_t expe
   if (const size_t want = std::min(max_bytes, expected_bytes); want > 0) {
     // Reserved (address space only), then filled in steps that double from 1 MB, so that what
     // is touched stays within twice what the file really holds, whatever its header claims.
-    try {
-      s.reserve(want);
-    } catch (const std::exception&) {  // (std::length_error, std::bad_alloc) then grown as it comes
-    }
+    reserve_plausible(s, want);
     size_t got = 0;
     while (got < want) {
       const size_t step = std::min({want - got, std::max(got, size_t(1) << 20), size_t(1) << 30});

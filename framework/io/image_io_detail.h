@@ -100,6 +100,11 @@ std::string read_bytes(const std::string& path, size_t max_bytes = std::string::
 // grown by doubling; a longer or shorter file is read as it is.
 std::string read_gz_bytes(const std::string& path, size_t max_bytes = std::string::npos, size_t expected_bytes = 0);
 
+// Reserves address space for `bytes` in `s` (not touched until filled) when that is at most half
+// the machine's physical memory; a larger claim (a header's, larger than any volume this
+// machine could hold) reserves nothing and the string grows as it is filled.
+void reserve_plausible(std::string& s, size_t bytes);
+
 // Formats a double so that reading it back gives the same double.
 std::string exact(double v);
 

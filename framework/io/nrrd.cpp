@@ -298,11 +298,8 @@ std::string gunzip_up_to(const std::string& in, size_t limit, const std::string&
   zs.avail_in = static_cast<uInt>(in.size());
   std::string out;
   // Address space for the whole (not touched until filled), so that the chunks do not regrow
-  // and copy the buffer; without it if the system refuses that much.
-  try {
-    out.reserve(limit);
-  } catch (const std::exception&) {
-  }
+  // and copy the buffer (within reason: see reserve_plausible).
+  reserve_plausible(out, limit);
   int ret = Z_OK;
   while (out.size() < limit && ret != Z_STREAM_END) {
     const size_t chunk = std::min<size_t>(limit - out.size(), size_t(1) << 22);
