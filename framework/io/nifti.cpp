@@ -4,6 +4,8 @@
 #include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
 
+#include <zlib.h>
+
 
 #include <algorithm>
 #include <bit>
@@ -122,6 +124,69 @@ void read_nifti_orientation(const std::string& bytes, bool swap, RawVolume& v) {
   }
 }
 
+// Where a NIfTI-1 file's values are and how they become voxels (from the header).
+struct NiftiData {
+  Scalar type = Scalar::kF32;
+  bool swap = false, scaled = false;
+  double slope = 1, inter = 0;
+  double offset = 0;       // vox_offset: the values' first byte
+  int64_t count = 0;       // stored values: voxels x components
+  int64_t voxels = 0;
+  int channels = 1;
+  size_t value_bytes = 4;
+  size_t bytes = 0;        // count x value_bytes
+};
+
+// The data layout of header `bytes` (geometry already read into v), with the header's checks in
+// their order: datatype, vox_offset (not negative), the number of values.
+NiftiData nifti_data_layout(const std::string& bytes, const std::string& path, bool swap, const RawVolume& v) {
+  const int16_t datatype = nifti_field<int16_t>(bytes, 70, swap);
+  static const std::map<int, Scalar> types = {{2, Scalar::kU8},    {4, Scalar::kI16},   {8, Scalar::kI32},
+                                              {16, Scalar::kF32},  {64, Scalar::kF64},  {256, Scalar::kI8},
+                                              {512, Scalar::kU16}, {768, Scalar::kU32}};
+  auto type_it = types.find(datatype);
+  if (type_it == types.end()) throw InputError(path, "datatype", "unsupported datatype " + std::to_string(datatype));
+  NiftiData d;
+  d.type = type_it->second;
+  d.swap = swap;
+  const float vox_offset = nifti_field<float>(bytes, 108, swap);
+  if (!(vox_offset >= 0))
+    throw InputError(path, "vox_offset", "data offset " + exact(vox_offset) + " lies outside the file");
+  d.offset = vox_offset;
+  d.voxels = v.num_voxels();
+  d.channels = v.channels;
+  d.count = d.voxels * v.channels;
+  check_declared_values(double(d.count), path, "dim");
+  d.value_bytes = size_t(scalar_bytes(d.type));
+  d.bytes = size_t(d.count) * d.value_bytes;
+  d.slope = nifti_field<float>(bytes, 112, swap), d.inter = nifti_field<float>(bytes, 116, swap);
+  d.scaled = d.slope != 0 && std::isfinite(d.slope) && std::isfinite(d.inter);
+  return d;
+}
+
+// Stored values are decoded this many at a time.
+constexpr int64_t kNiftiBlock = int64_t(1) << 16;
+
+// The m stored values at `data`, those of stored index start.. start + m - 1, into `values`:
+// rescaled in double when scl_slope is set and rounded once (as an unscaled value is); NIfTI keeps
+// components slowest (one volume per component), RawVolume interleaves them. A block at a time
+// (issue 21): a CT with scl_slope set, the usual case, decoded all at once in double took 8 bytes
+// a voxel more at the peak (600 MB for 512 x 512 x 300).
+void decode_nifti_block(const NiftiData& d, const char* data, int64_t start, int64_t m, std::vector<float>& values) {
+  if (!d.scaled && d.channels == 1) {  // the common case: the values themselves
+    const std::vector<float> plain = decode<float>(data, m, d.type, d.swap);
+    std::copy(plain.begin(), plain.end(), values.begin() + std::ptrdiff_t(start));
+    return;
+  }
+  const std::vector<double> stored = decode<double>(data, m, d.type, d.swap);
+  int64_t c = start / d.voxels, i = start % d.voxels;  // the component and voxel of stored value c n + i
+  for (int64_t k = 0; k < m; ++k) {
+    const double s = stored[k];
+    values[size_t(i * d.channels + c)] = float(d.scaled ? s * d.slope + d.inter : s);
+    if (++i == d.voxels) i = 0, ++c;
+  }
+}
+
 // Decodes a NIfTI-1 header (and, unless header_only, the data) from its bytes.
 RawVolume decode_nifti(const std::string& bytes, const std::string& path, bool header_only) {
   if (bytes.size() < kNiftiHeaderBytes)
@@ -155,46 +220,18 @@ RawVolume decode_nifti(const std::string& bytes, const std::string& path, bool h
   ras_to_lps(v);
   if (header_only) return v;
 
-  const int16_t datatype = nifti_field<int16_t>(bytes, 70, swap);
-  static const std::map<int, Scalar> types = {{2, Scalar::kU8},    {4, Scalar::kI16},   {8, Scalar::kI32},
-                                              {16, Scalar::kF32},  {64, Scalar::kF64},  {256, Scalar::kI8},
-                                              {512, Scalar::kU16}, {768, Scalar::kU32}};
-  auto type_it = types.find(datatype);
-  if (type_it == types.end()) throw InputError(path, "datatype", "unsupported datatype " + std::to_string(datatype));
-  const float vox_offset = nifti_field<float>(bytes, 108, swap);
-  if (!(vox_offset >= 0) || vox_offset > float(bytes.size()))
-    throw InputError(path, "vox_offset", "data offset " + exact(vox_offset) + " lies outside the file");
-  const int64_t count = v.num_voxels() * v.channels;
-  check_declared_values(double(count), path, "dim");
-  const size_t expected = size_t(count) * scalar_bytes(type_it->second);
-  const size_t available = bytes.size() - size_t(vox_offset);
-  if (available < expected)
+  const NiftiData layout = nifti_data_layout(bytes, path, swap, v);
+  if (layout.offset > double(bytes.size()))
+    throw InputError(path, "vox_offset", "data offset " + exact(layout.offset) + " lies outside the file");
+  const size_t available = bytes.size() - size_t(layout.offset);
+  if (available < layout.bytes)
     throw InputError(path, "vox_offset", "data holds " + std::to_string(available) + " bytes, expected " +
-                                             std::to_string(expected));
-  const double slope = nifti_field<float>(bytes, 112, swap), inter = nifti_field<float>(bytes, 116, swap);
-  const bool scaled = slope != 0 && std::isfinite(slope) && std::isfinite(inter);
-  const char* data = bytes.data() + size_t(vox_offset);
-  if (!scaled && v.channels == 1) {  // the common case: decoded straight into place
-    v.values = decode<float>(data, count, type_it->second, swap);
-    return v;
-  }
-  // Rescaled in double from the stored values, rounded once (as an unscaled value is), a block
-  // of values at a time (a CT with scl_slope set, the usual case, decoded all at once in double
-  // took 8 bytes a voxel more at the peak: 600 MB for 512 x 512 x 300, issue 21).
-  // NIfTI keeps components slowest (one volume per component); RawVolume interleaves them.
-  const int64_t n = v.num_voxels();
-  const size_t value_bytes = size_t(scalar_bytes(type_it->second));
-  constexpr int64_t kBlock = int64_t(1) << 16;
-  v.values.resize(count);
-  int64_t c = 0, i = 0;  // the component and voxel of stored value j = c n + i
-  for (int64_t start = 0; start < count; start += kBlock) {
-    const int64_t m = std::min(kBlock, count - start);
-    const std::vector<double> stored = decode<double>(data + size_t(start) * value_bytes, m, type_it->second, swap);
-    for (int64_t k = 0; k < m; ++k) {
-      const double s = stored[k];
-      v.values[i * v.channels + c] = float(scaled ? s * slope + inter : s);
-      if (++i == n) i = 0, ++c;
-    }
+                                             std::to_string(layout.bytes));
+  v.values.resize(size_t(layout.count));
+  const char* data = bytes.data() + size_t(layout.offset);
+  for (int64_t start = 0; start < layout.count; start += kNiftiBlock) {
+    const int64_t m = std::min(kNiftiBlock, layout.count - start);
+    decode_nifti_block(layout, data + size_t(start) * layout.value_bytes, start, m, v.values);
   }
   return v;
 }
@@ -256,9 +293,9 @@ void write_nifti(const RawVolume& lps, const std::string& path) {
 
 RawVolume read_nifti(const std::string& path) {
   const std::string head = read_gz_bytes(path, kNiftiHeaderBytes);
-  const RawVolume geometry = decode_nifti(head, path, true);
+  RawVolume v = decode_nifti(head, path, true);
   const bool swap = nifti_field<int32_t>(head, 0, false) != 348;
-  const double values = double(geometry.num_voxels()) * geometry.channels;
+  const double values = double(v.num_voxels()) * v.channels;
   check_declared_values(values, path, "dim");
   const double vox_offset = nifti_field<float>(head, 108, swap);
   const double declared = (std::isfinite(vox_offset) && vox_offset > 0 ? vox_offset : 0) + values * 8;  // at most 8 bytes a value
@@ -266,14 +303,50 @@ RawVolume read_nifti(const std::string& path) {
   const double stored = double(std::filesystem::file_size(path, ec));
   const bool gzipped = extension_of(path) == ".nii.gz";
   if (gzipped && !ec) check_inflatable(std::min(declared, values * 1 + 352), stored, path, "dim");
-  // The length the header gives (offset and values of its datatype), read into one buffer of
-  // that size: no larger than the file can hold (inflated at most kMaxInflateRatio times).
-  const int16_t datatype = nifti_field<int16_t>(head, 70, swap);
-  const int value_bytes = datatype == 2 || datatype == 256 ? 1 : datatype == 4 || datatype == 512 ? 2
-                        : datatype == 64 ? 8 : 4;
-  double expected = (std::isfinite(vox_offset) && vox_offset > 0 ? vox_offset : 0) + values * value_bytes;
-  expected = ec ? 0 : std::min(expected, gzipped ? kMaxInflateRatio * stored + 1024 : stored);
-  return decode_nifti(read_gz_bytes(path, size_t(std::min(declared, 9.0e18)), size_t(expected)), path, false);
+  const NiftiData layout = nifti_data_layout(head, path, swap, v);
+  // An offset past all the file can hold is refused before it is used as a count of bytes.
+  const double largest = ec ? 9.0e18 : gzipped ? kMaxInflateRatio * stored + 1024 : stored;
+  if (layout.offset > largest)
+    throw InputError(path, "vox_offset", "data offset " + exact(layout.offset) + " lies outside the file");
+  // The values streamed from the file (through zlib's gz reader, which passes a plain .nii
+  // through) a block at a time into the voxels: the file's bytes are never held whole, so that
+  // reading needs the volume's floats and one block (issue 21: a CT's int16 bytes as well, before).
+  gzFile f = gzopen(path.c_str(), "rb");
+  if (!f) throw InputError(path, "", "cannot open file");
+  struct Close {
+    gzFile f;
+    ~Close() { gzclose(f); }
+  } close{f};
+  gzbuffer(f, 1 << 17);
+  std::string block(size_t(std::min<int64_t>(kNiftiBlock, std::max<int64_t>(layout.count, 1))) * layout.value_bytes, '\0');
+  // Reads up to n bytes into block; returns how many (fewer only at the end of the file).
+  auto read = [&](size_t n) {
+    size_t got = 0;
+    while (got < n) {
+      const int r = gzread(f, block.data() + got, unsigned(n - got));
+      if (r < 0) throw InputError(path, "", "corrupt gzip data");
+      if (r == 0) break;
+      got += size_t(r);
+    }
+    return got;
+  };
+  for (size_t skipped = 0, skip = size_t(layout.offset); skipped < skip;) {
+    const size_t got = read(std::min(skip - skipped, block.size()));
+    if (got == 0) throw InputError(path, "vox_offset", "data offset " + exact(layout.offset) + " lies outside the file");
+    skipped += got;
+  }
+  v.values.resize(size_t(layout.count));
+  size_t available = 0;
+  for (int64_t start = 0; start < layout.count; start += kNiftiBlock) {
+    const int64_t m = std::min(kNiftiBlock, layout.count - start);
+    const size_t got = read(size_t(m) * layout.value_bytes);
+    available += got;
+    if (got < size_t(m) * layout.value_bytes)
+      throw InputError(path, "vox_offset", "data holds " + std::to_string(available) + " bytes, expected " +
+                                               std::to_string(layout.bytes));
+    decode_nifti_block(layout, block.data(), start, m, v.values);
+  }
+  return v;
 }
 
 }  // namespace dsnake::detail

@@ -465,6 +465,35 @@ TEST(ImageIo, TruncatedDataSaysHowManyBytes) {
   EXPECT_EQ(e.file(), dir + "/z.mha");
 }
 
+// The values are streamed from the file (issue 21): an offset past the file's end, however
+// large (a float up to 3e38, found by fuzzing as undefined behaviour in the conversion to a byte
+// count), and data cut short in a .nii.gz are refused with the header field and the byte counts.
+TEST(ImageIo, NiftiOffsetPastTheEndAndShortGzipDataAreNamed) {
+  const std::string dir = fresh_dir();
+  std::string payload;
+  for (int i = 0; i < 12; ++i) {
+    const int16_t v = int16_t(i);
+    payload.append(reinterpret_cast<const char*>(&v), 2);
+  }
+  for (const float offset : {377.f, 1e6f, 7.9e34f}) {  // the file ends at byte 376
+    SCOPED_TRACE(offset);
+    std::string file = nifti_by_hand(4, 16, 0, 0, payload, false);
+    std::memcpy(file.data() + 108, &offset, 4);
+    write_file(dir + "/far.nii", file);
+    const InputError e = expect_input_error([&] { read_image<3>(dir + "/far.nii"); });
+    EXPECT_EQ(e.where(), "vox_offset");
+    EXPECT_TRUE(contains(e.message(), "lies outside the file")) << e.what();
+  }
+  const std::string file = nifti_by_hand(4, 16, 0, 0, payload.substr(0, 20), false);
+  gzFile gz = gzopen((dir + "/short.nii.gz").c_str(), "wb1");
+  ASSERT_NE(gz, nullptr);
+  ASSERT_EQ(gzwrite(gz, file.data(), unsigned(file.size())), int(file.size()));
+  gzclose(gz);
+  const InputError e = expect_input_error([&] { read_image<3>(dir + "/short.nii.gz"); });
+  EXPECT_EQ(e.where(), "vox_offset");
+  EXPECT_EQ(e.message(), "data holds 20 bytes, expected 24");
+}
+
 TEST(ImageIo, NanVoxelIsNamedByIndex) {
   const std::string dir = fresh_dir();
   Image<3> im = test_volume();
