@@ -144,7 +144,7 @@ RawVolume read_inr(const std::string& path) {
   std::error_code ec;
   const double stored = double(std::filesystem::file_size(path, ec));
   if (extension_of(path) == ".inr.gz" && !ec) check_inflatable(declared, stored, path, "XDIM/YDIM/ZDIM");
-  const std::string bytes = read_gz_bytes(path, size_t(declared));
+  const std::string bytes = read_gz_bytes(path, size_t(declared), size_t(declared));  // one buffer of that size
   const InrHeader h = parse_inr_header(bytes, path);
   RawVolume v = inr_geometry(h, path);
   const Scalar type = inr_type(h, path);
