@@ -371,13 +371,23 @@ void check_same_grid(const Slice& s, const Slice& first) {
                                                           "another pixel spacing)");
 }
 
-// Sorts the slices along the normal (row x column) and returns the slice spacing from their
-// positions; InputError when two share a position or one is off its place on the evenly spaced
-// grid by more than 10 % of the spacing (a missing slice, or uneven spacing).
-double sort_along_normal(std::vector<SliceHeader>& slices, const std::string& folder) {
+// The order of the slices along the normal (row x column) of the first: order[k] is the index
+// of the slice at place k.
+std::vector<size_t> order_along_normal(const std::vector<SliceHeader>& slices) {
+  const Vec3 normal = cross(row_direction(slices[0]), column_direction(slices[0]));
+  std::vector<size_t> order(slices.size());
+  std::iota(order.begin(), order.end(), size_t(0));
+  std::sort(order.begin(), order.end(),
+            [&](size_t a, size_t b) { return dot(slices[a].position, normal) < dot(slices[b].position, normal); });
+  return order;
+}
+
+// The slice spacing from the positions of slices sorted along the normal; InputError when two
+// share a position or one is off its place on the evenly spaced grid by more than 10 % of the
+// spacing (a missing slice, or uneven spacing).
+double spacing_along_normal(const std::vector<SliceHeader>& slices, const std::string& folder) {
   const Vec3 normal = cross(row_direction(slices[0]), column_direction(slices[0]));
   auto depth = [&](const SliceHeader& s) { return dot(s.position, normal); };
-  std::sort(slices.begin(), slices.end(), [&](const SliceHeader& a, const SliceHeader& b) { return depth(a) < depth(b); });
   const size_t n = slices.size();
   const double spacing = (depth(slices[n - 1]) - depth(slices[0])) / double(n - 1);
   auto name = [](const SliceHeader& s) { return fs::path(s.path).filename().string(); };
@@ -435,20 +445,16 @@ RawVolume volume_of_file(const std::string& path) {
 
 // A series of single-frame files as one 3D volume: checked, sorted along the normal, stacked.
 // The files are read and checked in the folder's order; each slice's voxels go straight to
-// their place in the volume, found by sorting the headers first (the same sort, so the same
-// order), so that a series needs its volume's memory and one slice's, not twice the volume's
+// their place in the volume, found by sorting the headers first (the order of the slices
+// before), so that a series needs its volume's memory and one slice's, not twice the volume's
 // (issue 21: a 300-slice CT held 315 MB of slices and their 315 MB copy at once).
 RawVolume volume_of_series(const DicomSource& src) {
   const std::vector<SliceHeader> headers = select_series(src);
   if (headers.size() == 1) return volume_of_file(headers[0].path);
-  const Vec3 normal = cross(row_direction(headers[0]), column_direction(headers[0]));
-  std::vector<size_t> order(headers.size());  // order[k]: the file at place k along the normal
-  std::iota(order.begin(), order.end(), size_t(0));
-  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-    return dot(headers[a].position, normal) < dot(headers[b].position, normal);
-  });
+  const std::vector<size_t> order = order_along_normal(headers);
   std::vector<size_t> place(headers.size());
-  for (size_t k = 0; k < order.size(); ++k) place[order[k]] = k;
+  std::vector<SliceHeader> sorted(headers.size());
+  for (size_t k = 0; k < order.size(); ++k) place[order[k]] = k, sorted[k] = headers[order[k]];
   RawVolume v;
   Slice first;
   for (size_t i = 0; i < headers.size(); ++i) {
@@ -463,8 +469,7 @@ RawVolume volume_of_series(const DicomSource& src) {
     check_same_grid(s, first);
     std::copy(s.values.begin(), s.values.end(), v.values.begin() + std::ptrdiff_t(place[i] * s.values.size()));
   }
-  std::vector<SliceHeader> sorted = headers;
-  const double slice_spacing = sort_along_normal(sorted, src.path);
+  const double slice_spacing = spacing_along_normal(sorted, src.path);  // checked once every file passed
   const SliceHeader& front = sorted.front();
   v.spacing = {front.pixel_spacing[0], front.pixel_spacing[1], slice_spacing};
   v.origin = front.position;

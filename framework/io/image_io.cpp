@@ -112,7 +112,6 @@ std::string read_bytes(const std::string& path, size_t max_bytes) {
   std::string s;
   std::error_code ec;
   const uintmax_t size = fs::file_size(path, ec);
-  if (!ec) s.reserve(size_t(std::min<uintmax_t>(size, max_bytes)));
   if (!ec && size > 0) {
     s.resize(size_t(std::min<uintmax_t>(size, max_bytes)));
     in.read(s.data(), std::streamsize(s.size()));
@@ -471,7 +470,7 @@ int image_file_dimension(const std::string& path) {
   const std::string ext = extension_of(path);
   if (ext == ".mha" || ext == ".mhd") return meta_dimension(path);
   if (ext == ".nii" || ext == ".nii.gz")
-    return decode_nifti(read_gz_bytes(path, kNiftiHeaderBytes), path, true).effective_dimension();
+    return decode_nifti_header(read_gz_bytes(path, kNiftiHeaderBytes), path).effective_dimension();
   if (ext == ".nrrd" || ext == ".nhdr") return nrrd_dimension(path);
   if (ext == ".inr" || ext == ".inr.gz") return inr_dimension(path);
   if (is_opencv_extension(ext)) return 2;

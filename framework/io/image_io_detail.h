@@ -116,9 +116,9 @@ int meta_dimension(const std::string& path);
 
 inline constexpr size_t kNiftiHeaderBytes = 348;
 
-// NIfTI-1 (nifti.cpp): decode a header (and, unless header_only, the data) from the file's
-// bytes; write float32 .nii or .nii.gz.
-RawVolume decode_nifti(const std::string& bytes, const std::string& path, bool header_only);
+// NIfTI-1 (nifti.cpp): decode a header (the geometry) from the file's first bytes; write
+// float32 .nii or .nii.gz.
+RawVolume decode_nifti_header(const std::string& bytes, const std::string& path);
 void write_nifti(const RawVolume& v, const std::string& path);
 // Reads a .nii or .nii.gz: the header first, then no more bytes than it declares (a gzip bomb
 // behind a small header is not inflated), after the limits above.

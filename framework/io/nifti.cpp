@@ -6,7 +6,6 @@
 
 #include <zlib.h>
 
-
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -187,8 +186,8 @@ void decode_nifti_block(const NiftiData& d, const char* data, int64_t start, int
   }
 }
 
-// Decodes a NIfTI-1 header (and, unless header_only, the data) from its bytes.
-RawVolume decode_nifti(const std::string& bytes, const std::string& path, bool header_only) {
+// Decodes a NIfTI-1 header (the geometry) from its bytes; read_nifti streams the values.
+RawVolume decode_nifti_header(const std::string& bytes, const std::string& path) {
   if (bytes.size() < kNiftiHeaderBytes)
     throw InputError(path, "header", "unreadable header: file holds " + std::to_string(bytes.size()) +
                                          " bytes, a NIfTI-1 header needs 348");
@@ -218,21 +217,6 @@ RawVolume decode_nifti(const std::string& bytes, const std::string& path, bool h
   for (int a = 0; a < 3; ++a) v.spacing[a] = nifti_field<float>(bytes, 76 + 4 * (a + 1), swap);
   read_nifti_orientation(bytes, swap, v);
   ras_to_lps(v);
-  if (header_only) return v;
-
-  const NiftiData layout = nifti_data_layout(bytes, path, swap, v);
-  if (layout.offset > double(bytes.size()))
-    throw InputError(path, "vox_offset", "data offset " + exact(layout.offset) + " lies outside the file");
-  const size_t available = bytes.size() - size_t(layout.offset);
-  if (available < layout.bytes)
-    throw InputError(path, "vox_offset", "data holds " + std::to_string(available) + " bytes, expected " +
-                                             std::to_string(layout.bytes));
-  v.values.resize(size_t(layout.count));
-  const char* data = bytes.data() + size_t(layout.offset);
-  for (int64_t start = 0; start < layout.count; start += kNiftiBlock) {
-    const int64_t m = std::min(kNiftiBlock, layout.count - start);
-    decode_nifti_block(layout, data + size_t(start) * layout.value_bytes, start, m, v.values);
-  }
   return v;
 }
 
@@ -293,7 +277,7 @@ void write_nifti(const RawVolume& lps, const std::string& path) {
 
 RawVolume read_nifti(const std::string& path) {
   const std::string head = read_gz_bytes(path, kNiftiHeaderBytes);
-  RawVolume v = decode_nifti(head, path, true);
+  RawVolume v = decode_nifti_header(head, path);
   const bool swap = nifti_field<int32_t>(head, 0, false) != 348;
   const double values = double(v.num_voxels()) * v.channels;
   check_declared_values(values, path, "dim");
