@@ -55,11 +55,21 @@ void write_file_atomically(const std::string& path, const std::string& bytes) {
 }
 
 void write_file_atomically(const std::string& path, const std::vector<std::string_view>& parts) {
+  write_stream_atomically(path, [&](const std::function<void(std::string_view)>& put) {
+    for (const std::string_view part : parts) put(part);
+  });
+}
+
+void write_stream_atomically(const std::string& path,
+                             const std::function<void(const std::function<void(std::string_view)>& put)>& produce) {
   write_via_temporary(path, [&](const std::string& tmp) {
     errno = 0;
     std::ofstream out(tmp, std::ios::binary);
     if (!out) throw OutputError(path, system_reason("cannot open for writing"));
-    for (const std::string_view part : parts) out.write(part.data(), static_cast<std::streamsize>(part.size()));
+    produce([&](std::string_view piece) {
+      out.write(piece.data(), static_cast<std::streamsize>(piece.size()));
+      if (!out) throw OutputError(path, system_reason("write failed"));  // a full disk: stop at once
+    });
     out.close();
     if (!out) throw OutputError(path, system_reason("write failed"));  // a full disk: ENOSPC
   });

@@ -25,6 +25,11 @@ void write_file_atomically(const std::string& path, const std::string& bytes);
 // without joining them in memory first.
 void write_file_atomically(const std::string& path, const std::vector<std::string_view>& parts);
 
+// The same for a file whose bytes `produce` makes a piece at a time, handing each to `put` (a
+// gzip stream as it is compressed: the file's bytes are never held whole, issue 21).
+void write_stream_atomically(const std::string& path,
+                             const std::function<void(const std::function<void(std::string_view)>& put)>& produce);
+
 // For writers that need a file name (OpenMesh, OpenCV): `write` receives a temporary path in
 // the same folder that keeps the final extension (".../.tmp-<pid>-<n>-name.ply"); it is renamed
 // to `path` when `write` returns, and removed if `write` throws.

@@ -48,8 +48,7 @@ int scalar_bytes(Scalar s) {
 
 // Decodes `count` values of type s from raw bytes (the caller checked the length).
 template <class T>
-std::vector<T> decode(const char* data, int64_t count, Scalar s, bool swap) {
-  std::vector<T> out(count);
+void decode_into(const char* data, int64_t count, Scalar s, bool swap, T* out) {
   const int nb = scalar_bytes(s);
   for (int64_t i = 0; i < count; ++i) {
     const char* p = data + i * nb;
@@ -64,6 +63,13 @@ std::vector<T> decode(const char* data, int64_t count, Scalar s, bool swap) {
       case Scalar::kF64: out[i] = load<double>(p, swap); break;
     }
   }
+}
+template void decode_into<float>(const char*, int64_t, Scalar, bool, float*);
+
+template <class T>
+std::vector<T> decode(const char* data, int64_t count, Scalar s, bool swap) {
+  std::vector<T> out(count);
+  decode_into(data, count, s, swap, out.data());
   return out;
 }
 template std::vector<float> decode<float>(const char*, int64_t, Scalar, bool);
@@ -173,16 +179,114 @@ void check_inflatable(double declared, double stored, const std::string& path, c
                                     exact(stored) + " compressed bytes the file holds to");
 }
 
-void reserve_plausible(std::string& s, size_t bytes) {
+namespace {
+
+// Reserves room for n elements of c when their bytes are at most half the machine's memory.
+template <class Container>
+void reserve_plausible_elements(Container& c, size_t n) {
   static const size_t half_memory = [] {
     const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
     return pages > 0 && page > 0 ? size_t(pages) * size_t(page) / 2 : size_t(1) << 30;
   }();
-  if (bytes > half_memory) return;
+  if (n > half_memory / sizeof(typename Container::value_type)) return;
   try {
-    s.reserve(bytes);
+    c.reserve(n);
   } catch (const std::exception&) {  // (std::bad_alloc: the system refuses) grown as it is filled
   }
+}
+
+}  // namespace
+
+void reserve_plausible(std::string& s, size_t bytes) { reserve_plausible_elements(s, bytes); }
+void reserve_plausible(std::vector<float>& v, size_t count) { reserve_plausible_elements(v, count); }
+
+namespace {
+
+// The loop behind inflate_up_to and inflate_values: inflates `in` (zlib or gzip wrapper) up to
+// `limit` bytes into the windows window(most) gives (a pointer and its room, at most `most`
+// bytes), telling wrote(n) after each call how many it filled. Input and output go to zlib at
+// most `step` bytes at a time (its counts are 32-bit). Returns the bytes inflated.
+template <class Window, class Wrote>
+size_t inflate_stream(std::string_view in, size_t limit, const std::string& path, const std::string& key,
+                      const std::string& what, size_t step, Window&& window, Wrote&& wrote) {
+  step = std::max<size_t>(step, 1);
+  z_stream zs{};
+  if (inflateInit2(&zs, 15 + 32) != Z_OK) throw std::runtime_error("zlib initialisation failed");
+  size_t fed = 0, total = 0;  // bytes of `in` handed to zlib, bytes inflated
+  int ret = Z_OK;
+  while (total < limit && ret != Z_STREAM_END) {
+    if (zs.avail_in == 0 && fed < in.size()) {
+      const size_t n = std::min(in.size() - fed, step);
+      zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data() + fed));
+      zs.avail_in = static_cast<uInt>(n);
+      fed += n;
+    }
+    const auto [out, room] = window(std::min({limit - total, size_t(1) << 22, step}));
+    zs.next_out = reinterpret_cast<Bytef*>(out);
+    zs.avail_out = static_cast<uInt>(room);
+    ret = inflate(&zs, Z_NO_FLUSH);
+    total += room - zs.avail_out;
+    wrote(room - zs.avail_out);
+    // (Z_BUF_ERROR: no progress possible, every input byte given and the stream not ended.)
+    if (ret != Z_OK && ret != Z_STREAM_END) break;
+  }
+  const std::string msg = zs.msg ? zs.msg : "";
+  inflateEnd(&zs);
+  if (ret == Z_DATA_ERROR || ret == Z_NEED_DICT || ret == Z_MEM_ERROR || ret == Z_STREAM_ERROR)
+    throw InputError(path, key, "corrupt " + what + " data (" + (msg.empty() ? std::string("error") : msg) + ")");
+  return total;
+}
+
+}  // namespace
+
+std::string inflate_up_to(std::string_view in, size_t limit, const std::string& path, const std::string& key,
+                          const std::string& what, size_t step) {
+  std::string out;
+  // Address space for the whole (not touched until filled), so that the chunks do not regrow
+  // and copy the buffer (within reason: see reserve_plausible).
+  reserve_plausible(out, limit);
+  size_t old = 0;
+  inflate_stream(
+      in, limit, path, key, what, step,
+      [&](size_t most) {
+        old = out.size();
+        out.resize(old + most);
+        return std::pair<char*, size_t>(out.data() + old, most);
+      },
+      [&](size_t n) { out.resize(old + n); });
+  return out;
+}
+
+size_t inflate_values(std::string_view in, size_t skip, int64_t count, Scalar type, bool swap,
+                      std::vector<float>& values, const std::string& path, const std::string& key,
+                      const std::string& what, size_t step) {
+  const size_t nb = size_t(scalar_bytes(type)), expected = size_t(count) * nb;
+  values.clear();
+  reserve_plausible(values, size_t(count));
+  std::vector<char> buffer;  // a partial value carried over, then the window zlib fills
+  size_t carried = 0;        // bytes of a partial value at the buffer's start
+  size_t to_skip = skip;
+  inflate_stream(
+      in, skip + expected, path, key, what, step,
+      [&](size_t most) {
+        buffer.resize(carried + most);
+        return std::pair<char*, size_t>(buffer.data() + carried, most);
+      },
+      [&](size_t n) {
+        const char* p = buffer.data();
+        size_t have = carried + n;
+        if (to_skip > 0) {  // (skipped bytes never come after a carried partial value)
+          const size_t dropped = std::min(to_skip, n);
+          to_skip -= dropped, p += dropped, have -= dropped;
+        }
+        const size_t whole = std::min(have / nb, size_t(count) - values.size());
+        const size_t at = values.size();
+        values.resize(at + whole);
+        decode_into(p, int64_t(whole), type, swap, values.data() + at);
+        carried = have - whole * nb;
+        std::memmove(buffer.data(), p + whole * nb, carried);
+      });
+  return values.size() * nb + carried;
 }
 
 // Whole file (or its first max_bytes) through zlib's gz reader, which gunzips .gz files and

@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <map>
 #include <string>
 #include <string_view>
@@ -57,6 +58,9 @@ double load(const char* p, bool swap) {
 // or double: DICOM masks and rescales its integers in double before they are rounded once).
 template <class T>
 std::vector<T> decode(const char* data, int64_t count, Scalar s, bool swap);
+// The same into out[0 .. count) (float).
+template <class T>
+void decode_into(const char* data, int64_t count, Scalar s, bool swap, T* out);
 
 // Values rounded and clamped to [0, 255], one byte each (label maps).
 std::string label_bytes(const std::vector<float>& values);
@@ -100,10 +104,28 @@ std::string read_bytes(const std::string& path, size_t max_bytes = std::string::
 // grown by doubling; a longer or shorter file is read as it is.
 std::string read_gz_bytes(const std::string& path, size_t max_bytes = std::string::npos, size_t expected_bytes = 0);
 
+// zlib- or gzip-wrapped deflate data `in` (the wrapper detected), inflated up to `limit` bytes
+// (MetaImage's CompressedData, NRRD's gzip encoding): stops at the end of the stream, at
+// `limit`, or where the data ends early (a truncated stream gives what it holds; the caller
+// checks the length). The output grows 4 MB at a time, so memory follows the real data, never
+// what a header claims. zlib counts in 32 bits: input and output are handed over at most `step`
+// bytes at a time (1 GiB; tests use a few bytes), so data beyond 4 GiB inflates whole. Throws
+// InputError(path, key, "corrupt <what> data (...)") on data zlib refuses.
+std::string inflate_up_to(std::string_view in, size_t limit, const std::string& path, const std::string& key,
+                          const std::string& what, size_t step = size_t(1) << 30);
+// The same stream decoded as it is inflated (issue 21: the inflated bytes are never held whole):
+// its first `skip` bytes dropped, then up to `count` values of `type` into `values` (cleared
+// first, grown block by block). Returns the bytes the stream held after the skip (at most
+// count values' worth): fewer than count values' bytes means the data ended early.
+size_t inflate_values(std::string_view in, size_t skip, int64_t count, Scalar type, bool swap,
+                      std::vector<float>& values, const std::string& path, const std::string& key,
+                      const std::string& what, size_t step = size_t(1) << 30);
+
 // Reserves address space for `bytes` in `s` (not touched until filled) when that is at most half
 // the machine's physical memory; a larger claim (a header's, larger than any volume this
 // machine could hold) reserves nothing and the string grows as it is filled.
 void reserve_plausible(std::string& s, size_t bytes);
+void reserve_plausible(std::vector<float>& v, size_t count);  // the same for count floats
 
 // Formats a double so that reading it back gives the same double.
 std::string exact(double v);
@@ -134,6 +156,10 @@ void write_nrrd(const RawVolume& v, const std::string& path, bool compress);
 // gzip-wrapped deflate of `parts` one after another (nrrd.cpp; NRRD's gzip encoding, .nii.gz
 // and .inr.gz), at zlib's fastest level.
 std::string gzip_bytes(const std::vector<std::string_view>& parts, const std::string& path);
+// The same stream handed to `put` a piece (up to 1 MB) at a time as it is made, for writers that
+// stream it to their file (the compressed bytes are never held whole, issue 21).
+void gzip_into(const std::vector<std::string_view>& parts, const std::string& path,
+               const std::function<void(std::string_view)>& put);
 
 // INRIMAGE-4 (inr.cpp): read a .inr or .inr.gz completely, or only its header's dimension;
 // write float32 little-endian (CPU=decm) .inr, or gzipped .inr.gz.

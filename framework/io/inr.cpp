@@ -183,7 +183,7 @@ void write_inr(const RawVolume& v, const std::string& path) {
   h += std::string(total - h.size() - (sizeof(kInrEnd) - 1), '\n') + kInrEnd;
   std::string converted;
   const std::vector<std::string_view> parts{h, stored_view(v.data(), false, converted)};
-  if (extension_of(path) == ".inr.gz") write_file_atomically(path, gzip_bytes(parts, path));
+  if (extension_of(path) == ".inr.gz") write_stream_atomically(path, [&](const auto& put) { gzip_into(parts, path, put); });
   else write_file_atomically(path, parts);
 }
 

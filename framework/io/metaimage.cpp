@@ -94,23 +94,6 @@ bool meta_true(const std::string* value) {
   return v == "true" || v == "1";
 }
 
-// zlib- or gzip-wrapped deflate data, inflated up to `expected` bytes.
-std::string inflate_bytes(std::string_view in, size_t expected, const std::string& path) {
-  std::string out(expected, '\0');
-  z_stream zs{};
-  if (inflateInit2(&zs, 15 + 32) != Z_OK) throw std::runtime_error("zlib initialisation failed");
-  zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
-  zs.avail_in = static_cast<uInt>(in.size());
-  zs.next_out = reinterpret_cast<Bytef*>(out.data());
-  zs.avail_out = static_cast<uInt>(expected);
-  const int ret = inflate(&zs, Z_FINISH);
-  out.resize(zs.total_out);
-  inflateEnd(&zs);
-  if (ret != Z_STREAM_END && ret != Z_BUF_ERROR && ret != Z_OK)
-    throw InputError(path, "CompressedData", "corrupt zlib data (" + std::string(zs.msg ? zs.msg : "error") + ")");
-  return out;
-}
-
 // MetaImage ElementType names.
 const std::map<std::string, Scalar>& meta_types() {
   static const std::map<std::string, Scalar> types = {
@@ -193,7 +176,7 @@ RawVolume read_meta(const std::string& path) {
 
   // The data: after the header (LOCAL) or in a file beside the header. A view into the bytes
   // read (no copies of a volume's data before it is decoded, issue 21); `owned` holds the data
-  // file's bytes or the inflated stream.
+  // file's bytes.
   const std::string& df = h.keys.at("ElementDataFile");
   std::string data_path = path, owned;
   std::string_view data;
@@ -220,13 +203,14 @@ RawVolume read_meta(const std::string& path) {
       if (n >= 0 && n < double(data.size())) data = data.substr(0, size_t(n));
     }
     check_inflatable(double(expected), double(data.size()), data_path, "CompressedData");
-    owned = inflate_bytes(data, expected, data_path);
-    data = owned;
   }
-  if (data.size() < expected)
-    throw InputError(data_path, "ElementDataFile", "data holds " + std::to_string(data.size()) + " bytes, expected " +
+  // Compressed data is decoded as it is inflated (issue 21: the inflated bytes are never held whole).
+  const size_t found = compressed ? inflate_values(data, 0, count, type, swap, v.values, data_path, "CompressedData", "zlib")
+                                  : std::min(data.size(), expected);
+  if (found < expected)
+    throw InputError(data_path, "ElementDataFile", "data holds " + std::to_string(found) + " bytes, expected " +
                                                        std::to_string(expected));
-  v.values = decode<float>(data.data(), count, type, swap);
+  if (!compressed) v.values = decode<float>(data.data(), count, type, swap);
   return v;
 }
 

@@ -272,7 +272,7 @@ void write_nifti(const RawVolume& lps, const std::string& path) {
   std::string converted;
   const std::vector<std::string_view> parts{h, stored_view(v.channels > 1 ? planar : lps.data(), lps.label, converted)};
   if (extension_of(path) == ".nii") write_file_atomically(path, parts);
-  else write_file_atomically(path, gzip_bytes(parts, path));
+  else write_stream_atomically(path, [&](const auto& put) { gzip_into(parts, path, put); });
 }
 
 RawVolume read_nifti(const std::string& path) {

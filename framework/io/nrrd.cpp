@@ -289,35 +289,6 @@ RawVolume nrrd_geometry(const NrrdHeader& h, const std::string& path) {
   return v;
 }
 
-// deflate data (gzip or zlib wrapper) inflated chunk by chunk up to `limit` bytes, so that
-// memory grows with the real data, never with what a header claims.
-std::string gunzip_up_to(const std::string& in, size_t limit, const std::string& path) {
-  z_stream zs{};
-  if (inflateInit2(&zs, 15 + 32) != Z_OK) throw std::runtime_error("zlib initialisation failed");
-  zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
-  zs.avail_in = static_cast<uInt>(in.size());
-  std::string out;
-  // Address space for the whole (not touched until filled), so that the chunks do not regrow
-  // and copy the buffer (within reason: see reserve_plausible).
-  reserve_plausible(out, limit);
-  int ret = Z_OK;
-  while (out.size() < limit && ret != Z_STREAM_END) {
-    const size_t chunk = std::min<size_t>(limit - out.size(), size_t(1) << 22);
-    const size_t old = out.size();
-    out.resize(old + chunk);
-    zs.next_out = reinterpret_cast<Bytef*>(out.data() + old);
-    zs.avail_out = static_cast<uInt>(chunk);
-    ret = inflate(&zs, Z_NO_FLUSH);
-    out.resize(old + chunk - zs.avail_out);
-    if (ret == Z_BUF_ERROR || ret == Z_NEED_DICT || ret == Z_DATA_ERROR || ret == Z_MEM_ERROR) break;
-  }
-  const std::string msg = zs.msg ? zs.msg : "";
-  inflateEnd(&zs);
-  if (ret == Z_DATA_ERROR || ret == Z_NEED_DICT || ret == Z_MEM_ERROR)
-    throw InputError(path, "encoding", "corrupt gzip data (" + (msg.empty() ? std::string("error") : msg) + ")");
-  return out;
-}
-
 // The bytes of `path`'s data: attached after the header or in the `data file`, past `line skip`
 // lines (and for raw data `byte skip` bytes); `where` is set to the file they came from.
 std::string nrrd_stored_bytes(const NrrdHeader& h, std::string&& bytes, const std::string& path,
@@ -354,9 +325,12 @@ std::string nrrd_stored_bytes(const NrrdHeader& h, std::string&& bytes, const st
   return data;
 }
 
-// The data block of exactly `expected` bytes (decoded from the encoding, `byte skip` applied),
-// or an InputError naming the field whose numbers the data does not hold.
-std::string nrrd_data(const NrrdHeader& h, std::string&& bytes, const std::string& path, double expected) {
+// The `count` values of `type` the data holds (decoded from the encoding, `byte skip` applied),
+// into `values`, or an InputError naming the field whose numbers the data does not hold. Gzip
+// data is decoded as it is inflated (issue 21: the inflated bytes are never held whole).
+void nrrd_values(const NrrdHeader& h, std::string&& bytes, const std::string& path, int64_t count, Scalar type,
+                 bool swap, std::vector<float>& values) {
+  const double expected = double(count) * scalar_bytes(type);
   const std::string encoding = lower(required_field(h, "encoding", path));
   const bool gz = encoding == "gzip" || encoding == "gz";
   if (!gz && encoding != "raw")
@@ -367,20 +341,23 @@ std::string nrrd_data(const NrrdHeader& h, std::string&& bytes, const std::strin
   std::string where;
   std::string data = nrrd_stored_bytes(h, std::move(bytes), path, where);
   const std::string in_file = where == path ? "" : " in " + where;
+  auto too_short = [&](int64_t found) {
+    return InputError(path, "sizes", "sizes and type need " + exact(expected) + " bytes of data, found " +
+                                         std::to_string(std::max<int64_t>(0, found)) + in_file +
+                                         " (truncated data or wrong sizes)");
+  };
   if (gz) {
     if (expected + double(skip) > kMaxInflateRatio * double(data.size()) + 1024)
       throw InputError(path, "sizes", "sizes and type need " + exact(expected) + " bytes, more than the " +
                                           std::to_string(data.size()) + " gzip bytes" + in_file + " can hold");
-    data = gunzip_up_to(data, size_t(expected) + size_t(skip), where);
+    const size_t found = inflate_values(data, size_t(skip), count, type, swap, values, where, "encoding", "gzip");
+    if (double(found) < expected) throw too_short(int64_t(found));
+    return;
   }
   if (skip == -1) skip = std::max<int64_t>(0, int64_t(data.size()) - int64_t(expected));
-  if (double(data.size()) < expected + double(skip))
-    throw InputError(path, "sizes", "sizes and type need " + exact(expected) + " bytes of data, found " +
-                                        std::to_string(std::max<int64_t>(0, int64_t(data.size()) - skip)) + in_file +
-                                        " (truncated data or wrong sizes)");
-  data.erase(0, size_t(skip));
-  data.resize(size_t(expected));
-  return data;
+  if (double(data.size()) < expected + double(skip)) throw too_short(int64_t(data.size()) - skip);
+  values.resize(size_t(count));
+  decode_into(data.data() + skip, count, type, swap, values.data());
 }
 
 }  // namespace
@@ -389,32 +366,38 @@ std::string nrrd_data(const NrrdHeader& h, std::string&& bytes, const std::strin
 // at zlib's fastest level, as nibabel writes .nii.gz by default: a volume's file is written at
 // every run (result_mask.nii.gz), and level 6 took 2.5 to 3 times as long for files a third of
 // the size (the lung phantom's 21 MB image: 0.078 s for 77 kB against 0.028 s for 188 kB). The
-// output grows as it is filled instead of being sized to deflateBound (about the input's size),
-// so that only the compressed bytes' memory is touched (issue 21).
-std::string gzip_bytes(const std::vector<std::string_view>& parts, const std::string& path) {
+// output leaves a piece at a time (to the file being written), so that the compressed bytes are
+// never held whole (issue 21).
+void gzip_into(const std::vector<std::string_view>& parts, const std::string& path,
+               const std::function<void(std::string_view)>& put) {
   z_stream zs{};
   if (deflateInit2(&zs, Z_BEST_SPEED, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK)
     throw std::runtime_error(path + ": zlib initialisation failed");
-  size_t total = 0;
-  for (const std::string_view part : parts) total += part.size();
-  const size_t bound = size_t(deflateBound(&zs, uLong(total)));
-  std::string out(std::min(bound, size_t(1) << 16), '\0');
-  // zlib counts in 32-bit uInt: feed and drain at most 1 GiB at a time, so that volumes larger
-  // than 4 GiB compress too (total_out is uLong, 64-bit here).
+  // zlib counts in 32-bit uInt: input is fed at most 1 GiB at a time, so that volumes larger
+  // than 4 GiB compress too; output leaves in pieces of 1 MB.
   constexpr size_t kChunk = size_t(1) << 30;
-  // Deflates `n` bytes at `in` (with Z_FINISH: then until the stream ends), growing `out`.
+  std::string out(size_t(1) << 20, '\0');
+  // Deflates `n` bytes at `in` (with Z_FINISH: then until the stream ends), handing each full
+  // piece of output (and the last) to put.
   auto feed = [&](const char* in, size_t n, int flush) {
     zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in));
     zs.avail_in = uInt(n);
     for (;;) {
-      const size_t out_pos = size_t(zs.total_out);
-      if (out_pos == out.size()) out.resize(out.size() + std::min(out.size(), kChunk));  // doubling, 1 GiB at most
-      zs.next_out = reinterpret_cast<Bytef*>(out.data() + out_pos);
-      zs.avail_out = uInt(std::min(kChunk, out.size() - out_pos));
+      zs.next_out = reinterpret_cast<Bytef*>(out.data());
+      zs.avail_out = uInt(out.size());
       const int ret = deflate(&zs, flush);
       if (ret == Z_STREAM_ERROR) {
         deflateEnd(&zs);
         throw std::runtime_error(path + ": gzip compression failed");
+      }
+      const size_t made = out.size() - zs.avail_out;
+      if (made > 0) {
+        try {
+          put(std::string_view(out.data(), made));
+        } catch (...) {
+          deflateEnd(&zs);
+          throw;
+        }
       }
       if (flush == Z_FINISH ? ret == Z_STREAM_END : zs.avail_in == 0 && zs.avail_out > 0) return;
     }
@@ -422,9 +405,13 @@ std::string gzip_bytes(const std::vector<std::string_view>& parts, const std::st
   for (const std::string_view part : parts)
     for (size_t at = 0; at < part.size(); at += kChunk) feed(part.data() + at, std::min(kChunk, part.size() - at), Z_NO_FLUSH);
   feed(nullptr, 0, Z_FINISH);
-  out.resize(size_t(zs.total_out));
   deflateEnd(&zs);
-  return out;
+}
+
+std::string gzip_bytes(const std::vector<std::string_view>& parts, const std::string& path) {
+  std::string bytes;
+  gzip_into(parts, path, [&](std::string_view piece) { bytes.append(piece); });
+  return bytes;
 }
 
 namespace {
@@ -455,8 +442,7 @@ RawVolume read_nrrd(const std::string& path) {
   const double expected = count * scalar_bytes(type);
   if (expected > kMaxDataBytes) throw InputError(path, "sizes", "absurd sizes (" + exact(count) + " values)");
   check_declared_values(count, path, "sizes");
-  const std::string data = nrrd_data(h, std::move(bytes), path, expected);
-  v.values = decode<float>(data.data(), int64_t(count), type, swap);
+  nrrd_values(h, std::move(bytes), path, int64_t(count), type, swap, v.values);
   return v;
 }
 
@@ -486,15 +472,20 @@ void write_nrrd(const RawVolume& v, const std::string& path, bool compress) {
   h += "space origin: " + vector_text(v.origin, n) + "\n";
   std::string converted;
   const std::string_view values = stored_view(v.data(), v.label, converted);
-  const std::string gzipped = compress ? gzip_bytes({values}, path) : std::string();
-  const std::string_view data = compress ? std::string_view(gzipped) : values;
-  if (extension_of(path) != ".nhdr") {  // the header, then the values (attached)
-    write_file_atomically(path, {h + "\n", data});
+  const bool attached = extension_of(path) != ".nhdr";
+  // The header (when attached), then the values or their gzip stream as it is made.
+  auto produce = [&](const std::function<void(std::string_view)>& put) {
+    if (attached) put(h + "\n");
+    if (compress) gzip_into({values}, path, put);
+    else put(values);
+  };
+  if (attached) {
+    write_stream_atomically(path, produce);
     return;
   }
   const fs::path p(path);
   const std::string data_name = p.stem().string() + (compress ? ".raw.gz" : ".raw");
-  write_file_atomically((p.parent_path() / data_name).string(), {data});
+  write_stream_atomically((p.parent_path() / data_name).string(), produce);
   write_file_atomically(path, h + "data file: " + data_name + "\n");
 }
 

@@ -380,6 +380,21 @@ TEST_F(CliTest, AFullDiskLeavesNoOutputAndOneLine) {
   EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
   EXPECT_NE(err.find("dsnake: error: " + (dir_ / "f.mha").string() + ": cannot write (File too large)"), std::string::npos) << err;
   EXPECT_FALSE(fs::exists(dir_ / "f.mha"));
+  // A gzip stream that fails part-way (it goes to its file a megabyte at a time as it is made:
+  // noise of 2 MB hardly compresses): the same.
+  g.size = GridIndex<3>(80, 80, 80);
+  Image<3> noise(g, 0.0f);
+  uint32_t state = 12345;
+  for (float& v : noise.data()) v = float((state = state * 1664525u + 1013904223u) >> 8);
+  write_image(noise, (dir_ / "noise.mha").string());
+  for (const std::string out : {"g.nii.gz", "g.nrrd"}) {
+    const auto [gz_code, gz_err] =
+        limited("convert " + (dir_ / "noise.mha").string() + " " + (dir_ / out).string(), 1500);
+    EXPECT_EQ(gz_code, 1) << gz_err;
+    EXPECT_EQ(std::count(gz_err.begin(), gz_err.end(), '\n'), 1) << gz_err;
+    EXPECT_NE(gz_err.find((dir_ / out).string() + ": cannot write (File too large)"), std::string::npos) << gz_err;
+    EXPECT_FALSE(fs::exists(dir_ / out));
+  }
   // A run: result.json and the figures fail to fit; no output folder, no staging folder.
   const auto [run_code, run_err] = limited("run builtin:default -q --out " + (dir_ / "out").string(), 2);
   EXPECT_EQ(run_code, 1) << run_err;
