@@ -133,6 +133,27 @@ std::string read_bytes(const std::string& path, size_t max_bytes) {
   return s;
 }
 
+void read_stored_values(const std::string& path, uint64_t offset, int64_t count, Scalar type, bool swap,
+                        std::vector<float>& values) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, "", "cannot open file");
+  in.seekg(std::streamoff(offset));
+  const size_t nb = size_t(scalar_bytes(type));
+  constexpr size_t kBlockValues = size_t(1) << 17;  // at most 1 MB of stored values at a time
+  std::vector<char> block(std::min(size_t(count), kBlockValues) * nb);
+  values.clear();
+  values.reserve(size_t(count));
+  while (int64_t(values.size()) < count) {
+    const size_t m = std::min(size_t(count) - values.size(), kBlockValues);
+    in.read(block.data(), std::streamsize(m * nb));
+    if (size_t(in.gcount()) != m * nb)
+      throw InputError(path, "", "the data ended early while it was read (the file changed?)");
+    const size_t at = values.size();
+    values.resize(at + m);
+    decode_into(block.data(), int64_t(m), type, swap, values.data() + at);
+  }
+}
+
 // Runs f with stderr sent to /dev/null: libpng and libjpeg print their own line ("libpng error:
 // Read Error") before OpenCV returns an empty image, and the user must see only ours (issue 22).
 template <class F>

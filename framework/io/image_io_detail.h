@@ -98,6 +98,13 @@ void require_exists(const std::string& path);
 // gzread, which would inflate raw data that happens to start with the gzip magic bytes.
 std::string read_bytes(const std::string& path, size_t max_bytes = std::string::npos);
 
+// Reads `count` values of `type` stored from byte `offset` of `path` into `values` (cleared
+// first), a block of stored values at a time (issue 21: the file's bytes are never held whole;
+// MetaImage and NRRD raw data). The caller checked the file holds them; a file that ends early
+// all the same (it changed meanwhile) gives an InputError naming it.
+void read_stored_values(const std::string& path, uint64_t offset, int64_t count, Scalar type, bool swap,
+                        std::vector<float>& values);
+
 // Whole file (or its first max_bytes) through zlib's gz reader, which gunzips .gz files and
 // passes plain files through unchanged (NIfTI). `expected_bytes`: the length the caller expects
 // (a header's data size; 0: unknown), read straight into a buffer of that size instead of one

@@ -157,10 +157,27 @@ RawVolume meta_geometry(const MetaHeader& h, const std::string& path) {
   return v;
 }
 
-// Reads a .mha or .mhd file completely.
+// The header of `path`, parsed from its first 64 kB (`bytes`: what was read), or from the whole
+// file when the header does not end within them (then `bytes` holds the whole file).
+MetaHeader read_meta_header(const std::string& path, std::string& bytes) {
+  constexpr size_t kHead = size_t(1) << 16;
+  bytes = read_bytes(path, kHead);
+  if (bytes.size() < kHead) return parse_meta_header(bytes, path);  // the whole file
+  try {
+    const MetaHeader h = parse_meta_header(bytes, path);
+    if (h.data_start < bytes.size()) return h;  // (the ElementDataFile line ended within the bytes)
+  } catch (const InputError&) {  // the header may go on: read it all, for the same answer as before
+  }
+  bytes = read_bytes(path);
+  return parse_meta_header(bytes, path);
+}
+
+// Reads a .mha or .mhd file completely. Raw data is read a block at a time straight into the
+// values, compressed data decoded as it is inflated (issue 21): a volume's stored bytes are never
+// held whole.
 RawVolume read_meta(const std::string& path) {
-  const std::string bytes = read_bytes(path);
-  const MetaHeader h = parse_meta_header(bytes, path);
+  std::string bytes;
+  const MetaHeader h = read_meta_header(path, bytes);
   RawVolume v = meta_geometry(h, path);
   const std::string* et = find_key(h, {"ElementType"});
   if (!et) throw InputError(path, "ElementType", "missing required key");
@@ -174,43 +191,50 @@ RawVolume read_meta(const std::string& path) {
   const int64_t count = v.num_voxels() * v.channels;
   const size_t expected = size_t(count) * scalar_bytes(type);
 
-  // The data: after the header (LOCAL) or in a file beside the header. A view into the bytes
-  // read (no copies of a volume's data before it is decoded, issue 21); `owned` holds the data
-  // file's bytes.
+  // The data: after the header (LOCAL) or in a file beside the header, from byte `offset` of
+  // `data_path`, which holds `length` bytes. Compressed data is read into `owned` (a view of it
+  // in `data`) and decoded as it is inflated; raw data is read from the file into the values.
   const std::string& df = h.keys.at("ElementDataFile");
   std::string data_path = path, owned;
-  std::string_view data;
+  uint64_t offset = 0, length = 0;
+  std::error_code ec;
   if (df == "LOCAL") {
-    data = std::string_view(bytes).substr(h.data_start);
+    offset = h.data_start;
+    const uintmax_t size = fs::file_size(path, ec);
+    length = ec || size < offset ? 0 : size - offset;
   } else {
     if (df.rfind("LIST", 0) == 0 || df.find('%') != std::string::npos)
       throw InputError(path, "ElementDataFile", "file lists and patterns are not supported");
     data_path = (fs::path(path).parent_path() / df).string();
-    std::error_code ec;  // a name too long for the system is "not found", not a filesystem_error (fuzzing, issue 22)
+    // (A name too long for the system is "not found", not a filesystem_error: fuzzing, issue 22.)
     if (!fs::is_regular_file(data_path, ec))
       throw InputError(data_path, "", "data file not found (named by ElementDataFile in " + path + ")");
-    owned = read_bytes(data_path);
-    data = owned;
+    const uintmax_t size = fs::file_size(data_path, ec);
+    length = ec ? 0 : size;
     if (const std::string* hs = find_key(h, {"HeaderSize"})) {
       const double skip = meta_numbers(*hs, path, "HeaderSize", 1)[0];
-      if (skip == -1 && !compressed && data.size() >= expected) data = data.substr(data.size() - expected);
-      else if (skip > 0) data = skip < double(data.size()) ? data.substr(size_t(skip)) : std::string_view();
+      if (skip == -1 && !compressed && length >= expected) offset = length - expected;
+      else if (skip > 0) offset = skip < double(length) ? uint64_t(skip) : length;
+      length -= offset;
     }
   }
+  size_t found = std::min<uint64_t>(length, expected);
   if (compressed) {
+    if (df == "LOCAL" && bytes.size() < offset + length) bytes = read_bytes(path);  // only the header so far
+    if (df != "LOCAL") bytes = read_bytes(data_path);
+    std::string_view data = std::string_view(bytes).substr(std::min<uint64_t>(offset, bytes.size()));
     if (const std::string* cs = find_key(h, {"CompressedDataSize"})) {
       const double n = meta_numbers(*cs, path, "CompressedDataSize", 1)[0];
       if (n >= 0 && n < double(data.size())) data = data.substr(0, size_t(n));
     }
     check_inflatable(double(expected), double(data.size()), data_path, "CompressedData");
+    // Decoded as it is inflated (issue 21: the inflated bytes are never held whole).
+    found = inflate_values(data, 0, count, type, swap, v.values, data_path, "CompressedData", "zlib");
   }
-  // Compressed data is decoded as it is inflated (issue 21: the inflated bytes are never held whole).
-  const size_t found = compressed ? inflate_values(data, 0, count, type, swap, v.values, data_path, "CompressedData", "zlib")
-                                  : std::min(data.size(), expected);
   if (found < expected)
     throw InputError(data_path, "ElementDataFile", "data holds " + std::to_string(found) + " bytes, expected " +
                                                        std::to_string(expected));
-  if (!compressed) v.values = decode<float>(data.data(), count, type, swap);
+  if (!compressed) read_stored_values(data_path, offset, count, type, swap, v.values);
   return v;
 }
 

@@ -17,6 +17,7 @@
 #include <cerrno>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <sstream>
 
 namespace dsnake::detail {
@@ -289,47 +290,57 @@ RawVolume nrrd_geometry(const NrrdHeader& h, const std::string& path) {
   return v;
 }
 
-// The bytes of `path`'s data: attached after the header or in the `data file`, past `line skip`
-// lines (and for raw data `byte skip` bytes); `where` is set to the file they came from.
-std::string nrrd_stored_bytes(const NrrdHeader& h, std::string&& bytes, const std::string& path,
-                              std::string& where) {
+// Where `path`'s data is: the file (`path` itself, after the header, or the `data file`), the
+// byte it starts at past `line skip` lines, and the bytes from there to the file's end. Lines are
+// counted a block at a time from the file (issue 21: the data is never read whole for this).
+struct NrrdDataSpan {
+  std::string where;
+  uint64_t offset = 0, length = 0;
+};
+NrrdDataSpan nrrd_data_span(const NrrdHeader& h, const std::string& path) {
   const std::string* df = nrrd_field(h, "data file");
-  std::string data;
-  where = path;
+  NrrdDataSpan span;
+  span.where = path;
+  std::error_code ec;
   if (df) {
     const auto w = words_of(*df);
     if (w.size() != 1 || w[0] == "LIST")
       throw InputError(path, "data file", "lists and patterns of data files are not supported");
     const fs::path p(w[0]);
-    where = (p.is_absolute() ? p : fs::path(path).parent_path() / p).string();
-    std::error_code ec;
-    if (!fs::is_regular_file(where, ec))
-      throw InputError(path, "data file", "data file '" + where + "' not found");
-    data = read_bytes(where);
+    span.where = (p.is_absolute() ? p : fs::path(path).parent_path() / p).string();
+    if (!fs::is_regular_file(span.where, ec))
+      throw InputError(path, "data file", "data file '" + span.where + "' not found");
   } else {
     if (h.data_start == std::string::npos)
       throw InputError(path, "data file", "missing: no 'data file' field and no data after the header");
-    data = std::move(bytes);  // the header dropped in place: no second copy of a volume's bytes
-    data.erase(0, h.data_start);
+    span.offset = h.data_start;
   }
+  const uintmax_t size = fs::file_size(span.where, ec);
+  const uint64_t end = ec ? 0 : uint64_t(size);
   if (const std::string* ls = nrrd_field(h, "line skip")) {
     const int64_t n = nrrd_integer(*ls, path, "line skip", 0, 1 << 20);
-    size_t pos = 0;
-    for (int64_t i = 0; i < n; ++i) {
-      pos = data.find('\n', pos);
-      if (pos == std::string::npos) throw InputError(path, "line skip", "the data has fewer lines than skipped");
-      ++pos;
+    std::ifstream in(span.where, std::ios::binary);
+    in.seekg(std::streamoff(std::min(span.offset, end)));
+    char block[1 << 16];
+    for (int64_t lines = 0; lines < n;) {
+      in.read(block, sizeof(block));
+      const size_t got = size_t(in.gcount());
+      if (got == 0) throw InputError(path, "line skip", "the data has fewer lines than skipped");
+      size_t k = 0;
+      for (; k < got && lines < n; ++k) lines += block[k] == '\n';
+      span.offset += k;
     }
-    data.erase(0, pos);
   }
-  return data;
+  span.length = end > span.offset ? end - span.offset : 0;
+  return span;
 }
 
 // The `count` values of `type` the data holds (decoded from the encoding, `byte skip` applied),
-// into `values`, or an InputError naming the field whose numbers the data does not hold. Gzip
-// data is decoded as it is inflated (issue 21: the inflated bytes are never held whole).
-void nrrd_values(const NrrdHeader& h, std::string&& bytes, const std::string& path, int64_t count, Scalar type,
-                 bool swap, std::vector<float>& values) {
+// into `values`, or an InputError naming the field whose numbers the data does not hold. Raw
+// data is read from its file straight into the values, gzip data decoded as it is inflated
+// (issue 21: the stored or inflated bytes are never held whole).
+void nrrd_values(const NrrdHeader& h, const std::string& path, int64_t count, Scalar type, bool swap,
+                 std::vector<float>& values) {
   const double expected = double(count) * scalar_bytes(type);
   const std::string encoding = lower(required_field(h, "encoding", path));
   const bool gz = encoding == "gzip" || encoding == "gz";
@@ -338,26 +349,40 @@ void nrrd_values(const NrrdHeader& h, std::string&& bytes, const std::string& pa
   int64_t skip = 0;
   if (const std::string* bs = nrrd_field(h, "byte skip"))
     skip = nrrd_integer(*bs, path, "byte skip", gz ? 0 : -1, int64_t(1) << 40);
-  std::string where;
-  std::string data = nrrd_stored_bytes(h, std::move(bytes), path, where);
-  const std::string in_file = where == path ? "" : " in " + where;
+  const NrrdDataSpan span = nrrd_data_span(h, path);
+  const std::string in_file = span.where == path ? "" : " in " + span.where;
   auto too_short = [&](int64_t found) {
     return InputError(path, "sizes", "sizes and type need " + exact(expected) + " bytes of data, found " +
                                          std::to_string(std::max<int64_t>(0, found)) + in_file +
                                          " (truncated data or wrong sizes)");
   };
   if (gz) {
-    if (expected + double(skip) > kMaxInflateRatio * double(data.size()) + 1024)
+    if (expected + double(skip) > kMaxInflateRatio * double(span.length) + 1024)
       throw InputError(path, "sizes", "sizes and type need " + exact(expected) + " bytes, more than the " +
-                                          std::to_string(data.size()) + " gzip bytes" + in_file + " can hold");
-    const size_t found = inflate_values(data, size_t(skip), count, type, swap, values, where, "encoding", "gzip");
+                                          std::to_string(span.length) + " gzip bytes" + in_file + " can hold");
+    const std::string bytes = read_bytes(span.where);
+    const std::string_view data = std::string_view(bytes).substr(std::min<uint64_t>(span.offset, bytes.size()));
+    const size_t found = inflate_values(data, size_t(skip), count, type, swap, values, span.where, "encoding", "gzip");
     if (double(found) < expected) throw too_short(int64_t(found));
     return;
   }
-  if (skip == -1) skip = std::max<int64_t>(0, int64_t(data.size()) - int64_t(expected));
-  if (double(data.size()) < expected + double(skip)) throw too_short(int64_t(data.size()) - skip);
-  values.resize(size_t(count));
-  decode_into(data.data() + skip, count, type, swap, values.data());
+  if (skip == -1) skip = std::max<int64_t>(0, int64_t(span.length) - int64_t(expected));
+  if (double(span.length) < expected + double(skip)) throw too_short(int64_t(span.length) - skip);
+  read_stored_values(span.where, span.offset + uint64_t(skip), count, type, swap, values);
+}
+
+// The header of `path`, parsed from its first 64 kB, or from the whole file when the header
+// does not end within them (a detached header shorter than that is the whole file anyway).
+NrrdHeader read_nrrd_header(const std::string& path) {
+  constexpr size_t kHead = size_t(1) << 16;
+  std::string bytes = read_bytes(path, kHead);
+  if (bytes.size() < kHead) return parse_nrrd_header(bytes, path);  // the whole file
+  try {
+    const NrrdHeader h = parse_nrrd_header(bytes, path);
+    if (h.data_start != std::string::npos) return h;  // the blank line that ends it was read
+  } catch (const InputError&) {  // the header may go on: read it all, for the same answer as before
+  }
+  return parse_nrrd_header(read_bytes(path), path);
 }
 
 }  // namespace
@@ -427,8 +452,7 @@ std::string vector_text(const std::array<double, 3>& a, int n) {
 
 // Reads a .nrrd or .nhdr file completely.
 RawVolume read_nrrd(const std::string& path) {
-  std::string bytes = read_bytes(path);
-  const NrrdHeader h = parse_nrrd_header(bytes, path);
+  const NrrdHeader h = read_nrrd_header(path);
   RawVolume v = nrrd_geometry(h, path);
   const Scalar type = nrrd_type(required_field(h, "type", path), path);
   bool swap = false;
@@ -442,7 +466,7 @@ RawVolume read_nrrd(const std::string& path) {
   const double expected = count * scalar_bytes(type);
   if (expected > kMaxDataBytes) throw InputError(path, "sizes", "absurd sizes (" + exact(count) + " values)");
   check_declared_values(count, path, "sizes");
-  nrrd_values(h, std::move(bytes), path, int64_t(count), type, swap, v.values);
+  nrrd_values(h, path, int64_t(count), type, swap, v.values);
   return v;
 }
 

@@ -176,6 +176,39 @@ TEST(ImageIo, ReadsForeignCompressedBigEndianMetaImage) {
         EXPECT_EQ(im.at(GridIndex<3>(j, i, k)), float(values[i + nx * (j + ny * k)])) << i << " " << j << " " << k;
 }
 
+// Raw MetaImage data is read from its file a block at a time, the header from the file's first
+// 64 kB (issue 21): a volume of several blocks, HeaderSize skips (a count, and -1: the data are
+// the file's last bytes), a header longer than 64 kB, and data shorter than declared (named
+// with the bytes it holds) read as before.
+TEST(ImageIo, MetaImageRawDataIsReadFromItsFileAtTheRightPlace) {
+  const std::string dir = fresh_dir();
+  const int nx = 61, ny = 47, nz = 50;  // 143 350 int16 values: two blocks of stored values
+  std::string raw;
+  std::vector<float> values;
+  for (int i = 0; i < nx * ny * nz; ++i) {
+    const int16_t v = int16_t((i * 7919) % 60001 - 30000);
+    values.push_back(v);
+    raw.push_back(char(uint16_t(v) & 0xff));
+    raw.push_back(char(uint16_t(v) >> 8));
+  }
+  const std::string head = "ObjectType = Image\nNDims = 3\nDimSize = 61 47 50\nElementType = MET_SHORT\n";
+  write_file(dir + "/local.mha", head + "ElementDataFile = LOCAL\n" + raw);
+  EXPECT_TRUE(read_image<3>(dir + "/local.mha").data() == values);
+  write_file(dir + "/skip.raw", "12345" + raw + "tail");
+  write_file(dir + "/skip.mhd", head + "HeaderSize = 5\nElementDataFile = skip.raw\n");
+  EXPECT_TRUE(read_image<3>(dir + "/skip.mhd").data() == values);
+  write_file(dir + "/end.raw", "a preamble" + raw);
+  write_file(dir + "/end.mhd", head + "HeaderSize = -1\nElementDataFile = end.raw\n");
+  EXPECT_TRUE(read_image<3>(dir + "/end.mhd").data() == values);
+  std::string comments;  // 30 lines of 3000 characters: the header ends past 64 kB
+  for (int i = 0; i < 30; ++i) comments += "Comment" + std::to_string(i) + " = " + std::string(3000, 'x') + "\n";
+  write_file(dir + "/long.mha", head + comments + "ElementDataFile = LOCAL\n" + raw);
+  EXPECT_TRUE(read_image<3>(dir + "/long.mha").data() == values);
+  write_file(dir + "/short.mha", head + "ElementDataFile = LOCAL\n" + raw.substr(0, raw.size() - 3));
+  expect_bad_file([](const std::string& p) { read_image<3>(p); }, dir + "/short.mha", "ElementDataFile",
+                  "data holds " + std::to_string(raw.size() - 3) + " bytes, expected " + std::to_string(raw.size()));
+}
+
 TEST(ImageIo, Mha2dRoundTripAndSingleSliceVolumeReadsAs2d) {
   const std::string dir = fresh_dir();
   const Image<2> im = test_image_2d();

@@ -251,6 +251,16 @@ TEST(Nrrd, SliceIn3DSpaceAndSkips) {
                                   "line skip: 2\nbyte skip: 1\ndata file: lines.bin\n");
   write_file(dir + "/lines.bin", "first\nsecond\nx\x09\x0a");
   EXPECT_EQ(read_image<2>(dir + "/lines.nhdr").data(), (std::vector<float>{9, 10}));
+  // The same skips with the data attached, after a header longer than the 64 kB read first
+  std::string comments;
+  for (int i = 0; i < 30; ++i) comments += "# " + std::string(3000, 'c') + "\n";
+  write_file(dir + "/lines.nrrd", "NRRD0004\ntype: uint8\ndimension: 2\nsizes: 2 1\nencoding: raw\n" + comments +
+                                      "line skip: 2\nbyte skip: 1\n\nfirst\nsecond\nx\x09\x0a");
+  EXPECT_EQ(read_image<2>(dir + "/lines.nrrd").data(), (std::vector<float>{9, 10}));
+  write_file(dir + "/few_lines.nrrd", "NRRD0004\ntype: uint8\ndimension: 2\nsizes: 2 1\nencoding: raw\n"
+                                      "line skip: 4\n\nfirst\nsecond\nx\x09\x0a");
+  expect_bad_file([](const std::string& p) { read_image<2>(p); }, dir + "/few_lines.nrrd", "line skip",
+                  "fewer lines than skipped");
   // left-anterior-superior: y negated
   write_file(dir + "/las.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nspace: left-anterior-superior\n"
                                 "sizes: 1 1 1\nspace directions: (1,0,0) (0,1,0) (0,0,1)\nspace origin: (1,2,3)\n"
