@@ -223,24 +223,24 @@ void reserve_plausible(std::vector<float>& v, size_t count) { reserve_plausible_
 
 namespace {
 
-// The loop behind inflate_up_to and inflate_values: inflates `in` (zlib or gzip wrapper) up to
-// `limit` bytes into the windows window(most) gives (a pointer and its room, at most `most`
-// bytes), telling wrote(n) after each call how many it filled. Input and output go to zlib at
-// most `step` bytes at a time (its counts are 32-bit). Returns the bytes inflated.
-template <class Window, class Wrote>
-size_t inflate_stream(std::string_view in, size_t limit, const std::string& path, const std::string& key,
+// Inflates deflate data (zlib or gzip wrapper) up to `limit` bytes: its input comes from
+// next(most), a view of at most `most` further bytes (empty at the end); its output goes into
+// the windows window(most) gives (a pointer and its room, at most `most` bytes), with wrote(n)
+// told after each call how many it filled. Input and output go to zlib at most `step` bytes at a
+// time (its counts are 32-bit). Returns the bytes inflated.
+template <class Next, class Window, class Wrote>
+size_t inflate_stream(Next&& next, size_t limit, const std::string& path, const std::string& key,
                       const std::string& what, size_t step, Window&& window, Wrote&& wrote) {
   step = std::max<size_t>(step, 1);
   z_stream zs{};
   if (inflateInit2(&zs, 15 + 32) != Z_OK) throw std::runtime_error("zlib initialisation failed");
-  size_t fed = 0, total = 0;  // bytes of `in` handed to zlib, bytes inflated
+  size_t total = 0;  // bytes inflated
   int ret = Z_OK;
   while (total < limit && ret != Z_STREAM_END) {
-    if (zs.avail_in == 0 && fed < in.size()) {
-      const size_t n = std::min(in.size() - fed, step);
-      zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data() + fed));
-      zs.avail_in = static_cast<uInt>(n);
-      fed += n;
+    if (zs.avail_in == 0) {
+      const std::string_view piece = next(step);
+      zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(piece.data()));
+      zs.avail_in = static_cast<uInt>(piece.size());
     }
     const auto [out, room] = window(std::min({limit - total, size_t(1) << 22, step}));
     zs.next_out = reinterpret_cast<Bytef*>(out);
@@ -258,29 +258,10 @@ size_t inflate_stream(std::string_view in, size_t limit, const std::string& path
   return total;
 }
 
-}  // namespace
-
-std::string inflate_up_to(std::string_view in, size_t limit, const std::string& path, const std::string& key,
-                          const std::string& what, size_t step) {
-  std::string out;
-  // Address space for the whole (not touched until filled), so that the chunks do not regrow
-  // and copy the buffer (within reason: see reserve_plausible).
-  reserve_plausible(out, limit);
-  size_t old = 0;
-  inflate_stream(
-      in, limit, path, key, what, step,
-      [&](size_t most) {
-        old = out.size();
-        out.resize(old + most);
-        return std::pair<char*, size_t>(out.data() + old, most);
-      },
-      [&](size_t n) { out.resize(old + n); });
-  return out;
-}
-
-size_t inflate_values(std::string_view in, size_t skip, int64_t count, Scalar type, bool swap,
-                      std::vector<float>& values, const std::string& path, const std::string& key,
-                      const std::string& what, size_t step) {
+// inflate_values with its input from next (as inflate_stream takes it).
+template <class Next>
+size_t inflate_values_from(Next&& next, size_t skip, int64_t count, Scalar type, bool swap, std::vector<float>& values,
+                           const std::string& path, const std::string& key, const std::string& what, size_t step) {
   const size_t nb = size_t(scalar_bytes(type)), expected = size_t(count) * nb;
   values.clear();
   reserve_plausible(values, size_t(count));
@@ -288,7 +269,7 @@ size_t inflate_values(std::string_view in, size_t skip, int64_t count, Scalar ty
   size_t carried = 0;        // bytes of a partial value at the buffer's start
   size_t to_skip = skip;
   inflate_stream(
-      in, skip + expected, path, key, what, step,
+      next, skip + expected, path, key, what, step,
       [&](size_t most) {
         buffer.resize(carried + most);
         return std::pair<char*, size_t>(buffer.data() + carried, most);
@@ -308,6 +289,38 @@ size_t inflate_values(std::string_view in, size_t skip, int64_t count, Scalar ty
         std::memmove(buffer.data(), p + whole * nb, carried);
       });
   return values.size() * nb + carried;
+}
+
+}  // namespace
+
+size_t inflate_values(std::string_view in, size_t skip, int64_t count, Scalar type, bool swap,
+                      std::vector<float>& values, const std::string& path, const std::string& key,
+                      const std::string& what, size_t step) {
+  size_t fed = 0;
+  auto next = [&](size_t most) {
+    const std::string_view piece = in.substr(fed, most);
+    fed += piece.size();
+    return piece;
+  };
+  return inflate_values_from(next, skip, count, type, swap, values, path, key, what, step);
+}
+
+size_t inflate_file_values(const std::string& file, uint64_t offset, uint64_t length, size_t skip, int64_t count,
+                           Scalar type, bool swap, std::vector<float>& values, const std::string& key,
+                           const std::string& what, size_t step) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw InputError(file, "", "cannot open file");
+  in.seekg(std::streamoff(offset));
+  std::vector<char> block(size_t(std::min<uint64_t>(length, uint64_t(1) << 20)));
+  uint64_t left = length;
+  auto next = [&](size_t most) {
+    const size_t n = size_t(std::min<uint64_t>({left, most, block.size()}));
+    in.read(block.data(), std::streamsize(n));
+    const size_t got = size_t(in.gcount());
+    left = got == n ? left - got : 0;  // a file that ended early ends the stream
+    return std::string_view(block.data(), got);
+  };
+  return inflate_values_from(next, skip, count, type, swap, values, file, key, what, step);
 }
 
 // Whole file (or its first max_bytes) through zlib's gz reader, which gunzips .gz files and

@@ -111,22 +111,24 @@ void read_stored_values(const std::string& path, uint64_t offset, int64_t count,
 // grown by doubling; a longer or shorter file is read as it is.
 std::string read_gz_bytes(const std::string& path, size_t max_bytes = std::string::npos, size_t expected_bytes = 0);
 
-// zlib- or gzip-wrapped deflate data `in` (the wrapper detected), inflated up to `limit` bytes
-// (MetaImage's CompressedData, NRRD's gzip encoding): stops at the end of the stream, at
-// `limit`, or where the data ends early (a truncated stream gives what it holds; the caller
-// checks the length). The output grows 4 MB at a time, so memory follows the real data, never
-// what a header claims. zlib counts in 32 bits: input and output are handed over at most `step`
-// bytes at a time (1 GiB; tests use a few bytes), so data beyond 4 GiB inflates whole. Throws
-// InputError(path, key, "corrupt <what> data (...)") on data zlib refuses.
-std::string inflate_up_to(std::string_view in, size_t limit, const std::string& path, const std::string& key,
-                          const std::string& what, size_t step = size_t(1) << 30);
-// The same stream decoded as it is inflated (issue 21: the inflated bytes are never held whole):
-// its first `skip` bytes dropped, then up to `count` values of `type` into `values` (cleared
-// first, grown block by block). Returns the bytes the stream held after the skip (at most
-// count values' worth): fewer than count values' bytes means the data ended early.
+// zlib- or gzip-wrapped deflate data `in` (the wrapper detected; MetaImage's CompressedData,
+// NRRD's gzip encoding) decoded as it is inflated (issue 21: the inflated bytes are never held
+// whole): its first `skip` bytes dropped, then up to `count` values of `type` into `values`
+// (cleared first, grown block by block, so memory follows the real data, never what a header
+// claims). Stops at the end of the stream, after count values, or where the data ends early.
+// Returns the bytes the stream held after the skip (at most count values' worth): fewer than
+// count values' bytes means a truncated stream. zlib counts in 32 bits: input and output are
+// handed over at most `step` bytes at a time (1 GiB; tests use a few bytes), so data beyond
+// 4 GiB inflates whole. Throws InputError(path, key, "corrupt <what> data (...)") on data zlib
+// refuses.
 size_t inflate_values(std::string_view in, size_t skip, int64_t count, Scalar type, bool swap,
                       std::vector<float>& values, const std::string& path, const std::string& key,
                       const std::string& what, size_t step = size_t(1) << 30);
+// The same for the `length` bytes of `file` from byte `offset`, read a megabyte at a time (the
+// compressed bytes are not held whole either); errors name `file`.
+size_t inflate_file_values(const std::string& file, uint64_t offset, uint64_t length, size_t skip, int64_t count,
+                           Scalar type, bool swap, std::vector<float>& values, const std::string& key,
+                           const std::string& what, size_t step = size_t(1) << 30);
 
 // Reserves address space for `bytes` in `s` (not touched until filled) when that is at most half
 // the machine's physical memory; a larger claim (a header's, larger than any volume this

@@ -172,9 +172,7 @@ MetaHeader read_meta_header(const std::string& path, std::string& bytes) {
   return parse_meta_header(bytes, path);
 }
 
-// Reads a .mha or .mhd file completely. Raw data is read a block at a time straight into the
-// values, compressed data decoded as it is inflated (issue 21): a volume's stored bytes are never
-// held whole.
+// Reads a .mha or .mhd file completely.
 RawVolume read_meta(const std::string& path) {
   std::string bytes;
   const MetaHeader h = read_meta_header(path, bytes);
@@ -192,10 +190,11 @@ RawVolume read_meta(const std::string& path) {
   const size_t expected = size_t(count) * scalar_bytes(type);
 
   // The data: after the header (LOCAL) or in a file beside the header, from byte `offset` of
-  // `data_path`, which holds `length` bytes. Compressed data is read into `owned` (a view of it
-  // in `data`) and decoded as it is inflated; raw data is read from the file into the values.
+  // `data_path`, which holds `length` bytes from there. Raw data is read from the file straight
+  // into the values, compressed data decoded as it is inflated (issue 21: the stored or inflated
+  // bytes are never held whole).
   const std::string& df = h.keys.at("ElementDataFile");
-  std::string data_path = path, owned;
+  std::string data_path = path;
   uint64_t offset = 0, length = 0;
   std::error_code ec;
   if (df == "LOCAL") {
@@ -220,16 +219,12 @@ RawVolume read_meta(const std::string& path) {
   }
   size_t found = std::min<uint64_t>(length, expected);
   if (compressed) {
-    if (df == "LOCAL" && bytes.size() < offset + length) bytes = read_bytes(path);  // only the header so far
-    if (df != "LOCAL") bytes = read_bytes(data_path);
-    std::string_view data = std::string_view(bytes).substr(std::min<uint64_t>(offset, bytes.size()));
     if (const std::string* cs = find_key(h, {"CompressedDataSize"})) {
       const double n = meta_numbers(*cs, path, "CompressedDataSize", 1)[0];
-      if (n >= 0 && n < double(data.size())) data = data.substr(0, size_t(n));
+      if (n >= 0 && n < double(length)) length = uint64_t(n);
     }
-    check_inflatable(double(expected), double(data.size()), data_path, "CompressedData");
-    // Decoded as it is inflated (issue 21: the inflated bytes are never held whole).
-    found = inflate_values(data, 0, count, type, swap, v.values, data_path, "CompressedData", "zlib");
+    check_inflatable(double(expected), double(length), data_path, "CompressedData");
+    found = inflate_file_values(data_path, offset, length, 0, count, type, swap, v.values, "CompressedData", "zlib");
   }
   if (found < expected)
     throw InputError(data_path, "ElementDataFile", "data holds " + std::to_string(found) + " bytes, expected " +

@@ -337,8 +337,8 @@ NrrdDataSpan nrrd_data_span(const NrrdHeader& h, const std::string& path) {
 
 // The `count` values of `type` the data holds (decoded from the encoding, `byte skip` applied),
 // into `values`, or an InputError naming the field whose numbers the data does not hold. Raw
-// data is read from its file straight into the values, gzip data decoded as it is inflated
-// (issue 21: the stored or inflated bytes are never held whole).
+// data is read from its file straight into the values, gzip data read from its file and decoded
+// as it is inflated (issue 21: the stored or inflated bytes are never held whole).
 void nrrd_values(const NrrdHeader& h, const std::string& path, int64_t count, Scalar type, bool swap,
                  std::vector<float>& values) {
   const double expected = double(count) * scalar_bytes(type);
@@ -360,9 +360,8 @@ void nrrd_values(const NrrdHeader& h, const std::string& path, int64_t count, Sc
     if (expected + double(skip) > kMaxInflateRatio * double(span.length) + 1024)
       throw InputError(path, "sizes", "sizes and type need " + exact(expected) + " bytes, more than the " +
                                           std::to_string(span.length) + " gzip bytes" + in_file + " can hold");
-    const std::string bytes = read_bytes(span.where);
-    const std::string_view data = std::string_view(bytes).substr(std::min<uint64_t>(span.offset, bytes.size()));
-    const size_t found = inflate_values(data, size_t(skip), count, type, swap, values, span.where, "encoding", "gzip");
+    const size_t found = inflate_file_values(span.where, span.offset, span.length, size_t(skip), count, type, swap,
+                                             values, "encoding", "gzip");
     if (double(found) < expected) throw too_short(int64_t(found));
     return;
   }

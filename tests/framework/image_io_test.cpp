@@ -385,11 +385,13 @@ TEST(ImageIo, ReadingWithAnExpectedLengthGivesTheFileAsItIs) {
   EXPECT_TRUE(detail::read_bytes(dir + "/plain.bin", 777) == content.substr(0, 777));
 }
 
-// inflate_up_to and inflate_values hand zlib its input and output a step at a time (zlib counts
-// in 32 bits, so a stream over 4 GiB goes in 1 GiB steps): with steps of a few bytes, both
-// wrappers must give the same bytes (values) as in one step, stop at the limit, give what a
-// truncated stream holds, and name the key of corrupt data.
-TEST(ImageIo, InflatingInStepsGivesTheBytesOfTheWholeStream) {
+// inflate_values and inflate_file_values hand zlib its input and output a step at a time (zlib
+// counts in 32 bits, so a stream over 4 GiB goes in 1 GiB steps) and decode the values as they
+// come: with steps of a few bytes, both wrappers must give the values of the whole stream
+// (values split across windows, after a skip that leaves them unaligned, both byte orders),
+// stop at the count, give what a truncated stream holds, and name the key of corrupt data.
+TEST(ImageIo, InflatingInStepsGivesTheValuesOfTheWholeStream) {
+  const std::string dir = fresh_dir();
   std::string content;
   for (int i = 0; i < 200'000; ++i) content.push_back(char((i * 131 % 251) / 7));
   uLongf n = compressBound(content.size());
@@ -399,48 +401,64 @@ TEST(ImageIo, InflatingInStepsGivesTheBytesOfTheWholeStream) {
             Z_OK);
   zlib_stream.resize(n);
   const std::string gzip_stream = detail::gzip_bytes({content}, "test");
-  for (const std::string* stream : {static_cast<const std::string*>(&zlib_stream), &gzip_stream})
-    for (const size_t step : {size_t(1), size_t(7), size_t(4096), size_t(1) << 30}) {
-      SCOPED_TRACE((stream == &zlib_stream ? "zlib, step " : "gzip, step ") + std::to_string(step));
-      EXPECT_TRUE(detail::inflate_up_to(*stream, content.size(), "f", "k", "zlib", step) == content);
-      EXPECT_TRUE(detail::inflate_up_to(*stream, content.size() + 999, "f", "k", "zlib", step) == content);
-      EXPECT_TRUE(detail::inflate_up_to(*stream, 123'457, "f", "k", "zlib", step) == content.substr(0, 123'457));
-      EXPECT_TRUE(detail::inflate_up_to(*stream, 0, "f", "k", "zlib", step).empty());
-      const std::string part = detail::inflate_up_to(std::string_view(*stream).substr(0, stream->size() / 2),
-                                                     content.size(), "f", "k", "zlib", step);
-      EXPECT_GT(part.size(), 0u);
-      EXPECT_LT(part.size(), content.size());
-      EXPECT_TRUE(part == content.substr(0, part.size()));
-    }
-  // Decoded as inflated: values split across windows (steps of 1 and 7 bytes), after a skip that
-  // leaves them unaligned, both byte orders; a short stream says how many bytes it held.
-  for (const detail::Scalar type : {detail::Scalar::kI16, detail::Scalar::kF64, detail::Scalar::kU8})
+  // The gzip stream in a file after 11 bytes of something else, with 5 bytes after it.
+  write_file(dir + "/stream.bin", "a header..." + gzip_stream + "after");
+  using detail::Scalar;
+  for (const Scalar type : {Scalar::kI16, Scalar::kF64, Scalar::kU8})
     for (const bool swap : {false, true})
       for (const size_t skip : {size_t(0), size_t(3)})
         for (const size_t step : {size_t(1), size_t(7), size_t(1) << 30}) {
           SCOPED_TRACE("type " + std::to_string(int(type)) + " swap " + std::to_string(swap) + " skip " +
                        std::to_string(skip) + " step " + std::to_string(step));
-          const int64_t count = int64_t(content.size() - skip) / detail::scalar_bytes(type) - 5;
+          const size_t nb = size_t(detail::scalar_bytes(type));
+          const int64_t count = int64_t(content.size() - skip) / int64_t(nb) - 5;
           const std::vector<float> want = detail::decode<float>(content.data() + skip, count, type, swap);
           std::vector<float> got(17, 1.f);  // cleared first
           EXPECT_EQ(detail::inflate_values(zlib_stream, skip, count, type, swap, got, "f", "k", "zlib", step),
-                    size_t(count) * detail::scalar_bytes(type));
+                    size_t(count) * nb);
           EXPECT_TRUE(got == want);
+          got.assign(3, 2.f);
+          EXPECT_EQ(detail::inflate_file_values(dir + "/stream.bin", 11, gzip_stream.size() + 5, skip, count, type, swap,
+                                                got, "k", "gzip", step),
+                    size_t(count) * nb);
+          EXPECT_TRUE(got == want);
+          // Truncated: half the stream, from memory and from the file.
           const size_t held = detail::inflate_values(std::string_view(gzip_stream).substr(0, gzip_stream.size() / 2),
                                                      skip, count, type, swap, got, "f", "k", "gzip", step);
           EXPECT_GT(held, 0u);
-          EXPECT_LT(held, size_t(count) * detail::scalar_bytes(type));
-          EXPECT_EQ(got.size(), held / detail::scalar_bytes(type));
+          EXPECT_LT(held, size_t(count) * nb);
+          EXPECT_EQ(got.size(), held / nb);
+          EXPECT_TRUE(std::equal(got.begin(), got.end(), want.begin()));
+          EXPECT_EQ(detail::inflate_file_values(dir + "/stream.bin", 11, gzip_stream.size() / 2, skip, count, type,
+                                                swap, got, "k", "gzip", step),
+                    held);
           EXPECT_TRUE(std::equal(got.begin(), got.end(), want.begin()));
         }
+  // More values asked for than the stream holds: all it holds; none asked for: none.
+  std::vector<float> bytes;
+  EXPECT_EQ(detail::inflate_values(zlib_stream, 0, int64_t(content.size()) + 999, Scalar::kU8, false, bytes, "f", "k",
+                                   "zlib"),
+            content.size());
+  EXPECT_TRUE(bytes == detail::decode<float>(content.data(), int64_t(content.size()), Scalar::kU8, false));
+  EXPECT_EQ(detail::inflate_values(zlib_stream, 0, 0, Scalar::kU8, false, bytes, "f", "k", "zlib"), 0u);
+  EXPECT_TRUE(bytes.empty());
   std::string corrupt = zlib_stream;
   for (size_t i = corrupt.size() / 3; i < corrupt.size() / 3 + 40; ++i) corrupt[i] = char(~corrupt[i]);
+  write_file(dir + "/corrupt.zraw", corrupt);
   for (const size_t step : {size_t(5), size_t(1) << 30}) {
-    const InputError e = expect_input_error(
-        [&] { detail::inflate_up_to(corrupt, content.size(), "f.mha", "CompressedData", "zlib", step); });
-    EXPECT_EQ(e.file(), "f.mha");
-    EXPECT_EQ(e.where(), "CompressedData");
-    EXPECT_TRUE(contains(e.what(), "corrupt zlib data")) << e.what();
+    for (const bool from_file : {false, true}) {
+      const InputError e = expect_input_error([&] {
+        if (from_file)
+          detail::inflate_file_values(dir + "/corrupt.zraw", 0, corrupt.size(), 0, int64_t(content.size()), Scalar::kU8,
+                                      false, bytes, "CompressedData", "zlib", step);
+        else
+          detail::inflate_values(corrupt, 0, int64_t(content.size()), Scalar::kU8, false, bytes, "f.mha",
+                                 "CompressedData", "zlib", step);
+      });
+      EXPECT_EQ(e.file(), from_file ? dir + "/corrupt.zraw" : "f.mha");
+      EXPECT_EQ(e.where(), "CompressedData");
+      EXPECT_TRUE(contains(e.what(), "corrupt zlib data")) << e.what();
+    }
   }
 }
 
