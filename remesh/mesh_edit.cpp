@@ -36,12 +36,43 @@ double min_angle(const Point<3>& a, const Point<3>& b, const Point<3>& c) {
   return angle_at(c, a, b);
 }
 
+void CornerFans::push(int v, const MeshCorner& corner) {
+  const int c = count_[v];
+  if (!(c & kSpilled) && c < kInline) {
+    inline_[size_t(v) * kInline + c] = corner;
+    ++count_[v];
+    return;
+  }
+  if (!(c & kSpilled)) {  // the first corner past kInline: the corners move to a list of their own
+    if (slot_.size() < count_.size()) slot_.resize(count_.size(), -1);
+    slot_[v] = int(spilled_.size());
+    const MeshCorner* block = inline_.data() + size_t(v) * kInline;
+    spilled_.emplace_back(block, block + c);
+    count_[v] |= kSpilled;
+  }
+  spilled_[size_t(slot_[v])].push_back(corner);
+  ++count_[v];
+}
+
+void CornerFans::erase_face(int v, int f) {
+  auto is_f = [f](const MeshCorner& c) { return c.f == f; };
+  if (count_[v] & kSpilled) {
+    auto& list = spilled_[size_t(slot_[v])];
+    list.erase(std::find_if(list.begin(), list.end(), is_f));
+  } else {
+    MeshCorner* first = inline_.data() + size_t(v) * kInline;
+    MeshCorner* last = first + count_[v];
+    MeshCorner* hit = std::find_if(first, last, is_f);
+    std::move(hit + 1, last, hit);
+  }
+  --count_[v];
+}
+
 EditMesh::EditMesh(const Snake<3>& snake)
     : pos_(snake.positions()), ids_(snake.template_ids()), vfan_(snake.num_vertices()) {
   const auto& c = snake.connectivity();
   const std::string problem = c.closed_manifold_problem();
   if (!problem.empty()) throw InputError("", "remeshing input mesh", problem);
-  for (auto& list : vfan_) list.reserve(8);  // valence 6 and a little more without regrowth
   tri_.reserve(c.triangles().size() * 2);
   alive_.reserve(c.triangles().size() * 2);
   for (const auto& t : c.triangles()) add_triangle(t);
@@ -66,14 +97,14 @@ double EditMesh::mean_edge_length() const {
 
 void EditMesh::triangles_of(int v, std::vector<int>& out) const {
   out.clear();
-  for (const Corner& c : vfan_[v]) out.push_back(c.f);
+  for (const Corner& c : vfan_.of(v)) out.push_back(c.f);
 }
 
 // Each triangle (v, a, b) of the fan links a -> b (a corner's next -> prev); the ring follows
 // the links from the first triangle's a.
 void EditMesh::ring(int v, std::vector<int>& out) const {
   out.clear();
-  const auto& fan = vfan_[v];
+  const auto fan = vfan_.of(v);
   if (fan.empty()) return;
   const int start = fan[0].next;
   int a = start;
@@ -94,15 +125,15 @@ void EditMesh::move_vertex(int v, const Point<3>& p) {
   pos_[v] = p;
   changed_ = true;
   if (optimistic_)
-    for (const Corner& c : vfan_[v]) dirty_[c.f] = 1;
+    for (const Corner& c : vfan_.of(v)) dirty_[c.f] = 1;
   if (grid_built_)
-    for (const Corner& c : vfan_[v]) grid_update(c.f);
+    for (const Corner& c : vfan_.of(v)) grid_update(c.f);
 }
 
 int EditMesh::add_vertex(const Point<3>& p) {
   pos_.push_back(p);
   ids_.push_back(-1);
-  vfan_.emplace_back();
+  vfan_.add_vertex();
   changed_ = connectivity_changed_ = true;
   return num_vertices() - 1;
 }
@@ -113,9 +144,8 @@ int EditMesh::add_triangle(const Triangle& t) {
   alive_.push_back(1);
   if (optimistic_) dirty_.push_back(1);
   for (int k = 0; k < 3; ++k) {
-    auto& fan = vfan_[t[k]];
-    if (fan.empty()) ++live_vertices_;
-    fan.push_back({f, t[(k + 1) % 3], t[(k + 2) % 3]});
+    if (vfan_.size(t[k]) == 0) ++live_vertices_;
+    vfan_.push(t[k], {f, t[(k + 1) % 3], t[(k + 2) % 3]});
   }
   if (grid_built_) grid_insert(f);
   changed_ = connectivity_changed_ = true;
@@ -126,9 +156,8 @@ void EditMesh::remove_triangle(int f) {
   if (!alive_[f]) return;
   alive_[f] = 0;
   for (int v : tri_[f]) {
-    auto& fan = vfan_[v];
-    fan.erase(std::find_if(fan.begin(), fan.end(), [f](const Corner& c) { return c.f == f; }));
-    if (fan.empty()) --live_vertices_;
+    vfan_.erase_face(v, f);
+    if (vfan_.size(v) == 0) --live_vertices_;
   }
   if (grid_built_) grid_erase(f);
   changed_ = connectivity_changed_ = true;
@@ -149,14 +178,14 @@ int EditMesh::commit(Snake<3>& snake) {
   ids.reserve(live_vertices_);
   size_t corners = 0;
   for (int v = 0; v < num_vertices(); ++v) {
-    if (vfan_[v].empty()) {
+    if (vfan_.size(v) == 0) {
       DSNAKE_ASSERT(ids_[v] < 0, "a remesher dropped a deformation vertex");
       continue;
     }
     remap[v] = static_cast<int>(q.size());
     q.push_back(pos_[v]);
     ids.push_back(ids_[v]);
-    corners += vfan_[v].size();
+    corners += size_t(vfan_.size(v));
   }
   std::vector<Triangle> tris;
   tris.reserve(corners / 3);

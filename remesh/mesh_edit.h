@@ -58,14 +58,49 @@ struct FloatBox {
   float lo[3], hi[3];
 };
 
+// A live triangle f at vertex v, with the corners that follow v in it: (v, next, prev) in
+// counter-clockwise order. A vertex's corners answer face_with_edge() and ring() without
+// touching the triangle array.
+struct MeshCorner {
+  int f, next, prev;
+};
+
+// The corners of every vertex, in the order they came (an erase keeps the others' order): up to
+// kInline of them in one flat array (a vertex's corners are one block of it, its count in an
+// array of ints), more in a list of their own (the vertex "spills" and stays spilled). The
+// valence scans of the remeshers (every edge, its four vertices' valences and one vertex's
+// corners) read a dense array and one block instead of a list header and a block allocated
+// apart (issue 21). A span from of(v) lives until v's corners next change.
+class CornerFans {
+ public:
+  static constexpr int kInline = 8;
+  explicit CornerFans(size_t vertices = 0) : count_(vertices, 0), inline_(vertices * kInline) {}
+  void add_vertex() {
+    count_.push_back(0);
+    inline_.resize(inline_.size() + kInline);
+  }
+  int size(int v) const { return count_[v] & kCountMask; }
+  std::span<const MeshCorner> of(int v) const {
+    const int c = count_[v];
+    if (c & kSpilled) return spilled_corners(v);
+    return {inline_.data() + size_t(v) * kInline, size_t(c)};
+  }
+  void push(int v, const MeshCorner& corner);
+  void erase_face(int v, int f);  // the corner of triangle f (which must be there)
+
+ private:
+  static constexpr int kSpilled = 1 << 30, kCountMask = kSpilled - 1;
+  std::span<const MeshCorner> spilled_corners(int v) const { return spilled_[size_t(slot_.at(v))]; }
+  std::vector<int> count_;          // per vertex: its corners, | kSpilled once spilled
+  std::vector<MeshCorner> inline_;  // kInline per vertex
+  // The corners of the spilled vertices, and per vertex its list there (read only for those).
+  std::vector<std::vector<MeshCorner>> spilled_;
+  std::vector<int> slot_;
+};
+
 class EditMesh {
  public:
-  // A live triangle f at vertex v, with the corners that follow v in it: (v, next, prev) in
-  // counter-clockwise order. A vertex's corners answer face_with_edge() and ring() without
-  // touching the triangle array.
-  struct Corner {
-    int f, next, prev;
-  };
+  using Corner = MeshCorner;
 
   // Copies the snake's positions, template ids and triangles; throws InputError (naming the
   // first bad element) if the snake is not a closed manifold mesh.
@@ -74,13 +109,13 @@ class EditMesh {
   int num_vertices() const { return static_cast<int>(pos_.size()); }
   const Point<3>& pos(int v) const { return pos_[v]; }
   bool is_free(int v) const { return ids_[v] < 0; }
-  bool vertex_alive(int v) const { return !vfan_[v].empty(); }
+  bool vertex_alive(int v) const { return vfan_.size(v) != 0; }
   const Triangle& tri(int f) const { return tri_[f]; }
   bool tri_alive(int f) const { return alive_[f] != 0; }
   int num_triangle_slots() const { return static_cast<int>(tri_.size()); }
   // The live triangles at v (in the order they came), into `out`; or v's corners.
   void triangles_of(int v, std::vector<int>& out) const;
-  std::span<const Corner> corners(int v) const { return vfan_[v]; }
+  std::span<const Corner> corners(int v) const { return vfan_.of(v); }
   // The mean edge length of the live triangles, computed at the first call after construction
   // or refresh_mean_edge() and kept until the next refresh (a stage that needs it reads it at
   // its start; only some stages do, so it is not computed for every stage). The first call
@@ -94,10 +129,10 @@ class EditMesh {
 
   // Neighbours of v in counter-clockwise order (seen from outside), into `out`.
   void ring(int v, std::vector<int>& out) const;
-  int valence(int v) const { return static_cast<int>(vfan_[v].size()); }
+  int valence(int v) const { return vfan_.size(v); }
   // The triangle holding the directed edge a->b, or -1.
   int face_with_edge(int a, int b) const {
-    for (const Corner& c : vfan_[a])
+    for (const Corner& c : vfan_.of(a))
       if (c.next == b) return c.f;
     return -1;
   }
@@ -159,7 +194,7 @@ class EditMesh {
   std::vector<int> ids_;
   std::vector<Triangle> tri_;
   std::vector<uint8_t> alive_;
-  std::vector<std::vector<Corner>> vfan_;  // live triangles per vertex, as corners
+  CornerFans vfan_;  // live triangles per vertex, as corners
   int live_vertices_ = 0;
   mutable double mean_edge_ = 1;
   mutable bool mean_edge_known_ = false;

@@ -28,7 +28,7 @@ void EditMesh::begin_optimistic() {
 // that two triangles sharing only v are apart but for v.
 bool EditMesh::fan_is_embedded(int v) const {
   constexpr double kCos80 = 0.17364817766693041, kMinSine = 1e-6;
-  const auto& fan = vfan_[v];
+  const auto fan = vfan_.of(v);
   const int k = static_cast<int>(fan.size());
   if (k < 3 || k > 64) return false;
   const Point<3>& x = pos_[v];

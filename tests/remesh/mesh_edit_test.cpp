@@ -64,5 +64,52 @@ TEST(EditMesh, RingsAreCounterClockwiseAndFlipsKeepTheMeshClosed) {
   EXPECT_EQ(s.topology_version(), 1u);
 }
 
+// The flat corner store behind EditMesh (issue 21) against lists of corners: random pushes and
+// erases on a few vertices, some of them past the kInline corners a vertex holds in place (it
+// then spills to a list of its own), must keep each vertex's corners in the order they came.
+TEST(CornerFans, KeepTheCornersInTheOrderTheyCameAcrossSpills) {
+  using remesh_detail::CornerFans;
+  using remesh_detail::MeshCorner;
+  constexpr int kVertices = 5;
+  CornerFans fans(kVertices - 1);
+  fans.add_vertex();
+  std::vector<std::vector<MeshCorner>> lists(kVertices);
+  uint32_t state = 7;
+  auto next = [&](uint32_t n) {
+    state = state * 1664525u + 1013904223u;
+    return (state >> 8) % n;
+  };
+  int face = 0;
+  size_t most = 0;  // vertex 0's largest count
+  for (int step = 0; step < 4000; ++step) {
+    const int v = int(next(kVertices));
+    // Vertex 0 grows to about 3 kInline corners, the others stay around kInline.
+    const int cap = v == 0 ? 3 * CornerFans::kInline : CornerFans::kInline + 1;
+    const bool push = lists[v].empty() || (int(lists[v].size()) < cap && next(3) != 0);
+    if (push) {
+      const MeshCorner c{face++, int(next(100)), int(next(100))};
+      fans.push(v, c);
+      lists[v].push_back(c);
+      if (v == 0) most = std::max(most, lists[0].size());
+    } else {
+      const size_t k = next(uint32_t(lists[v].size()));
+      fans.erase_face(v, lists[v][k].f);
+      lists[v].erase(lists[v].begin() + std::ptrdiff_t(k));
+    }
+    for (int u = 0; u < kVertices; ++u) {
+      const auto got = fans.of(u);
+      ASSERT_EQ(fans.size(u), int(lists[u].size())) << "step " << step << " vertex " << u;
+      ASSERT_EQ(got.size(), lists[u].size());
+      for (size_t k = 0; k < got.size(); ++k) {
+        ASSERT_EQ(got[k].f, lists[u][k].f) << "step " << step << " vertex " << u << " corner " << k;
+        ASSERT_EQ(got[k].next, lists[u][k].next);
+        ASSERT_EQ(got[k].prev, lists[u][k].prev);
+      }
+    }
+  }
+  EXPECT_GT(face, 2000);
+  EXPECT_EQ(most, size_t(3 * CornerFans::kInline));  // it spilled, grew and shrank there
+}
+
 }  // namespace
 }  // namespace dsnake
