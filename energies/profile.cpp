@@ -164,11 +164,20 @@ void ProfileEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   const int reach = reach_, half = half_, samples = 2 * (reach_ + half_) + 1;
   const size_t stride = samples + 2 * reach + 1;
   const double h = h_, step = options_.step;
+  // Only an image larger than the caches gains from prefetching the samples of the vertex
+  // kPrefetchAhead ahead (the real liver's 25.5 M voxels: each sample a new line along its normal).
+  constexpr int kPrefetchAhead = 2;
+  const bool prefetch = image.num_voxels() * int64_t(sizeof(float)) > (int64_t(32) << 20);
 #pragma omp parallel for schedule(static) if (n >= 64)
   for (int v = 0; v < n; ++v) {
     double* s = scratch_.data() + v * stride;
     double* misfits = s + samples;
     const Point<D>& nv = normals_[v];
+    if (prefetch && v + kPrefetchAhead < n) {
+      const Point<D>& qa = q[v + kPrefetchAhead];
+      const Point<D>& na = normals_[v + kPrefetchAhead];
+      for (int i = 0; i < samples; ++i) image.prefetch(qa + ((i - reach - half) * h) * na);
+    }
     for (int i = 0; i < samples; ++i) s[i] = image.sample(q[v] + ((i - reach - half) * h) * nv);
     for (int i = 0; i + 1 < samples; ++i) s[i] = s[i + 1] - s[i];  // differences, in place
     const std::vector<double>& expected = *profile_of_[v];

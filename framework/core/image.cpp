@@ -118,6 +118,21 @@ double Image<D>::sample(const Point<D>& x) const {
 }
 
 template <int D>
+void Image<D>::prefetch(const Point<D>& x) const {
+  if (data_.empty()) return;
+  // the stencil's base voxel and its x neighbour (one line, or two when the pair straddles one)
+  std::array<int64_t, D> step;
+  std::array<double, D> t;
+  const char* p = reinterpret_cast<const char*>(data_.data() + stencil_base<D>(grid_, x, step, t));
+  for (int k = 0; k < (1 << (D - 1)); ++k) {
+    int64_t offset = 0;
+    for (int a = 1; a < D; ++a) offset += ((k >> (a - 1)) & 1) * step[a];
+    __builtin_prefetch(p + offset * int64_t(sizeof(float)));
+    __builtin_prefetch(p + offset * int64_t(sizeof(float)) + 2 * sizeof(float) - 1);
+  }
+}
+
+template <int D>
 VectorField<D>::VectorField(const Grid<D>& grid)
     : grid_(grid), values_(size_t(grid.num_voxels()) * D, 0.0f) {}
 

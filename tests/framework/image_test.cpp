@@ -7,6 +7,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <vector>
 
 namespace dsnake {
 namespace {
@@ -42,6 +44,34 @@ TEST(Image, OutsideTheGridSamplesTheNearestBorderPoint) {
   EXPECT_NEAR(img.sample(Point<2>(2.5, 100)), img.sample(Point<2>(2.5, 3)), 1e-6);
   EXPECT_FALSE(g.inside(Point<2>(-0.1, 1)));
   EXPECT_TRUE(g.inside(Point<2>(3, 3)));
+}
+
+// The prefetch hint (the voxels sample() will read) is safe anywhere: on an empty image, outside
+// the grid, at non-finite points, on a grid of one voxel per axis; and changes no sample.
+TEST(Image, PrefetchIsSafeAnywhereAndChangesNothing) {
+  const double inf = std::numeric_limits<double>::infinity(), nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<Point<3>> points = {Point<3>(0.1, 3.3, 5.2), Point<3>(-50, 1e6, 3), Point<3>(nan, 0, nan),
+                                        Point<3>(inf, -inf, 0), Point<3>(1e300, -1e300, 1e300)};
+  Image<3>().prefetch(points[0]);  // no voxels: nothing to fetch
+  Grid<3> g;
+  g.size = {7, 5, 4};
+  g.spacing = {0.5, 1.5, 2.5};
+  g.origin = {-1, 2, 3};
+  const Image<3> img = linear_image(g, Point<3>(0.3, -0.2, 0.1), 4.0);
+  Grid<3> single;  // one voxel: every step is 0
+  single.size = {1, 1, 1};
+  const Image<3> one(single, 2.5f);
+  std::vector<double> before;
+  for (const Point<3>& x : points) before.push_back(img.sample(x));
+  for (const Point<3>& x : points) {
+    img.prefetch(x);
+    one.prefetch(x);
+  }
+  for (size_t k = 0; k < points.size(); ++k) EXPECT_EQ(img.sample(points[k]), before[k]) << k;
+  EXPECT_EQ(one.sample(points[1]), 2.5);
+  Grid<2> g2;
+  g2.size = {6, 9};
+  Image<2>(g2, 1.f).prefetch(Point<2>(nan, 3));
 }
 
 TEST(Image, IndexRoundTrip) {
