@@ -34,9 +34,6 @@ void all_edges(const EditMesh& m, std::vector<ListedEdge>& edges) {
   }
 }
 
-// The triangle holding a -> b now: the listed one if it lives, else a search.
-int holder(const EditMesh& m, const ListedEdge& e) { return m.tri_alive(e.f) ? e.f : m.face_with_edge(e.a, e.b); }
-
 // Intrinsic Delaunay criterion: the angles opposite edge a-b, measured in its two triangles,
 // sum to more than pi (the empty-circumcircle test on the unfolded pair).
 // c and d: the vertices opposite a -> b and b -> a.
@@ -79,6 +76,41 @@ bool quad_at(const EditMesh& m, int a, int b, Quad& q) {
   return q.c != q.d;
 }
 
+// The corner of b whose next vertex is a: the one of the triangle (b, a, d) holding b -> a, or
+// null. (The mesh is manifold, so there is at most one.)
+const EditMesh::Corner* corner_to(const EditMesh& m, int b, int a) {
+  for (const EditMesh::Corner& k : m.corners(b))
+    if (k.next == a) return &k;
+  return nullptr;
+}
+
+// quad_at(m, a, b, q) for an edge a -> b known to be held by triangle f1 with c opposite (a
+// corner of a): the same quad, with one search (b's corners) instead of two searches and two
+// triangle reads (issue 21: the defect moves visit every edge around each tried move).
+bool quad_with(const EditMesh& m, int a, int b, int f1, int c, Quad& q) {
+  const EditMesh::Corner* back = corner_to(m, b, a);
+  if (back == nullptr) return false;
+  q.a = a, q.b = b, q.f1 = f1, q.c = c, q.f2 = back->f, q.d = back->prev;
+  return q.c != q.d;
+}
+
+// The two triangles at a listed edge a -> b now and their opposite vertices, as quad_at finds
+// them but with c == d allowed (the callers' own tests refuse such a pair): the listed triangle
+// if it lives (triangles never change, so it still holds a -> b), else a search.
+bool listed_quad(const EditMesh& m, const ListedEdge& e, Quad& q) {
+  if (m.tri_alive(e.f)) {
+    q.f1 = e.f, q.c = m.tri(e.f)[(e.k + 2) % 3];
+  } else {
+    q.f1 = m.face_with_edge(e.a, e.b);
+    if (q.f1 < 0) return false;
+    q.c = m.opposite(q.f1, e.a, e.b);
+  }
+  const EditMesh::Corner* back = corner_to(m, e.b, e.a);
+  if (back == nullptr) return false;
+  q.a = e.a, q.b = e.b, q.f2 = back->f, q.d = back->prev;
+  return true;
+}
+
 // The best second flip after a virtual flip of quad `q` (a-b to c-d, not made): among the
 // edges at a, b, c and d, the one whose flip, in the mesh after the first, lowers sum
 // (valence - 6)^2 most. Returns its gain (0: none) and the edge in `x`, `w`.
@@ -86,15 +118,16 @@ int best_second_flip(const EditMesh& m, const Quad& q, int& x, int& w) {
   auto delta = [&](int v) { return v == q.a || v == q.b ? -1 : (v == q.c || v == q.d ? 1 : 0); };
   auto val = [&](int v) { return m.valence(v) + delta(v); };
   // After the first flip, an edge of f1 (other than a-b) has d opposite it, one of f2 has c.
-  auto opp = [&](int f, int from, int to) { return f == q.f1 ? q.d : (f == q.f2 ? q.c : m.opposite(f, from, to)); };
+  // (A corner's prev vertex is the one opposite its edge u -> next in its triangle.)
+  auto opp = [&](int f, int prev) { return f == q.f1 ? q.d : (f == q.f2 ? q.c : prev); };
   int best = 0;
   for (int u : {q.a, q.b, q.c, q.d})
     for (const EditMesh::Corner& corner : m.corners(u)) {
       const int v = corner.next;
       if ((u == q.a && v == q.b) || (u == q.b && v == q.a)) continue;
-      const int g = m.face_with_edge(v, u);
-      if (g < 0) continue;
-      const int p = opp(corner.f, u, v), r = opp(g, v, u);
+      const EditMesh::Corner* back = corner_to(m, v, u);  // the triangle (v, u, r)
+      if (back == nullptr) continue;
+      const int p = opp(corner.f, corner.prev), r = opp(back->f, back->prev);
       if (p == r || val(u) <= 3 || val(v) <= 3) continue;
       const int before = valence_dev(val(u)) + valence_dev(val(v)) + valence_dev(val(p)) + valence_dev(val(r));
       const int after = valence_dev(val(u) - 1) + valence_dev(val(v) - 1) + valence_dev(val(p) + 1) + valence_dev(val(r) + 1);
@@ -121,10 +154,9 @@ int delaunay_by_flips(EditMesh& m, double cos_max_dihedral) {
   while (!stack.empty() && budget-- > 0) {
     const ListedEdge e = stack.back();
     stack.pop_back();
-    const int a = e.a, b = e.b;
-    const int f1 = holder(m, e), f2 = f1 >= 0 ? m.face_with_edge(b, a) : -1;
-    if (f1 < 0 || f2 < 0) continue;
-    const int c = m.opposite(f1, a, b), d = m.opposite(f2, b, a);
+    Quad q;
+    if (!listed_quad(m, e, q)) continue;
+    const int a = q.a, b = q.b, c = q.c, d = q.d, f1 = q.f1, f2 = q.f2;
     if (!is_delaunay_violation(m, a, b, c, d)) continue;
     const FlipResult r = remesh_detail::try_flip(m, a, b, f1, f2, c, d, cos_max_dihedral);
     if (r == FlipResult::kRejected) ++rejected;
@@ -188,9 +220,11 @@ bool move_defect(EditMesh& m, const Quad& q, double cos_max_dihedral, double flo
   // (Corners re-read each time: the flips and undos below edit u's list.)
   for (int u : {q.a, q.b, q.c, q.d})
     for (size_t k = 0; k < m.corners(u).size(); ++k) {
-      const int v = m.corners(u)[k].next;
+      const EditMesh::Corner corner = m.corners(u)[k];
       Quad q3;
-      if (!quad_at(m, u, v, q2) || !is_neutral_move(m, q2) || best_second_flip(m, q2, x, w) == 0) continue;
+      if (!quad_with(m, u, corner.next, corner.f, corner.prev, q2) || !is_neutral_move(m, q2) ||
+          best_second_flip(m, q2, x, w) == 0)
+        continue;
       if (!checked_flip(m, q2, cos_max_dihedral, floor_key, u1, u2, rejected)) continue;
       if (quad_at(m, x, w, q3) && checked_flip(m, q3, cos_max_dihedral, floor_key, v1, v2, rejected)) return true;
       undo_flip(m, q2, u1, u2);
@@ -212,7 +246,7 @@ int defect_moves(EditMesh& m, double cos_max_dihedral, double floor_key, std::ve
   all_edges(m, edges);
   for (const ListedEdge& e : edges) {
     Quad q;
-    if (quad_at(m, e.a, e.b, q) && is_neutral_move(m, q))
+    if (listed_quad(m, e, q) && q.c != q.d && is_neutral_move(m, q))
       moves += move_defect(m, q, cos_max_dihedral, floor_key, rejected);
   }
   return moves;
@@ -252,9 +286,9 @@ int greedy_valence_flips(EditMesh& m, double cos_max_dihedral, double min_angle_
         const int c0 = m.tri(e.f)[(e.k + 2) % 3], d0 = refused_d[key];
         if (std::max({stamp[a], stamp[b], stamp[c0], stamp[d0]}) < refused[key]) continue;
       }
-      const int f1 = holder(m, e), f2 = f1 >= 0 ? m.face_with_edge(b, a) : -1;
-      if (f1 < 0 || f2 < 0) continue;
-      const int c = m.opposite(f1, a, b), d = m.opposite(f2, b, a);
+      Quad q;
+      if (!listed_quad(m, e, q)) continue;
+      const int f1 = q.f1, f2 = q.f2, c = q.c, d = q.d;
       const bool listed = f1 == e.f;
       auto refuse = [&] {
         if (listed) refused[key] = time, refused_d[key] = d;
