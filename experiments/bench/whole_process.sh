@@ -17,6 +17,9 @@
 #   ct_read       dsnake convert of a CT-sized scan as converters write it (512 x 512 x 300 int16
 #                 .nii.gz with scl_slope and scl_inter, experiments/bench/make_volumes.py --ct) to
 #                 .mha: reading, decoding and writing a real scan's volume, 1 thread
+#   ct_read_nrrd  the same CT as gzip-encoded float32 .nrrd (made once from ct_scan.nii.gz with
+#                 `dsnake convert --compress`, as 3D Slicer saves), converted to .mha, 1 thread
+#   ct_read_mha   the same CT as raw float32 .mha (made once likewise), converted to .nii, 1 thread
 #   liver_metrics the liver case's recipe (experiments/real/liver) with 0 iterations: the metrics
 #                 of its 300-vertex template on the 25.5 M-voxel truth (needs data/real/liver,
 #                 from experiments/real/make_3d_inputs.py); result.json's metrics_s beside
@@ -110,6 +113,11 @@ run_case() {
         echo "                   last run: $(/usr/bin/python3 -c 'import json,sys; r=json.load(open(sys.argv[1])); print("vertices", r["vertices"], "timings", {k: round(v, 2) for k, v in r["timings"].items()})' "$WORK/out/result.json")" ;;
     ct_read)
       measure ct_read "$(( 512 * 512 * 300 )) voxels, int16 -> float32" "$DSNAKE" convert "$WORK/ct_scan.nii.gz" "$WORK/out/ct_scan.mha" ;;
+    ct_read_nrrd|ct_read_mha)
+      local from=$WORK/ct_scan.nrrd to=$WORK/out/ct_scan.mha flag=--compress
+      [ "$1" = ct_read_mha ] && from=$WORK/ct_scan_raw.mha to=$WORK/out/ct_scan.nii flag=
+      [ -f "$from" ] || "$DSNAKE" convert "$WORK/ct_scan.nii.gz" "$from" $flag
+      measure "$1" "$(( 512 * 512 * 300 )) voxels, float32" "$DSNAKE" convert "$from" "$to" ;;
     liver_metrics|collapsed_metrics)
       if [ ! -f data/real/liver/truth.mha ]; then echo "$1: skipped: data/real/liver missing (experiments/real/make_3d_inputs.py)"; return; fi
       local scale=1
