@@ -223,15 +223,20 @@ void reserve_plausible(std::vector<float>& v, size_t count) { reserve_plausible_
 
 namespace {
 
-// Inflates deflate data (zlib or gzip wrapper) up to `limit` bytes: its input comes from
-// next(most), a view of at most `most` further bytes (empty at the end); its output goes into
-// the windows window(most) gives (a pointer and its room, at most `most` bytes), with wrote(n)
-// told after each call how many it filled. Input and output go to zlib at most `step` bytes at a
-// time (its counts are 32-bit). Returns the bytes inflated.
-template <class Next, class Window, class Wrote>
-size_t inflate_stream(Next&& next, size_t limit, const std::string& path, const std::string& key,
-                      const std::string& what, size_t step, Window&& window, Wrote&& wrote) {
+// inflate_values with its input from next(most): a view of at most `most` further bytes of the
+// deflate data (zlib or gzip wrapper), empty at the end. zlib fills a window of at most `step`
+// bytes (and 4 MB) after the bytes of a partial value carried over from the last window; the
+// whole values are decoded and the rest carried.
+template <class Next>
+size_t inflate_values_from(Next&& next, size_t skip, int64_t count, Scalar type, bool swap, std::vector<float>& values,
+                           const std::string& path, const std::string& key, const std::string& what, size_t step) {
   step = std::max<size_t>(step, 1);
+  const size_t nb = size_t(scalar_bytes(type)), limit = skip + size_t(count) * nb;
+  values.clear();
+  reserve_plausible(values, size_t(count));
+  std::vector<char> buffer;  // a partial value carried over, then the window zlib fills
+  size_t carried = 0;        // bytes of a partial value at the buffer's start
+  size_t to_skip = skip;
   z_stream zs{};
   if (inflateInit2(&zs, 15 + 32) != Z_OK) throw std::runtime_error("zlib initialisation failed");
   size_t total = 0;  // bytes inflated
@@ -242,12 +247,25 @@ size_t inflate_stream(Next&& next, size_t limit, const std::string& path, const 
       zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(piece.data()));
       zs.avail_in = static_cast<uInt>(piece.size());
     }
-    const auto [out, room] = window(std::min({limit - total, size_t(1) << 22, step}));
-    zs.next_out = reinterpret_cast<Bytef*>(out);
+    const size_t room = std::min({limit - total, size_t(1) << 22, step});
+    buffer.resize(carried + room);
+    zs.next_out = reinterpret_cast<Bytef*>(buffer.data() + carried);
     zs.avail_out = static_cast<uInt>(room);
     ret = inflate(&zs, Z_NO_FLUSH);
-    total += room - zs.avail_out;
-    wrote(room - zs.avail_out);
+    const size_t n = room - zs.avail_out;
+    total += n;
+    const char* p = buffer.data();
+    size_t have = carried + n;
+    if (to_skip > 0) {  // (skipped bytes never come after a carried partial value)
+      const size_t dropped = std::min(to_skip, n);
+      to_skip -= dropped, p += dropped, have -= dropped;
+    }
+    const size_t whole = std::min(have / nb, size_t(count) - values.size());
+    const size_t at = values.size();
+    values.resize(at + whole);
+    decode_into(p, int64_t(whole), type, swap, values.data() + at);
+    carried = have - whole * nb;
+    std::memmove(buffer.data(), p + whole * nb, carried);
     // (Z_BUF_ERROR: no progress possible, every input byte given and the stream not ended.)
     if (ret != Z_OK && ret != Z_STREAM_END) break;
   }
@@ -255,39 +273,6 @@ size_t inflate_stream(Next&& next, size_t limit, const std::string& path, const 
   inflateEnd(&zs);
   if (ret == Z_DATA_ERROR || ret == Z_NEED_DICT || ret == Z_MEM_ERROR || ret == Z_STREAM_ERROR)
     throw InputError(path, key, "corrupt " + what + " data (" + (msg.empty() ? std::string("error") : msg) + ")");
-  return total;
-}
-
-// inflate_values with its input from next (as inflate_stream takes it).
-template <class Next>
-size_t inflate_values_from(Next&& next, size_t skip, int64_t count, Scalar type, bool swap, std::vector<float>& values,
-                           const std::string& path, const std::string& key, const std::string& what, size_t step) {
-  const size_t nb = size_t(scalar_bytes(type)), expected = size_t(count) * nb;
-  values.clear();
-  reserve_plausible(values, size_t(count));
-  std::vector<char> buffer;  // a partial value carried over, then the window zlib fills
-  size_t carried = 0;        // bytes of a partial value at the buffer's start
-  size_t to_skip = skip;
-  inflate_stream(
-      next, skip + expected, path, key, what, step,
-      [&](size_t most) {
-        buffer.resize(carried + most);
-        return std::pair<char*, size_t>(buffer.data() + carried, most);
-      },
-      [&](size_t n) {
-        const char* p = buffer.data();
-        size_t have = carried + n;
-        if (to_skip > 0) {  // (skipped bytes never come after a carried partial value)
-          const size_t dropped = std::min(to_skip, n);
-          to_skip -= dropped, p += dropped, have -= dropped;
-        }
-        const size_t whole = std::min(have / nb, size_t(count) - values.size());
-        const size_t at = values.size();
-        values.resize(at + whole);
-        decode_into(p, int64_t(whole), type, swap, values.data() + at);
-        carried = have - whole * nb;
-        std::memmove(buffer.data(), p + whole * nb, carried);
-      });
   return values.size() * nb + carried;
 }
 

@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <cstring>
+#include <exception>
 #include <functional>
 #include <map>
 #include <string>
@@ -97,6 +98,24 @@ void require_exists(const std::string& path);
 // Whole file (or its first max_bytes) as it is on disk. MetaImage data must not go through
 // gzread, which would inflate raw data that happens to start with the gzip magic bytes.
 std::string read_bytes(const std::string& path, size_t max_bytes = std::string::npos);
+
+// A text header (MetaImage, NRRD) parsed from the first 64 kB of `path`, so that a volume's data
+// is not read for its header (issue 21), or from the whole file when it does not end within
+// them: parse(bytes) parses, ended(header, bytes) says whether the header ended within the bytes
+// read. A parse of the 64 kB that throws is made again on the whole file, which gives the answer
+// (or the error) a whole-file read gave.
+template <class Parse, class Ended>
+auto parse_header_of(const std::string& path, Parse&& parse, Ended&& ended) {
+  constexpr size_t kHead = size_t(1) << 16;
+  const std::string head = read_bytes(path, kHead);
+  if (head.size() < kHead) return parse(head);  // the whole file
+  try {
+    auto h = parse(head);
+    if (ended(h, head)) return h;
+  } catch (const std::exception&) {  // the header may go on past the 64 kB
+  }
+  return parse(read_bytes(path));
+}
 
 // Reads `count` values of `type` stored from byte `offset` of `path` into `values` (cleared
 // first), a block of stored values at a time (issue 21: the file's bytes are never held whole;

@@ -157,23 +157,12 @@ RawVolume meta_geometry(const MetaHeader& h, const std::string& path) {
   return v;
 }
 
-// The header of `path`, parsed from its first 64 kB, or from the whole file when the header does
-// not end within them (a volume's data is not read for its header, issue 21).
-MetaHeader read_meta_header(const std::string& path) {
-  constexpr size_t kHead = size_t(1) << 16;
-  std::string bytes = read_bytes(path, kHead);
-  if (bytes.size() < kHead) return parse_meta_header(bytes, path);  // the whole file
-  try {
-    const MetaHeader h = parse_meta_header(bytes, path);
-    if (h.data_start < bytes.size()) return h;  // (the ElementDataFile line ended within the bytes)
-  } catch (const InputError&) {  // the header may go on: read it all, for the same answer as before
-  }
-  return parse_meta_header(read_bytes(path), path);
-}
-
 // Reads a .mha or .mhd file completely.
 RawVolume read_meta(const std::string& path) {
-  const MetaHeader h = read_meta_header(path);
+  // (The header ends with its ElementDataFile line: ended if that line's end was read.)
+  const MetaHeader h = parse_header_of(
+      path, [&](const std::string& bytes) { return parse_meta_header(bytes, path); },
+      [](const MetaHeader& m, const std::string& bytes) { return m.data_start < bytes.size(); });
   RawVolume v = meta_geometry(h, path);
   const std::string* et = find_key(h, {"ElementType"});
   if (!et) throw InputError(path, "ElementType", "missing required key");

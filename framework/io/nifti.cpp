@@ -172,9 +172,8 @@ constexpr int64_t kNiftiBlock = int64_t(1) << 16;
 // (issue 21): a CT with scl_slope set, the usual case, decoded all at once in double took 8 bytes
 // a voxel more at the peak (600 MB for 512 x 512 x 300).
 void decode_nifti_block(const NiftiData& d, const char* data, int64_t start, int64_t m, std::vector<float>& values) {
-  if (!d.scaled && d.channels == 1) {  // the common case: the values themselves
-    const std::vector<float> plain = decode<float>(data, m, d.type, d.swap);
-    std::copy(plain.begin(), plain.end(), values.begin() + std::ptrdiff_t(start));
+  if (!d.scaled && d.channels == 1) {  // the common case: the values themselves, in place
+    decode_into(data, m, d.type, d.swap, values.data() + start);
     return;
   }
   const std::vector<double> stored = decode<double>(data, m, d.type, d.swap);

@@ -370,20 +370,6 @@ void nrrd_values(const NrrdHeader& h, const std::string& path, int64_t count, Sc
   read_stored_values(span.where, span.offset + uint64_t(skip), count, type, swap, values);
 }
 
-// The header of `path`, parsed from its first 64 kB, or from the whole file when the header
-// does not end within them (a detached header shorter than that is the whole file anyway).
-NrrdHeader read_nrrd_header(const std::string& path) {
-  constexpr size_t kHead = size_t(1) << 16;
-  std::string bytes = read_bytes(path, kHead);
-  if (bytes.size() < kHead) return parse_nrrd_header(bytes, path);  // the whole file
-  try {
-    const NrrdHeader h = parse_nrrd_header(bytes, path);
-    if (h.data_start != std::string::npos) return h;  // the blank line that ends it was read
-  } catch (const InputError&) {  // the header may go on: read it all, for the same answer as before
-  }
-  return parse_nrrd_header(read_bytes(path), path);
-}
-
 }  // namespace
 
 // gzip-wrapped deflate of `parts`, one after another (NRRD's gzip encoding, .nii.gz, .inr.gz),
@@ -451,7 +437,10 @@ std::string vector_text(const std::array<double, 3>& a, int n) {
 
 // Reads a .nrrd or .nhdr file completely.
 RawVolume read_nrrd(const std::string& path) {
-  const NrrdHeader h = read_nrrd_header(path);
+  // (Ended at the blank line before attached data; a detached header is a short file, read whole.)
+  const NrrdHeader h = parse_header_of(
+      path, [&](const std::string& bytes) { return parse_nrrd_header(bytes, path); },
+      [](const NrrdHeader& n, const std::string&) { return n.data_start != std::string::npos; });
   RawVolume v = nrrd_geometry(h, path);
   const Scalar type = nrrd_type(required_field(h, "type", path), path);
   bool swap = false;
