@@ -175,25 +175,35 @@ int delaunay_by_flips(EditMesh& m, double cos_max_dihedral) {
 
 namespace {
 
-// The flip of quad q if it keeps the angle floor and try_flip accepts it (the two triangles it
-// replaces are saved in t1, t2 for undo_flip). Counts try_flip's rejections in `rejected`.
-bool checked_flip(EditMesh& m, const Quad& q, double cos_max_dihedral, double floor_key, Triangle& t1, Triangle& t2,
+// The flip of quad q if it keeps the angle floor and try_flip accepts it (recorded in `record`
+// for EditMesh::undo_flip). Counts try_flip's rejections in `rejected`.
+bool checked_flip(EditMesh& m, const Quad& q, double cos_max_dihedral, double floor_key, EditMesh::FlipRecord& record,
                   int& rejected) {
   if (!flip_keeps_angles(m, q.a, q.b, q.c, q.d, floor_key)) return false;
-  t1 = m.tri(q.f1), t2 = m.tri(q.f2);
-  const FlipResult r = try_flip(m, q.a, q.b, q.f1, q.f2, q.c, q.d, cos_max_dihedral);
+  const FlipResult r = try_flip(m, q.a, q.b, q.f1, q.f2, q.c, q.d, cos_max_dihedral, &record);
   rejected += r == FlipResult::kRejected;
   return r == FlipResult::kFlipped;
 }
 
-// Undoes the flip of q (a-b to c-d, the mesh otherwise as the flip left it): the two triangles
-// at c-d give way to t1 and t2 again.
-void undo_flip(EditMesh& m, const Quad& q, const Triangle& t1, const Triangle& t2) {
-  const int f = m.face_with_edge(q.c, q.d), g = m.face_with_edge(q.d, q.c);
-  m.remove_triangle(f);
-  m.remove_triangle(g);
-  m.add_triangle(t1);
-  m.add_triangle(t2);
+// The defect moves' memo (issue 21; EditMesh::defect_memo): a move tried from an edge and
+// undone is tried again only once something near the edge has changed. A try reads the corner
+// lists (so valences and edges) and the positions of the vertices within two edges of the quad's
+// four vertices, and nothing else where try_flip looks at nothing but the quad (optimistic mode,
+// remesh/pass.h: no search for crossings); its flips are undone bit for bit
+// (EditMesh::undo_flip). So while none of those vertices has changed (EditMesh::changed_at),
+// the try would fail again with the same rejections: it is skipped and its rejections counted
+// again. An edit that changes which vertices are within two edges of the quad changes one that
+// stays within them (the first of the quad's vertices on a shortest path), so it is seen.
+bool changed_near(const EditMesh& m, const Quad& q, int64_t since) {
+  for (int u : {q.a, q.b, q.c, q.d}) {
+    if (m.changed_at(u) > since) return true;
+    for (const EditMesh::Corner& k : m.corners(u)) {
+      if (m.changed_at(k.next) > since) return true;
+      for (const EditMesh::Corner& l : m.corners(k.next))
+        if (m.changed_at(l.next) > since) return true;
+    }
+  }
+  return false;
 }
 
 // Whether the flip of q leaves sum (valence - 6)^2 over its four vertices as it was, with a
@@ -207,16 +217,17 @@ bool is_neutral_move(const EditMesh& m, const Quad& q) {
 // A neutral flip of q (not yet made), then a second flip that lowers the sum (the best one,
 // best_second_flip), or if that fails, a second neutral flip at the first's four vertices and
 // then such a third. All kept, or all undone. Returns true if kept.
+// The flips undone leave the mesh as it was.
 bool move_defect(EditMesh& m, const Quad& q, double cos_max_dihedral, double floor_key, int& rejected) {
   // The first flip's angle test (checked_flip's first) before the search for a second flip:
   // about half the candidates fail it (lung phantom, issue 21).
   if (!flip_keeps_angles(m, q.a, q.b, q.c, q.d, floor_key)) return false;
   int x = -1, w = -1;
   const bool second = best_second_flip(m, q, x, w) > 0;
-  Triangle t1, t2, u1, u2, v1, v2;
-  if (!checked_flip(m, q, cos_max_dihedral, floor_key, t1, t2, rejected)) return false;
+  EditMesh::FlipRecord first, then, last;
+  if (!checked_flip(m, q, cos_max_dihedral, floor_key, first, rejected)) return false;
   Quad q2;
-  if (second && quad_at(m, x, w, q2) && checked_flip(m, q2, cos_max_dihedral, floor_key, u1, u2, rejected)) return true;
+  if (second && quad_at(m, x, w, q2) && checked_flip(m, q2, cos_max_dihedral, floor_key, then, rejected)) return true;
   // (Corners re-read each time: the flips and undos below edit u's list.)
   for (int u : {q.a, q.b, q.c, q.d})
     for (size_t k = 0; k < m.corners(u).size(); ++k) {
@@ -225,11 +236,11 @@ bool move_defect(EditMesh& m, const Quad& q, double cos_max_dihedral, double flo
       if (!quad_with(m, u, corner.next, corner.f, corner.prev, q2) || !is_neutral_move(m, q2) ||
           best_second_flip(m, q2, x, w) == 0)
         continue;
-      if (!checked_flip(m, q2, cos_max_dihedral, floor_key, u1, u2, rejected)) continue;
-      if (quad_at(m, x, w, q3) && checked_flip(m, q3, cos_max_dihedral, floor_key, v1, v2, rejected)) return true;
-      undo_flip(m, q2, u1, u2);
+      if (!checked_flip(m, q2, cos_max_dihedral, floor_key, then, rejected)) continue;
+      if (quad_at(m, x, w, q3) && checked_flip(m, q3, cos_max_dihedral, floor_key, last, rejected)) return true;
+      m.undo_flip(then);
     }
-  undo_flip(m, q, t1, t2);
+  m.undo_flip(first);
   return false;
 }
 
@@ -240,14 +251,32 @@ bool move_defect(EditMesh& m, const Quad& q, double cos_max_dihedral, double flo
 // cancels. Every kept move lowers the sum, so repeating them ends. The flips keep the angle
 // floor of the greedy ones. Returns the number of moves made; counts the flips try_flip
 // rejected in `rejected`.
+// With a memo, a move that failed from a listed edge is not tried again while nothing near the
+// edge changed (changed_near): the same moves and rejections as trying every one.
 int defect_moves(EditMesh& m, double cos_max_dihedral, double floor_key, std::vector<ListedEdge>& edges,
-                 int& rejected) {
+                 int& rejected, EditMesh::DefectMemo* memo) {
   int moves = 0;
   all_edges(m, edges);
+  const size_t keys = 3 * static_cast<size_t>(m.num_triangle_slots());
+  if (memo && memo->failed_at.size() < keys) memo->failed_at.resize(keys, 0), memo->rejections.resize(keys, 0);
   for (const ListedEdge& e : edges) {
     Quad q;
-    if (listed_quad(m, e, q) && q.c != q.d && is_neutral_move(m, q))
-      moves += move_defect(m, q, cos_max_dihedral, floor_key, rejected);
+    if (!listed_quad(m, e, q) || q.c == q.d || !is_neutral_move(m, q)) continue;
+    // The key names this edge while its listed triangle lives (a slot named by a key is never
+    // given to another triangle: only the slots of undone flips are, and those were never listed).
+    const size_t key = 3 * static_cast<size_t>(e.f) + e.k;
+    const bool keyed = memo && q.f1 == e.f;
+    if (keyed && memo->failed_at[key] > 0 && !changed_near(m, q, memo->failed_at[key])) {
+      rejected += memo->rejections[key];
+      continue;
+    }
+    const int before = rejected;
+    if (move_defect(m, q, cos_max_dihedral, floor_key, rejected)) {
+      ++moves;
+    } else if (keyed) {
+      memo->failed_at[key] = m.edit_clock();
+      memo->rejections[key] = rejected - before;
+    }
   }
   return moves;
 }
@@ -319,12 +348,21 @@ namespace remesh_detail {
 
 // Greedy flips, then defect moves (see there) while they find any.
 int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_rad, bool reuse_refusals) {
+  // The memo of failed defect moves, with the mesh through an optimistic run's stages, for
+  // these floors (a call with others starts it anew).
+  EditMesh::DefectMemo* memo = nullptr;
+  if (reuse_refusals && m.optimistic()) {
+    memo = &m.defect_memo();
+    const double floor_key = remesh_detail::angle_key(min_angle_rad);
+    if (memo->cos_max_dihedral != cos_max_dihedral || memo->floor_key != floor_key)
+      *memo = {cos_max_dihedral, floor_key, {}, {}};
+  }
   int rejected = greedy_valence_flips(m, cos_max_dihedral, min_angle_rad, reuse_refusals);
   // Then up to three rounds of defect moves, each followed by greedy flips again (measured on
   // tests/remesh/clean_mesh_test.cpp: the first round makes most of the gain).
   std::vector<ListedEdge> edges;
   for (int round = 0; round < 3; ++round) {
-    if (defect_moves(m, cos_max_dihedral, remesh_detail::angle_key(min_angle_rad), edges, rejected) == 0) break;
+    if (defect_moves(m, cos_max_dihedral, remesh_detail::angle_key(min_angle_rad), edges, rejected, memo) == 0) break;
     rejected += greedy_valence_flips(m, cos_max_dihedral, min_angle_rad, reuse_refusals);
   }
   return rejected;

@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace dsnake::remesh_detail {
 
@@ -54,22 +55,41 @@ void CornerFans::push(int v, const MeshCorner& corner) {
   ++count_[v];
 }
 
-void CornerFans::erase_face(int v, int f) {
+int CornerFans::erase_face(int v, int f) {
   auto is_f = [f](const MeshCorner& c) { return c.f == f; };
+  int at;
   if (count_[v] & kSpilled) {
     auto& list = spilled_[size_t(slot_[v])];
-    list.erase(std::find_if(list.begin(), list.end(), is_f));
+    const auto hit = std::find_if(list.begin(), list.end(), is_f);
+    at = int(hit - list.begin());
+    list.erase(hit);
   } else {
     MeshCorner* first = inline_.data() + size_t(v) * kInline;
     MeshCorner* last = first + count_[v];
     MeshCorner* hit = std::find_if(first, last, is_f);
+    at = int(hit - first);
     std::move(hit + 1, last, hit);
   }
   --count_[v];
+  return at;
+}
+
+void CornerFans::pop(int v) {
+  if (count_[v] & kSpilled) spilled_[size_t(slot_[v])].pop_back();
+  --count_[v];
+}
+
+// push, then the new last corner rotated back to `at` (a spilled vertex stays spilled).
+void CornerFans::insert(int v, int at, const MeshCorner& corner) {
+  push(v, corner);
+  const int n = size(v);
+  MeshCorner* first = count_[v] & kSpilled ? spilled_[size_t(slot_[v])].data() : inline_.data() + size_t(v) * kInline;
+  std::rotate(first + at, first + n - 1, first + n);
 }
 
 EditMesh::EditMesh(const Snake<3>& snake)
-    : pos_(snake.positions()), ids_(snake.template_ids()), vfan_(snake.num_vertices()) {
+    : pos_(snake.positions()), ids_(snake.template_ids()), vfan_(snake.num_vertices()),
+      changed_at_(snake.num_vertices(), 0) {
   const auto& c = snake.connectivity();
   const std::string problem = c.closed_manifold_problem();
   if (!problem.empty()) throw InputError("", "remeshing input mesh", problem);
@@ -123,6 +143,7 @@ void EditMesh::ring(int v, std::vector<int>& out) const {
 
 void EditMesh::move_vertex(int v, const Point<3>& p) {
   pos_[v] = p;
+  changed_at_[v] = ++clock_;
   changed_ = true;
   if (optimistic_)
     for (const Corner& c : vfan_.of(v)) dirty_[c.f] = 1;
@@ -133,6 +154,7 @@ void EditMesh::move_vertex(int v, const Point<3>& p) {
 int EditMesh::add_vertex(const Point<3>& p) {
   pos_.push_back(p);
   ids_.push_back(-1);
+  changed_at_.push_back(++clock_);
   vfan_.add_vertex();
   changed_ = connectivity_changed_ = true;
   return num_vertices() - 1;
@@ -146,21 +168,53 @@ int EditMesh::add_triangle(const Triangle& t) {
   for (int k = 0; k < 3; ++k) {
     if (vfan_.size(t[k]) == 0) ++live_vertices_;
     vfan_.push(t[k], {f, t[(k + 1) % 3], t[(k + 2) % 3]});
+    changed_at_[t[k]] = clock_ + 1;
   }
   if (grid_built_) grid_insert(f);
   changed_ = connectivity_changed_ = true;
+  ++clock_;
   return f;
 }
 
-void EditMesh::remove_triangle(int f) {
+void EditMesh::remove_triangle(int f, std::array<int, 3>* at) {
   if (!alive_[f]) return;
   alive_[f] = 0;
-  for (int v : tri_[f]) {
-    vfan_.erase_face(v, f);
+  for (int k = 0; k < 3; ++k) {
+    const int v = tri_[f][k];
+    const int where = vfan_.erase_face(v, f);
+    if (at) (*at)[k] = where;
     if (vfan_.size(v) == 0) --live_vertices_;
+    changed_at_[v] = clock_ + 1;
   }
+  ++clock_;
   if (grid_built_) grid_erase(f);
   changed_ = connectivity_changed_ = true;
+}
+
+void EditMesh::undo_flip(const FlipRecord& r) {
+  const int last = num_triangle_slots() - 1;
+  DSNAKE_ASSERT(last >= 1 && alive_[last] && alive_[last - 1] && !alive_[r.f1] && !alive_[r.f2],
+                "undo_flip: the flip is the mesh's last edit");
+  // The new triangles' corners were pushed last (t3's, then t4's): off in reverse.
+  for (int f = last; f >= last - 1; --f) {
+    for (int k = 2; k >= 0; --k) {
+      DSNAKE_ASSERT(corners(tri_[f][k]).back().f == f, "undo_flip: the flip is the mesh's last edit");
+      vfan_.pop(tri_[f][k]);
+    }
+    if (grid_built_) grid_erase(f);
+    tri_.pop_back();
+    alive_.pop_back();
+    if (optimistic_) dirty_.pop_back();
+  }
+  // f2 was removed after f1, each corner after the one before: back in reverse, where they stood.
+  for (const auto& [f, at] : {std::pair{r.f2, r.at2}, std::pair{r.f1, r.at1}}) {
+    const Triangle& t = tri_[f];
+    for (int k = 2; k >= 0; --k) vfan_.insert(t[k], at[k], {f, t[(k + 1) % 3], t[(k + 2) % 3]});
+    alive_[f] = 1;
+    if (grid_built_) grid_insert(f);
+  }
+  changed_ = r.changed, connectivity_changed_ = r.connectivity_changed;
+  for (const auto& [v, at] : r.changed_at) changed_at_[v] = at;
 }
 
 int EditMesh::commit(Snake<3>& snake) {
@@ -216,7 +270,8 @@ FlipResult try_flip(EditMesh& m, int a, int b, double cos_max_dihedral) {
   return try_flip(m, a, b, f1, f2, m.opposite(f1, a, b), m.opposite(f2, b, a), cos_max_dihedral);
 }
 
-FlipResult try_flip(EditMesh& m, int a, int b, int f1, int f2, int c, int d, double cos_max_dihedral) {
+FlipResult try_flip(EditMesh& m, int a, int b, int f1, int f2, int c, int d, double cos_max_dihedral,
+                    EditMesh::FlipRecord* record) {
   if (c == d || m.valence(a) <= 3 || m.valence(b) <= 3 || m.has_edge(c, d)) return FlipResult::kTopology;
   const Point<3> n1 = triangle_normal(m.pos(a), m.pos(b), m.pos(c));
   const Point<3> n2 = triangle_normal(m.pos(b), m.pos(a), m.pos(d));
@@ -229,8 +284,11 @@ FlipResult try_flip(EditMesh& m, int a, int b, int f1, int f2, int c, int d, dou
   const int ignore[2] = {f1, f2};
   const Triangle fresh[2] = {t3, t4};
   if (m.intersects_any(fresh, ignore)) return FlipResult::kRejected;
-  m.remove_triangle(f1);
-  m.remove_triangle(f2);
+  if (record)
+    *record = {f1, f2, {}, {}, m.changed(), m.connectivity_changed(),
+               {{{a, m.changed_at(a)}, {b, m.changed_at(b)}, {c, m.changed_at(c)}, {d, m.changed_at(d)}}}};
+  m.remove_triangle(f1, record ? &record->at1 : nullptr);
+  m.remove_triangle(f2, record ? &record->at2 : nullptr);
   m.add_triangle(t3);
   m.add_triangle(t4);
   return FlipResult::kFlipped;

@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstdint>
 #include <span>
+#include <utility>
 #include <vector>
 
 namespace dsnake::remesh_detail {
@@ -86,7 +87,11 @@ class CornerFans {
     return {inline_.data() + size_t(v) * kInline, size_t(c)};
   }
   void push(int v, const MeshCorner& corner);
-  void erase_face(int v, int f);  // the corner of triangle f (which must be there)
+  // Erases the corner of triangle f (which must be there); returns where it stood.
+  int erase_face(int v, int f);
+  // Undo steps (EditMesh::undo_flip): the last corner off, a corner back where it stood.
+  void pop(int v);
+  void insert(int v, int at, const MeshCorner& corner);
 
  private:
   static constexpr int kSpilled = 1 << 30, kCountMask = kSpilled - 1;
@@ -146,11 +151,27 @@ class EditMesh {
   }
 
   int add_vertex(const Point<3>& p);  // a free vertex (template id -1)
-  void set_pos(int v, const Point<3>& p) { pos_[v] = p; }  // tentative: no grid update
+  void set_pos(int v, const Point<3>& p) { pos_[v] = p, changed_at_[v] = ++clock_; }  // tentative: no grid update
   // Commits a move of v: updates the boxes of its triangles in the intersection grid.
   void move_vertex(int v, const Point<3>& p);
   int add_triangle(const Triangle& t);
-  void remove_triangle(int f);
+  // Removes triangle f; with `at`, where its corners stood in the corner lists of tri(f)[0..2].
+  void remove_triangle(int f, std::array<int, 3>* at = nullptr);
+
+  // A flip as try_flip made it, for undo_flip: the two triangles it removed (slots f1 and f2),
+  // where their corners stood in their vertices' corner lists, and the mesh's flags before it.
+  struct FlipRecord {
+    int f1 = -1, f2 = -1;
+    std::array<int, 3> at1{}, at2{};
+    bool changed = false, connectivity_changed = false;
+    std::array<std::pair<int, int64_t>, 4> changed_at{};  // a, b, c, d and their changed_at()
+  };
+  // Undoes flip r, which must be the mesh's last edit (later ones undone first): the two new
+  // triangles (the last two slots) go and f1, f2 come back, their corners where they stood.
+  // The mesh is then as before the flip bit for bit (slots, corner order, flags), so a flip that
+  // is tried and undone leaves no trace on what follows (issue 21: the defect moves of the
+  // valence regularisation try about seventeen flips for each one they keep).
+  void undo_flip(const FlipRecord& r);
 
   // true if the triangle (a, b, c) at the current positions crosses, touches away from shared
   // vertices, or folds onto (shared edge, opposite sides closing to < ~8 degrees) any live
@@ -180,6 +201,22 @@ class EditMesh {
   // Returns the snake's vertex count.
   int commit(Snake<3>& snake);
   bool changed() const { return changed_; }
+  // When v's corners or position last changed: a count of the mesh's edits that only grows
+  // (edit_clock(), the latest). undo_flip puts back the times of the vertices the flip changed.
+  int64_t changed_at(int v) const { return changed_at_[v]; }
+  int64_t edit_clock() const { return clock_; }
+  // The defect moves' memo of tries that failed (delaunay.cpp, regularize_valences), kept with
+  // the mesh through the stages of an optimistic run (emptied when one begins or ends): per
+  // listed edge 3 f + k, the edit_clock() of its last failed try (0: none) and the flips
+  // try_flip rejected in it, for the floors they were tried with.
+  struct DefectMemo {
+    double cos_max_dihedral = 0, floor_key = 0;
+    std::vector<int64_t> failed_at;
+    std::vector<int> rejections;
+  };
+  DefectMemo& defect_memo() { return defect_memo_; }
+  bool connectivity_changed() const { return connectivity_changed_; }
+  bool optimistic() const { return optimistic_; }
 
  private:
   // Cell index range {x0, y0, z0, x1, y1, z1} covered by box [lo, hi], clamped to the grid.
@@ -219,6 +256,9 @@ class EditMesh {
   bool optimistic_ = false;
   std::vector<uint8_t> dirty_;      // while optimistic: per triangle slot, created or moved
   bool changed_ = false;            // anything to write back
+  std::vector<int64_t> changed_at_;  // per vertex: the clock_ of its last change (corners or position)
+  int64_t clock_ = 0;
+  DefectMemo defect_memo_;
   bool connectivity_changed_ = false;  // triangles added or removed (else positions only)
 };
 
@@ -228,8 +268,10 @@ class EditMesh {
 // the surface. Used by the "delaunay" stage (both of its methods).
 enum class FlipResult { kFlipped, kTopology, kRejected };
 FlipResult try_flip(EditMesh& m, int a, int b, double cos_max_dihedral);
-// The same with the triangles f1 = (a, b, c) and f2 = (b, a, d) already known.
-FlipResult try_flip(EditMesh& m, int a, int b, int f1, int f2, int c, int d, double cos_max_dihedral);
+// The same with the triangles f1 = (a, b, c) and f2 = (b, a, d) already known; a flip made is
+// recorded in `record` (for EditMesh::undo_flip) when one is given.
+FlipResult try_flip(EditMesh& m, int a, int b, int f1, int f2, int c, int d, double cos_max_dihedral,
+                    EditMesh::FlipRecord* record = nullptr);
 
 // The flips of the "delaunay" stage (delaunay.cpp), also run by "simplify" after its collapses.
 // delaunay_by_flips: flips until every edge is locally Delaunay (intrinsic: the opposite angles
