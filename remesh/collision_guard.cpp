@@ -240,6 +240,28 @@ void certify(Cache& cache, const PointList<D>& x) {
                                                             {x[fb[0]], x[fb[1]], x[fb[2]]});
     }
     for (int64_t k = 0; k < m; ++k) cache.certified += cache.radius[cache.single_shared[k]] > 0;
+    // The index of the certificates by facet (PairCache).
+    const int64_t kept = static_cast<int64_t>(cache.pairs.size());
+    const int nf = static_cast<int>(cache.facets.size());
+    cache.uncertified.clear();
+    cache.facet_radius.assign(nf, std::numeric_limits<double>::infinity());
+    cache.certified_start.assign(nf + 1, 0);
+    for (int64_t i = 0; i < kept; ++i) {
+      if (!(cache.radius[i] > 0)) {
+        cache.uncertified.push_back(i);
+        continue;
+      }
+      for (int f : cache.pairs[i]) {
+        cache.facet_radius[f] = std::min(cache.facet_radius[f], cache.radius[i]);
+        ++cache.certified_start[f + 1];
+      }
+    }
+    for (int f = 0; f < nf; ++f) cache.certified_start[f + 1] += cache.certified_start[f];
+    cache.certified_of.resize(cache.certified_start[nf]);
+    std::vector<int64_t> at(cache.certified_start.begin(), cache.certified_start.end() - 1);
+    for (int64_t i = 0; i < kept; ++i)
+      if (cache.radius[i] > 0)
+        for (int f : cache.pairs[i]) cache.certified_of[at[f]++] = i;
   }
 }
 
@@ -352,24 +374,48 @@ MoveGuardReport CollisionGuard<D>::guard(const Snake<D>& snake, PointList<D>& p)
       }
     }
   }
-  // The kept pairs to test, in their order: filtered in contiguous chunks (one per thread),
-  // joined in chunk order.
+  // The kept pairs to test: filtered in contiguous chunks (one per thread), joined in chunk
+  // order. A pair is due a test if one of its facets changed, it has no certificate or its
+  // facets drifted past it, and its swept boxes overlap. 3D with certificates: the uncertified
+  // pairs, then the certified pairs of the facets whose drift reached their smallest
+  // certificate (a pair whose facets both stay below theirs stays below its own), each pair
+  // once (under the first such facet); the same pairs as filtering every kept one, in another
+  // order, which changes nothing (every hit is collected and the vertices to step back sorted).
   const int64_t kept = static_cast<int64_t>(cache_.pairs.size());
   const int chunks = kept >= 32768 ? omp_get_max_threads() : 1;
   std::vector<std::vector<std::array<int, 2>>> chunk_pairs(chunks);
   int64_t expired = 0;
-#pragma omp parallel for schedule(static) num_threads(chunks) reduction(+ : expired) if (chunks > 1)
-  for (int c = 0; c < chunks; ++c) {
-    std::vector<std::array<int, 2>>& out = chunk_pairs[c];
-    for (int64_t i = kept * c / chunks, end = kept * (c + 1) / chunks; i < end; ++i) {
-      const auto& pair = cache_.pairs[i];
-      if (!(changed_[pair[0]] | changed_[pair[1]])) continue;
-      if (certified && cache_.radius[i] > 0) {
-        if (std::max(drift_[pair[0]], drift_[pair[1]]) < cache_.radius[i]) continue;
-        ++expired;
-      }
-      if (overlap(boxes[pair[0]], boxes[pair[1]])) out.push_back(pair);
+  auto filter = [&](int64_t i, std::vector<std::array<int, 2>>& out, int64_t& expired_here) {
+    const auto& pair = cache_.pairs[i];
+    if (!(changed_[pair[0]] | changed_[pair[1]])) return;
+    if (certified && cache_.radius[i] > 0) {
+      if (std::max(drift_[pair[0]], drift_[pair[1]]) < cache_.radius[i]) return;
+      ++expired_here;
     }
+    if (overlap(boxes[pair[0]], boxes[pair[1]])) out.push_back(pair);
+  };
+  if (certified && certificate_index_) {
+    const int64_t plain = static_cast<int64_t>(cache_.uncertified.size());
+    auto hot = [&](int f) { return !(drift_[f] < cache_.facet_radius[f]); };
+#pragma omp parallel for schedule(static) num_threads(chunks) reduction(+ : expired) if (chunks > 1)
+    for (int c = 0; c < chunks; ++c) {
+      std::vector<std::array<int, 2>>& out = chunk_pairs[c];
+      for (int64_t k = plain * c / chunks, end = plain * (c + 1) / chunks; k < end; ++k)
+        filter(cache_.uncertified[k], out, expired);
+      for (int f = int(int64_t(nf) * c / chunks), f_end = int(int64_t(nf) * (c + 1) / chunks); f < f_end; ++f) {
+        if (!hot(f)) continue;
+        for (int64_t k = cache_.certified_start[f]; k < cache_.certified_start[f + 1]; ++k) {
+          const int64_t i = cache_.certified_of[k];
+          const int other = cache_.pairs[i][0] == f ? cache_.pairs[i][1] : cache_.pairs[i][0];
+          if (other < f && hot(other)) continue;  // taken under `other`
+          filter(i, out, expired);
+        }
+      }
+    }
+  } else {
+#pragma omp parallel for schedule(static) num_threads(chunks) reduction(+ : expired) if (chunks > 1)
+    for (int c = 0; c < chunks; ++c)
+      for (int64_t i = kept * c / chunks, end = kept * (c + 1) / chunks; i < end; ++i) filter(i, chunk_pairs[c], expired);
   }
   cache_.expired += expired;
   pairs_.clear();
