@@ -222,24 +222,25 @@ bool covers(const Cache& cache, const std::vector<Facet<D>>& facets, const Point
   return true;
 }
 
-// 3D: the certificates (remesh_detail::shared_vertex_radius) of the kept pairs that share one
-// vertex (cache.radius is sized by the build), at positions x, which become the reference that
-// the vertices' drift is measured from.
+// 3D: the certificates of the kept pairs that share one vertex (remesh_detail::
+// shared_vertex_radius) or one edge (shared_edge_radius; cache.radius is sized by the build), at
+// positions x, which become the reference that the vertices' drift is measured from.
 template <int D, class Cache>
 void certify(Cache& cache, const PointList<D>& x) {
   cache.expired = 0, cache.certified = 0;
   if constexpr (D == 3) {
     cache.reference = x;
-    const int64_t m = static_cast<int64_t>(cache.single_shared.size());
+    const int64_t m = static_cast<int64_t>(cache.adjacent.size());
 #pragma omp parallel for schedule(static) if (m >= 4096)
     for (int64_t k = 0; k < m; ++k) {
-      const int64_t i = cache.single_shared[k];
+      const int64_t i = cache.adjacent[k];
       const auto& fa = cache.facets[cache.pairs[i][0]];
       const auto& fb = cache.facets[cache.pairs[i][1]];
-      cache.radius[i] = remesh_detail::shared_vertex_radius(fa, {x[fa[0]], x[fa[1]], x[fa[2]]}, fb,
-                                                            {x[fb[0]], x[fb[1]], x[fb[2]]});
+      const std::array<Point<3>, 3> pa = {x[fa[0]], x[fa[1]], x[fa[2]]}, pb = {x[fb[0]], x[fb[1]], x[fb[2]]};
+      cache.radius[i] = remesh_detail::shared_corners(fa, fb) == 1 ? remesh_detail::shared_vertex_radius(fa, pa, fb, pb)
+                                                                   : remesh_detail::shared_edge_radius(fa, pa, fb, pb);
     }
-    for (int64_t k = 0; k < m; ++k) cache.certified += cache.radius[cache.single_shared[k]] > 0;
+    for (int64_t k = 0; k < m; ++k) cache.certified += cache.radius[cache.adjacent[k]] > 0;
     // The index of the certificates by facet (PairCache).
     const int64_t kept = static_cast<int64_t>(cache.pairs.size());
     const int nf = static_cast<int>(cache.facets.size());
@@ -306,13 +307,14 @@ void rebuild(Cache& cache, const std::vector<Facet<D>>& facets, const PointList<
   for (int f = 0, begin = 0; f < nf; begin = start[f++])  // start[f]: now the end of f's pairs
     std::sort(sorted.begin() + begin, sorted.begin() + start[f]);
   cache.pairs.swap(sorted);
-  // 3D: the pairs that share exactly one vertex, the only ones with certificates.
-  cache.single_shared.clear();
+  // 3D: the pairs that share one vertex or one edge, the ones with certificates.
+  cache.adjacent.clear();
   cache.radius.assign(D == 3 ? cache.pairs.size() : 0, 0.0);
   if constexpr (D == 3) {
-    for (size_t i = 0; i < cache.pairs.size(); ++i)
-      if (remesh_detail::shared_corners(facets[cache.pairs[i][0]], facets[cache.pairs[i][1]]) == 1)
-        cache.single_shared.push_back(static_cast<int64_t>(i));
+    for (size_t i = 0; i < cache.pairs.size(); ++i) {
+      const int shared = remesh_detail::shared_corners(facets[cache.pairs[i][0]], facets[cache.pairs[i][1]]);
+      if (shared == 1 || shared == 2) cache.adjacent.push_back(static_cast<int64_t>(i));
+    }
   }
   certify<D>(cache, q);
 }

@@ -14,10 +14,10 @@
 // its margin (a Verlet list), the swept boxes (the box of each facet at q(t) and at q(t+1))
 // of its pairs, then one exact test per close pair; the later rounds test only the
 // pairs around the vertices that stepped back. In 3D, a pair of triangles that share one vertex
-// (three quarters of the adjacent pairs, which every step would test) carries a certificate: a
+// or one edge (the adjacent pairs, which every step would test) carries a certificate: a
 // radius within which its vertices may move from where the certificate was made without the
-// pair being able to conflict (remesh_detail::shared_vertex_radius, with its proof); it is not
-// tested while they stay within it. Certificates are made with the broad phase and made again
+// pair being able to conflict (remesh_detail::shared_vertex_radius and shared_edge_radius, with
+// their proofs); it is not tested while they stay within it. Certificates are made with the broad phase and made again
 // once the tests of those that ran out have cost as much as making them. The exact tests are
 // skipped only where they could not find a conflict, so the steps are the same as with every
 // pair tested; `checks` counts the tests made. Deterministic, the same bits with any thread
@@ -74,7 +74,7 @@ class CollisionGuard final : public MoveGuard<D> {
     std::vector<std::array<int, D>> facets;
     std::vector<std::array<int, 2>> pairs;
     std::vector<double> radius;
-    std::vector<int64_t> single_shared;  // the pairs that share exactly one vertex
+    std::vector<int64_t> adjacent;  // the pairs that share one vertex or one edge
     // 3D, made with the certificates: the pairs without one (in order), and per facet the
     // smallest certificate of its pairs (infinity: none) and its certified pairs (CSR over
     // facets, each pair under both of its facets). While a facet's drift stays below its

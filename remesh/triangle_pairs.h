@@ -170,4 +170,41 @@ inline double shared_vertex_radius(const Triangle& ta, const std::array<Point<3>
   return std::isfinite(r) && r > 0 ? r : 0;
 }
 
+// A certificate for triangles A and B (vertex ids ta, tb, positions pa, pb) that share exactly
+// one edge u-w, the pairs a guard tests most once the others have certificates (issue 21: 85%
+// of the lung's exact tests): a radius r such that, while each of their four vertices stays
+// within r of its position here, the pair cannot fold (pair_conflicts is false). 0: none.
+// Proof: with the edge vector e = w - u and the apexes a, b, the vectors n_a = e x (a - u) and
+// n_b = e x (b - u) are L e^ x x_a and L e^ x x_b (x_a, x_b: the apexes' offsets normal to the
+// edge, the vectors pair_conflicts measures the opening angle between), so the angle between
+// n_a and n_b is the opening angle theta. Moving the vertices by less than r changes
+// e x (a - u) by at most 2 r |a - u| + 2 r |e| + 4 r^2 =: Delta_a, which turns n_a by less than
+// asin(Delta_a / |n_a|) (and leaves it non-zero) while Delta_a < |n_a|; likewise n_b. So theta
+// stays above the fold angle (8 degrees) while both turns stay below half of theta less that
+// angle less a margin of one degree, far above the test's rounding: r is the largest radius
+// with Delta_x <= sin(that half) |n_x| for both apexes.
+inline double shared_edge_radius(const Triangle& ta, const std::array<Point<3>, 3>& pa, const Triangle& tb,
+                                 const std::array<Point<3>, 3>& pb) {
+  if (shared_corners(ta, tb) != 2) return 0;
+  int oa = 0, ob = 0;  // the corners off the shared edge
+  while (ta[oa] == tb[0] || ta[oa] == tb[1] || ta[oa] == tb[2]) ++oa;
+  while (tb[ob] == ta[0] || tb[ob] == ta[1] || tb[ob] == ta[2]) ++ob;
+  const Point<3>& u = pa[(oa + 1) % 3];
+  const Point<3> e = pa[(oa + 2) % 3] - u, xa = pa[oa] - u, xb = pb[ob] - u;
+  const Point<3> na = e.cross(xa), nb = e.cross(xb);
+  const double la = na.norm(), lb = nb.norm();
+  if (!(la > 0) || !(lb > 0)) return 0;
+  const double theta = std::atan2(na.cross(nb).norm(), na.dot(nb));
+  constexpr double kFoldAngle = 0.13962634015954636;  // 8 degrees (kFoldCos)
+  constexpr double kMargin = 0.017453292519943295;    // 1 degree
+  const double half = 0.5 * (theta - kFoldAngle - kMargin);
+  if (!(half > 0)) return 0;
+  const double s = std::sin(std::min(half, 1.5));
+  // The largest r with 4 r^2 + 2 S r <= s |n|, S = |x - u| + |e|.
+  auto radius = [&](double span, double area2) { return (std::sqrt(span * span + 4 * s * area2) - span) / 4; };
+  const double length = e.norm();
+  const double r = std::min(radius(xa.norm() + length, la), radius(xb.norm() + length, lb));
+  return std::isfinite(r) && r > 0 ? r : 0;
+}
+
 }  // namespace dsnake::remesh_detail

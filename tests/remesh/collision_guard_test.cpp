@@ -266,6 +266,77 @@ TEST(CollisionGuard, SharedVertexCertificatesAreSound) {
   EXPECT_GT(beyond, 10);  // moves far past the certificates do make conflicts
 }
 
+// shared_edge_radius by hand, on triangles with unit edge u-w = x and apexes at unit distance:
+// for the flat pair (apexes +y and -y, opening 180 degrees) each turn may take half of 180 - 8 - 1
+// degrees, s = sin 85.5 degrees, and r solves 4 r^2 + 2 S r = s |n| with S = 2, |n| = 1; for apexes
+// +y and +z (90 degrees), s = sin 40.5 degrees; apexes 5 degrees apart fold (none), and pairs that
+// share one vertex or none have none.
+TEST(CollisionGuard, SharedEdgeCertificateIsAsComputedByHand) {
+  using remesh_detail::shared_edge_radius;
+  const Point<3> u(0, 0, 0), w(1, 0, 0);
+  const Triangle a{0, 1, 2}, b{1, 0, 3};
+  const std::array<Point<3>, 3> pa{u, w, Point<3>(0, 1, 0)};
+  auto expected = [](double degrees) {
+    const double s = std::sin(degrees * std::numbers::pi / 180);
+    return (std::sqrt(4 + 4 * s) - 2) / 4;
+  };
+  EXPECT_NEAR(shared_edge_radius(a, pa, b, {w, u, Point<3>(0, -1, 0)}), expected(85.5), 1e-12);
+  EXPECT_NEAR(shared_edge_radius(a, pa, b, {w, u, Point<3>(0, 0, 1)}), expected(40.5), 1e-12);
+  const double t = 5 * std::numbers::pi / 180;
+  EXPECT_EQ(shared_edge_radius(a, pa, b, {w, u, Point<3>(0, std::cos(t), std::sin(t))}), 0.0);
+  EXPECT_EQ(shared_edge_radius(a, pa, Triangle{0, 4, 5}, {u, Point<3>(-1, 0, 0), Point<3>(0, -1, 0)}), 0.0);
+  EXPECT_EQ(shared_edge_radius(a, pa, Triangle{6, 4, 5}, {Point<3>(3, 0, 0), Point<3>(-1, 0, 0), Point<3>(0, -1, 0)}), 0.0);
+}
+
+// Soundness: for random pairs of triangles sharing an edge (either orientation; opening angles
+// from folded to flat, some triangles thin), every perturbation of the four vertices by less
+// than the certificate leaves pair_conflicts false; perturbations twenty times larger do make
+// conflicts, so the check has teeth.
+TEST(CollisionGuard, SharedEdgeCertificatesAreSound) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> unit(-1, 1), len(0.2, 2.0), angle(0, std::numbers::pi);
+  auto jitter = [&](double r) {
+    Point<3> d;
+    do d = Point<3>(unit(rng), unit(rng), unit(rng));
+    while (d.squaredNorm() > 1 || d.squaredNorm() < 1e-6);
+    return Point<3>(d * r);
+  };
+  int certified = 0, tested = 0, beyond = 0;
+  for (int trial = 0; trial < 4000; ++trial) {
+    const Triangle ta{0, 1, 2}, tb = trial % 2 ? Triangle{1, 0, 3} : Triangle{0, 1, 3};
+    const Point<3> o(unit(rng) * 100, unit(rng) * 100, unit(rng) * 100);
+    const Point<3> e = Point<3>(unit(rng), unit(rng), unit(rng)).normalized();
+    const Point<3> n1 = e.unitOrthogonal(), n2 = e.cross(n1);
+    // Apexes at heights h around the edge, at angles 0 and theta about it, offset along it.
+    const double theta = trial % 5 == 0 ? 0.3 * angle(rng) : angle(rng), edge = len(rng);
+    const double ha = trial % 7 == 0 ? 0.05 : len(rng), hb = len(rng);
+    std::array<Point<3>, 4> x{o, o + edge * e, o + unit(rng) * edge * e + ha * n1,
+                              o + unit(rng) * edge * e + hb * (std::cos(theta) * n1 + std::sin(theta) * n2)};
+    auto corners = [&](const std::array<Point<3>, 4>& y, const Triangle& t) {
+      return std::array<Point<3>, 3>{y[t[0]], y[t[1]], y[t[2]]};
+    };
+    const double r = remesh_detail::shared_edge_radius(ta, corners(x, ta), tb, corners(x, tb));
+    if (r <= 0) continue;
+    ++certified;
+    auto conflicts_when_moved_by = [&](double radius) {
+      std::array<Point<3>, 4> y;
+      for (int i = 0; i < 4; ++i) y[i] = x[i] + jitter(radius);
+      const auto pa = corners(y, ta), pb = corners(y, tb);
+      const Point<3> loa = pa[0].cwiseMin(pa[1]).cwiseMin(pa[2]), hia = pa[0].cwiseMax(pa[1]).cwiseMax(pa[2]);
+      const Point<3> lob = pb[0].cwiseMin(pb[1]).cwiseMin(pb[2]), hib = pb[0].cwiseMax(pb[1]).cwiseMax(pb[2]);
+      return remesh_detail::pair_conflicts(ta, pa, loa, hia, tb, pb, lob, hib);
+    };
+    for (int k = 0; k < 50; ++k) {
+      ASSERT_FALSE(conflicts_when_moved_by(r * (k < 25 ? 0.999 : 1.0 - 1e-9))) << "trial " << trial;
+      ++tested;
+    }
+    for (int k = 0; k < 5; ++k) beyond += conflicts_when_moved_by(20 * r);
+  }
+  EXPECT_GT(certified, 2000);
+  EXPECT_EQ(tested, 50 * certified);
+  EXPECT_GT(beyond, 10);  // moves far past the certificates do make conflicts
+}
+
 // With moves far smaller than the edges (a snake near convergence), the certified pairs are
 // not tested: the exact tests of a step are fewer than the mesh's pairs of triangles that share
 // one vertex, and the step is the one an unchecked iteration makes (nothing collides).
