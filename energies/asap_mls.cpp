@@ -8,7 +8,10 @@
 #include "energies/residual_blocks.h"
 #include "framework/core/errors.h"
 
+#include "framework/core/vector_clones.h"
+
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 
 namespace dsnake {
@@ -36,6 +39,15 @@ struct AsapMlsEnergy<D>::Data {
   uint64_t bound_version = 0;
   PointList<D> q, next, before;
   std::vector<Matrix, Eigen::aligned_allocator<Matrix>> similarity;  // 3D exact: mu_j R_j
+  // 3D: the neighbourhoods of vertices 4 g .. 4 g + 3 side by side (group g), for the lane
+  // kernels below: row k of group g holds lane l's entry k (or padding past its count: index j,
+  // weight 0, which the kernels never add). Per row and lane: i, w_ji and a_fixed.
+  struct LaneGroups {
+    std::vector<int> first_row, rows;  // per group
+    std::vector<int> count;            // per lane (4 per group): its entries
+    std::vector<int> index;
+    std::vector<double> w, fixed[3];
+  } lanes;
 };
 
 template <int D>
@@ -70,6 +82,104 @@ static Eigen::Matrix<double, D, D> fixed_fit(const MlsNeighborhoods& nb, const P
   for (size_t k = 0; k < ids.size(); ++k) cross.noalias() += w[k] * (q[ids[k]] - q[j]) * a[nb.offsets[j] + k].transpose();
   return best_similarity<D>(cross, spread);
 }
+
+namespace {
+
+// Four neighbourhoods at once (issue 21: the energy trace evaluates every D_j at every iteration,
+// 96 000 terms on the lung's 310 vertices with N(j) = all, and the approximate step fits as many).
+// Each lane does exactly the arithmetic of the scalar loops it stands for, in the same order (the
+// compiler fuses no multiply and add: -ffp-contract=off), so every sum has the same bits; a lane
+// past its neighbourhood's end keeps its sums (a select, not an added zero).
+typedef double Lanes __attribute__((vector_size(32)));
+typedef double UnalignedLanes __attribute__((vector_size(32), aligned(8)));  // (typedef: see gvf_solver.cpp's Vec8)
+typedef int64_t LaneMask __attribute__((vector_size(32)));
+constexpr int kLanes = 4;
+
+// A group's rows as the kernels read them.
+struct LaneRows {
+  const int* index;  // rows x 4
+  const double *w, *a0, *a1, *a2;
+  const int* count;  // 4
+  int rows;
+};
+
+// (Macros, not functions: a function taking or returning these vectors by value would be
+// compiled for the default target, outside the kernels' clones, with another calling convention.)
+#define DSNAKE_LANES_LOAD(p) (*reinterpret_cast<const UnalignedLanes*>(p))
+#define DSNAKE_LIVE_LANES(count, k) \
+  (LaneMask{(k) < (count)[0] ? -1 : 0, (k) < (count)[1] ? -1 : 0, (k) < (count)[2] ? -1 : 0, (k) < (count)[3] ? -1 : 0})
+// Coordinate array qc at the four lanes' neighbours i (one load when they are the same vertex).
+#define DSNAKE_GATHER(qc, i)                                                                     \
+  ((i)[0] == (i)[1] && (i)[1] == (i)[2] && (i)[2] == (i)[3] ? Lanes{} + (qc)[(i)[0]]             \
+                                                           : Lanes{(qc)[(i)[0]], (qc)[(i)[1]], (qc)[(i)[2]], (qc)[(i)[3]]})
+
+// fixed_fit's sum for each lane: cross = sum_k w (q_i - q_j) a^T, a = a_fixed. qj: the lanes' own
+// positions; cross[3 c + r] (column-major), per lane.
+DSNAKE_VECTOR_CLONES
+void fixed_cross_lanes(const LaneRows& g, const double* const* q, const Lanes* qj, Lanes* cross) {
+  for (int x = 0; x < 9; ++x) cross[x] = Lanes{};
+  const bool full = g.count[0] == g.rows && g.count[1] == g.rows && g.count[2] == g.rows && g.count[3] == g.rows;
+  for (int k = 0; k < g.rows; ++k) {
+    const int* i = g.index + kLanes * k;
+    const Lanes w = DSNAKE_LANES_LOAD(g.w + kLanes * k);
+    const Lanes a[3] = {DSNAKE_LANES_LOAD(g.a0 + kLanes * k), DSNAKE_LANES_LOAD(g.a1 + kLanes * k), DSNAKE_LANES_LOAD(g.a2 + kLanes * k)};
+    Lanes wd[3];
+    for (int r = 0; r < 3; ++r) wd[r] = w * (DSNAKE_GATHER(q[r], i) - qj[r]);
+    if (full) {
+      for (int c = 0; c < 3; ++c)
+        for (int r = 0; r < 3; ++r) cross[3 * c + r] = cross[3 * c + r] + wd[r] * a[c];
+    } else {
+      const LaneMask live = DSNAKE_LIVE_LANES(g.count, k);
+      for (int c = 0; c < 3; ++c)
+        for (int r = 0; r < 3; ++r) cross[3 * c + r] = live ? cross[3 * c + r] + wd[r] * a[c] : cross[3 * c + r];
+    }
+  }
+}
+
+// local_energies' sum for each lane: sum_k w |M a - (q_i - q_j)|^2, a = a_fixed; m[3 c + r]:
+// the lanes' M (column-major). (Results through memory: a vector returned by value would change
+// the calling convention between the clones.)
+DSNAKE_VECTOR_CLONES
+void fixed_energy_lanes(const LaneRows& g, const double* const* q, const Lanes* qj, const Lanes* m, double* out) {
+  Lanes energy = {};
+  for (int k = 0; k < g.rows; ++k) {
+    const int* i = g.index + kLanes * k;
+    const Lanes w = DSNAKE_LANES_LOAD(g.w + kLanes * k);
+    const Lanes a[3] = {DSNAKE_LANES_LOAD(g.a0 + kLanes * k), DSNAKE_LANES_LOAD(g.a1 + kLanes * k), DSNAKE_LANES_LOAD(g.a2 + kLanes * k)};
+    // M a in Eigen's order for a fixed 3 x 3 times 3 product (rows 0 and 1 as a packet, row 2
+    // alone): ((m0 a0 + m1 a1) + m2 a2) and m0 a0 + (m1 a1 + m2 a2).
+    Lanes v[3];
+    for (int r = 0; r < 2; ++r)
+      v[r] = ((m[r] * a[0] + m[3 + r] * a[1]) + m[6 + r] * a[2]) - (DSNAKE_GATHER(q[r], i) - qj[r]);
+    v[2] = (m[2] * a[0] + (m[5] * a[1] + m[8] * a[2])) - (DSNAKE_GATHER(q[2], i) - qj[2]);
+    const Lanes term = w * ((v[0] * v[0] + v[1] * v[1]) + v[2] * v[2]);
+    const LaneMask live = DSNAKE_LIVE_LANES(g.count, k);
+    energy = live ? energy + term : energy;
+  }
+  for (int l = 0; l < kLanes; ++l) out[l] = energy[l];
+}
+
+// The approximate step's sums for one vertex j (eq. (6)): centroid = sum_k w q_i and
+// cross = sum_k (w q_i) a^T, a = a_free, over its `count` entries (ids, w, a), with the three
+// coordinates in the lanes of one vector (the fourth is spare): each sum in k order, as fit()'s
+// loop, so the same bits. cross: column-major.
+DSNAKE_VECTOR_CLONES
+void free_sums(const int* ids, const double* w, const double* a, int count, const double* q, double* centroid_out,
+               double* cross_out) {
+  Lanes centroid = {}, col[3] = {};
+  for (int k = 0; k < count; ++k) {
+    const double* qi = q + 3 * ids[k];
+    const Lanes wq = w[k] * Lanes{qi[0], qi[1], qi[2], 0.0};
+    centroid = centroid + wq;
+    for (int c = 0; c < 3; ++c) col[c] = col[c] + wq * a[3 * k + c];
+  }
+  for (int r = 0; r < 3; ++r) {
+    centroid_out[r] = centroid[r];
+    for (int c = 0; c < 3; ++c) cross_out[3 * c + r] = col[c][r];
+  }
+}
+
+}  // namespace
 
 template <int D>
 void AsapMlsEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& snake) {
@@ -120,6 +230,7 @@ void AsapMlsEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& sna
     std::vector<int> fill(count.begin(), count.end() - 1);
     for (size_t e = 0; e < entries; ++e) d.reverse_entries[fill[d.nb.index[e]]++] = int(e);
     if (D == 2 && options_.variant == AsapVariant::kExact) build_quadratic();
+    if constexpr (D == 3) build_lanes();
     d.q.resize(n);
     d.next.resize(n);
     d.before.resize(n);
@@ -128,6 +239,46 @@ void AsapMlsEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& sna
   map_template_vertices(snake, d.n, d.vertex_of_id);
   d.bound_vertices = snake.num_vertices();
   d.bound_version = snake.topology_version();
+}
+
+// The lane groups of Data (3D).
+template <int D>
+void AsapMlsEnergy<D>::build_lanes() {
+  Data& d = *data_;
+  auto& L = d.lanes;
+  L = {};
+  const int groups = (d.n + kLanes - 1) / kLanes;
+  int rows = 0;
+  for (int g = 0; g < groups; ++g) {
+    int most = 0;
+    for (int l = 0; l < kLanes; ++l) {
+      const int j = g * kLanes + l;
+      const int count = j < d.n ? d.nb.offsets[j + 1] - d.nb.offsets[j] : 0;
+      L.count.push_back(count);
+      most = std::max(most, count);
+    }
+    L.first_row.push_back(rows);
+    L.rows.push_back(most);
+    rows += most;
+  }
+  L.index.assign(size_t(rows) * kLanes, 0);
+  L.w.assign(size_t(rows) * kLanes, 0.0);
+  for (int c = 0; c < 3; ++c) L.fixed[c].assign(size_t(rows) * kLanes, 0.0);
+  for (int g = 0; g < groups; ++g)
+    for (int l = 0; l < kLanes; ++l) {
+      const int j = std::min(g * kLanes + l, d.n - 1);
+      for (int k = 0; k < L.rows[g]; ++k) {
+        const size_t at = size_t(L.first_row[g] + k) * kLanes + l;
+        if (k >= L.count[size_t(g) * kLanes + l]) {
+          L.index[at] = j;  // padding: never added
+          continue;
+        }
+        const int e = d.nb.offsets[j] + k;
+        L.index[at] = d.nb.index[e];
+        L.w[at] = d.nb.weight[e];
+        for (int c = 0; c < 3; ++c) L.fixed[c][at] = d.a_fixed[e][c];
+      }
+    }
 }
 
 template <int D>
@@ -236,6 +387,11 @@ void AsapMlsEnergy<D>::step() {
       if (ids.empty()) return q[j];
       Eigen::Matrix<double, D, D> cross = Eigen::Matrix<double, D, D>::Zero();
       Point<D> centroid = Point<D>::Zero();
+      if constexpr (D == 3) {  // the same sums, a vector per entry (free_sums)
+        free_sums(ids.data(), w.data(), d.a_free[d.nb.offsets[j]].data(), int(ids.size()), q.data()->data(),
+                  centroid.data(), cross.data());
+        return centroid + best_similarity<D>(cross, d.spread_free[j]) * d.offset[j];
+      }
       for (size_t k = 0; k < ids.size(); ++k) {
         const Point<D>& qi = q[ids[k]];
         centroid += w[k] * qi;
@@ -315,6 +471,39 @@ std::vector<double> AsapMlsEnergy<D>::local_energies(const Snake<D>& snake) cons
     q[t] = snake.positions()[v];
   }
   std::vector<double> local(d.n, 0.0);
+  if constexpr (D == 3) {
+    // Four vertices at a time (fixed_cross_lanes, fixed_energy_lanes): the same bits as below.
+    std::vector<double> qs[3];
+    for (int c = 0; c < 3; ++c) {
+      qs[c].resize(d.n);
+      for (int j = 0; j < d.n; ++j) qs[c][j] = q[j][c];
+    }
+    const double* qp[3] = {qs[0].data(), qs[1].data(), qs[2].data()};
+    const auto& L = d.lanes;
+    const int groups = int(L.rows.size());
+#pragma omp parallel for schedule(static) if (d.n >= 256)
+    for (int g = 0; g < groups; ++g) {
+      const size_t row = size_t(L.first_row[g]) * kLanes;
+      const LaneRows rows{L.index.data() + row, L.w.data() + row, L.fixed[0].data() + row, L.fixed[1].data() + row,
+                          L.fixed[2].data() + row, L.count.data() + size_t(g) * kLanes, L.rows[g]};
+      int j[kLanes];
+      for (int l = 0; l < kLanes; ++l) j[l] = std::min(g * kLanes + l, d.n - 1);
+      Lanes qj[3];
+      for (int c = 0; c < 3; ++c) qj[c] = Lanes{qp[c][j[0]], qp[c][j[1]], qp[c][j[2]], qp[c][j[3]]};
+      Lanes cross[9], m[9];
+      fixed_cross_lanes(rows, qp, qj, cross);
+      for (int l = 0; l < kLanes; ++l) {
+        Eigen::Matrix3d c;
+        for (int x = 0; x < 9; ++x) c(x % 3, x / 3) = cross[x][l];
+        const Eigen::Matrix3d ml = best_similarity<3>(c, d.spread_fixed[j[l]]);
+        for (int x = 0; x < 9; ++x) m[x][l] = ml(x % 3, x / 3);
+      }
+      double e[kLanes];
+      fixed_energy_lanes(rows, qp, qj, m, e);
+      for (int l = 0; l < kLanes && g * kLanes + l < d.n; ++l) local[g * kLanes + l] = e[l];
+    }
+    return local;
+  }
 #pragma omp parallel for schedule(static) if (d.n >= 256)
   for (int j = 0; j < d.n; ++j) {
     const auto m = fixed_fit<D>(d.nb, d.a_fixed, d.spread_fixed[j], j, q);

@@ -121,6 +121,7 @@ class AsapMlsEnergy final : public Energy<D> {
  private:
   struct Data;
   void build_quadratic();  // 2D exact: H of E_def = q^T H q (§4.1)
+  void build_lanes();      // 3D: the neighbourhoods four by four, for the lane kernels
   void step();             // one application of the variant's operator to the positions by id
   AsapMlsOptions options_;
   std::unique_ptr<Data> data_;

@@ -3,6 +3,7 @@
 // fixed points, Fig. 7's ranking, degenerate templates, the configuration errors, and the removal
 // of the approximate proposal's net motion (issue 19).
 #include "energies/asap_mls.h"
+#include "energies/mls_weights.h"
 #include "energies/registry.h"
 #include "experiments/phantoms.h"
 #include "framework/core/errors.h"
@@ -424,6 +425,72 @@ TEST(AsapMls, SameResultsForOneAndTwoThreads) {
     omp_set_num_threads(saved);
     EXPECT_EQ(v1, v2) << variant;
     for (size_t v = 0; v < q.size(); ++v) EXPECT_EQ(one[v], two[v]) << variant << " " << v;
+  }
+}
+
+// The 3D sums run on vectors (issue 21: the value four vertices at a time, the approximate fit
+// one entry per vector) with each lane doing the scalar arithmetic in the scalar order: the
+// per-vertex energies D_j and a Jacobi and a Gauss-Seidel proposal are the bits of the plain
+// Eigen loops below, on neighbourhoods of unequal sizes (rings: valences 5 and 6; a vertex
+// count that leaves the last group of four part empty) and equal ones (k nearest, all).
+TEST(AsapMls, VectorSumsAreTheScalarSumsBitForBit3d) {
+  const Template<3> t = jittered_sphere(2, 5);  // 162 vertices
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-1.5, 1.5);
+  PointList<3> q = t.positions;
+  for (auto& x : q) x = 1.3 * x + Point<3>(u(rng), u(rng), u(rng));
+  for (const char* hood : {R"("neighborhood": "rings", "rings": 1, "falloff": 1.0)", R"("neighborhood": "rings", "rings": 2, "falloff": 0.5)",
+                           R"("neighborhood": "k_nearest", "k": 7, "falloff": 2.0)", R"("neighborhood": "all", "falloff": 0.55)"}) {
+    SCOPED_TRACE(hood);
+    for (const char* iteration : {"jacobi", "gauss_seidel"}) {
+      auto e = make3(std::string(R"({"type": "asap_mls", "variant": "approximate", "net_motion": "keep", "iteration": ")") +
+                     iteration + "\", " + hood + "}");
+      Snake<3> s = Snake<3>::from_template(t, q);
+      e->bind({&t}, s);
+      const auto& options = static_cast<const AsapMlsEnergy<3>&>(*e).options();
+      const MlsNeighborhoods nb = build_neighborhoods<3>(t, options.neighborhood);
+      const PointList<3>& p = t.positions;
+      // The reference: D_j as fixed_fit and local_energies compute it, entry by entry.
+      const std::vector<double> local = static_cast<const AsapMlsEnergy<3>&>(*e).local_energies(s);
+      for (int j = 0; j < t.num_vertices(); ++j) {
+        const auto ids = nb.neighbors(j);
+        const auto w = nb.weights(j);
+        Eigen::Matrix3d cross = Eigen::Matrix3d::Zero();
+        double spread = 0;
+        for (size_t k = 0; k < ids.size(); ++k) {
+          const Point<3> a = p[ids[k]] - p[j];
+          spread += w[k] * a.squaredNorm();
+          cross.noalias() += w[k] * (q[ids[k]] - q[j]) * a.transpose();
+        }
+        const Eigen::Matrix3d m = best_similarity<3>(cross, spread);
+        double energy = 0;
+        for (size_t k = 0; k < ids.size(); ++k)
+          energy += w[k] * (m * Point<3>(p[ids[k]] - p[j]) - (q[ids[k]] - q[j])).squaredNorm();
+        ASSERT_EQ(local[j], energy) << "D_" << j;
+      }
+      // The proposal: eq. (6) at every vertex, from the old positions (Jacobi) or the newest.
+      PointList<3> got(q.size()), want = q;
+      e->propose(s, got);
+      const bool seidel = std::string(iteration) == "gauss_seidel";
+      PointList<3> old = q;
+      for (int j = 0; j < t.num_vertices(); ++j) {
+        const PointList<3>& from = seidel ? want : old;
+        const auto ids = nb.neighbors(j);
+        const auto w = nb.weights(j);
+        Point<3> centre = Point<3>::Zero();
+        for (size_t k = 0; k < ids.size(); ++k) centre += w[k] * p[ids[k]];
+        double spread = 0;
+        for (size_t k = 0; k < ids.size(); ++k) spread += w[k] * (p[ids[k]] - centre).squaredNorm();
+        Eigen::Matrix3d cross = Eigen::Matrix3d::Zero();
+        Point<3> centroid = Point<3>::Zero();
+        for (size_t k = 0; k < ids.size(); ++k) {
+          centroid += w[k] * from[ids[k]];
+          cross.noalias() += (w[k] * from[ids[k]]) * Point<3>(p[ids[k]] - centre).transpose();
+        }
+        want[j] = centroid + best_similarity<3>(cross, spread) * Point<3>(p[j] - centre);
+      }
+      for (int j = 0; j < t.num_vertices(); ++j) ASSERT_EQ(got[j], want[j]) << iteration << " q_" << j;
+    }
   }
 }
 
