@@ -140,11 +140,11 @@ void mixed_voronoi(const Point<3> (&e)[3], double area, double (&part)[3]) {
 // allocation once they have their size).
 template <int D>
 void element_operators(const PointList<D>& q, const std::vector<int>& elements, std::vector<double>& local,
-                       std::vector<double>& mass) {
+                       std::vector<double>& mass, bool with_mass = true) {
   const double floor = measure_floor<D>(q, elements);
   const size_t count = elements.size() / D;
   local.resize(count * D * D);
-  mass.assign(q.size(), 0.0);
+  mass.assign(with_mass ? q.size() : 0, 0.0);
   for (size_t e = 0; e < count; ++e) {
     const int* v = elements.data() + e * D;
     double* k = local.data() + e * D * D;
@@ -152,18 +152,18 @@ void element_operators(const PointList<D>& q, const std::vector<int>& elements, 
       const double length = std::max((q[v[1]] - q[v[0]]).norm(), floor), w = 1.0 / length;
       k[0] = k[3] = w;
       k[1] = k[2] = -w;
-      mass[v[0]] += 0.5 * length;
-      mass[v[1]] += 0.5 * length;
+      if (with_mass) mass[v[0]] += 0.5 * length, mass[v[1]] += 0.5 * length;
     } else {
       Point<3> edge[3];
       double area = 0, part[3];
       triangle_edges(q, v, floor, edge, area);
-      mixed_voronoi(edge, area, part);
-      const double scale = 1.0 / (4.0 * area);
-      for (int i = 0; i < 3; ++i) {
-        mass[v[i]] += part[i];
-        for (int j = 0; j < 3; ++j) k[3 * i + j] = scale * edge[i].dot(edge[j]);
+      if (with_mass) {
+        mixed_voronoi(edge, area, part);
+        for (int i = 0; i < 3; ++i) mass[v[i]] += part[i];
       }
+      const double scale = 1.0 / (4.0 * area);
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) k[3 * i + j] = scale * edge[i].dot(edge[j]);
     }
   }
   for (double& m : mass) m = std::max(m, floor);  // NaN-free M^-1, also for a vertex in no element
@@ -712,8 +712,11 @@ double InternalEnergy<D>::physical_value(const Snake<D>& snake) const {
   const PointList<D>& q = snake.positions();
   const std::vector<int> elements = element_vertices<D>(snake.connectivity());
   std::vector<double> local, mass;
-  element_operators<D>(q, elements, local, mass);
-  PointList<D> kq(q.size(), Point<D>::Zero());
+  // M and K q only for the rigidity (issue 21: the energy trace of a tension-only run, beta = 0,
+  // evaluates this at every iteration).
+  const bool rigid = options_.beta > 0;
+  element_operators<D>(q, elements, local, mass, rigid);
+  PointList<D> kq(rigid ? q.size() : 0, Point<D>::Zero());
   double tension = 0;
   for (size_t e = 0; e < elements.size() / D; ++e) {
     const int* v = elements.data() + e * D;
@@ -721,7 +724,7 @@ double InternalEnergy<D>::physical_value(const Snake<D>& snake) const {
     for (int i = 0; i < D; ++i)
       for (int j = 0; j < D; ++j) {
         tension += k[D * i + j] * (q[v[i]] - q[v[0]]).dot(q[v[j]] - q[v[0]]);
-        kq[v[i]] += k[D * i + j] * (q[v[j]] - q[v[i]]);
+        if (rigid) kq[v[i]] += k[D * i + j] * (q[v[j]] - q[v[i]]);
       }
   }
   double rigidity = 0;
