@@ -252,20 +252,35 @@ bool move_defect(EditMesh& m, const Quad& q, double cos_max_dihedral, double flo
 // floor of the greedy ones. Returns the number of moves made; counts the flips try_flip
 // rejected in `rejected`.
 // With a memo, a move that failed from a listed edge is not tried again while nothing near the
-// edge changed (changed_near): the same moves and rejections as trying every one.
+// edge changed (changed_near), and an edge whose flip was not neutral is not looked at again
+// while none of its four vertices changed (neutrality is a function of their valences): the same
+// moves and rejections as trying every one.
 int defect_moves(EditMesh& m, double cos_max_dihedral, double floor_key, std::vector<ListedEdge>& edges,
                  int& rejected, EditMesh::DefectMemo* memo) {
   int moves = 0;
   all_edges(m, edges);
   const size_t keys = 3 * static_cast<size_t>(m.num_triangle_slots());
-  if (memo && memo->failed_at.size() < keys) memo->failed_at.resize(keys, 0), memo->rejections.resize(keys, 0);
+  if (memo && memo->failed_at.size() < keys) {
+    memo->failed_at.resize(keys, 0), memo->rejections.resize(keys, 0);
+    memo->plain_at.resize(keys, 0), memo->fourth.resize(keys, -1);
+  }
   for (const ListedEdge& e : edges) {
-    Quad q;
-    if (!listed_quad(m, e, q) || q.c == q.d || !is_neutral_move(m, q)) continue;
     // The key names this edge while its listed triangle lives (a slot named by a key is never
     // given to another triangle: only the slots of undone flips are, and those were never listed).
     const size_t key = 3 * static_cast<size_t>(e.f) + e.k;
+    if (memo && memo->plain_at[key] > 0 && m.tri_alive(e.f)) {
+      const int64_t at = memo->plain_at[key];
+      const int c = m.tri(e.f)[(e.k + 2) % 3], d = memo->fourth[key];
+      if (m.changed_at(e.a) <= at && m.changed_at(e.b) <= at && m.changed_at(c) <= at && m.changed_at(d) <= at)
+        continue;
+    }
+    Quad q;
+    if (!listed_quad(m, e, q) || q.c == q.d) continue;
     const bool keyed = memo && q.f1 == e.f;
+    if (!is_neutral_move(m, q)) {
+      if (keyed) memo->plain_at[key] = m.edit_clock(), memo->fourth[key] = q.d;
+      continue;
+    }
     if (keyed && memo->failed_at[key] > 0 && !changed_near(m, q, memo->failed_at[key])) {
       rejected += memo->rejections[key];
       continue;
@@ -284,18 +299,21 @@ int defect_moves(EditMesh& m, double cos_max_dihedral, double floor_key, std::ve
 // Valence-driven flips (a regularity step in the spirit of §5.2): flip a-b to c-d when that
 // lowers sum (valence - 6)^2 over a, b, c, d and the smaller minimum angle of the two
 // triangles stays above the floor (or does not drop). Sweeps until nothing changes (max 5).
-int greedy_valence_flips(EditMesh& m, double cos_max_dihedral, double min_angle_rad, bool reuse_refusals) {
+int greedy_valence_flips(EditMesh& m, double cos_max_dihedral, double min_angle_rad, bool reuse_refusals,
+                         EditMesh::DefectMemo* memo) {
   int rejected = 0;
   const double min_floor = remesh_detail::angle_key(min_angle_rad);
   // An edge turned down on local grounds (valences, angles, topology: not by try_flip's
   // geometric checks, which may see the rest of the mesh) is turned down again while the
-  // triangle it was listed with lives and none of its four vertices changed valence since:
-  // then its other triangle, and so its fourth vertex, are the same. Flips stamp the vertices
-  // whose valence they change; a refusal records its time and the fourth vertex d.
-  int64_t time = 1;
-  std::vector<int64_t> stamp(m.num_vertices(), 0);
-  std::vector<int64_t> refused;  // per listed edge 3 f + k: when, or 0
-  std::vector<int> refused_d;
+  // triangle it was listed with lives and none of its four vertices changed (corners or
+  // position, EditMesh::changed_at) since: then its other triangle, and so its fourth vertex,
+  // are the same. A refusal records the mesh's edit_clock() and the fourth vertex d: in the memo
+  // kept with the mesh through an optimistic run's stages (issue 21) when there is one, else
+  // for this call.
+  std::vector<int64_t> own_refused;  // per listed edge 3 f + k: when, or 0
+  std::vector<int> own_refused_d;
+  std::vector<int64_t>& refused = memo ? memo->refused_at : own_refused;
+  std::vector<int>& refused_d = memo ? memo->refused_fourth : own_refused_d;
   std::vector<ListedEdge> edges;
   // Room for the slots that the sweeps' flips add (two per flip), so that these buffers are
   // rarely regrown (each regrowth of a buffer this size faults in fresh pages).
@@ -313,14 +331,14 @@ int greedy_valence_flips(EditMesh& m, double cos_max_dihedral, double min_angle_
       const size_t key = 3 * static_cast<size_t>(e.f) + e.k;
       if (reuse_refusals && refused[key] > 0 && m.tri_alive(e.f)) {
         const int c0 = m.tri(e.f)[(e.k + 2) % 3], d0 = refused_d[key];
-        if (std::max({stamp[a], stamp[b], stamp[c0], stamp[d0]}) < refused[key]) continue;
+        if (std::max({m.changed_at(a), m.changed_at(b), m.changed_at(c0), m.changed_at(d0)}) <= refused[key]) continue;
       }
       Quad q;
       if (!listed_quad(m, e, q)) continue;
       const int f1 = q.f1, f2 = q.f2, c = q.c, d = q.d;
       const bool listed = f1 == e.f;
       auto refuse = [&] {
-        if (listed) refused[key] = time, refused_d[key] = d;
+        if (listed) refused[key] = m.edit_clock(), refused_d[key] = d;
       };
       const int va = m.valence(a), vb = m.valence(b), vc = m.valence(c), vd = m.valence(d);
       const int before = valence_dev(va) + valence_dev(vb) + valence_dev(vc) + valence_dev(vd);
@@ -332,10 +350,7 @@ int greedy_valence_flips(EditMesh& m, double cos_max_dihedral, double min_angle_
       const FlipResult r = try_flip(m, a, b, f1, f2, c, d, cos_max_dihedral);
       if (r == FlipResult::kRejected) ++rejected;
       if (r == FlipResult::kTopology) refuse();
-      if (r == FlipResult::kFlipped) {
-        ++flips, ++time;
-        for (int v : {a, b, c, d}) stamp[v] = time;
-      }
+      flips += r == FlipResult::kFlipped;
     }
     if (flips == 0) break;
   }
@@ -355,15 +370,15 @@ int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_r
     memo = &m.defect_memo();
     const double floor_key = remesh_detail::angle_key(min_angle_rad);
     if (memo->cos_max_dihedral != cos_max_dihedral || memo->floor_key != floor_key)
-      *memo = {cos_max_dihedral, floor_key, {}, {}};
+      *memo = {cos_max_dihedral, floor_key, {}, {}, {}, {}, {}, {}};
   }
-  int rejected = greedy_valence_flips(m, cos_max_dihedral, min_angle_rad, reuse_refusals);
+  int rejected = greedy_valence_flips(m, cos_max_dihedral, min_angle_rad, reuse_refusals, memo);
   // Then up to three rounds of defect moves, each followed by greedy flips again (measured on
   // tests/remesh/clean_mesh_test.cpp: the first round makes most of the gain).
   std::vector<ListedEdge> edges;
   for (int round = 0; round < 3; ++round) {
     if (defect_moves(m, cos_max_dihedral, remesh_detail::angle_key(min_angle_rad), edges, rejected, memo) == 0) break;
-    rejected += greedy_valence_flips(m, cos_max_dihedral, min_angle_rad, reuse_refusals);
+    rejected += greedy_valence_flips(m, cos_max_dihedral, min_angle_rad, reuse_refusals, memo);
   }
   return rejected;
 }

@@ -205,14 +205,23 @@ class EditMesh {
   // (edit_clock(), the latest). undo_flip puts back the times of the vertices the flip changed.
   int64_t changed_at(int v) const { return changed_at_[v]; }
   int64_t edit_clock() const { return clock_; }
-  // The defect moves' memo of tries that failed (delaunay.cpp, regularize_valences), kept with
-  // the mesh through the stages of an optimistic run (emptied when one begins or ends): per
-  // listed edge 3 f + k, the edit_clock() of its last failed try (0: none) and the flips
-  // try_flip rejected in it, for the floors they were tried with.
+  // The valence regularisation's memo (delaunay.cpp, regularize_valences), kept with the mesh
+  // through the stages of an optimistic run (emptied when one begins or ends), for the floors it
+  // was made with: per listed edge 3 f + k, the edit_clock() of its last failed defect move (0:
+  // none) and the flips try_flip rejected in it; when it was last found not neutral; and the
+  // greedy flips' refusals.
   struct DefectMemo {
     double cos_max_dihedral = 0, floor_key = 0;
     std::vector<int64_t> failed_at;
     std::vector<int> rejections;
+    // Per listed edge: the edit_clock() when it was last found not to be a neutral flip (0:
+    // never), and its fourth vertex then (the one opposite it in its other triangle).
+    std::vector<int64_t> plain_at;
+    std::vector<int> fourth;
+    // The greedy valence flips' refusals (delaunay.cpp): per listed edge, the edit_clock() of
+    // its last refusal on local grounds (0: none) and its fourth vertex then.
+    std::vector<int64_t> refused_at;
+    std::vector<int> refused_fourth;
   };
   DefectMemo& defect_memo() { return defect_memo_; }
   bool connectivity_changed() const { return connectivity_changed_; }
