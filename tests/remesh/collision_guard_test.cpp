@@ -220,6 +220,36 @@ TEST(CollisionGuard, SharedVertexCertificateOnARegularFanIsAsComputedByHand) {
   EXPECT_EQ(shared_vertex_radius(a, pa, Triangle{7, 8, 9}, {corner(3), corner(4), corner(5)}), 0.0);
 }
 
+// A certificate r of triangles ta and tb over the points x, put to the test: of 50 moves of every
+// point by less than r (half to 0.999 r, half to 1 - 1e-9 of it), how many make pair_conflicts
+// true (a sound certificate: none), and of 5 moves by up to 20 r, how many do (the check's teeth).
+struct CertificateCheck {
+  int conflicts_within = 0, conflicts_beyond = 0;
+};
+template <size_t N>
+CertificateCheck check_certificate(std::mt19937& rng, const Triangle& ta, const Triangle& tb,
+                                   const std::array<Point<3>, N>& x, double r) {
+  std::uniform_real_distribution<double> unit(-1, 1);
+  auto jitter = [&](double radius) {
+    Point<3> d;
+    do d = Point<3>(unit(rng), unit(rng), unit(rng));
+    while (d.squaredNorm() > 1 || d.squaredNorm() < 1e-6);
+    return Point<3>(d * radius);
+  };
+  auto conflicts_when_moved_by = [&](double radius) {
+    std::array<Point<3>, N> y;
+    for (size_t i = 0; i < N; ++i) y[i] = x[i] + jitter(radius);
+    const std::array<Point<3>, 3> pa{y[ta[0]], y[ta[1]], y[ta[2]]}, pb{y[tb[0]], y[tb[1]], y[tb[2]]};
+    const Point<3> loa = pa[0].cwiseMin(pa[1]).cwiseMin(pa[2]), hia = pa[0].cwiseMax(pa[1]).cwiseMax(pa[2]);
+    const Point<3> lob = pb[0].cwiseMin(pb[1]).cwiseMin(pb[2]), hib = pb[0].cwiseMax(pb[1]).cwiseMax(pb[2]);
+    return remesh_detail::pair_conflicts(ta, pa, loa, hia, tb, pb, lob, hib);
+  };
+  CertificateCheck c;
+  for (int k = 0; k < 50; ++k) c.conflicts_within += conflicts_when_moved_by(r * (k < 25 ? 0.999 : 1.0 - 1e-9));
+  for (int k = 0; k < 5; ++k) c.conflicts_beyond += conflicts_when_moved_by(20 * r);
+  return c;
+}
+
 // Soundness: for random pairs of triangles around a shared vertex (random directions and
 // lengths, some nearly coplanar, some folded), every perturbation of the five vertices by less
 // than the certificate leaves pair_conflicts false; perturbations twenty times larger do make
@@ -231,12 +261,6 @@ TEST(CollisionGuard, SharedVertexCertificatesAreSound) {
     Point<3> d(unit(rng), unit(rng), flat * unit(rng));
     return Point<3>(d.normalized());
   };
-  auto jitter = [&](double r) {
-    Point<3> d;
-    do d = Point<3>(unit(rng), unit(rng), unit(rng));
-    while (d.squaredNorm() > 1 || d.squaredNorm() < 1e-6);
-    return Point<3>(d * r);
-  };
   const Triangle ta{0, 1, 2}, tb{0, 3, 4};
   int certified = 0, tested = 0, beyond = 0;
   for (int trial = 0; trial < 4000; ++trial) {
@@ -247,19 +271,10 @@ TEST(CollisionGuard, SharedVertexCertificatesAreSound) {
     const double r = remesh_detail::shared_vertex_radius(ta, {x[0], x[1], x[2]}, tb, {x[0], x[3], x[4]});
     if (r <= 0) continue;
     ++certified;
-    auto conflicts_when_moved_by = [&](double radius) {
-      std::array<Point<3>, 5> y;
-      for (int i = 0; i < 5; ++i) y[i] = x[i] + jitter(radius);
-      const std::array<Point<3>, 3> pa{y[0], y[1], y[2]}, pb{y[0], y[3], y[4]};
-      const Point<3> loa = y[0].cwiseMin(y[1]).cwiseMin(y[2]), hia = y[0].cwiseMax(y[1]).cwiseMax(y[2]);
-      const Point<3> lob = y[0].cwiseMin(y[3]).cwiseMin(y[4]), hib = y[0].cwiseMax(y[3]).cwiseMax(y[4]);
-      return remesh_detail::pair_conflicts(ta, pa, loa, hia, tb, pb, lob, hib);
-    };
-    for (int k = 0; k < 50; ++k) {
-      ASSERT_FALSE(conflicts_when_moved_by(r * (k < 25 ? 0.999 : 1.0 - 1e-9))) << "trial " << trial;
-      ++tested;
-    }
-    for (int k = 0; k < 5; ++k) beyond += conflicts_when_moved_by(20 * r);
+    const CertificateCheck c = check_certificate(rng, ta, tb, x, r);
+    ASSERT_EQ(c.conflicts_within, 0) << "trial " << trial;
+    tested += 50;
+    beyond += c.conflicts_beyond;
   }
   EXPECT_GT(certified, 500);
   EXPECT_EQ(tested, 50 * certified);
@@ -295,12 +310,6 @@ TEST(CollisionGuard, SharedEdgeCertificateIsAsComputedByHand) {
 TEST(CollisionGuard, SharedEdgeCertificatesAreSound) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> unit(-1, 1), len(0.2, 2.0), angle(0, std::numbers::pi);
-  auto jitter = [&](double r) {
-    Point<3> d;
-    do d = Point<3>(unit(rng), unit(rng), unit(rng));
-    while (d.squaredNorm() > 1 || d.squaredNorm() < 1e-6);
-    return Point<3>(d * r);
-  };
   int certified = 0, tested = 0, beyond = 0;
   for (int trial = 0; trial < 4000; ++trial) {
     const Triangle ta{0, 1, 2}, tb = trial % 2 ? Triangle{1, 0, 3} : Triangle{0, 1, 3};
@@ -312,25 +321,13 @@ TEST(CollisionGuard, SharedEdgeCertificatesAreSound) {
     const double ha = trial % 7 == 0 ? 0.05 : len(rng), hb = len(rng);
     std::array<Point<3>, 4> x{o, o + edge * e, o + unit(rng) * edge * e + ha * n1,
                               o + unit(rng) * edge * e + hb * (std::cos(theta) * n1 + std::sin(theta) * n2)};
-    auto corners = [&](const std::array<Point<3>, 4>& y, const Triangle& t) {
-      return std::array<Point<3>, 3>{y[t[0]], y[t[1]], y[t[2]]};
-    };
-    const double r = remesh_detail::shared_edge_radius(ta, corners(x, ta), tb, corners(x, tb));
+    const double r = remesh_detail::shared_edge_radius(ta, {x[ta[0]], x[ta[1]], x[ta[2]]}, tb, {x[tb[0]], x[tb[1]], x[tb[2]]});
     if (r <= 0) continue;
     ++certified;
-    auto conflicts_when_moved_by = [&](double radius) {
-      std::array<Point<3>, 4> y;
-      for (int i = 0; i < 4; ++i) y[i] = x[i] + jitter(radius);
-      const auto pa = corners(y, ta), pb = corners(y, tb);
-      const Point<3> loa = pa[0].cwiseMin(pa[1]).cwiseMin(pa[2]), hia = pa[0].cwiseMax(pa[1]).cwiseMax(pa[2]);
-      const Point<3> lob = pb[0].cwiseMin(pb[1]).cwiseMin(pb[2]), hib = pb[0].cwiseMax(pb[1]).cwiseMax(pb[2]);
-      return remesh_detail::pair_conflicts(ta, pa, loa, hia, tb, pb, lob, hib);
-    };
-    for (int k = 0; k < 50; ++k) {
-      ASSERT_FALSE(conflicts_when_moved_by(r * (k < 25 ? 0.999 : 1.0 - 1e-9))) << "trial " << trial;
-      ++tested;
-    }
-    for (int k = 0; k < 5; ++k) beyond += conflicts_when_moved_by(20 * r);
+    const CertificateCheck c = check_certificate(rng, ta, tb, x, r);
+    ASSERT_EQ(c.conflicts_within, 0) << "trial " << trial;
+    tested += 50;
+    beyond += c.conflicts_beyond;
   }
   EXPECT_GT(certified, 2000);
   EXPECT_EQ(tested, 50 * certified);
