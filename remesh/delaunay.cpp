@@ -185,7 +185,7 @@ bool checked_flip(EditMesh& m, const Quad& q, double cos_max_dihedral, double fl
   return r == FlipResult::kFlipped;
 }
 
-// The defect moves' memo (issue 21; EditMesh::defect_memo): a move tried from an edge and
+// The defect moves' memo (issue 21; EditMesh::regularization_memo): a move tried from an edge and
 // undone is tried again only once something near the edge has changed. A try reads the corner
 // lists (so valences and edges) and the positions of the vertices within two edges of the quad's
 // four vertices, and nothing else where try_flip looks at nothing but the quad (optimistic mode,
@@ -194,6 +194,12 @@ bool checked_flip(EditMesh& m, const Quad& q, double cos_max_dihedral, double fl
 // the try would fail again with the same rejections: it is skipped and its rejections counted
 // again. An edit that changes which vertices are within two edges of the quad changes one that
 // stays within them (the first of the quad's vertices on a shortest path), so it is seen.
+// Whether none of the four vertices changed after `since` (what a flip's valences, angles and
+// edge test read: the memo's checks of an edge that was not neutral or was refused).
+bool unchanged_since(const EditMesh& m, int a, int b, int c, int d, int64_t since) {
+  return std::max({m.changed_at(a), m.changed_at(b), m.changed_at(c), m.changed_at(d)}) <= since;
+}
+
 bool changed_near(const EditMesh& m, const Quad& q, int64_t since) {
   for (int u : {q.a, q.b, q.c, q.d}) {
     if (m.changed_at(u) > since) return true;
@@ -256,7 +262,7 @@ bool move_defect(EditMesh& m, const Quad& q, double cos_max_dihedral, double flo
 // while none of its four vertices changed (neutrality is a function of their valences): the same
 // moves and rejections as trying every one.
 int defect_moves(EditMesh& m, double cos_max_dihedral, double floor_key, std::vector<ListedEdge>& edges,
-                 int& rejected, EditMesh::DefectMemo* memo) {
+                 int& rejected, EditMesh::RegularizationMemo* memo) {
   int moves = 0;
   all_edges(m, edges);
   const size_t keys = 3 * static_cast<size_t>(m.num_triangle_slots());
@@ -269,10 +275,7 @@ int defect_moves(EditMesh& m, double cos_max_dihedral, double floor_key, std::ve
     // given to another triangle: only the slots of undone flips are, and those were never listed).
     const size_t key = 3 * static_cast<size_t>(e.f) + e.k;
     if (memo && memo->plain_at[key] > 0 && m.tri_alive(e.f)) {
-      const int64_t at = memo->plain_at[key];
-      const int c = m.tri(e.f)[(e.k + 2) % 3], d = memo->fourth[key];
-      if (m.changed_at(e.a) <= at && m.changed_at(e.b) <= at && m.changed_at(c) <= at && m.changed_at(d) <= at)
-        continue;
+      if (unchanged_since(m, e.a, e.b, m.tri(e.f)[(e.k + 2) % 3], memo->fourth[key], memo->plain_at[key])) continue;
     }
     Quad q;
     if (!listed_quad(m, e, q) || q.c == q.d) continue;
@@ -300,7 +303,7 @@ int defect_moves(EditMesh& m, double cos_max_dihedral, double floor_key, std::ve
 // lowers sum (valence - 6)^2 over a, b, c, d and the smaller minimum angle of the two
 // triangles stays above the floor (or does not drop). Sweeps until nothing changes (max 5).
 int greedy_valence_flips(EditMesh& m, double cos_max_dihedral, double min_angle_rad, bool reuse_refusals,
-                         EditMesh::DefectMemo* memo) {
+                         EditMesh::RegularizationMemo* memo) {
   int rejected = 0;
   const double min_floor = remesh_detail::angle_key(min_angle_rad);
   // An edge turned down on local grounds (valences, angles, topology: not by try_flip's
@@ -330,8 +333,7 @@ int greedy_valence_flips(EditMesh& m, double cos_max_dihedral, double min_angle_
       const int a = e.a, b = e.b;
       const size_t key = 3 * static_cast<size_t>(e.f) + e.k;
       if (reuse_refusals && refused[key] > 0 && m.tri_alive(e.f)) {
-        const int c0 = m.tri(e.f)[(e.k + 2) % 3], d0 = refused_d[key];
-        if (std::max({m.changed_at(a), m.changed_at(b), m.changed_at(c0), m.changed_at(d0)}) <= refused[key]) continue;
+        if (unchanged_since(m, a, b, m.tri(e.f)[(e.k + 2) % 3], refused_d[key], refused[key])) continue;
       }
       Quad q;
       if (!listed_quad(m, e, q)) continue;
@@ -365,9 +367,9 @@ namespace remesh_detail {
 int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_rad, bool reuse_refusals) {
   // The memo of failed defect moves, with the mesh through an optimistic run's stages, for
   // these floors (a call with others starts it anew).
-  EditMesh::DefectMemo* memo = nullptr;
+  EditMesh::RegularizationMemo* memo = nullptr;
   if (reuse_refusals && m.optimistic()) {
-    memo = &m.defect_memo();
+    memo = &m.regularization_memo();
     const double floor_key = remesh_detail::angle_key(min_angle_rad);
     if (memo->cos_max_dihedral != cos_max_dihedral || memo->floor_key != floor_key)
       *memo = {cos_max_dihedral, floor_key, {}, {}, {}, {}, {}, {}};

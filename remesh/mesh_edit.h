@@ -210,7 +210,7 @@ class EditMesh {
   // was made with: per listed edge 3 f + k, the edit_clock() of its last failed defect move (0:
   // none) and the flips try_flip rejected in it; when it was last found not neutral; and the
   // greedy flips' refusals.
-  struct DefectMemo {
+  struct RegularizationMemo {
     double cos_max_dihedral = 0, floor_key = 0;
     std::vector<int64_t> failed_at;
     std::vector<int> rejections;
@@ -223,7 +223,7 @@ class EditMesh {
     std::vector<int64_t> refused_at;
     std::vector<int> refused_fourth;
   };
-  DefectMemo& defect_memo() { return defect_memo_; }
+  RegularizationMemo& regularization_memo() { return regularization_memo_; }
   bool connectivity_changed() const { return connectivity_changed_; }
   bool optimistic() const { return optimistic_; }
 
@@ -267,7 +267,7 @@ class EditMesh {
   bool changed_ = false;            // anything to write back
   std::vector<int64_t> changed_at_;  // per vertex: the clock_ of its last change (corners or position)
   int64_t clock_ = 0;
-  DefectMemo defect_memo_;
+  RegularizationMemo regularization_memo_;
   bool connectivity_changed_ = false;  // triangles added or removed (else positions only)
 };
 

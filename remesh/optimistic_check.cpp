@@ -18,7 +18,7 @@ void EditMesh::begin_optimistic() {
   drop_grid();
   optimistic_ = true;
   dirty_.assign(tri_.size(), 0);
-  defect_memo_ = {};
+  regularization_memo_ = {};
 }
 
 // True if v's fan cannot hold a conflicting pair (the tests of intersects_any on two of its
@@ -289,7 +289,7 @@ bool EditMesh::end_optimistic(bool verify) {
   optimistic_ = false;
   std::vector<uint8_t> dirty = std::move(dirty_);
   dirty_ = {};
-  defect_memo_ = {};
+  regularization_memo_ = {};
   if (!verify) return true;
   return !shared_vertex_conflict(*this, dirty) && !apart_pair_conflict(*this, dirty);
 }
