@@ -48,6 +48,17 @@ struct SuccessCriteria {
   std::optional<int> self_intersections;
   bool skip_null_metrics = false;    // true for the defaults
   bool met(const Metrics& m) const;  // a threshold on a null metric is not met (unless skipped)
+  // One threshold that a run's metrics did not meet: the metric's key, its value (null when
+  // the ground truth does not give it), the comparison that failed ("<=" or ">=") and the limit.
+  struct Failure {
+    std::string metric;
+    std::optional<double> value;
+    std::string comparison;
+    double threshold = 0;
+    std::string describe() const;  // "dice 0.812 < 0.9", "hausdorff95 null (needs <= 2)"
+  };
+  // The thresholds not met, in the order of the keys; empty exactly when met(m).
+  std::vector<Failure> failures(const Metrics& m) const;
   static SuccessCriteria defaults();
 
   template <class V>

@@ -5,6 +5,7 @@
 #include "framework/core/json_text.h"
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -84,15 +85,34 @@ ExperimentFile finish_file(ExperimentFile f, const std::vector<std::string>& ove
 
 }  // namespace
 
-bool SuccessCriteria::met(const Metrics& m) const {
-  auto at_most = [this](const std::optional<double>& limit, const std::optional<double>& v) {
-    return !limit || (v ? *v <= *limit : skip_null_metrics);
+bool SuccessCriteria::met(const Metrics& m) const { return failures(m).empty(); }
+
+std::vector<SuccessCriteria::Failure> SuccessCriteria::failures(const Metrics& m) const {
+  std::vector<Failure> out;
+  // A limit on a metric the ground truth does not give fails unless skip_null_metrics.
+  auto check = [&](const char* key, const std::optional<double>& limit, const std::optional<double>& v, bool at_least) {
+    if (!limit) return;
+    const bool ok = v ? (at_least ? *v >= *limit : *v <= *limit) : skip_null_metrics;
+    if (!ok) out.push_back({key, v, at_least ? ">=" : "<=", *limit});
   };
-  return at_most(mean_surface_distance, m.mean_surface_distance) && at_most(hausdorff95, m.hausdorff95) &&
-         at_most(hausdorff, m.hausdorff) && (!dice || (m.dice ? *m.dice >= *dice : skip_null_metrics)) &&
-         at_most(correspondence_error_mean, m.correspondence_error_mean) &&
-         at_most(correspondence_error_max, m.correspondence_error_max) &&
-         (!self_intersections || m.self_intersections <= *self_intersections);
+  check("mean_surface_distance", mean_surface_distance, m.mean_surface_distance, false);
+  check("hausdorff95", hausdorff95, m.hausdorff95, false);
+  check("hausdorff", hausdorff, m.hausdorff, false);
+  check("dice", dice, m.dice, true);
+  check("correspondence_error_mean", correspondence_error_mean, m.correspondence_error_mean, false);
+  check("correspondence_error_max", correspondence_error_max, m.correspondence_error_max, false);
+  if (self_intersections) check("self_intersections", double(*self_intersections), double(m.self_intersections), false);
+  return out;
+}
+
+std::string SuccessCriteria::Failure::describe() const {
+  char buf[160];
+  if (!value)
+    std::snprintf(buf, sizeof(buf), "%s null (needs %s %.4g)", metric.c_str(), comparison.c_str(), threshold);
+  else
+    std::snprintf(buf, sizeof(buf), "%s %.4g %s %.4g", metric.c_str(), *value, comparison == ">=" ? "<" : ">",
+                  threshold);
+  return buf;
 }
 
 SuccessCriteria SuccessCriteria::defaults() {

@@ -3,6 +3,7 @@
 #include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
 #include "framework/io/raster_codecs.h"
+#include "meshing/surface_extraction.h"
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -149,32 +150,75 @@ void draw_dot(cv::Mat& roi, const Panel& panel, const Eigen::Vector2d& x, const 
   cv::circle(roi, c, static_cast<int>(kDotRadiusPx * kShiftScale), cv::Scalar(40, 40, 40), 1, cv::LINE_AA, kShiftBits);
 }
 
-// A legend row: for each labelled layer a short line in its colour followed by the label.
-// Returns the height it needs (0 when no layer has a label); draws only when canvas is given.
+// A legend entry: a line colour and its label.
+using LegendEntry = std::pair<Rgb, std::string>;
+
+// The legend entries of the labelled layers: masks first (drawn first), then shapes.
 template <int D>
-int legend(const std::vector<ShapeLayer<D>>& layers, cv::Mat* canvas, int top) {
-  bool any = false;
-  for (const auto& l : layers) any = any || !l.label.empty();
-  if (!any) return 0;
+std::vector<LegendEntry> legend_entries(const std::vector<ShapeLayer<D>>& layers, const std::vector<MaskLayer<D>>& masks) {
+  std::vector<LegendEntry> entries;
+  for (const auto& m : masks)
+    if (!m.label.empty()) entries.emplace_back(m.rgb, m.label);
+  for (const auto& l : layers)
+    if (!l.label.empty()) entries.emplace_back(l.rgb, l.label);
+  return entries;
+}
+
+// A legend row: for each entry a short line in its colour followed by the label. Returns the
+// height it needs (0 when there is no entry); draws only when canvas is given.
+int legend(const std::vector<LegendEntry>& entries, cv::Mat* canvas, int top) {
+  if (entries.empty()) return 0;
   if (canvas) {
     int x = kMarginPx;
     const int mid = top + text_height() / 2;
-    for (const auto& l : layers) {
-      if (l.label.empty()) continue;
-      cv::line(*canvas, {x, mid}, {x + 28, mid}, to_bgr(l.rgb), kLineWidthPx + 1, cv::LINE_AA);
+    for (const auto& [rgb, label] : entries) {
+      cv::line(*canvas, {x, mid}, {x + 28, mid}, to_bgr(rgb), kLineWidthPx + 1, cv::LINE_AA);
       x += 36;
-      put_text(*canvas, l.label, x, top);
-      x += text_width(l.label) + 24;
+      put_text(*canvas, label, x, top);
+      x += text_width(label) + 24;
     }
   }
   return text_height() + kMarginPx;
 }
 
+// The outline of the mask's inside on a panel: the mask sampled at the panel's voxel centres
+// (u, v in the panel's frame; `at(u, v)` gives the physical point of voxel (u, v)) and traced by
+// marching squares (meshing/surface_extraction.h) on the panel's grid, padded by one voxel.
+template <int D, class At>
+std::vector<std::array<Eigen::Vector2d, 2>> mask_outline(const BinaryMask<D>& mask, const Panel& panel, At&& at) {
+  LabelMask<2> m;
+  m.grid.size = {panel.nu + 2, panel.nv + 2};
+  m.grid.spacing = panel.spacing;
+  m.grid.origin = panel.origin - panel.spacing;
+  m.inside.assign(size_t(m.grid.num_voxels()), 0);
+  const Grid<D>& g = mask.grid();
+  bool any = false;
+  for (int v = 0; v < panel.nv; ++v)
+    for (int u = 0; u < panel.nu; ++u) {
+      const Point<D> c = g.to_continuous_index(at(u, v));
+      GridIndex<D> idx;
+      bool in_grid = true;
+      for (int a = 0; a < D; ++a) {
+        const double r = std::round(c[a]);
+        in_grid &= r >= 0 && r < g.size[a];
+        idx[a] = in_grid ? int(r) : 0;
+      }
+      if (in_grid && mask.at(idx)) {
+        m.inside[size_t(v + 1) * (panel.nu + 2) + (u + 1)] = 1;
+        any = true;
+      }
+    }
+  std::vector<std::array<Eigen::Vector2d, 2>> segs;
+  if (!any) return segs;
+  for (const PointList<2>& loop : marching_squares(m))
+    for (size_t i = 0; i < loop.size(); ++i) segs.push_back({loop[i], loop[(i + 1) % loop.size()]});
+  return segs;
+}
+
 // Lays panels out side by side on a white canvas with a title band above and a legend below;
 // returns the canvas and, in `rois`, where each panel went.
-template <int D>
-cv::Mat compose(const std::vector<Panel>& panels, const std::string& title,
-                const std::vector<ShapeLayer<D>>& layers, std::vector<cv::Rect>& rois) {
+cv::Mat compose(const std::vector<Panel>& panels, const std::string& title, const std::vector<LegendEntry>& layers,
+                std::vector<cv::Rect>& rois) {
   const bool labels = std::any_of(panels.begin(), panels.end(), [](const Panel& p) { return !p.label.empty(); });
   const bool framed = panels.size() > 1 || !title.empty() || legend(layers, nullptr, 0) > 0;
   const int margin = framed ? kMarginPx : 0;
@@ -255,7 +299,7 @@ std::string tick_text(double v) {
 }  // namespace
 
 void write_overlay_figure(const Image<2>& image, const std::vector<ShapeLayer2>& layers,
-                          const std::string& png_path, const std::string& title) {
+                          const std::string& png_path, const std::string& title, const std::vector<MaskLayer<2>>& masks) {
   DSNAKE_ASSERT(!image.empty(), "write_overlay_figure: empty image for " + png_path);
   for (const auto& l : layers) check_layer(l);
   const GreyWindow window = grey_window(image.data());
@@ -278,8 +322,12 @@ void write_overlay_figure(const Image<2>& image, const std::vector<ShapeLayer2>&
   }
 
   std::vector<cv::Rect> rois;
-  cv::Mat canvas = compose(std::vector<Panel>{panel}, title, layers, rois);
+  cv::Mat canvas = compose(std::vector<Panel>{panel}, title, legend_entries(layers, masks), rois);
   cv::Mat roi = canvas(rois[0]);
+  for (const auto& m : masks)
+    draw_segments(roi, panel,
+                  mask_outline(m.mask, panel, [&](int u, int v) { return Point<2>(image.grid().to_physical({u, v})); }),
+                  m.rgb);
   for (const auto& l : layers) {
     if (l.connectivity.is_polygon()) {
       // One closed polyline joins the corners cleanly (separate lines would leave notches).
@@ -298,7 +346,7 @@ void write_overlay_figure(const Image<2>& image, const std::vector<ShapeLayer2>&
 }
 
 void write_slice_figure(const Image<3>& volume, const std::vector<ShapeLayer3>& layers, const Point<3>& centre,
-                        const std::string& png_path, const std::string& title) {
+                        const std::string& png_path, const std::string& title, const std::vector<MaskLayer<3>>& masks) {
   DSNAKE_ASSERT(!volume.empty(), "write_slice_figure: empty volume for " + png_path);
   for (const auto& l : layers) {
     check_layer(l);
@@ -350,13 +398,22 @@ void write_slice_figure(const Image<3>& volume, const std::vector<ShapeLayer3>& 
   }
 
   std::vector<cv::Rect> rois;
-  cv::Mat canvas = compose(panels, title, layers, rois);
+  cv::Mat canvas = compose(panels, title, legend_entries(layers, masks), rois);
   for (size_t k = 0; k < views.size(); ++k) {
     const View& view = views[k];
     const Panel& panel = panels[k];
     cv::Mat roi = canvas(rois[k]);
     const double level = grid.origin[view.normal] + slice[view.normal] * grid.spacing[view.normal];
     auto project = [&](const Point<3>& x) { return Eigen::Vector2d(x[view.u], x[view.v]); };
+    for (const auto& m : masks) {
+      auto at = [&](int u, int v) {
+        GridIndex<3> idx = slice;
+        idx[view.u] = u;
+        idx[view.v] = v;
+        return grid.to_physical(idx);
+      };
+      draw_segments(roi, panel, mask_outline(m.mask, panel, at), m.rgb);
+    }
     for (const auto& l : layers) {
       std::vector<std::array<Eigen::Vector2d, 2>> segs;
       for (const auto& s : cross_section(l.points, l.connectivity.triangles(), view.normal, level))

@@ -29,6 +29,7 @@ using Rgb = std::array<uint8_t, 3>;  // red, green, blue
 inline constexpr Rgb kTemplateYellow{255, 220, 0};  // the template / initial snake
 inline constexpr Rgb kResultRed{230, 20, 20};       // the registration result
 inline constexpr Rgb kFeatureGreen{20, 200, 60};    // landmarks / feature points
+inline constexpr Rgb kTruthCyan{0, 190, 255};       // the ground truth
 
 // One shape drawn over an image. Borrows the positions and the connectivity: they must outlive
 // the call that draws the layer.
@@ -44,12 +45,25 @@ struct ShapeLayer {
 using ShapeLayer2 = ShapeLayer<2>;
 using ShapeLayer3 = ShapeLayer<3>;
 
+// A region given as a mask (a ground truth's voxels) drawn as the outline of its inside: the
+// mask is sampled at the voxel centres of the figure's image or slice (nearest mask voxel; the
+// mask must be in the image's frame) and its boundary traced by marching squares, so the line
+// runs half-way between inside and outside pixel centres. Borrows the mask.
+template <int D>
+struct MaskLayer {
+  const BinaryMask<D>& mask;
+  Rgb rgb = kTruthCyan;
+  std::string label = "";  // legend entry; "" = none
+};
+
 // The image (upscaled by an integer factor so that its longer side has at least 512 px, then
 // per axis by spacing) with each layer's closed polygon drawn antialiased, 2 px wide, in layer
 // order (later layers on top). A legend is added below when a layer has a label, a title above
 // when `title` is not empty. Throws std::runtime_error naming png_path if it cannot be written.
+// Mask layers are drawn first, under the shapes.
 void write_overlay_figure(const Image<2>& image, const std::vector<ShapeLayer2>& layers,
-                          const std::string& png_path, const std::string& title = "");
+                          const std::string& png_path, const std::string& title = "",
+                          const std::vector<MaskLayer<2>>& masks = {});
 
 // Three orthogonal slices through the voxel nearest to `centre` (physical units), side by side:
 // axial (z = const; x right, y down), coronal (y = const; x right, z down) and sagittal
@@ -58,7 +72,7 @@ void write_overlay_figure(const Image<2>& image, const std::vector<ShapeLayer2>&
 // plane are dots. One grey window (the volume's min..max) serves all three slices.
 void write_slice_figure(const Image<3>& volume, const std::vector<ShapeLayer3>& layers,
                         const Point<3>& centre, const std::string& png_path,
-                        const std::string& title = "");
+                        const std::string& title = "", const std::vector<MaskLayer<3>>& masks = {});
 
 // A line plot of series[i] against its index (0, 1, ...), one colour per series, a legend with
 // names[i], min/max tick labels. With log_y the y axis is log10 and non-positive values are

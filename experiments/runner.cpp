@@ -515,6 +515,30 @@ nlohmann::ordered_json field_region_json(const Experiment<D>& ex, const RunRecor
           {"share_of_image", double(b.num_voxels()) / double(std::max<int64_t>(1, ex.image.num_voxels()))}};
 }
 
+// The one-line reason a run did not succeed: the divergence (phase, iteration, reason), the
+// thresholds not met with their values, and how each phase ended (converged on what, or at its
+// iteration budget), e.g. "dice 0.812 < 0.9; phase fit: iteration_budget after 300 iterations".
+template <int D>
+std::string failure_summary(const Experiment<D>& ex, const RunRecord<D>& rec,
+                            const std::vector<SuccessCriteria::Failure>& failed) {
+  std::vector<std::string> parts;
+  for (size_t p = 0; p < rec.summary.phases.size(); ++p)
+    if (const auto& d = rec.summary.phases[p].divergence)
+      parts.push_back("diverged in phase " + ex.phase_names[p] + " at iteration " +
+                      std::to_string(d->phase_iteration) + ": " + d->reason);
+  for (const auto& f : failed) parts.push_back(f.describe());
+  for (size_t p = 0; p < rec.summary.phases.size(); ++p) {
+    const auto& ps = rec.summary.phases[p];
+    if (ps.divergence) continue;
+    std::string end = "phase " + ex.phase_names[p] + ": " + to_string(ps.status);
+    if (!ps.converged_on.empty()) end += " on " + ps.converged_on;
+    parts.push_back(end + " after " + std::to_string(ps.iterations) + " iterations");
+  }
+  std::string line;
+  for (const auto& part : parts) line += (line.empty() ? "" : "; ") + part;
+  return line;
+}
+
 template <int D>
 nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& rec, Clock::time_point start) {
   nlohmann::ordered_json result;
@@ -522,8 +546,18 @@ nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& 
   result["metrics"] = metrics_json(rec.metrics, rec.finite);
   if (rec.start_metrics) result["start"] = {{"metrics", metrics_json(*rec.start_metrics, true)}};
   if (!rec.pose.is_null()) result["pose"] = rec.pose;
-  result["success"] = rec.summary.status != EvolveStatus::kDiverged && ex.success.met(rec.metrics);
+  const std::vector<SuccessCriteria::Failure> failed = ex.success.failures(rec.metrics);
+  result["success"] = rec.summary.status != EvolveStatus::kDiverged && failed.empty();
   result["status"] = to_string(rec.summary.status);
+  // Why success is false: each threshold not met, with the metric's value, and one line that
+  // says it together with a divergence and how each phase ended.
+  nlohmann::ordered_json thresholds = nlohmann::ordered_json::array();
+  for (const auto& f : failed)
+    thresholds.push_back({{"metric", f.metric}, {"value", optional_number(f.value)}, {"needs", f.comparison},
+                          {"threshold", f.threshold}});
+  result["failed_thresholds"] = thresholds;
+  result["failure"] = result["success"].get<bool>() ? nlohmann::ordered_json(nullptr)
+                                                    : nlohmann::ordered_json(failure_summary(ex, rec, failed));
   for (size_t p = 0; p < rec.summary.phases.size(); ++p)
     if (const auto& d = rec.summary.phases[p].divergence) {
       result["divergence"] = divergence_json(*d);
@@ -582,7 +616,7 @@ nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& optio
     publish_outputs(staging, out);
     if (!options.quiet)
       std::fprintf(stderr, "dsnake: wrote %s (success: %s)\n", (out / "result.json").string().c_str(),
-                   result["success"].get<bool>() ? "true" : "false");
+                   result["success"].get<bool>() ? "true" : ("false: " + result["failure"].get<std::string>()).c_str());
     return result;
   } catch (...) {
     std::error_code ec;
@@ -609,14 +643,24 @@ void write_figures(const Experiment<D>& ex, const Snake<D>& snake, const fs::pat
   }
   ShapeLayer<D> initial{ex.initial, ex.tmpl.connectivity, kTemplateYellow, template_marks, "template (initial)"};
   ShapeLayer<D> result{snake.positions(), snake.connectivity(), kResultRed, result_marks, "result"};
+  // The ground truth under both, so that a leak past it shows: its surface when the file gives
+  // one (the more precise), else the outline of its mask.
+  std::vector<ShapeLayer<D>> layers;
+  std::vector<MaskLayer<D>> masks;
+  if (ex.truth.surface)
+    layers.push_back({ex.truth.surface->positions, ex.truth.surface->connectivity, kTruthCyan, {}, "ground truth"});
+  else if (ex.truth.mask)
+    masks.push_back({*ex.truth.mask, kTruthCyan, "ground truth"});
+  layers.push_back(initial);
+  layers.push_back(result);
   const std::string title = ex.name;
   if constexpr (D == 2) {
-    write_overlay_figure(ex.image, {initial, result}, (dir / "overlay.png").string(), title);
+    write_overlay_figure(ex.image, layers, (dir / "overlay.png").string(), title, masks);
   } else {
     Point<3> centre = Point<3>::Zero();
     for (const auto& p : snake.positions()) centre += p;
     centre /= std::max(1, snake.num_vertices());
-    write_slice_figure(ex.image, {initial, result}, centre, (dir / "slices.png").string(), title);
+    write_slice_figure(ex.image, layers, centre, (dir / "slices.png").string(), title, masks);
   }
   if (trace.empty()) return;
   std::vector<std::string> curve_names = names;

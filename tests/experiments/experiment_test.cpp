@@ -150,5 +150,24 @@ TEST(ExperimentFile, SuccessNeedsEveryThreshold) {
   EXPECT_FALSE(s.met(m));
 }
 
+TEST(ExperimentFile, FailedThresholdsSayWhichAndByHowMuch) {
+  SuccessCriteria s;
+  s.hausdorff95 = 2.0;
+  s.dice = 0.5;
+  Metrics m;
+  m.dice = 0.4;
+  const auto f = s.failures(m);
+  ASSERT_EQ(f.size(), 2u);
+  EXPECT_EQ(f[0].metric, "hausdorff95");
+  EXPECT_FALSE(f[0].value);
+  EXPECT_EQ(f[0].describe(), "hausdorff95 null (needs <= 2)");
+  EXPECT_EQ(f[1].describe(), "dice 0.4 < 0.5");
+  s.skip_null_metrics = true;  // the defaults skip metrics the truth does not give
+  ASSERT_EQ(s.failures(m).size(), 1u);
+  m.dice = 0.5;  // at the threshold: met
+  EXPECT_TRUE(s.failures(m).empty());
+  EXPECT_TRUE(s.met(m));
+}
+
 }  // namespace
 }  // namespace dsnake

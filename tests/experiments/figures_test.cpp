@@ -125,6 +125,44 @@ TEST(Figures, OverlayDrawsTemplateYellowAndResultRed) {
   EXPECT_TRUE(is_green(out.at<cv::Vec3b>(300 + 120, 300)));
 }
 
+bool is_cyan(const cv::Vec3b& p) { return p[0] > 180 && p[1] > 120 && p[2] < 90; }  // kTruthCyan, BGR
+
+// A disc mask of radius r (physical units) around c on `grid`.
+template <int D>
+BinaryMask<D> ball_mask(const Grid<D>& grid, const Point<D>& c, double r) {
+  std::vector<uint8_t> inside(size_t(grid.num_voxels()));
+  for (int64_t i = 0; i < grid.num_voxels(); ++i) inside[size_t(i)] = (grid.to_physical(grid.index(i)) - c).norm() <= r;
+  return BinaryMask<D>(grid, std::move(inside));
+}
+
+// The truth as a mask is outlined in cyan where its boundary is (between inside and outside
+// pixel centres), under the shapes, and appears in the legend; nowhere else is cyan.
+TEST(Figures, OverlayOutlinesAMaskLayerAtItsBoundary) {
+  const Image<2> img = blob_image<2>({100, 100}, {1.0, 1.0});
+  const Point<2> centre(49.5, 49.5);
+  // The mask on a grid of its own (half the spacing, shifted): sampled at the image's voxels.
+  Grid<2> mask_grid;
+  mask_grid.size = {200, 200};
+  mask_grid.spacing = {0.5, 0.5};
+  mask_grid.origin = {0.25, 0.25};
+  const BinaryMask<2> truth = ball_mask<2>(mask_grid, centre, 30.0);
+  const PointList<2> ring = circle(80, centre, 15.0);
+  const Connectivity c = Connectivity::polygon(80);
+  const fs::path png = output_folder("overlay_truth") / "overlay.png";
+  write_overlay_figure(img, {{ring, c, kResultRed}}, png.string(), "", {{truth, kTruthCyan, "ground truth"}});
+  const cv::Mat out = cv::imread(png.string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(out.empty());
+  // A legend band: the panel (600 x 600) starts at the margin.
+  const Eigen::Vector2d c_px(12 + 299.5, 12 + 299.5);
+  for (double deg = 0; deg < 360; deg += 15) {
+    const double t = deg * std::numbers::pi / 180.0;
+    EXPECT_TRUE(colour_on_ray(out, c_px, 30.0 * 6, t, 6.0, is_cyan)) << "truth at " << deg << " deg";
+    EXPECT_TRUE(colour_on_ray(out, c_px, 15.0 * 6, t, 3.0, is_red)) << "result at " << deg << " deg";
+    EXPECT_FALSE(colour_on_ray(out, c_px, 22.0 * 6, t, 30.0, is_cyan)) << "inside the truth at " << deg << " deg";
+    EXPECT_FALSE(colour_on_ray(out, c_px, 40.0 * 6, t, 30.0, is_cyan)) << "outside the truth at " << deg << " deg";
+  }
+}
+
 TEST(Figures, OverlayKeepsPhysicalAspectForAnisotropicSpacing) {
   const Image<2> img = blob_image<2>({100, 100}, {1.0, 2.0});  // 100 x 200 physical units
   const Point<2> centre(49.5, 99.0);
@@ -235,6 +273,36 @@ TEST_P(SliceFigure, ShowsMeshCrossSectionsAtTheRightRadius) {
 
 INSTANTIATE_TEST_SUITE_P(Figures, SliceFigure, ::testing::Values(false, true),
                          [](const auto& info) { return info.param ? "Anisotropic" : "Isotropic"; });
+
+TEST(Figures, SlicesOutlineAMaskLayerInEachPanel) {
+  const Image<3> volume = blob_image<3>({64, 64, 64}, {1, 1, 1});
+  const Point<3> centre(32, 32, 32);
+  const BinaryMask<3> truth = ball_mask<3>(volume.grid(), centre, 20.0);
+  const Template<3> result = icosphere(2, centre, 10.0);
+  const fs::path png = output_folder("slices_truth") / "slices.png";
+  write_slice_figure(volume, {{result.positions, result.connectivity, kResultRed, {}, "result"}}, centre, png.string(),
+                     "truth", {{truth, kTruthCyan, "ground truth"}});
+  const cv::Mat out = cv::imread(png.string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(out.empty());
+  // Cyan pixels by panel (columns split by white gaps), above the legend: each panel's outline
+  // is a circle of radius ~20 units (8 px a unit) around the red circle's centre.
+  const auto red = red_pixels_by_panel(out, out.rows - 40);
+  ASSERT_EQ(red.size(), 3u);
+  for (size_t k = 0; k < red.size(); ++k) {
+    const Eigen::Vector2d c = box_centre(red[k]);
+    int found = 0, stray = 0;
+    for (int y = 0; y < out.rows - 40; ++y)
+      for (int x = 0; x < out.cols; ++x) {
+        if (!is_cyan(out.at<cv::Vec3b>(y, x))) continue;
+        if (std::abs(x - c.x()) > 250 || std::abs(y - c.y()) > 250) continue;  // another panel's
+        const double r = (Eigen::Vector2d(x, y) - c).norm();
+        if (r > 19.0 * 8 && r < 21.0 * 8 + 4) ++found;
+        else if (r < 17.0 * 8) ++stray;
+      }
+    EXPECT_GT(found, 500) << "panel " << k;
+    EXPECT_EQ(stray, 0) << "panel " << k;
+  }
+}
 
 TEST(Figures, SlicesHandleVerticesAndEdgesLyingOnThePlane) {
   Grid<3> grid;
