@@ -212,6 +212,33 @@ void check_placement(const Experiment<D>& ex, const std::string& file) {
   }
 }
 
+// The ground truth must lie near the image too (a phantom whose object was made 1e300 mm wide
+// ran and crashed in the metrics, whose distances overflow): its surface's vertices and its
+// targets within one image extent of the image's box, as the template's.
+template <int D>
+void check_truth_placement(const Experiment<D>& ex, const ExperimentSpec<D>& spec) {
+  const Grid<D>& g = ex.image.grid();
+  auto check = [&](const Point<D>& p, const std::string& file, const std::string& key, const std::string& what) {
+    const Point<D> c = g.to_continuous_index(p);
+    for (int a = 0; a < D; ++a)
+      if (!std::isfinite(c[a]) || c[a] < -double(g.size[a]) || c[a] > 2.0 * g.size[a])
+        throw InputError(file, key, what + " lies outside the image: more than the image's extent beyond its border along axis " +
+                                        std::to_string(a));
+  };
+  if (ex.truth.surface) {
+    const bool from_file = !spec.truth.surface.empty();
+    const std::string file = from_file ? spec.truth.surface : spec.file.path;
+    const std::string key = from_file ? "" : "image";
+    for (size_t v = 0; v < ex.truth.surface->positions.size(); ++v)
+      check(ex.truth.surface->positions[v], file, from_file ? "vertex " + std::to_string(v) : key,
+            from_file ? "the ground-truth surface" : "the phantom's object (its true surface)");
+  }
+  for (size_t t = 0; t < ex.truth.targets.size(); ++t)
+    if (ex.truth.targets[t])
+      check(*ex.truth.targets[t], spec.truth.correspondence.empty() ? spec.file.path : spec.truth.correspondence,
+            "template id " + std::to_string(t), "the ground-truth counterpart");
+}
+
 template <int D>
 Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   Experiment<D> ex;
@@ -233,6 +260,7 @@ Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   ex.truth = assemble_truth(spec, std::move(phantom), ex.tmpl);
   express_in_image_frame(ex, spec.truth);
   check_placement(ex, spec.file.path);
+  check_truth_placement(ex, spec);
   ex.field = build_field(spec.field);
   try {  // the checks a field can make on the image's grid, so that `validate` reports them too
     ex.field->check_grid(ex.image.grid());

@@ -63,12 +63,12 @@ struct SuccessCriteria {
 
   template <class V>
   void visit(V& v) {
-    v(mean_surface_distance, Key{"mean_surface_distance", "mm", "largest mean surface distance that counts as success"});
-    v(hausdorff95, Key{"hausdorff95", "mm", "largest 95th-percentile Hausdorff distance"});
-    v(hausdorff, Key{"hausdorff", "mm", "largest Hausdorff distance"});
+    v(mean_surface_distance, Key{"mean_surface_distance", "mm", "largest mean surface distance that counts as success", Range::at_least(0)});
+    v(hausdorff95, Key{"hausdorff95", "mm", "largest 95th-percentile Hausdorff distance", Range::at_least(0)});
+    v(hausdorff, Key{"hausdorff", "mm", "largest Hausdorff distance", Range::at_least(0)});
     v(dice, Key{"dice", "1", "smallest Dice overlap", Range::closed(0, 1)});
-    v(correspondence_error_mean, Key{"correspondence_error_mean", "mm", "largest mean correspondence error"});
-    v(correspondence_error_max, Key{"correspondence_error_max", "mm", "largest correspondence error of any vertex"});
+    v(correspondence_error_mean, Key{"correspondence_error_mean", "mm", "largest mean correspondence error", Range::at_least(0)});
+    v(correspondence_error_max, Key{"correspondence_error_max", "mm", "largest correspondence error of any vertex", Range::at_least(0)});
     v(self_intersections, Key{"self_intersections", "pairs", "most self-intersecting edge or triangle pairs", Range::at_least(0)});
   }
 };

@@ -336,6 +336,12 @@ TEST_F(CliTest, HostileFilesAndSetPathsAreOneLineAndExitTwo) {
       {"builtin:default --set watchdog.max_move=-1", "watchdog.max_move"},
       {"builtin:default --set watchdog.bogus=1", "watchdog.bogus: unknown key"},
       {"builtin:default --set 'template.transform.translation=[1e300, 0]'", "outside the image"},
+      // a ground truth far from the image: a phantom's object, a surface file, a target
+      {"builtin:default --set image.half_width=1e300", "default: image: the phantom's object (its true surface) lies outside"},
+      {"builtin:default --set 'ground_truth={\"surface\": \"" +
+           write("far.txt", "1e9 0\n1e9 10\n-5 10\n").string() + "\"}'",
+       "far.txt: vertex 0: the ground-truth surface lies outside the image"},
+      {"builtin:default --set success.hausdorff95=-1", "success.hausdorff95: must be >= 0"},
       // an explicit GVF step that no image makes stable, refused at assembly (before the image's field)
       {"builtin:default --set 'field={\"type\": \"gvf\", \"solver\": \"explicit\", \"time_step\": 100}'",
        "default: field.time_step: explicit GVF step"},
