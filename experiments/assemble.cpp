@@ -8,6 +8,8 @@
 #include "remesh/pipeline.h"
 
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <fstream>
 
 namespace dsnake {
@@ -209,6 +211,21 @@ void check_placement(const Experiment<D>& ex, const std::string& file) {
         throw InputError(file, "template.transform",
                          "the placed template lies outside the image: vertex " + std::to_string(v) +
                              " is more than the image's extent beyond its border along axis " + std::to_string(a));
+  }
+  // A template smaller than a voxel has nothing to register at this image's resolution (the
+  // forces are sampled a voxel apart, §5.4), and its degenerate facets made the metrics' nearest
+  // facet search visit every facet for every sample.
+  Point<D> lo = Point<D>::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  for (const Point<D>& p : ex.initial) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const double extent = ex.initial.empty() ? 0 : (hi - lo).norm(), voxel = g.spacing.minCoeff();
+  if (!(extent >= voxel)) {
+    char what[160];
+    std::snprintf(what, sizeof what, "the placed template spans %.3g mm, less than a voxel (%.3g mm): scale it to the object's size",
+                  extent, voxel);
+    throw InputError(file, "template.transform", what);
   }
 }
 

@@ -342,6 +342,7 @@ TEST_F(CliTest, HostileFilesAndSetPathsAreOneLineAndExitTwo) {
            write("far.txt", "1e9 0\n1e9 10\n-5 10\n").string() + "\"}'",
        "far.txt: vertex 0: the ground-truth surface lies outside the image"},
       {"builtin:default --set success.hausdorff95=-1", "success.hausdorff95: must be >= 0"},
+      {"builtin:ellipsoid --set template.radius=1e-12", "template.transform: the placed template spans 3.46e-12 mm, less than a voxel"},
       // an explicit GVF step that no image makes stable, refused at assembly (before the image's field)
       {"builtin:default --set 'field={\"type\": \"gvf\", \"solver\": \"explicit\", \"time_step\": 100}'",
        "default: field.time_step: explicit GVF step"},
