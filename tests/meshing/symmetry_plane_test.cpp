@@ -1,6 +1,6 @@
-// Symmetry planes of label maps and images: synthetic data symmetric about a known plane that
-// passes through neither the grid's centre nor a voxel centre or face, on anisotropic grids
-// with a non-zero origin, recovered to within a tenth of a voxel.
+// Symmetry planes of label maps and images: synthetic data symmetric about a known plane off
+// the grid's centre (through a voxel centre, a face between voxels, or between them), on
+// anisotropic grids with a non-zero origin, recovered to within a tenth of a voxel.
 #include "meshing/symmetry_plane.h"
 #include "tests/meshing/label_test_helpers.h"
 
