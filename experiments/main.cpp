@@ -5,7 +5,8 @@
 //   dsnake validate CONFIG.json [--set ...]
 //   dsnake field --image X --type gvf [--param key=value ...] [--field-cache DIR] --out field.mha
 //   dsnake convert IN OUT [--compress]   image/volume, mesh or contour to another format
-//   dsnake template --mask LABELS --label N [--mirror x|y|z] [--vertices 400] --out T.off
+//   dsnake template --mask LABELS --label N [--mirror x|y|z [--image IMAGE | --mirror-plane x=MM]]
+//                   [--vertices 400] --out T.off
 //                   a template from a label map (experiments/template_command.h)
 //   dsnake init --image SCAN --template T [--mask GT] > exp.json
 //                   an experiment file for your own scan (experiments/init_command.h)
@@ -193,7 +194,9 @@ void add_template(CLI::App& app, CommandLine& c) {
   TemplateCommandOptions& t = c.templ;
   c.template_cmd->add_option("--mask", t.mask, "Label image or volume file")->required();
   c.template_cmd->add_option("--label", t.label, "The label value N (voxels == N)")->required();
-  c.template_cmd->add_option("--mirror", t.mirror, "Reflect about the grid's mid-plane normal to x, y or z");
+  c.template_cmd->add_option("--mirror", t.mirror, "Reflect about the symmetry plane normal to x, y or z (of the label map, or of --image)");
+  c.template_cmd->add_option("--image", t.image, "With --mirror: find the symmetry plane in this image's intensities (same dimension as the label map)");
+  c.template_cmd->add_option("--mirror-plane", t.mirror_plane, "Reflect about this plane, no search: AXIS=MM, e.g. x=0.5 (world mm, LPS; implies --mirror AXIS)");
   c.template_cmd->add_option("--vertices", t.vertices, "Vertex count (3D: within 10%; default 400)");
   c.template_cmd->add_option("--smoothing", t.smoothing, "Taubin smoothing steps before decimation (default 10)");
   c.template_cmd->add_flag("--allow-border", t.allow_border, "Accept a label touching the image border (flat cap)");

@@ -1,9 +1,11 @@
 // `dsnake template`: a template from one label of a label image (meshing/template_from_labels.h):
-//   dsnake template --mask LABELS --label N [--mirror x|y|z] [--vertices 400] [--smoothing 10]
-//                   [--allow-border] --out T.off
+//   dsnake template --mask LABELS --label N [--mirror x|y|z [--image IMAGE | --mirror-plane x=MM]]
+//                   [--vertices 400] [--smoothing 10] [--allow-border] --out T.off
 // 3D label volumes give a closed, outward triangle mesh (.off .obj .ply .stl .vtk), 2D label
 // images a counter-clockwise closed contour (.txt .json .vtk). Prints one summary line (vertices,
-// faces, genus, self-intersections, Dice against the label, what the mask clean-up changed).
+// faces, genus, self-intersections, Dice against the label, what the mask clean-up changed, and
+// the mirror plane). The command only configures the library: meshing/template_from_labels.h
+// makes and mirrors the template, meshing/symmetry_plane.h finds the plane.
 #pragma once
 
 #include <string>
@@ -13,7 +15,9 @@ namespace dsnake {
 struct TemplateCommandOptions {
   std::string mask;          // --mask: the label image (2D or 3D; framework/io/image_io.h)
   int label = 1;             // --label N: the voxels == N
-  std::string mirror;        // --mirror x|y|z: reflect about the grid's mid-plane ("" = none)
+  std::string mirror;        // --mirror x|y|z: reflect about the symmetry plane normal to it ("" = none)
+  std::string image;         // --image: the plane is the image's symmetry plane, not the label map's
+  std::string mirror_plane;  // --mirror-plane AXIS=MM: the plane itself (world mm), no search
   int vertices = 400;        // --vertices: target count (3D within 10%, 2D exact)
   int smoothing = 10;        // --smoothing: Taubin λ|μ steps before decimation
   bool allow_border = false; // --allow-border: accept a label touching the image border

@@ -41,8 +41,8 @@ LabelMask<D> checked_mask(const Image<D>& labels, const LabelTemplateOptions& o,
     throw InputError("", "--vertices " + std::to_string(o.vertices),
                      "must be in [" + std::to_string(kMinTemplateVertices) + ", " +
                          std::to_string(kMaxTemplateVertices) + "]");
-  if (o.mirror_axis < -1 || o.mirror_axis >= D)
-    throw InputError("", "--mirror", "must be one of the image's axes");
+  if (o.mirror && (o.mirror->axis < 0 || o.mirror->axis >= D || !std::isfinite(o.mirror->offset)))
+    throw InputError("", "--mirror", "must be one of the image's axes, at a finite offset");
   if (labels.empty()) throw InputError(file, "", "the label image is empty (no voxel)");
   LabelMask<D> mask = extract_label_mask(labels, o.label);
   if (mask.report.label_voxels == 0)
@@ -111,8 +111,8 @@ DecimatedMesh decimate_checked(const ExtractedSurface& s, const LabelTemplateOpt
 }
 
 template <int D>
-Template<D> mirrored(Template<D> t, const Grid<D>& grid, int axis) {
-  t.positions = mirror_points<D>(t.positions, grid, axis);
+Template<D> mirrored(Template<D> t, const MirrorPlane& plane) {
+  t.positions = mirror_points<D>(t.positions, plane);
   if constexpr (D == 3) {
     std::vector<Triangle> tris = t.connectivity.triangles();
     for (Triangle& tri : tris) std::swap(tri[1], tri[2]);
@@ -216,10 +216,9 @@ LabelTemplate<2> contour_template(const Image<2>& labels, const LabelTemplateOpt
 }  // namespace
 
 template <int D>
-PointList<D> mirror_points(const PointList<D>& p, const Grid<D>& grid, int axis) {
-  const double mid = grid.origin[axis] + 0.5 * (grid.size[axis] - 1) * grid.spacing[axis];
+PointList<D> mirror_points(const PointList<D>& p, const MirrorPlane& plane) {
   PointList<D> out = p;
-  for (auto& x : out) x[axis] = 2 * mid - x[axis];
+  for (auto& x : out) x = reflect<D>(x, plane);
   return out;
 }
 
@@ -231,13 +230,13 @@ LabelTemplate<D> template_from_labels(const Image<D>& labels, const LabelTemplat
   else out = contour_template(labels, options, file);
   out.report.dice = dice<D>(rasterize_interior<D>({out.shape.positions, out.shape.connectivity}, labels.grid()),
                             label_indicator(labels, options.label));
-  if (options.mirror_axis >= 0) out.shape = mirrored(std::move(out.shape), labels.grid(), options.mirror_axis);
+  if (options.mirror) out.shape = mirrored(std::move(out.shape), *options.mirror);
   return out;
 }
 
 template LabelTemplate<2> template_from_labels<2>(const Image<2>&, const LabelTemplateOptions&, const std::string&);
 template LabelTemplate<3> template_from_labels<3>(const Image<3>&, const LabelTemplateOptions&, const std::string&);
-template PointList<2> mirror_points<2>(const PointList<2>&, const Grid<2>&, int);
-template PointList<3> mirror_points<3>(const PointList<3>&, const Grid<3>&, int);
+template PointList<2> mirror_points<2>(const PointList<2>&, const MirrorPlane&);
+template PointList<3> mirror_points<3>(const PointList<3>&, const MirrorPlane&);
 
 }  // namespace dsnake

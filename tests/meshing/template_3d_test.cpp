@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <optional>
 #include <unistd.h>
 
 namespace dsnake {
@@ -44,11 +45,11 @@ Image<3> two_holed_labels() {
   }, 3);
 }
 
-LabelTemplate<3> make(const Image<3>& labels, int vertices, int mirror = -1) {
+LabelTemplate<3> make(const Image<3>& labels, int vertices, std::optional<MirrorPlane> mirror = {}) {
   LabelTemplateOptions o;
   o.label = 3;
   o.vertices = vertices;
-  o.mirror_axis = mirror;
+  o.mirror = mirror;
   return template_from_labels<3>(labels, o, "synthetic");
 }
 
@@ -100,17 +101,16 @@ TEST(Template3d, RefusesWhenNoDecimationPassesTheChecks) {
   }
 }
 
-TEST(Template3d, MirrorReflectsAboutTheGridMidPlane) {
+TEST(Template3d, MirrorReflectsAboutTheGivenPlane) {
   const Image<3> labels = ball_labels(kCentre + Point<3>(6, -3, 2), 9);  // off the mid-planes
   const LabelTemplate<3> plain = make(labels, 600);
-  const Grid<3>& g = labels.grid();
   for (int axis = 0; axis < 3; ++axis) {
-    const LabelTemplate<3> m = make(labels, 600, axis);
+    const double offset = kCentre[axis] + 1.7 * (axis + 1);  // through none of the grid's mid-planes
+    const LabelTemplate<3> m = make(labels, 600, MirrorPlane{axis, offset});
     ASSERT_EQ(m.shape.num_vertices(), plain.shape.num_vertices());
-    const double mid = g.origin[axis] + 0.5 * (g.size[axis] - 1) * g.spacing[axis];
     for (int v = 0; v < m.shape.num_vertices(); ++v) {
       Point<3> r = plain.shape.positions[v];
-      r[axis] = 2 * mid - r[axis];
+      r[axis] = 2 * offset - r[axis];
       ASSERT_LT((m.shape.positions[v] - r).norm(), 1e-12) << "vertex " << v << " axis " << axis;
     }
     EXPECT_EQ(m.shape.connectivity.closed_manifold_problem(), "");
@@ -159,8 +159,8 @@ TEST(Template3d, VoxelisedFemurKeepsTheGenusOfItsVoxels) {
   const LabelTemplate<3> t = make(labels, 2000);
   expect_valid_template(t, labels, 3, 2000, genus, 0.985, "femur 2000");
   EXPECT_EQ(t.report.mask.components, 1);
-  const LabelTemplate<3> m = make(labels, 2000, 0);  // the contralateral femur
   const double mid = labels.origin()[0] + 0.5 * (labels.size()[0] - 1) * labels.spacing()[0];
+  const LabelTemplate<3> m = make(labels, 2000, MirrorPlane{0, mid});  // the contralateral femur
   ASSERT_EQ(m.shape.num_vertices(), t.shape.num_vertices());
   for (int v = 0; v < m.shape.num_vertices(); ++v)
     ASSERT_NEAR(m.shape.positions[v].x(), 2 * mid - t.shape.positions[v].x(), 1e-12);

@@ -3,6 +3,8 @@
 // no output file.
 #include "framework/io/image_io.h"
 #include "framework/io/mesh_io.h"
+#include "framework/metrics/metrics.h"
+#include "meshing/label_mask.h"
 #include "tests/experiments/temp_dir_test.h"
 #include "tests/meshing/label_test_helpers.h"
 
@@ -10,6 +12,7 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 
 namespace dsnake {
 namespace {
@@ -42,6 +45,13 @@ class TemplateCliTest : public test_support::TempDirTest {
     write_image<3>(img, (dir_ / "labels.mha").string());
     return dir_ / "labels.mha";
   }
+  // Labels 3 and 4: balls of radius 4.5 mm at x = kPairPlane -/+ 7 mm (kPairPlane below).
+  fs::path paired_volume();
+  static Point<3> centroid(const Template<3>& t) {
+    Point<3> mean = Point<3>::Zero();
+    for (const auto& p : t.positions) mean += p;
+    return mean / t.num_vertices();
+  }
   fs::path image_2d() {
     Grid<2> g;
     g.size = GridIndex<2>(40, 30);
@@ -63,10 +73,12 @@ class TemplateCliTest : public test_support::TempDirTest {
 
 TEST_F(TemplateCliTest, WritesTheTemplateAndOneSummaryLine) {
   const fs::path labels = volume(), out = dir_ / "ball.off";
-  const Result r = dsnake("--mask " + labels.string() + " --label 2 --vertices 500 --mirror y --out " + out.string());
+  const Result r = dsnake("--mask " + labels.string() + " --label 2 --vertices 500 --mirror-plane y=17.75 --out " +
+                          out.string());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
-  for (const char* f : {"ball.off", "vertices", "genus 0", " 0 self-intersections", "label 2", "mirrored in y"})
+  for (const char* f : {"ball.off", "vertices", "genus 0", " 0 self-intersections", "label 2",
+                        "mirrored about y = 17.75 mm (given by --mirror-plane"})
     EXPECT_NE(r.out.find(f), std::string::npos) << "missing \"" << f << "\" in: " << r.out;
   const size_t dice_at = r.out.find("Dice ");
   ASSERT_NE(dice_at, std::string::npos) << r.out;
@@ -74,12 +86,88 @@ TEST_F(TemplateCliTest, WritesTheTemplateAndOneSummaryLine) {
   const Template<3> t = read_mesh_template(out.string());
   EXPECT_LE(std::abs(t.num_vertices() - 500), 50);
   EXPECT_GT(signed_measure<3>(t.positions, t.connectivity), 0);
-  // Mirrored in y about the grid's mid-plane (y = -4 + 13.5 * 1.5): the ball's centre at grid
-  // y index 12 goes to index 15.
-  Point<3> mean = Point<3>::Zero();
-  for (const auto& p : t.positions) mean += p;
-  mean /= t.num_vertices();
-  EXPECT_NEAR(mean.y(), -4 + 15 * 1.5, 0.3);
+  // Mirrored in y about y = 17.75 mm (-4 + 14.5 * 1.5): the ball's centre at grid y index 12
+  // goes to index 17.
+  EXPECT_NEAR(centroid(t).y(), -4 + 17 * 1.5, 0.3);
+}
+
+// Two balls of labels 3 (left) and 4 (right) symmetric about x = kPairPlane, a plane 3.3 voxels
+// off the grid's centre and between voxel centres (spacing 0.9, 1.2, 1.5; origin -10, 4, -6).
+static constexpr double kPairPlane = -10 + 16.2 * 0.9;
+fs::path TemplateCliTest::paired_volume() {
+  Grid<3> g;
+  g.size = GridIndex<3>(40, 24, 20);
+  g.spacing = Point<3>(0.9, 1.2, 1.5);
+  g.origin = Point<3>(-10, 4, -6);
+  const Point<3> left(kPairPlane - 7, 4 + 11.3 * 1.2, -6 + 9.6 * 1.5);
+  Image<3> img(g, 0.0f);
+  for (int64_t v = 0; v < img.num_voxels(); ++v) {
+    const Point<3> x = g.to_physical(g.index(v)), r(2 * kPairPlane - x.x(), x.y(), x.z());
+    img[v] = (x - left).norm() <= 4.5 ? 3.0f : (r - left).norm() <= 4.5 ? 4.0f : 0.0f;
+  }
+  write_image<3>(img, (dir_ / "pair.mha").string());
+  return dir_ / "pair.mha";
+}
+
+TEST_F(TemplateCliTest, MirrorsAboutTheSymmetryPlaneOfTheLabels) {
+  const fs::path labels = paired_volume(), out = dir_ / "right.off";
+  const Result r = dsnake("--mask " + labels.string() + " --label 3 --vertices 200 --mirror x --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const size_t at = r.out.find("mirrored about x = ");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  EXPECT_NEAR(std::stod(r.out.substr(at + 19)), kPairPlane, 0.09) << r.out;  // a tenth of a voxel
+  EXPECT_NE(r.out.find("(symmetry plane of the label map; Dice before mirroring)"), std::string::npos) << r.out;
+  // The left ball's mirror lies on the right one.
+  const Template<3> t = read_mesh_template(out.string());
+  EXPECT_NEAR(centroid(t).x(), kPairPlane + 7, 0.15);
+  const Image<3> img = read_image<3>(labels.string());
+  EXPECT_GT(dice<3>(rasterize_interior<3>({t.positions, t.connectivity}, img.grid()), label_indicator(img, 4)), 0.9);
+}
+
+TEST_F(TemplateCliTest, MirrorPlaneGivesExactlyThatPlane) {
+  const fs::path labels = paired_volume(), plain = dir_ / "plain.off", out = dir_ / "m.off";
+  const std::string m = "--mask " + labels.string() + " --label 3 --vertices 200";
+  ASSERT_EQ(dsnake(m + " --out " + plain.string()).exit_code, 0);
+  const Result r = dsnake(m + " --mirror x --mirror-plane x=1.25 --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("mirrored about x = 1.25 mm (given by --mirror-plane"), std::string::npos) << r.out;
+  const Template<3> a = read_mesh_template(plain.string()), b = read_mesh_template(out.string());
+  ASSERT_EQ(a.num_vertices(), b.num_vertices());
+  for (int v = 0; v < a.num_vertices(); ++v) {
+    const Point<3> expected(2 * 1.25 - a.positions[v].x(), a.positions[v].y(), a.positions[v].z());
+    ASSERT_LT((b.positions[v] - expected).norm(), 1e-12) << "vertex " << v;
+  }
+}
+
+// Colin27 (scripts/fetch_scans.sh: data/scans/mricron/): the right pallidum (AAL 76) mirrored
+// in x starts on the left one (AAL 75), with the plane of the labels and with that of the T1;
+// about the grid's centre, half a voxel off the brain's mid-sagittal plane, it does not.
+TEST_F(TemplateCliTest, Colin27RightPallidumMirroredOntoTheLeft) {
+  const std::string dir = std::string(DSNAKE_SCANS_DIR) + "/mricron/", aal = dir + "aal.nii.gz", t1 = dir + "ch2.nii.gz";
+  ASSERT_TRUE(fs::exists(aal) && fs::exists(t1)) << "run scripts/fetch_scans.sh";
+  const Image<3> labels = read_image<3>(aal);
+  const Image<3> left = label_indicator(labels, 75);
+  auto start_dice = [&](const std::string& extra, const std::string& source) {
+    const fs::path out = dir_ / "pallidum.off";
+    const Result r = dsnake("--mask " + aal + " --label 76 --mirror x" + extra + " --out " + out.string());
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.out.find("mirrored about x = "), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find(source), std::string::npos) << r.out;
+    std::printf("[ measured ] %s\n", r.out.c_str());
+    const Template<3> t = read_mesh_template(out.string());
+    return dice<3>(rasterize_interior<3>({t.positions, t.connectivity}, labels.grid()), left);
+  };
+  const double by_labels = start_dice("", "symmetry plane of the label map");
+  const double by_image = start_dice(" --image " + t1, "symmetry plane of " + t1);
+  const Grid<3>& g = labels.grid();
+  char centre[64];
+  std::snprintf(centre, sizeof(centre), " --mirror-plane x=%.17g", g.origin.x() + 0.5 * (g.size.x() - 1) * g.spacing.x());
+  const double by_grid_centre = start_dice(centre, "given by --mirror-plane");
+  std::printf("[ measured ] Dice vs AAL 75: label plane %.4f, image plane %.4f, grid centre %.4f\n", by_labels,
+              by_image, by_grid_centre);
+  EXPECT_GE(by_labels, 0.85);
+  EXPECT_GE(by_image, 0.85);
+  EXPECT_LT(by_grid_centre, 0.82);  // control: the test sees the half voxel
 }
 
 TEST_F(TemplateCliTest, ContourFrom2dLabels) {
@@ -100,6 +188,29 @@ TEST_F(TemplateCliTest, BadInputIsRefusedWithOneLine) {
   expect_refused(m + " --label 2 --vertices 2000000", out, {"--vertices 2000000"});
   expect_refused(m + " --label 2 --vertices 900000", out, {"--vertices 900000", "more than the"});
   expect_refused(m + " --label 2 --mirror w", out, {"--mirror w", "x, y or z"});
+  // The plane: its syntax, its axis, inside the label map; --image: readable, of the same
+  // dimension, only with --mirror and not with --mirror-plane.
+  expect_refused(m + " --label 2 --mirror-plane q=1", out, {"--mirror-plane q=1", "AXIS=MM"});
+  expect_refused(m + " --label 2 --mirror-plane x=abc", out, {"--mirror-plane x=abc", "finite number"});
+  expect_refused(m + " --label 2 --mirror-plane x=1e999", out, {"--mirror-plane x=1e999", "finite number"});
+  expect_refused(m + " --label 2 --mirror-plane x", out, {"--mirror-plane x", "AXIS=MM"});
+  expect_refused(m + " --label 2 --mirror x --mirror-plane y=1", out, {"--mirror-plane y=1", "--mirror to x"});
+  expect_refused(m + " --label 2 --mirror-plane z=200", out, {labels.string(), "--mirror-plane z=200", "outside the label map"});
+  expect_refused(m + " --label 2 --mirror x --image " + (dir_ / "nope.nii.gz").string(), out, {"--image", "nope.nii.gz"});
+  const fs::path flat_image = image_2d();
+  expect_refused(m + " --label 2 --mirror x --image " + flat_image.string(), out,
+                 {"--image", flat_image.string(), "2D image, the label map 3D"});
+  expect_refused(m + " --label 2 --image " + labels.string(), out, {"--image", "give --mirror too"});
+  expect_refused(m + " --label 2 --mirror x --mirror-plane x=10 --image " + labels.string(), out,
+                 {"--image", "--mirror-plane", "give one"});
+  const fs::path truncated = dir_ / "truncated.nii.gz";
+  { std::ofstream(truncated) << "not an image"; }
+  expect_refused(m + " --label 2 --mirror x --image " + truncated.string(), out, {"--image", "truncated.nii.gz"});
+  Grid<3> cg;
+  cg.size = GridIndex<3>(8, 8, 8);
+  write_image<3>(Image<3>(cg, 7.0f), (dir_ / "constant.mha").string());
+  expect_refused(m + " --label 2 --mirror x --image " + (dir_ / "constant.mha").string(), out,
+                 {"--image", "constant.mha", "constant"});
   expect_refused(m + " --label 2", dir_ / "t.png", {"t.png", "--out", "unknown extension"});
   expect_refused("--mask " + (dir_ / "missing.mha").string() + " --label 1", out, {"missing.mha"});
   const fs::path flat = image_2d();
