@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <stdexcept>
 
 namespace dsnake {
 namespace {
@@ -64,6 +65,15 @@ class InsertOnce : public Remesher<2> {
   int calls = 0;
   std::vector<int> iterations_seen;
 };
+
+// The divergence of a run that stopped in its first phase (checks the status and the phase count;
+// throws, failing the test, when there is none).
+const Divergence& first_phase_divergence(const EvolveSummary& summary) {
+  EXPECT_EQ(summary.status, EvolveStatus::kDiverged);
+  EXPECT_EQ(summary.phases.size(), 1u);
+  if (summary.phases.empty() || !summary.phases[0].divergence) throw std::runtime_error("the run did not diverge");
+  return *summary.phases[0].divergence;
+}
 
 Snake<2> square_snake() {
   Template<2> t{{{1, 1}, {-1, 1}, {-1, -1}, {1, -1}}, Connectivity::polygon(4), {}};
@@ -296,12 +306,9 @@ TEST(Evolver, NonFiniteProposalsStopWithDivergedStatus) {
   const PointList<2> start = s.positions();
   std::vector<Phase<2>> phases(2);
   const EvolveSummary summary = evolver.run(s, phases);
-  EXPECT_EQ(summary.status, EvolveStatus::kDiverged);
   EXPECT_EQ(summary.iterations, 1);
-  ASSERT_EQ(summary.phases.size(), 1u);
   // The watchdog's report names the first vertex, the NaN term, and the positions are the start's.
-  ASSERT_TRUE(summary.phases[0].divergence.has_value());
-  const Divergence& d = *summary.phases[0].divergence;
+  const Divergence& d = first_phase_divergence(summary);
   EXPECT_EQ(d.phase_iteration, 1);
   EXPECT_EQ(d.vertex, 0);
   EXPECT_EQ(d.term_index, 1);
@@ -375,18 +382,13 @@ TEST(Evolver, ACollapseBelowMinSizeStopsTheRunAtThatIteration) {
     return e;
   };
   Evolver<2> evolver({}, energies());
-  Watchdog w;
-  w.min_size = 1e-3;
-  evolver.set_watchdog(w);
+  evolver.set_watchdog(Watchdog{.min_size = 1e-3});
   Snake<2> s = square_snake();
   std::vector<Phase<2>> phases(2);
   phases[0].iterations = 50;
   const EvolveSummary summary = evolver.run(s, phases);
-  EXPECT_EQ(summary.status, EvolveStatus::kDiverged);
   EXPECT_EQ(summary.iterations, 13);
-  ASSERT_EQ(summary.phases.size(), 1u);
-  ASSERT_TRUE(summary.phases[0].divergence.has_value());
-  const Divergence& d = *summary.phases[0].divergence;
+  const Divergence& d = first_phase_divergence(summary);
   EXPECT_EQ(d.phase_iteration, 13);
   ASSERT_TRUE(d.size_share.has_value());
   EXPECT_NEAR(*d.size_share, std::pow(0.5625, 13), 1e-15);
@@ -411,16 +413,13 @@ TEST(Evolver, ASnakeTurnedInsideOutIsACollapse) {
   std::vector<WeightedEnergy<2>> e;
   e.push_back({1.0, std::make_unique<MirrorEnergy>()});
   Evolver<2> evolver({}, std::move(e));
-  Watchdog w;
-  w.min_size = 1e-3;
-  evolver.set_watchdog(w);
+  evolver.set_watchdog(Watchdog{.min_size = 1e-3});
   Snake<2> s = square_snake();
   std::vector<Phase<2>> phases(1);
   const EvolveSummary summary = evolver.run(s, phases);
-  EXPECT_EQ(summary.status, EvolveStatus::kDiverged);
-  ASSERT_TRUE(summary.phases[0].divergence.has_value());
-  EXPECT_EQ(summary.phases[0].divergence->phase_iteration, 1);
-  EXPECT_NEAR(*summary.phases[0].divergence->size_share, -1.0, 1e-15);
+  const Divergence& d = first_phase_divergence(summary);
+  EXPECT_EQ(d.phase_iteration, 1);
+  EXPECT_NEAR(*d.size_share, -1.0, 1e-15);
   EXPECT_EQ(s.positions(), square_snake().positions());
 }
 
@@ -454,17 +453,13 @@ TEST(Evolver, ARemeshingPastTheVertexBudgetStopsTheRun) {
   std::vector<WeightedEnergy<2>> e;
   e.push_back({1.0, std::make_unique<StayEnergy>()});
   Evolver<2> evolver({}, std::move(e));
-  Watchdog w;
-  w.max_vertices = 9;
-  evolver.set_watchdog(w);
+  evolver.set_watchdog(Watchdog{.max_vertices = 9});
   Snake<2> s = square_snake();
   std::vector<Phase<2>> phases(1);
   phases[0].iterations = 10;
   phases[0].remesher = std::make_unique<InsertWithinBudget>();
   const EvolveSummary summary = evolver.run(s, phases);
-  EXPECT_EQ(summary.status, EvolveStatus::kDiverged);
-  ASSERT_TRUE(summary.phases[0].divergence.has_value());
-  const Divergence& d = *summary.phases[0].divergence;
+  const Divergence& d = first_phase_divergence(summary);
   EXPECT_EQ(d.phase_iteration, 3);  // 4 -> 6 -> 8 vertices, then 10 would exceed 9
   EXPECT_EQ(d.term, "remesh");
   EXPECT_NE(d.reason.find("insert_within_budget"), std::string::npos) << d.reason;
