@@ -7,6 +7,8 @@
 #include "framework/io/mesh_io.h"
 #include "remesh/pipeline.h"
 
+#include <Eigen/Geometry>
+
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -150,10 +152,47 @@ std::vector<WeightedEnergy<D>> assemble_energies(const ExperimentSpec<D>& spec, 
   return energies;
 }
 
+// The placed template's perimeter (2D, mm) or surface area (3D, mm^2).
 template <int D>
-std::vector<Phase<D>> assemble_phases(const ExperimentSpec<D>& spec) {
+double boundary_measure(const PointList<D>& q, const Connectivity& c) {
+  double m = 0;
+  if constexpr (D == 2) {
+    for (const auto& [a, b] : c.edges()) m += (q[b] - q[a]).norm();
+  } else {
+    for (const Triangle& t : c.triangles()) m += 0.5 * (q[t[1]] - q[t[0]]).cross(q[t[2]] - q[t[0]]).norm();
+  }
+  return m;
+}
+
+// A stage's refinement length against the vertex budget (§5.4 bounds edges from below for the
+// same reason: an oversized mesh slows every iteration). The vertices a snake of this boundary
+// needs when its edges are at most `length`: 2D its perimeter / length; 3D about half its
+// triangles (a closed mesh has about twice as many triangles as vertices), each at most the
+// equilateral triangle's area sqrt(3) / 4 length^2. Both are lower estimates, so what is
+// refused surely exceeds the budget (a snake that grows is stopped by the remeshers, remesher.h).
+template <int D>
+void check_vertex_budget(const ExperimentSpec<D>& spec, const std::string& stage_path, const RefinementLength& r,
+                         double boundary) {
+  const double vertices = D == 2 ? boundary / r.length : boundary / (std::sqrt(3.0) / 2 * r.length * r.length);
+  const double budget = spec.watchdog.max_vertices;
+  if (vertices <= budget) return;
+  const double shortest = D == 2 ? boundary / budget : std::sqrt(boundary / (std::sqrt(3.0) / 2 * budget));
+  char text[400];
+  std::snprintf(text, sizeof text,
+                "%.3g mm would need about %.2g vertices for the placed template (%s %.4g %s; watchdog.max_vertices "
+                "%d): use at least %.3g mm, or raise watchdog.max_vertices",
+                r.length, vertices, D == 2 ? "perimeter" : "area", boundary, D == 2 ? "mm" : "mm^2",
+                spec.watchdog.max_vertices, shortest);
+  throw InputError(spec.file.path, stage_path + "." + r.key, text);
+}
+
+// The phases, each stage checked against the vertex budget for the placed template (`initial`).
+template <int D>
+std::vector<Phase<D>> assemble_phases(const ExperimentSpec<D>& spec, const Template<D>& tmpl, const PointList<D>& initial) {
+  const double boundary = boundary_measure<D>(initial, tmpl.connectivity);
   std::vector<Phase<D>> phases;
-  for (const PhaseSpec<D>& s : spec.phases) {
+  for (size_t p = 0; p < spec.phases.size(); ++p) {
+    const PhaseSpec<D>& s = spec.phases[p];
     Phase<D> ph;
     ph.iterations = s.iterations;
     ph.tolerance = s.tolerance;
@@ -164,7 +203,11 @@ std::vector<Phase<D>> assemble_phases(const ExperimentSpec<D>& spec) {
     // The stages as one pipeline (3D: one pass over a shared editable mesh, same result).
     if (!s.remesh.empty()) {
       std::vector<std::unique_ptr<Remesher<D>>> stages;
-      for (const auto& stage : s.remesh) stages.push_back(stage.build());
+      for (size_t k = 0; k < s.remesh.size(); ++k) {
+        stages.push_back(s.remesh[k].build());
+        if (const auto length = stages.back()->refinement_length())
+          check_vertex_budget(spec, "phases[" + std::to_string(p) + "].remesh[" + std::to_string(k) + "]", *length, boundary);
+      }
       ph.remesher = std::make_unique<RemeshPipeline<D>>(std::move(stages));
     }
     phases.push_back(std::move(ph));
@@ -287,7 +330,7 @@ Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   }
   ex.field_region = spec.field.region;
   ex.energies = assemble_energies(spec, ex.tmpl);
-  ex.phases = assemble_phases(spec);
+  ex.phases = assemble_phases(spec, ex.tmpl, ex.initial);
   for (size_t p = 0; p < spec.phases.size(); ++p)
     ex.phase_names.push_back(spec.phases[p].name.empty() ? "#" + std::to_string(p + 1) : spec.phases[p].name);
   ex.success = spec.success;

@@ -99,13 +99,16 @@ struct OutputOptions {
   }
 };
 
-// "watchdog" (issue 22): when a snake run is stopped as diverged (framework/core/phase_driver.h,
-// Watchdog). A vertex moving more than max_move in one iteration, by a non-finite amount, or a
-// remeshed mesh of more than max_vertices vertices stops the run with status "diverged", the
-// last positions that passed, and exit code 3.
+// "watchdog" (issue 22): when a run is stopped as diverged (framework/core/phase_driver.h,
+// Watchdog). A vertex moving more than max_move in one iteration, by a non-finite amount, a
+// remeshing that would leave more than max_vertices vertices, or a snake whose enclosed area
+// (2D) or volume (3D) falls below min_size of the placed template's stops the run with status
+// "diverged", the last positions that passed, and exit code 3. max_vertices is also the budget
+// that a phase's remeshing lengths are checked against when the experiment is assembled.
 struct WatchdogOptions {
   double max_move = 0;         // mm per iteration; 0: the image's diagonal
   int max_vertices = 1000000;  // after remeshing
+  double min_size = 1e-3;      // share of the placed template's enclosed area / volume; 0: off
 
   template <class V>
   void visit(V& v) {
@@ -114,8 +117,13 @@ struct WatchdogOptions {
                     "diagonal, farther than any meaningful move)",
                     Range::at_least(0)});
     v(max_vertices, Key{"max_vertices", "vertices",
-                        "remeshing that leaves more vertices than this stops the run as diverged (a runaway refinement)",
+                        "remeshing that would leave more vertices than this stops the run as diverged (a runaway "
+                        "refinement); a phase whose remeshing edge length needs more for the placed template is refused",
                         Range::closed(3, 1e8)});
+    v(min_size, Key{"min_size", "1 (share)",
+                    "a snake whose enclosed area (2D) or volume (3D), signed, falls below this share of the placed "
+                    "template's (shrunk to a point or turned inside out) stops the run as diverged at that iteration (0: off)",
+                    Range::closed_open(0, 1)});
   }
 };
 

@@ -64,9 +64,14 @@ int run(const std::string& config, const std::vector<std::string>& overrides, co
     result = run_experiment(ex, options);
   }
   // A run stopped by the watchdog wrote its outputs (the last positions that passed) but did not
-  // register anything: exit code 3, so that scripts and sweeps count it as failed.
+  // register anything: exit code 3, so that scripts and sweeps count it as failed. The line that
+  // says where and why is the run's outcome, so --quiet keeps it.
   if (result.value("status", "") == "diverged") {
-    if (!options.quiet) std::fprintf(stderr, "dsnake: the run diverged (result.json's \"divergence\"); exit code 3\n");
+    std::string where;
+    if (const auto d = result.find("divergence"); d != result.end() && d->is_object())
+      where = " in phase " + d->value("phase", std::string("?")) + " at iteration " +
+              std::to_string(d->value("phase_iteration", 0)) + ": " + d->value("reason", std::string());
+    std::fprintf(stderr, "dsnake: the run diverged%s (result.json's \"divergence\"); exit code 3\n", where.c_str());
     return 3;
   }
   return 0;

@@ -296,6 +296,7 @@ Watchdog watchdog_of(const Experiment<D>& ex) {
   Watchdog w;
   w.max_vertices = ex.watchdog.max_vertices;
   w.max_move = ex.watchdog.max_move;
+  w.min_size = ex.watchdog.min_size;
   if (!(w.max_move > 0)) {
     const Grid<D>& g = ex.image.grid();
     w.max_move = (g.size.template cast<double>().cwiseProduct(g.spacing)).norm();
@@ -459,13 +460,15 @@ nlohmann::ordered_json metrics_json(const Metrics& m, bool finite) {
 }
 
 // The watchdog's report of a diverged phase: the reason, the iteration within the phase, the
-// vertex, the energy term ("energies[i]" and its type, or "remesh") and the move (mm; null when
-// not finite).
+// vertex, the energy term ("energies[i]" and its type, or "remesh", "collapse", "global") and the
+// move (mm; null when not finite); a collapse adds the enclosed area's or volume's share of the
+// start's at the iteration that failed ("size_share").
 nlohmann::ordered_json divergence_json(const Divergence& d) {
   nlohmann::ordered_json j = {{"reason", d.reason}, {"phase_iteration", d.phase_iteration}};
   j["vertex"] = d.vertex >= 0 ? nlohmann::ordered_json(d.vertex) : nlohmann::ordered_json(nullptr);
   j["term"] = d.term_index >= 0 ? "energies[" + std::to_string(d.term_index) + "] (" + d.term + ")" : d.term;
   j["move"] = std::isfinite(d.move) ? nlohmann::ordered_json(d.move) : nlohmann::ordered_json(nullptr);
+  if (d.size_share) j["size_share"] = optional_number(*d.size_share);
   return j;
 }
 

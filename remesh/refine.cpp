@@ -40,6 +40,10 @@ RemeshReport RefineRemesher::run(remesh_detail::EditMesh& m, const RemeshContext
       if (len2 > longest) { longest = len2; k_long = k; }
     }
     if (longest <= t2) continue;
+    if (m.num_live_vertices() >= context.max_vertices) {  // a split adds one vertex
+      report.over_budget = true;
+      break;
+    }
     const Point<3> c = (m.pos(t[0]) + m.pos(t[1]) + m.pos(t[2])) / 3.0;
     double sub_min = 1;  // the key of the largest angle
     for (int k = 0; k < 3; ++k)

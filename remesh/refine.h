@@ -2,7 +2,8 @@
 // barycentre and is split 1 -> 3 (a triangle too thin for that has its longest edge split at
 // the midpoint instead, see refine.cpp). The threshold follows the schedule of §6: it falls
 // geometrically from `start_max_edge` to `max_edge` over the first `ramp` share of the phase,
-// so that the snake reaches its full resolution gradually. New vertices are free (id -1).
+// so that the snake reaches its full resolution gradually. New vertices are free (id -1). A pass
+// stops splitting at the context's vertex budget (and reports over_budget).
 #pragma once
 
 #include "framework/core/options.h"
@@ -44,6 +45,10 @@ class RefineRemesher final : public EditStage {
   std::string type() const override { return kType; }
   bool edits_can_cross() const override { return false; }  // the new triangles tile the old ones
   RemeshReport run(remesh_detail::EditMesh& m, const RemeshContext<3>& context) override;
+  // The final threshold (a schedule's start is at least as long).
+  std::optional<RefinementLength> refinement_length() const override {
+    return RefinementLength{"max_edge", options_.max_edge};
+  }
 
  private:
   RefineOptions options_;

@@ -2,7 +2,9 @@
 // vertices lies in [min_edge, max_edge] (physical units). Deformation vertices are anchors:
 // they keep their ids, positions and order; free vertices between two anchors are spread
 // evenly along the current polyline. (A span between two adjacent anchors shorter than
-// min_edge stays as it is: anchors are never merged.)
+// min_edge stays as it is: anchors are never merged.) The vertex count is found before anything
+// is allocated: a resampling past the context's vertex budget leaves the snake as it was and
+// reports over_budget.
 #pragma once
 
 #include "framework/core/options.h"
@@ -34,6 +36,9 @@ class ResampleRemesher final : public Remesher<2> {
   explicit ResampleRemesher(const ResampleOptions& options = {}) : options_(checked(options, kType)) {}
   std::string type() const override { return kType; }
   RemeshReport apply(Snake<2>& snake, const RemeshContext<2>& context) override;
+  std::optional<RefinementLength> refinement_length() const override {
+    return RefinementLength{"max_edge", options_.max_edge};
+  }
 
  private:
   ResampleOptions options_;

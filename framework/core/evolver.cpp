@@ -96,6 +96,29 @@ int SnakeStep<D>::blame_term(const Snake<D>& snake_before, int vertex) const {
 }
 
 template <int D>
+int SnakeStep<D>::blame_collapse(PhaseDriver<D>& driver, const Snake<D>& snake_before) const {
+  const int n = snake_before.num_vertices();
+  Snake<D> alone = snake_before;
+  int worst = -1;
+  double smallest = INFINITY;
+  for (size_t e = 0; e < proposals_.size(); ++e) {
+    if (int(proposals_[e].size()) != n || !(driver.energies()[e].weight > 0)) continue;  // (off: no proposal)
+    alone.positions() = snake_before.positions();
+    for (int v = 0; v < n; ++v) {
+      const bool governed = governs_[e] == Governs::kAllVertices ||
+                            (governs_[e] == Governs::kDeformationVertices && snake_before.is_deformation_vertex(v)) ||
+                            (governs_[e] == Governs::kMarkedVertices && masks_[e][v]);
+      if (governed) alone.positions()[v] = proposals_[e][v];
+    }
+    const double measure = std::abs(snake_before.signed_measure()) > 0
+                               ? alone.signed_measure() / snake_before.signed_measure() : alone.signed_measure();
+    const double key = std::isfinite(measure) ? measure : -INFINITY;
+    if (key < smallest) smallest = key, worst = static_cast<int>(e);
+  }
+  return worst;
+}
+
+template <int D>
 PhaseSummary SnakeStep<D>::run_phase(PhaseDriver<D>& driver, Snake<D>& snake, const Phase<D>& phase, int phase_index) {
   PhaseSummary ps;
   guard_report_ = {};
@@ -111,18 +134,14 @@ PhaseSummary SnakeStep<D>::run_phase(PhaseDriver<D>& driver, Snake<D>& snake, co
     info.phase = phase_index;
     info.phase_iteration = it;
     info.max_displacement = move;
-    const Watchdog& watchdog = driver.watchdog();
-    if (!std::isfinite(move) || move > watchdog.max_move) {
-      // Back to the last positions that passed (next_ holds them after the swap in step()).
-      Divergence d;
-      d.reason = std::isfinite(move) ? "a vertex moved more than watchdog.max_move in one iteration"
-                                     : "a vertex moved by a non-finite amount";
-      d.phase_iteration = it;
-      d.vertex = worst_vertex_;
-      d.move = move;
+    // The watchdog: a move too large (or not finite), else a collapse. The iteration is undone:
+    // back to the last positions that passed (next_ holds them after the swap in step()).
+    std::optional<Divergence> d = driver.check_move(move, worst_vertex_, it);
+    const bool collapse = !d && (d = driver.check_collapse(snake, it)).has_value();
+    if (d) {
       snake.positions().swap(next_);
-      d.term_index = blame_term(snake, worst_vertex_);
-      if (d.term_index >= 0) d.term = driver.energies()[d.term_index].energy->type();
+      d->term_index = collapse ? blame_collapse(driver, snake) : blame_term(snake, worst_vertex_);
+      if (d->term_index >= 0) d->term = driver.energies()[d->term_index].energy->type();
       ps.status = EvolveStatus::kDiverged;
       ps.divergence = d;
       if (driver.trace_energy()) {
@@ -146,11 +165,7 @@ PhaseSummary SnakeStep<D>::run_phase(PhaseDriver<D>& driver, Snake<D>& snake, co
     }
     if (phase.remesher && !converged && it % std::max(1, phase.every) == 0) last_reports = driver.remesh(snake, phase, it);
     driver.report(info, snake);
-    if (snake.num_vertices() > watchdog.max_vertices) {
-      Divergence d;
-      d.reason = "remeshing left " + std::to_string(snake.num_vertices()) + " vertices, more than watchdog.max_vertices";
-      d.phase_iteration = it;
-      d.term = "remesh";
+    if (std::optional<Divergence> d = driver.check_vertex_budget(snake, last_reports, it)) {
       ps.status = EvolveStatus::kDiverged;
       ps.divergence = d;
       break;

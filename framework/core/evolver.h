@@ -28,6 +28,9 @@ class SnakeStep final : public Minimizer<D> {
   // whose proposal for it moves farthest (or is not finite): the watchdog's report.
   int last_worst_vertex() const { return worst_vertex_; }
   int blame_term(const Snake<D>& snake_before, int vertex) const;
+  // The energy term whose proposals alone, made from `snake_before`, shrink its enclosed area or
+  // volume the most: the collapse's report.
+  int blame_collapse(PhaseDriver<D>& driver, const Snake<D>& snake_before) const;
 
  private:
   std::vector<PointList<D>> proposals_;  // per energy, reused between iterations

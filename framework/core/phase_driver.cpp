@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 namespace dsnake {
 
@@ -74,6 +75,7 @@ std::vector<RemeshReport> PhaseDriver<D>::remesh(Snake<D>& snake, const Phase<D>
   remesh_context.image = context_.image;
   remesh_context.phase_iteration = phase_iteration;
   remesh_context.phase_iterations = phase.iterations;
+  remesh_context.max_vertices = watchdog_.max_vertices;
   std::vector<RemeshReport> reports = phase.remesher->apply_stages(snake, remesh_context);
   for (const auto& report : reports)
     for (auto* o : observers_) o->on_remesh(report, snake);
@@ -89,9 +91,60 @@ void PhaseDriver<D>::report(IterationInfo& info, const Snake<D>& snake) {
 }
 
 template <int D>
+double PhaseDriver<D>::size_share(const Snake<D>& snake) const {
+  return snake.signed_measure() / start_measure_;
+}
+
+template <int D>
+std::optional<Divergence> PhaseDriver<D>::check_move(double move, int vertex, int phase_iteration) const {
+  if (std::isfinite(move) && move <= watchdog_.max_move) return std::nullopt;
+  Divergence d;
+  d.reason = std::isfinite(move) ? "a vertex moved more than watchdog.max_move in one iteration"
+                                 : "a vertex moved by a non-finite amount";
+  d.phase_iteration = phase_iteration;
+  d.vertex = vertex;
+  d.move = move;
+  return d;
+}
+
+template <int D>
+std::optional<Divergence> PhaseDriver<D>::check_collapse(const Snake<D>& snake, int phase_iteration) const {
+  // Off, or a start without an enclosed area (no share to compare).
+  if (!(watchdog_.min_size > 0) || !(std::abs(start_measure_) > 0) || !std::isfinite(start_measure_)) return std::nullopt;
+  const double share = size_share(snake);
+  if (share >= watchdog_.min_size) return std::nullopt;  // (NaN fails too: non-finite positions)
+  char text[160];
+  std::snprintf(text, sizeof text, "the snake collapsed: its enclosed %s fell to %.3g of the start's, below watchdog.min_size (%g)",
+                D == 2 ? "area" : "volume", share, watchdog_.min_size);
+  Divergence d;
+  d.reason = text;
+  d.phase_iteration = phase_iteration;
+  d.term = "collapse";
+  d.size_share = share;
+  return d;
+}
+
+template <int D>
+std::optional<Divergence> PhaseDriver<D>::check_vertex_budget(const Snake<D>& snake, const std::vector<RemeshReport>& reports,
+                                                              int phase_iteration) const {
+  std::string stage;
+  for (const auto& r : reports)
+    if (r.over_budget) stage = r.stage;
+  if (stage.empty() && snake.num_vertices() <= watchdog_.max_vertices) return std::nullopt;
+  Divergence d;
+  d.reason = stage.empty() ? "remeshing left " + std::to_string(snake.num_vertices()) + " vertices, more than watchdog.max_vertices"
+                           : "remeshing (" + stage + ") would leave more than watchdog.max_vertices (" +
+                                 std::to_string(watchdog_.max_vertices) + ") vertices";
+  d.phase_iteration = phase_iteration;
+  d.term = "remesh";
+  return d;
+}
+
+template <int D>
 EvolveSummary PhaseDriver<D>::run(Snake<D>& snake, std::vector<Phase<D>>& phases) {
   EvolveSummary summary;
   iterations_ = 0;
+  start_measure_ = snake.signed_measure();
   for (size_t p = 0; p < phases.size(); ++p) {
     apply_phase_weights(energies_, base_weights_, phases[p].weights);
     bind(snake);

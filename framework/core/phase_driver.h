@@ -65,12 +65,17 @@ struct IterationInfo {
 enum class EvolveStatus { kConverged, kIterationBudget, kDiverged };
 std::string to_string(EvolveStatus status);
 
-// The numeric watchdog (issue 22): the snake iteration stops as diverged when a vertex moves by
-// a non-finite amount or by more than max_move in one iteration, or when remeshing leaves more
-// than max_vertices vertices; the positions are then those of the last iteration that passed.
+// The numeric watchdog: the snake iteration stops as diverged when a vertex moves by a
+// non-finite amount or by more than max_move in one iteration, when remeshing would leave more
+// than max_vertices vertices (the remeshers stop at that budget, remesher.h), or when the
+// snake collapses: its enclosed area (2D) or volume (3D), signed, falls below min_size times
+// that of the run's start (a shape shrunk to a point or turned inside out). The positions are
+// then those of the last iteration that passed. The global solve applies the same checks at each
+// of its iterations.
 struct Watchdog {
   double max_move = std::numeric_limits<double>::infinity();  // mm per iteration
   int max_vertices = std::numeric_limits<int>::max();
+  double min_size = 0;  // share of the start's enclosed area or volume; 0: off
 };
 
 // Why a phase diverged: what was seen, at which iteration (within the phase), which vertex and
@@ -82,6 +87,8 @@ struct Divergence {
   std::string term;
   int term_index = -1;
   double move = 0;  // the offending move (inf or NaN when not finite)
+  // A collapse: the enclosed area or volume over the start's, at the iteration that failed.
+  std::optional<double> size_share;
 };
 
 struct PhaseSummary {
@@ -158,6 +165,17 @@ class PhaseDriver {
   std::vector<RemeshReport> remesh(Snake<D>& snake, const Phase<D>& phase, int phase_iteration);
   // Numbers the iteration (counted over all phases), sets its vertex count and tells the observers.
   void report(IterationInfo& info, const Snake<D>& snake);
+  // The snake's enclosed area (2D) or volume (3D) over that of the run's start, signed (NaN
+  // before run()); the watchdog's collapse check compares it with min_size.
+  double size_share(const Snake<D>& snake) const;
+  // The watchdog's checks that every minimizer shares: an iteration's largest move (null when
+  // finite and at most max_move; `vertex` is the vertex that made it), a collapse (null while
+  // the share is at least min_size), and a remeshing past the vertex budget (null if none of
+  // its reports says so and the snake has at most max_vertices vertices).
+  std::optional<Divergence> check_move(double move, int vertex, int phase_iteration) const;
+  std::optional<Divergence> check_collapse(const Snake<D>& snake, int phase_iteration) const;
+  std::optional<Divergence> check_vertex_budget(const Snake<D>& snake, const std::vector<RemeshReport>& reports,
+                                                int phase_iteration) const;
   Minimizer<D>& minimizer() { return *minimizer_; }
 
  private:
@@ -170,6 +188,7 @@ class PhaseDriver {
   std::vector<double> base_weights_;  // the energies' own weights (phases may override them)
   bool trace_energy_ = true;
   int iterations_ = 0;
+  double start_measure_ = std::numeric_limits<double>::quiet_NaN();  // signed area / volume at run()
   uint64_t bound_version_ = ~uint64_t(0);
   int bound_vertices_ = -1;
   const Snake<D>* bound_snake_ = nullptr;

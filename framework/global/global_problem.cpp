@@ -174,6 +174,7 @@ GlobalSolveSummary GlobalProblem<D>::solve(const GlobalSolverOptions& options,
     DSNAKE_ASSERT(false, "unknown linear solver");
   }
   o.max_num_iterations = options.max_iterations;
+  o.max_solver_time_in_seconds = options.max_time_s;
   o.initial_trust_region_radius = options.initial_trust_region_radius;
   o.max_trust_region_radius = options.max_trust_region_radius;
   o.function_tolerance = options.function_tolerance;

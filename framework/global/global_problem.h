@@ -56,6 +56,9 @@ struct GlobalSolverOptions {
   double parameter_tolerance = 1e-10;
   int threads = 1;  // Ceres' threads (part of the file, so the numbers do not depend on --threads)
   int remesh_rounds = 2;  // a phase with remeshers: solve, then (remesh, re-solve) this many times
+  // Wall-clock bound on the whole global solve (every phase and remesh round), checked by Ceres
+  // after each iteration (max_solver_time_in_seconds); reaching it stops the run as diverged.
+  double max_time_s = 600;
 
   template <class V>
   void visit(V& v) {
@@ -68,6 +71,10 @@ struct GlobalSolverOptions {
     v(parameter_tolerance, Key{"parameter_tolerance", "1 (relative)", "Ceres' relative step size to stop at", Range::at_least(0)});
     v(threads, Key{"threads", "threads", "Ceres' threads (in the file so that the numbers do not depend on --threads)", Range::closed(1, 256)});
     v(remesh_rounds, Key{"remesh_rounds", "rounds", "a phase with remeshers: solve, then (remesh, re-solve) this many times", Range::closed(0, 1000)});
+    v(max_time_s, Key{"max_time_s", "s",
+                      "wall-clock bound on the whole global solve (all phases and remesh rounds), checked after each "
+                      "Ceres iteration; reaching it stops the run as diverged (exit code 3) with the last iteration's positions",
+                      Range::open_closed(0, 1e7)});
   }
   void check() const {
     if (max_trust_region_radius < initial_trust_region_radius)

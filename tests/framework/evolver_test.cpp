@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <stdexcept>
 
 namespace dsnake {
 namespace {
@@ -64,6 +65,15 @@ class InsertOnce : public Remesher<2> {
   int calls = 0;
   std::vector<int> iterations_seen;
 };
+
+// The divergence of a run that stopped in its first phase (checks the status and the phase count;
+// throws, failing the test, when there is none).
+const Divergence& first_phase_divergence(const EvolveSummary& summary) {
+  EXPECT_EQ(summary.status, EvolveStatus::kDiverged);
+  EXPECT_EQ(summary.phases.size(), 1u);
+  if (summary.phases.empty() || !summary.phases[0].divergence) throw std::runtime_error("the run did not diverge");
+  return *summary.phases[0].divergence;
+}
 
 Snake<2> square_snake() {
   Template<2> t{{{1, 1}, {-1, 1}, {-1, -1}, {1, -1}}, Connectivity::polygon(4), {}};
@@ -296,12 +306,9 @@ TEST(Evolver, NonFiniteProposalsStopWithDivergedStatus) {
   const PointList<2> start = s.positions();
   std::vector<Phase<2>> phases(2);
   const EvolveSummary summary = evolver.run(s, phases);
-  EXPECT_EQ(summary.status, EvolveStatus::kDiverged);
   EXPECT_EQ(summary.iterations, 1);
-  ASSERT_EQ(summary.phases.size(), 1u);
   // The watchdog's report names the first vertex, the NaN term, and the positions are the start's.
-  ASSERT_TRUE(summary.phases[0].divergence.has_value());
-  const Divergence& d = *summary.phases[0].divergence;
+  const Divergence& d = first_phase_divergence(summary);
   EXPECT_EQ(d.phase_iteration, 1);
   EXPECT_EQ(d.vertex, 0);
   EXPECT_EQ(d.term_index, 1);
@@ -341,6 +348,122 @@ TEST(Evolver, AMoveLargerThanTheWatchdogsBoundStopsTheRun) {
   Evolver<2> free_run({}, std::move(e2));
   Snake<2> s2 = square_snake();
   EXPECT_NE(free_run.run(s2, phases).status, EvolveStatus::kDiverged);
+}
+
+// Proposes every vertex where it is (a term that holds the shape).
+class StayEnergy : public Energy<2> {
+ public:
+  std::string type() const override { return "stay"; }
+  void bind(const EnergyContext<2>&, const Snake<2>&) override {}
+  void propose(const Snake<2>& snake, PointList<2>& out) override { out = snake.positions(); }
+  double value(const Snake<2>&) const override { return 0; }
+};
+
+// Mirrors every vertex in the y axis: the polygon turns inside out at once.
+class MirrorEnergy : public Energy<2> {
+ public:
+  std::string type() const override { return "mirror"; }
+  void bind(const EnergyContext<2>&, const Snake<2>&) override {}
+  void propose(const Snake<2>& snake, PointList<2>& out) override {
+    for (int v = 0; v < snake.num_vertices(); ++v) out[v] = Point<2>(-snake.positions()[v].x(), snake.positions()[v].y());
+  }
+  double value(const Snake<2>&) const override { return 0; }
+};
+
+// The watchdog's collapse check: with the halfway and the stay terms each step scales the square
+// by 3/4 about its centre, so its area by 9/16 per iteration. 0.5625^12 = 1.0023e-3 and
+// 0.5625^13 = 5.64e-4: with min_size 1e-3 the run stops at iteration 13, the positions those of
+// iteration 12, and the halfway term is named (its proposals alone shrink the area most).
+TEST(Evolver, ACollapseBelowMinSizeStopsTheRunAtThatIteration) {
+  auto energies = [] {
+    std::vector<WeightedEnergy<2>> e;
+    e.push_back({1.0, std::make_unique<StayEnergy>()});
+    e.push_back({1.0, std::make_unique<HalfwayEnergy>()});
+    return e;
+  };
+  Evolver<2> evolver({}, energies());
+  evolver.set_watchdog(Watchdog{.min_size = 1e-3});
+  Snake<2> s = square_snake();
+  std::vector<Phase<2>> phases(2);
+  phases[0].iterations = 50;
+  const EvolveSummary summary = evolver.run(s, phases);
+  EXPECT_EQ(summary.iterations, 13);
+  const Divergence& d = first_phase_divergence(summary);
+  EXPECT_EQ(d.phase_iteration, 13);
+  ASSERT_TRUE(d.size_share.has_value());
+  EXPECT_NEAR(*d.size_share, std::pow(0.5625, 13), 1e-15);
+  EXPECT_EQ(d.term_index, 1);
+  EXPECT_EQ(d.term, "halfway");
+  EXPECT_NE(d.reason.find("collapsed"), std::string::npos) << d.reason;
+  EXPECT_NE(d.reason.find("watchdog.min_size"), std::string::npos) << d.reason;
+  for (int v = 0; v < 4; ++v)
+    EXPECT_NEAR((s.positions()[v] - std::pow(0.75, 12) * square_snake().positions()[v]).norm(), 0, 1e-15);
+  EXPECT_NEAR(evolver.size_share(s), std::pow(0.5625, 12), 1e-15);
+  // Off (min_size 0, the library's default): the same run goes on to its budget.
+  Evolver<2> free_run({}, energies());
+  Snake<2> s2 = square_snake();
+  const EvolveSummary free_summary = free_run.run(s2, phases);
+  EXPECT_NE(free_summary.status, EvolveStatus::kDiverged);
+  EXPECT_EQ(free_summary.iterations, 150);  // 50, then the second phase's default 100
+}
+
+// The share is signed: a snake turned inside out (its area's sign reversed) has collapsed through
+// zero, at its first iteration here; the positions are the start's.
+TEST(Evolver, ASnakeTurnedInsideOutIsACollapse) {
+  std::vector<WeightedEnergy<2>> e;
+  e.push_back({1.0, std::make_unique<MirrorEnergy>()});
+  Evolver<2> evolver({}, std::move(e));
+  evolver.set_watchdog(Watchdog{.min_size = 1e-3});
+  Snake<2> s = square_snake();
+  std::vector<Phase<2>> phases(1);
+  const EvolveSummary summary = evolver.run(s, phases);
+  const Divergence& d = first_phase_divergence(summary);
+  EXPECT_EQ(d.phase_iteration, 1);
+  EXPECT_NEAR(*d.size_share, -1.0, 1e-15);
+  EXPECT_EQ(s.positions(), square_snake().positions());
+}
+
+// Adds n free vertices on edge (0, 1) unless that would exceed the context's vertex budget, as
+// the remeshers do.
+class InsertWithinBudget : public Remesher<2> {
+ public:
+  std::string type() const override { return "insert_within_budget"; }
+  RemeshReport apply(Snake<2>& s, const RemeshContext<2>& ctx) override {
+    RemeshReport report{"insert_within_budget", s.num_vertices(), s.num_vertices(), 0};
+    if (s.num_vertices() + 2 > ctx.max_vertices) {
+      report.over_budget = true;
+      return report;
+    }
+    PointList<2> q = s.positions();
+    std::vector<int> ids = s.template_ids();
+    for (int k = 0; k < 2; ++k) {
+      q.insert(q.begin() + 1, 0.5 * (q[0] + q[1]));
+      ids.insert(ids.begin() + 1, -1);
+    }
+    const int n = static_cast<int>(q.size());
+    s.set_topology(std::move(q), Connectivity::polygon(n), std::move(ids));
+    report.vertices_after = n;
+    return report;
+  }
+};
+
+// The watchdog's max_vertices reaches the remeshers as their budget; a stage that stops at it
+// stops the run as diverged, naming the stage, at that iteration.
+TEST(Evolver, ARemeshingPastTheVertexBudgetStopsTheRun) {
+  std::vector<WeightedEnergy<2>> e;
+  e.push_back({1.0, std::make_unique<StayEnergy>()});
+  Evolver<2> evolver({}, std::move(e));
+  evolver.set_watchdog(Watchdog{.max_vertices = 9});
+  Snake<2> s = square_snake();
+  std::vector<Phase<2>> phases(1);
+  phases[0].iterations = 10;
+  phases[0].remesher = std::make_unique<InsertWithinBudget>();
+  const EvolveSummary summary = evolver.run(s, phases);
+  const Divergence& d = first_phase_divergence(summary);
+  EXPECT_EQ(d.phase_iteration, 3);  // 4 -> 6 -> 8 vertices, then 10 would exceed 9
+  EXPECT_EQ(d.term, "remesh");
+  EXPECT_NE(d.reason.find("insert_within_budget"), std::string::npos) << d.reason;
+  EXPECT_EQ(s.num_vertices(), 8);
 }
 
 }  // namespace

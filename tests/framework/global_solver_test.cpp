@@ -18,6 +18,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <sstream>
@@ -311,6 +312,96 @@ TEST(GlobalSolver, ReachesAtMostTheSnakesEnergyOnASmooth2dCase) {
   ASSERT_EQ(solver.solves().size(), 1u);
   EXPECT_GT(solver.solves()[0][0].iterations, 0);
   EXPECT_NEAR(solver.solves()[0][0].final_cost, global_energy, 1e-6 * (1 + global_energy));
+}
+
+// Records each iteration's enclosed-area share of the run's start.
+class ShareObserver : public EvolverObserver<2> {
+ public:
+  explicit ShareObserver(const PhaseDriver<2>& driver) : driver_(driver) {}
+  void on_iteration(const IterationInfo&, const Snake<2>& snake) override { shares.push_back(driver_.size_share(snake)); }
+  std::vector<double> shares;
+
+ private:
+  const PhaseDriver<2>& driver_;
+};
+
+// The watchdog in the global solve: the tension alone has its minimum at a point, so the solve
+// collapses the polygon; it stops at the first Ceres iteration whose area share is below
+// min_size, with the positions of the iteration before (every reported share passed).
+TEST(GlobalSolver, ACollapseStopsTheSolveAtThatIteration) {
+  const Template<2> t = wobbly_polygon(40, 10.0);
+  auto energies = [] {
+    std::vector<WeightedEnergy<2>> e;
+    e.push_back({1.0, make<2>(R"({"type": "internal", "alpha": 5, "beta": 0.0, "discretization": "umbrella"})")});
+    return e;
+  };
+  GlobalSolverOptions options;
+  options.max_iterations = 200;
+  std::vector<Phase<2>> phases(1);
+  // Without the check: the share falls below 1e-3 at some iteration k (found here).
+  GlobalSolver<2> free_solver(EnergyContext<2>{&t}, energies(), options);
+  ShareObserver free_shares(free_solver);
+  free_solver.add_observer(&free_shares);
+  Snake<2> free_snake = Snake<2>::from_template(t, t.positions);
+  free_solver.run(free_snake, phases);
+  const auto below = std::find_if(free_shares.shares.begin(), free_shares.shares.end(), [](double x) { return x < 1e-3; });
+  ASSERT_NE(below, free_shares.shares.end()) << "the tension did not collapse the polygon";
+  const int k = int(below - free_shares.shares.begin()) + 1;
+  // With it: diverged at k, the positions of iteration k - 1.
+  GlobalSolver<2> solver(EnergyContext<2>{&t}, energies(), options);
+  Watchdog w;
+  w.min_size = 1e-3;
+  solver.set_watchdog(w);
+  ShareObserver shares(solver);
+  solver.add_observer(&shares);
+  Snake<2> snake = Snake<2>::from_template(t, t.positions);
+  const EvolveSummary summary = solver.run(snake, phases);
+  EXPECT_EQ(summary.status, EvolveStatus::kDiverged);
+  ASSERT_TRUE(summary.phases[0].divergence.has_value());
+  const Divergence& d = *summary.phases[0].divergence;
+  EXPECT_EQ(d.phase_iteration, k);
+  EXPECT_NEAR(*d.size_share, *below, 1e-12);
+  EXPECT_GE(solver.size_share(snake), 1e-3);
+  EXPECT_NEAR(solver.size_share(snake), k > 1 ? free_shares.shares[k - 2] : 1.0, 1e-12);
+  for (double x : shares.shares) EXPECT_GE(x, 1e-3);
+}
+
+// The bounds on the global solve: max_iterations per solve, and max_time_s over the whole solve,
+// whose end stops the run as diverged, naming the key.
+TEST(GlobalSolver, StopsAtItsIterationAndTimeBounds) {
+  const Template<2> t = wobbly_polygon(40, 10.0);
+  auto energies = [] {
+    std::vector<WeightedEnergy<2>> e;
+    e.push_back({1.0, make<2>(R"({"type": "internal", "alpha": 0.3, "beta": 0.0, "discretization": "umbrella"})")});
+    e.push_back({0.5, make<2>(R"({"type": "asap_mls", "variant": "exact", "neighborhood": "k_nearest", "k": 6})")});
+    return e;
+  };
+  PointList<2> start = t.positions;
+  for (auto& p : start) p = 1.3 * p;
+  std::vector<Phase<2>> phases(2);
+  GlobalSolverOptions options;
+  options.max_iterations = 3;
+  options.function_tolerance = options.gradient_tolerance = options.parameter_tolerance = 0;
+  GlobalSolver<2> few(EnergyContext<2>{&t}, energies(), options);
+  Snake<2> a = Snake<2>::from_template(t, start);
+  const EvolveSummary s = few.run(a, phases);
+  EXPECT_NE(s.status, EvolveStatus::kDiverged);
+  ASSERT_EQ(s.phases.size(), 2u);
+  for (const auto& ps : s.phases) EXPECT_EQ(ps.iterations, 3);  // no tolerance stops it earlier
+  // (Ceres' summary also counts the step it stopped on.)
+  for (const auto& solve : few.solves()) EXPECT_LE(solve[0].iterations, 4);
+  options.max_iterations = 1000;
+  options.max_time_s = 1e-9;  // past after Ceres' first iteration
+  GlobalSolver<2> timed(EnergyContext<2>{&t}, energies(), options);
+  Snake<2> b = Snake<2>::from_template(t, start);
+  const EvolveSummary bounded = timed.run(b, phases);
+  EXPECT_EQ(bounded.status, EvolveStatus::kDiverged);
+  ASSERT_EQ(bounded.phases.size(), 1u);  // the second phase does not start
+  ASSERT_TRUE(bounded.phases[0].divergence.has_value());
+  EXPECT_EQ(bounded.phases[0].divergence->term, "global");
+  EXPECT_NE(bounded.phases[0].divergence->reason.find("global.max_time_s"), std::string::npos);
+  EXPECT_LE(bounded.phases[0].iterations, 1);
+  for (const auto& p : b.positions()) EXPECT_TRUE(p.allFinite());
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <limits>
 
 namespace dsnake {
 namespace {
@@ -46,6 +47,36 @@ TEST(ResampleRemesher, EdgesFallBetweenMinAndMaxAndAnchorsStay) {
   // A second pass changes nothing.
   r.apply(s, {});
   EXPECT_EQ(s.topology_version(), 1u);
+}
+
+// The vertex budget: a resampling past it is found before anything is allocated and leaves the
+// snake as it was; at the budget it resamples. A length whose count exceeds int's range (a cast
+// that would be undefined) is refused the same way.
+TEST(ResampleRemesher, AResamplingPastTheVertexBudgetLeavesTheSnakeAsItWas) {
+  const PointList<2> q = {{0, 0}, {40, 0}, {40, 20}, {0, 20}};  // perimeter 120
+  const Snake<2> start(q, Connectivity::polygon(4), {0, -1, -1, -1});
+  RemeshContext<2> context;
+  context.max_vertices = 59;
+  Snake<2> s = start;
+  const auto over = ResampleRemesher({0.8, 2.0}).apply(s, context);  // needs 60
+  EXPECT_TRUE(over.over_budget);
+  EXPECT_EQ(s.positions(), start.positions());
+  EXPECT_EQ(s.topology_version(), start.topology_version());
+  context.max_vertices = 60;
+  const auto fits = ResampleRemesher({0.8, 2.0}).apply(s, context);
+  EXPECT_FALSE(fits.over_budget);
+  EXPECT_EQ(s.num_vertices(), 60);
+  // 120 / 2e-300 edges: more than any int; refused without a cast (UBSan would flag one).
+  context.max_vertices = std::numeric_limits<int>::max();
+  s = start;
+  const auto huge = ResampleRemesher({1e-300, 2e-300}).apply(s, context);
+  EXPECT_TRUE(huge.over_budget);
+  EXPECT_EQ(s.num_vertices(), 4);
+  // The stage's refinement length is its max_edge (what the assembly checks against the budget).
+  const auto length = ResampleRemesher({0.8, 2.0}).refinement_length();
+  ASSERT_TRUE(length.has_value());
+  EXPECT_EQ(length->key, "max_edge");
+  EXPECT_EQ(length->length, 2.0);
 }
 
 TEST(ResampleRemesher, RejectsInconsistentOptions) {

@@ -87,6 +87,37 @@ TEST(RefineRemesher, ThinTrianglesGetTheirLongestEdgeSplitInstead) {
   }
 }
 
+// The vertex budget: a pass stops splitting when the mesh has as many vertices as the budget
+// and says so; the mesh stays closed and its volume unchanged.
+TEST(RefineRemesher, APassStopsAtTheVertexBudget) {
+  RemeshContext<3> context;
+  context.max_vertices = 10;
+  Snake<3> s = octahedron();
+  const auto report = RefineRemesher({1.0, 0, 0.5}).apply(s, context);  // 14 without a budget
+  EXPECT_TRUE(report.over_budget);
+  EXPECT_EQ(s.num_vertices(), 10);
+  EXPECT_EQ(s.connectivity().closed_manifold_problem(), "");
+  EXPECT_NEAR(s.signed_measure(), 4.0 / 3, 1e-12);
+  context.max_vertices = 14;
+  Snake<3> t = octahedron();
+  EXPECT_FALSE(RefineRemesher({1.0, 0, 0.5}).apply(t, context).over_budget);
+  EXPECT_EQ(t.num_vertices(), 14);
+  // A tiny threshold: every pass would split all triangles; a hundred passes stay at the budget.
+  context.max_vertices = 500;
+  Snake<3> u = test::icosphere(1);
+  RefineRemesher tiny({1e-9, 0, 0.5});
+  for (int pass = 0; pass < 100; ++pass) tiny.apply(u, context);
+  EXPECT_EQ(u.num_vertices(), 500);
+  const auto length = tiny.refinement_length();
+  ASSERT_TRUE(length.has_value());
+  EXPECT_EQ(length->key, "max_edge");
+  EXPECT_EQ(length->length, 1e-9);
+  // The stages that never add vertices declare no refinement length.
+  EXPECT_FALSE(SimplifyRemesher().refinement_length().has_value());
+  EXPECT_FALSE(UniformRemesher().refinement_length().has_value());
+  EXPECT_FALSE(DelaunayRemesher().refinement_length().has_value());
+}
+
 TEST(RefineRemesher, ThresholdFallsGeometricallyOverTheRamp) {
   RefineOptions o{1.0, 4.0, 0.5};
   EXPECT_DOUBLE_EQ(refine_threshold(o, 0, 100), 4.0);
