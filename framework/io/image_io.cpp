@@ -78,8 +78,7 @@ template std::vector<double> decode<double>(const char*, int64_t, Scalar, bool);
 // Values rounded and clamped to [0, 255], one byte each (label maps).
 std::string label_bytes(const std::vector<float>& values) {
   std::string out(values.size(), '\0');
-  for (size_t i = 0; i < values.size(); ++i)
-    out[i] = char(uint8_t(std::lround(std::clamp(double(values[i]), 0.0, 255.0))));
+  for (size_t i = 0; i < values.size(); ++i) out[i] = char(label_byte(values[i]));
   return out;
 }
 
@@ -473,7 +472,15 @@ void orthonormalize_axes(RawVolume& v, const std::string& path) {
 // if it is a reflection (determinant -1), the last index axis is reversed so that it becomes a
 // rotation, which keeps the frame's orientation and so the templates' outward normals.
 // A 2D image taken from a 3D file must lie in the x-y plane; an oblique one is refused.
-void align_axes(RawVolume& v, const std::string& path) {
+// `layout` (when not null) receives the stored geometry and the reordering.
+void align_axes(RawVolume& v, const std::string& path, ImageLayout* layout) {
+  if (layout) {
+    layout->ndims = v.ndims;
+    layout->size = v.size;
+    layout->spacing = v.spacing;
+    layout->origin = v.origin;
+    layout->axes = v.axes;
+  }
   if (v.effective_dimension() == 2 && v.ndims == 3) {
     if (std::abs(std::abs(v.axes[2][2]) - 1) > 1e-4 || std::abs(v.axes[0][2]) > 1e-4 || std::abs(v.axes[1][2]) > 1e-4)
       throw InputError(path, "direction", "a single-slice image whose plane is not the world's x-y plane cannot be "
@@ -487,9 +494,13 @@ void align_axes(RawVolume& v, const std::string& path) {
     Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
     for (int a = 0; a < v.ndims; ++a)
       for (int k = 0; k < v.ndims; ++k) m(k, a) = v.axes[a][k];
-    if (m.determinant() < 0) reverse_axis(v, v.ndims - 1);
+    if (m.determinant() < 0) {
+      reverse_axis(v, v.ndims - 1);
+      if (layout) layout->sign[v.ndims - 1] = -1;
+    }
     return;
   }
+  if (layout) layout->to = to, layout->sign = sign;
   bool identity = true;
   for (int a = 0; a < v.ndims; ++a) identity &= to[a] == a && sign[a] == 1;
   if (identity) return;
@@ -512,18 +523,28 @@ void align_axes(RawVolume& v, const std::string& path) {
   v = std::move(out);
 }
 
-// Decodes any supported file by its extension, its axes aligned with the world's.
-RawVolume read_volume(const std::string& path) {
+// Decodes any supported file by its extension, its axes aligned with the world's; `layout`
+// (when not null) receives how the file stores its voxels.
+RawVolume read_volume(const std::string& path, const ImageReadOptions& options = {}, ImageLayout* layout = nullptr) {
   const std::string ext = extension_of(path);
   RawVolume v;
+  if (layout) {
+    *layout = ImageLayout();
+    layout->path = path;
+  }
   if (ext == ".mha" || ext == ".mhd") v = read_meta(path);
-  else if (ext == ".nii" || ext == ".nii.gz") v = read_nifti(path);
+  else if (ext == ".nii" || ext == ".nii.gz")
+    v = read_nifti(path, options.nifti_transform, layout ? &layout->nifti_header : nullptr);
   else if (ext == ".nrrd" || ext == ".nhdr") v = read_nrrd(path);
   else if (ext == ".inr" || ext == ".inr.gz") v = read_inr(path);
-  else if (is_opencv_extension(ext)) return read_opencv(path);
+  else if (is_opencv_extension(ext)) {
+    v = read_opencv(path);
+    if (layout) layout->ndims = 2, layout->size = v.size;
+    return v;
+  }
   else if (is_dicom_path(path)) v = read_dicom(path);
   else unknown_format(path);
-  align_axes(v, path);
+  align_axes(v, path, layout);
   return v;
 }
 
@@ -603,10 +624,76 @@ int image_file_dimension(const std::string& path) {
 
 // Decodes, checks (dimension, one channel, spacing, finite voxels) and converts to float.
 template <int D>
-Image<D> read_image(const std::string& path) {
-  RawVolume v = read_volume(path);
+Image<D> read_image(const std::string& path, const ImageReadOptions& options, ImageLayout* layout) {
+  RawVolume v = read_volume(path, options, layout);
   const Grid<D> grid = checked_grid<D>(v, path, 1);
   return Image<D>(grid, std::move(v.values));  // the decoded floats are the image's (same size: checked_grid)
+}
+
+template <int D>
+Image<D> read_image(const std::string& path, const ImageReadOptions& options) {
+  return read_image<D>(path, options, nullptr);
+}
+
+template <int D>
+Image<D> read_image(const std::string& path) {
+  return read_image<D>(path, ImageReadOptions{}, nullptr);
+}
+
+// The values of `image` in the stored order of `layout`'s file, as uint8 (label) or float32
+// bytes (byte-swapped when `swap`), into one buffer: stored voxel i is read voxel j (ImageLayout::to).
+template <int D>
+std::string values_in_stored_order(const Image<D>& image, const ImageLayout& layout, bool label, bool swap) {
+  const Grid<D>& g = image.grid();
+  for (int a = 0; a < 3; ++a) {
+    const int64_t read_size = layout.to[a] < D ? g.size[layout.to[a]] : 1;
+    DSNAKE_ASSERT(read_size == layout.size[a], "the image is on the grid read from the layout's file");
+  }
+  const int64_t n = g.num_voxels();
+  const size_t bytes = label ? 1 : sizeof(float);
+  std::string out(size_t(n) * bytes, '\0');
+  const std::array<int64_t, 3> read_stride{1, g.size[0], D == 3 ? int64_t(g.size[0]) * g.size[1] : 0};
+  for (int64_t l = 0; l < n; ++l) {
+    const int64_t idx[3] = {l % layout.size[0], (l / layout.size[0]) % layout.size[1],
+                            l / (layout.size[0] * layout.size[1])};
+    int64_t m = 0;
+    for (int a = 0; a < 3; ++a) {
+      if (layout.to[a] >= D) continue;
+      m += (layout.sign[a] > 0 ? idx[a] : layout.size[a] - 1 - idx[a]) * read_stride[layout.to[a]];
+    }
+    const float value = image[m];
+    if (label) {
+      out[size_t(l)] = char(label_byte(value));
+    } else {
+      char* p = out.data() + size_t(l) * sizeof(float);
+      std::memcpy(p, &value, sizeof(float));
+      if (swap) std::reverse(p, p + sizeof(float));
+    }
+  }
+  return out;
+}
+
+template <int D>
+void write_image_on_source_grid(const Image<D>& image, const ImageLayout& layout, const std::string& path,
+                                const ImageWriteOptions& options) {
+  const std::string ext = extension_of(path);
+  DSNAKE_ASSERT(ext == ".nii" || ext == ".nii.gz", "write_image_on_source_grid writes NIfTI");
+  bool swap = false;
+  std::string header;
+  if (!layout.nifti_header.empty()) {
+    header = nifti_header_for_values(layout.nifti_header, options.label, swap);
+  } else {
+    RawVolume v;
+    v.ndims = layout.ndims;
+    v.size = layout.size;
+    v.spacing = layout.spacing;
+    v.origin = layout.origin;
+    v.axes = layout.axes;
+    v.label = options.label;
+    header = nifti_header_of(v);
+  }
+  const std::string values = values_in_stored_order(image, layout, options.label, swap);
+  write_nifti_parts({header, values}, path);
 }
 
 // Stores the grid and the voxels through the shared RawVolume writer.
@@ -660,8 +747,9 @@ VectorField<D> read_vector_field(const std::string& path) {
 
 // Decodes `in` as read_volume does, checks it as read_image/read_vector_field would, and
 // writes it to `out` with its geometry (spacing, origin, axes) as float32 voxels.
-void convert_image_file(const std::string& in, const std::string& out, const ImageWriteOptions& options) {
-  RawVolume v = read_volume(in);
+void convert_image_file(const std::string& in, const std::string& out, const ImageWriteOptions& options,
+                        const ImageReadOptions& read_options) {
+  RawVolume v = read_volume(in, read_options);
   const int d = v.effective_dimension();
   if (d == 2) checked_grid<2>(v, in, v.channels == 2 ? 2 : 1);
   else checked_grid<3>(v, in, v.channels == 3 ? 3 : 1);
@@ -671,6 +759,12 @@ void convert_image_file(const std::string& in, const std::string& out, const Ima
 
 template Image<2> read_image<2>(const std::string&);
 template Image<3> read_image<3>(const std::string&);
+template Image<2> read_image<2>(const std::string&, const ImageReadOptions&);
+template Image<3> read_image<3>(const std::string&, const ImageReadOptions&);
+template Image<2> read_image<2>(const std::string&, const ImageReadOptions&, ImageLayout*);
+template Image<3> read_image<3>(const std::string&, const ImageReadOptions&, ImageLayout*);
+template void write_image_on_source_grid<2>(const Image<2>&, const ImageLayout&, const std::string&, const ImageWriteOptions&);
+template void write_image_on_source_grid<3>(const Image<3>&, const ImageLayout&, const std::string&, const ImageWriteOptions&);
 template void write_image<2>(const Image<2>&, const std::string&);
 template void write_image<3>(const Image<3>&, const std::string&);
 template void write_image<2>(const Image<2>&, const std::string&, const ImageWriteOptions&);
