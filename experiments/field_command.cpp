@@ -95,7 +95,7 @@ void write_field_png(const Image<2>& image, const VectorField<2>& field, const s
 
 template <int D>
 int run(const FieldCommandOptions& o) {
-  Image<D> image = read_image<D>(o.image);
+  Image<D> image = read_image<D>(o.image, o.read);
   const nlohmann::json spec = field_spec(o);
   JsonReader reader(spec, "", "field");
   auto field = build_field<D>(read_field_spec<D>(reader));

@@ -72,7 +72,7 @@ int run(const TemplateCommandOptions& c) {
   if (c.vertices < kMinTemplateVertices || c.vertices > kMaxTemplateVertices)
     throw InputError("", "--vertices " + std::to_string(c.vertices),
                      "must be in [" + std::to_string(kMinTemplateVertices) + ", " + std::to_string(kMaxTemplateVertices) + "]");
-  const LabelTemplate<D> t = template_from_labels<D>(read_image<D>(c.mask), o, c.mask);
+  const LabelTemplate<D> t = template_from_labels<D>(read_image<D>(c.mask, c.read), o, c.mask);
   write_shape<D>(t.shape.positions, t.shape.connectivity, c.out);
   const int faces = D == 3 ? int(t.shape.connectivity.triangles().size()) : t.shape.num_vertices();
   print_summary(c.out, o, faces, t.report, t.shape.num_vertices(), c.mask, D);
