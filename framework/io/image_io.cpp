@@ -465,6 +465,17 @@ void orthonormalize_axes(RawVolume& v, const std::string& path) {
     for (int k = 0; k < n; ++k) v.axes[a][k] = r(k, a);
 }
 
+// The geometry RawVolume and ImageLayout share (dimensions, sizes, spacing, origin, axes),
+// copied from one to the other.
+template <class To, class From>
+void copy_geometry(To& to, const From& from) {
+  to.ndims = from.ndims;
+  to.size = from.size;
+  to.spacing = from.spacing;
+  to.origin = from.origin;
+  to.axes = from.axes;
+}
+
 // Reorders a volume whose index axes are a signed permutation of the world axes (flipped or
 // permuted axes, the common case) so that index axis a runs along +world axis a: the same voxel
 // lands at the same world position, and the grid is axis-aligned. An oblique direction (a true
@@ -474,13 +485,7 @@ void orthonormalize_axes(RawVolume& v, const std::string& path) {
 // A 2D image taken from a 3D file must lie in the x-y plane; an oblique one is refused.
 // `layout` (when not null) receives the stored geometry and the reordering.
 void align_axes(RawVolume& v, const std::string& path, ImageLayout* layout) {
-  if (layout) {
-    layout->ndims = v.ndims;
-    layout->size = v.size;
-    layout->spacing = v.spacing;
-    layout->origin = v.origin;
-    layout->axes = v.axes;
-  }
+  if (layout) copy_geometry(*layout, v);
   if (v.effective_dimension() == 2 && v.ndims == 3) {
     if (std::abs(std::abs(v.axes[2][2]) - 1) > 1e-4 || std::abs(v.axes[0][2]) > 1e-4 || std::abs(v.axes[1][2]) > 1e-4)
       throw InputError(path, "direction", "a single-slice image whose plane is not the world's x-y plane cannot be "
@@ -684,11 +689,7 @@ void write_image_on_source_grid(const Image<D>& image, const ImageLayout& layout
     header = nifti_header_for_values(layout.nifti_header, options.label, swap);
   } else {
     RawVolume v;
-    v.ndims = layout.ndims;
-    v.size = layout.size;
-    v.spacing = layout.spacing;
-    v.origin = layout.origin;
-    v.axes = layout.axes;
+    copy_geometry(v, layout);
     v.label = options.label;
     header = nifti_header_of(v);
   }

@@ -37,14 +37,15 @@ void put(std::string& h, size_t offset, T value) {
 
 // NIfTI's world is RAS (x to the right, y anterior); dsnake's is LPS: negates the x and y
 // components of the origin and of every axis direction (its own inverse, so writing uses it too).
-void ras_to_lps(RawVolume& v) {
-  v.origin[0] = -v.origin[0];
-  v.origin[1] = -v.origin[1];
-  for (auto& axis : v.axes) {
+void ras_to_lps(std::array<double, 3>& origin, std::array<std::array<double, 3>, 3>& axes) {
+  origin[0] = -origin[0];
+  origin[1] = -origin[1];
+  for (auto& axis : axes) {
     axis[0] = -axis[0];
     axis[1] = -axis[1];
   }
 }
+void ras_to_lps(RawVolume& v) { ras_to_lps(v.origin, v.axes); }
 
 // The NIfTI quaternion (b, c, d) and qfac of a 3x3 direction matrix whose columns are the
 // axes (NIfTI-1 header comments, "method 2"): a proper rotation has qfac 1; a reflection is
@@ -301,18 +302,13 @@ RawVolume decode_nifti_header(const std::string& bytes, const std::string& path,
 }
 
 // The header (and the empty extension flag after it) of a float32 (or, for a label map, uint8)
-// NIfTI-1 of `lps`'s geometry. The LPS origin and directions are converted to NIfTI's RAS and
+// NIfTI-1 of `v`'s geometry. The LPS origin and directions are converted to NIfTI's RAS and
 // stored twice, as ITK and nibabel write them: as the qform (quaternion, qform_code 1) and as the
 // sform's rows (spacing times direction, sform_code 1).
-std::string nifti_header_of(const RawVolume& lps) {
-  RawVolume v;  // the geometry in RAS
-  v.ndims = lps.ndims;
-  v.size = lps.size;
-  v.spacing = lps.spacing;
-  v.origin = lps.origin;
-  v.axes = lps.axes;
-  v.channels = lps.channels;
-  ras_to_lps(v);
+std::string nifti_header_of(const RawVolume& v) {
+  std::array<double, 3> origin = v.origin;  // in RAS
+  std::array<std::array<double, 3>, 3> axes = v.axes;
+  ras_to_lps(origin, axes);
   std::string h(kNiftiVoxOffset, '\0');
   put<int32_t>(h, 0, 348);
   std::array<int16_t, 8> dim{};
@@ -322,9 +318,9 @@ std::string nifti_header_of(const RawVolume& lps) {
   dim[5] = int16_t(v.channels);
   for (int i = 0; i < 8; ++i) put<int16_t>(h, 40 + 2 * i, dim[i]);
   if (v.channels > 1) put<int16_t>(h, 68, 1007);  // NIFTI_INTENT_VECTOR
-  put<int16_t>(h, 70, lps.label ? 2 : 16);  // uint8 or float32
-  put<int16_t>(h, 72, lps.label ? 8 : 32);
-  const std::array<double, 4> q = quaternion_of(v.axes);
+  put<int16_t>(h, 70, v.label ? 2 : 16);  // uint8 or float32
+  put<int16_t>(h, 72, v.label ? 8 : 32);
+  const std::array<double, 4> q = quaternion_of(axes);
   put<float>(h, 76, float(q[3]));  // qfac
   for (int a = 0; a < 3; ++a) put<float>(h, 80 + 4 * a, float(a < v.ndims ? v.spacing[a] : 1.0));
   for (int i = 4; i < 8; ++i) put<float>(h, 76 + 4 * i, 1.0f);
@@ -334,11 +330,11 @@ std::string nifti_header_of(const RawVolume& lps) {
   put<int16_t>(h, 252, 1);   // qform_code: scanner
   put<int16_t>(h, 254, 1);   // sform_code: scanner
   for (int k = 0; k < 3; ++k) put<float>(h, 256 + 4 * k, float(q[k]));
-  for (int a = 0; a < 3; ++a) put<float>(h, 268 + 4 * a, float(v.origin[a]));
+  for (int a = 0; a < 3; ++a) put<float>(h, 268 + 4 * a, float(origin[a]));
   for (int k = 0; k < 3; ++k) {  // srow_x, srow_y, srow_z
     for (int a = 0; a < 3; ++a)
-      put<float>(h, 280 + 16 * k + 4 * a, float(v.axes[a][k] * (a < v.ndims ? v.spacing[a] : 1.0)));
-    put<float>(h, 280 + 16 * k + 12, float(v.origin[k]));
+      put<float>(h, 280 + 16 * k + 4 * a, float(axes[a][k] * (a < v.ndims ? v.spacing[a] : 1.0)));
+    put<float>(h, 280 + 16 * k + 12, float(origin[k]));
   }
   std::memcpy(h.data() + 344, "n+1", 4);
   return h;
