@@ -645,8 +645,26 @@ Image<D> read_image(const std::string& path) {
   return read_image<D>(path, ImageReadOptions{}, nullptr);
 }
 
+// Calls f(l, m) for each voxel of `layout`'s file in its stored order l, m being that voxel's
+// index on the grid read_image made of it (ImageLayout::to).
+template <class F>
+void for_stored_voxels(const ImageLayout& layout, F&& f) {
+  std::array<int64_t, 3> read_size{1, 1, 1};
+  for (int a = 0; a < 3; ++a) read_size[layout.to[a]] = layout.size[a];
+  const std::array<int64_t, 3> read_stride{1, read_size[0], read_size[0] * read_size[1]};
+  const int64_t n = layout.size[0] * layout.size[1] * layout.size[2];
+  for (int64_t l = 0; l < n; ++l) {
+    const int64_t idx[3] = {l % layout.size[0], (l / layout.size[0]) % layout.size[1],
+                            l / (layout.size[0] * layout.size[1])};
+    int64_t m = 0;
+    for (int a = 0; a < 3; ++a)
+      m += (layout.sign[a] > 0 ? idx[a] : layout.size[a] - 1 - idx[a]) * read_stride[layout.to[a]];
+    f(l, m);
+  }
+}
+
 // The values of `image` in the stored order of `layout`'s file, as uint8 (label) or float32
-// bytes (byte-swapped when `swap`), into one buffer: stored voxel i is read voxel j (ImageLayout::to).
+// bytes (byte-swapped when `swap`), into one buffer.
 template <int D>
 std::string values_in_stored_order(const Image<D>& image, const ImageLayout& layout, bool label, bool swap) {
   const Grid<D>& g = image.grid();
@@ -654,18 +672,8 @@ std::string values_in_stored_order(const Image<D>& image, const ImageLayout& lay
     const int64_t read_size = layout.to[a] < D ? g.size[layout.to[a]] : 1;
     DSNAKE_ASSERT(read_size == layout.size[a], "the image is on the grid read from the layout's file");
   }
-  const int64_t n = g.num_voxels();
-  const size_t bytes = label ? 1 : sizeof(float);
-  std::string out(size_t(n) * bytes, '\0');
-  const std::array<int64_t, 3> read_stride{1, g.size[0], D == 3 ? int64_t(g.size[0]) * g.size[1] : 0};
-  for (int64_t l = 0; l < n; ++l) {
-    const int64_t idx[3] = {l % layout.size[0], (l / layout.size[0]) % layout.size[1],
-                            l / (layout.size[0] * layout.size[1])};
-    int64_t m = 0;
-    for (int a = 0; a < 3; ++a) {
-      if (layout.to[a] >= D) continue;
-      m += (layout.sign[a] > 0 ? idx[a] : layout.size[a] - 1 - idx[a]) * read_stride[layout.to[a]];
-    }
+  std::string out(size_t(g.num_voxels()) * (label ? 1 : sizeof(float)), '\0');
+  for_stored_voxels(layout, [&](int64_t l, int64_t m) {
     const float value = image[m];
     if (label) {
       out[size_t(l)] = char(label_byte(value));
@@ -674,8 +682,22 @@ std::string values_in_stored_order(const Image<D>& image, const ImageLayout& lay
       std::memcpy(p, &value, sizeof(float));
       if (swap) std::reverse(p, p + sizeof(float));
     }
-  }
+  });
   return out;
+}
+
+// Puts a volume read from `layout`'s file back in the file's stored order and geometry (the
+// inverse of align_axes): its values (all channels) through one new buffer, when reordered.
+void restore_stored_order(RawVolume& v, const ImageLayout& layout) {
+  const bool reordered = layout.to != std::array<int, 3>{0, 1, 2} || layout.sign != std::array<int, 3>{1, 1, 1};
+  if (!reordered) return copy_geometry(v, layout);
+  const int c = v.channels;
+  std::vector<float> stored(v.values.size());
+  for_stored_voxels(layout, [&](int64_t l, int64_t m) {
+    for (int k = 0; k < c; ++k) stored[size_t(l * c + k)] = v.values[size_t(m * c + k)];
+  });
+  v.values = std::move(stored);
+  copy_geometry(v, layout);
 }
 
 template <int D>
@@ -750,11 +772,17 @@ VectorField<D> read_vector_field(const std::string& path) {
 // writes it to `out` with its geometry (spacing, origin, axes) as float32 voxels.
 void convert_image_file(const std::string& in, const std::string& out, const ImageWriteOptions& options,
                         const ImageReadOptions& read_options) {
-  RawVolume v = read_volume(in, read_options);
+  ImageLayout layout;
+  RawVolume v = read_volume(in, read_options, &layout);
   const int d = v.effective_dimension();
   if (d == 2) checked_grid<2>(v, in, v.channels == 2 ? 2 : 1);
   else checked_grid<3>(v, in, v.channels == 3 ? 3 : 1);
-  if (d == 2 && is_opencv_extension(extension_of(out))) v.ndims = 2;  // a one-slice volume to PNG
+  const std::string ext = extension_of(out);
+  // Formats that store a direction get the input's own voxel order and axes; INRIMAGE and the
+  // raster formats, which store none, the axis-aligned grid read_volume made.
+  if (ext == ".mha" || ext == ".mhd" || ext == ".nii" || ext == ".nii.gz" || ext == ".nrrd" || ext == ".nhdr")
+    restore_stored_order(v, layout);
+  if (d == 2 && is_opencv_extension(ext)) v.ndims = 2;  // a one-slice volume to PNG
   write_volume(v, out, options);
 }
 

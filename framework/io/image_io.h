@@ -133,6 +133,8 @@ VectorField<D> read_vector_field(const std::string& path);
 
 // Copies an image, volume or vector field from `in` to `out` (formats by extension) keeping
 // spacing, origin and direction; the voxels go through as float32 (8-bit for .png/.tif/...).
+// MetaImage, NIfTI and NRRD outputs keep the input's voxel order and axes; INRIMAGE and the
+// raster formats, which store no direction, get the axis-aligned grid read_image makes.
 // Bad input throws InputError as read_image does; nothing is written then.
 void convert_image_file(const std::string& in, const std::string& out, const ImageWriteOptions& options = {},
                         const ImageReadOptions& read_options = {});

@@ -394,5 +394,28 @@ TEST(NiftiOrientation, ImagesWrittenOnTheSourceGridOfOtherFormats) {
   }
 }
 
+// dsnake convert to a format that stores a direction keeps the input's voxel order (the same
+// bytes for float32 data), to INRIMAGE the axis-aligned grid; read back, all are the input.
+TEST(NiftiOrientation, ConvertKeepsTheStoredVoxelOrderWhereTheFormatHasADirection) {
+  const std::string dir = fresh_dir();
+  NiftiGeometry g;
+  g.dim = {5, 4, 3};
+  g.sform_code = 1;
+  g.sform = affine_of(Eigen::Vector3d(-1, 1, -1).asDiagonal(), {1.0, 2.0, 1.5}, {3, 4, 5});  // x and z reversed
+  write_file(dir + "/in.nii", nifti_file(g));
+  const Image<3> in = read_image<3>(dir + "/in.nii");
+  const std::string data = read_file(dir + "/in.nii").substr(352);
+  for (const char* out : {"out.nii", "out.mha", "out.nrrd", "out.inr"}) {
+    SCOPED_TRACE(out);
+    convert_image_file(dir + "/in.nii", dir + "/" + out);
+    const std::string bytes = read_file(dir + "/" + out);
+    const bool stored_order = bytes.size() >= data.size() && bytes.compare(bytes.size() - data.size(), data.size(), data) == 0;
+    EXPECT_EQ(stored_order, std::string(out) != "out.inr");
+    const Image<3> back = read_image<3>(dir + "/" + out);
+    EXPECT_EQ(back.data(), in.data());
+    EXPECT_TRUE(back.grid().same_geometry(in.grid(), 1e-5));
+  }
+}
+
 }  // namespace
 }  // namespace dsnake
