@@ -12,6 +12,8 @@
 //   dsnake sweep SWEEP.json [--out DIR] [-j N] [--threads T] [--manifest parallel|slurm]
 //                [--aggregate-only] [--quiet]                    (experiments/sweep.h)
 //   dsnake schema [--markdown]       the experiment file's JSON Schema, or its key tables
+// field, convert, template and init take --nifti-transform auto|sform|qform: which NIfTI
+// transform places the voxels (framework/io/image_io.h, NiftiTransform).
 // Exit codes: 0 done, 2 bad input (one line on stderr naming the file and the JSON path or
 // element), 1 anything else (for a sweep: a run failed), 130 a sweep stopped by a signal.
 #include "experiments/convert_command.h"
@@ -187,7 +189,8 @@ void add_convert(CLI::App& app, CommandLine& c) {
       "convert",
       "Copy an image/volume, mesh or contour to another format (by extension). Images and volumes "
       "(2D, 3D, vector fields): .mha .mhd .nii .nii.gz .nrrd .nhdr .inr .inr.gz, 2D also .png .tif "
-      ".tiff .jpg .jpeg .bmp; spacing, origin and direction are kept, the voxel values go through as "
+      ".tiff .jpg .jpeg .bmp; spacing, origin and direction are kept (and the voxel order, where the output "
+      "format stores a direction), the voxel values go through as "
       "float32 (8-bit grey for the 2D raster formats). Meshes: .off .obj .ply .stl .vtk; contours: "
       ".txt .json .vtk; vertex order kept. Nothing is written on an error (exit code 2)");
   c.convert_cmd->add_option("in", c.convert.in, "Input file")->required();
