@@ -689,15 +689,24 @@ std::string values_in_stored_order(const Image<D>& image, const ImageLayout& lay
 // Puts a volume read from `layout`'s file back in the file's stored order and geometry (the
 // inverse of align_axes): its values (all channels) through one new buffer, when reordered.
 void restore_stored_order(RawVolume& v, const ImageLayout& layout) {
+  DSNAKE_ASSERT(v.num_voxels() == layout.size[0] * layout.size[1] * layout.size[2],
+                "the volume is on the grid read from the layout's file");
   const bool reordered = layout.to != std::array<int, 3>{0, 1, 2} || layout.sign != std::array<int, 3>{1, 1, 1};
   if (!reordered) return copy_geometry(v, layout);
   const int c = v.channels;
-  std::vector<float> stored(v.values.size());
+  const std::vector<float>& read = v.data();
+  std::vector<float> stored(read.size());
   for_stored_voxels(layout, [&](int64_t l, int64_t m) {
-    for (int k = 0; k < c; ++k) stored[size_t(l * c + k)] = v.values[size_t(m * c + k)];
+    for (int k = 0; k < c; ++k) stored[size_t(l * c + k)] = read[size_t(m * c + k)];
   });
   v.values = std::move(stored);
+  v.borrowed = nullptr;
   copy_geometry(v, layout);
+}
+
+// The formats that store a direction, so that a volume written to them can keep its file's order.
+bool stores_direction(const std::string& ext) {
+  return ext == ".mha" || ext == ".mhd" || ext == ".nii" || ext == ".nii.gz" || ext == ".nrrd" || ext == ".nhdr";
 }
 
 template <int D>
@@ -736,8 +745,9 @@ void write_image(const Image<D>& image, const std::string& path) {
 
 // Vector fields go to MetaImage (channels), NIfTI (intent vector), NRRD (vector axis) or
 // INRIMAGE (VDIM) only.
+// `layout`: null, or the file whose grid the field is on (written in its order where the format can).
 template <int D>
-void write_vector_field(const VectorField<D>& field, const std::string& path) {
+void write_vector_field_to(const VectorField<D>& field, const std::string& path, const ImageLayout* layout) {
   RawVolume v = raw_of<D>(field.grid(), D);
   const auto& r = field.grid().direction;  // frame components -> world components (as ITK stores them)
   const bool rotate = !field.grid().axis_aligned();
@@ -749,7 +759,18 @@ void write_vector_field(const VectorField<D>& field, const std::string& path) {
   }
   const std::string ext = extension_of(path);
   if (is_opencv_extension(ext)) throw InputError(path, "", "vector fields need .mha, .mhd, .nii, .nii.gz, .nrrd, .nhdr, .inr or .inr.gz");
+  if (layout && stores_direction(ext)) restore_stored_order(v, *layout);
   write_volume(v, path, ImageWriteOptions{});
+}
+
+template <int D>
+void write_vector_field(const VectorField<D>& field, const std::string& path) {
+  write_vector_field_to<D>(field, path, nullptr);
+}
+
+template <int D>
+void write_vector_field(const VectorField<D>& field, const std::string& path, const ImageLayout& layout) {
+  write_vector_field_to<D>(field, path, &layout);
 }
 
 // As read_image, with D interleaved components per voxel (world components; rotated into the
@@ -780,8 +801,7 @@ void convert_image_file(const std::string& in, const std::string& out, const Ima
   const std::string ext = extension_of(out);
   // Formats that store a direction get the input's own voxel order and axes; INRIMAGE and the
   // raster formats, which store none, the axis-aligned grid read_volume made.
-  if (ext == ".mha" || ext == ".mhd" || ext == ".nii" || ext == ".nii.gz" || ext == ".nrrd" || ext == ".nhdr")
-    restore_stored_order(v, layout);
+  if (stores_direction(ext)) restore_stored_order(v, layout);
   if (d == 2 && is_opencv_extension(ext)) v.ndims = 2;  // a one-slice volume to PNG
   write_volume(v, out, options);
 }
@@ -800,6 +820,8 @@ template void write_image<2>(const Image<2>&, const std::string&, const ImageWri
 template void write_image<3>(const Image<3>&, const std::string&, const ImageWriteOptions&);
 template void write_vector_field<2>(const VectorField<2>&, const std::string&);
 template void write_vector_field<3>(const VectorField<3>&, const std::string&);
+template void write_vector_field<2>(const VectorField<2>&, const std::string&, const ImageLayout&);
+template void write_vector_field<3>(const VectorField<3>&, const std::string&, const ImageLayout&);
 template VectorField<2> read_vector_field<2>(const std::string&);
 template VectorField<3> read_vector_field<3>(const std::string&);
 

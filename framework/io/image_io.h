@@ -128,6 +128,10 @@ void write_image_on_source_grid(const Image<D>& image, const ImageLayout& layout
 // (intent vector, 5th dimension = D), NRRD (a leading axis of kind vector) or INRIMAGE (VDIM = D).
 template <int D>
 void write_vector_field(const VectorField<D>& field, const std::string& path);
+// The same for a field on the grid read_image made of `layout`'s file: MetaImage, NIfTI and NRRD
+// get that file's voxel order and axes (the vectors stay world components).
+template <int D>
+void write_vector_field(const VectorField<D>& field, const std::string& path, const ImageLayout& layout);
 template <int D>
 VectorField<D> read_vector_field(const std::string& path);
 

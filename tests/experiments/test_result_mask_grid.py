@@ -4,7 +4,8 @@ nibabel places them, checked with nibabel and numpy alone (no reorientation):
 - result_mask.nii.gz (and image.nii.gz with "output": {"image": "always"}) of a run on a phantom
   stored as NIfTI (RAS, LAS, oblique RAS, oblique LAS), MetaImage and NRRD has the input's
   dimensions and header affine (for NIfTI: the input's affine and transform codes), and its Dice
-  against the ground-truth label array, voxel by voxel, is result.json's metrics.dice;
+  against the ground-truth label array, voxel by voxel, is result.json's metrics.dice; the NIfTI
+  that `dsnake field` and `dsnake convert` write from a NIfTI has its dimensions and affine;
 - a label map and an image written as the INIA19 macaque atlas pair is (the labels with a
   zero-offset qform and the origin in the sform, the image with an sform only) land on nibabel's
   affine (through `dsnake convert` to MetaImage), and the labels warn once that their transforms
@@ -166,6 +167,16 @@ class ResultMaskGridTest(unittest.TestCase):
                 for key in ("qform_code", "sform_code"):
                     self.assertEqual(int(mask.header[key]), int(source.header[key]), name + " " + key)
                 np.testing.assert_array_equal(mask.header.get_qform(), source.header.get_qform())
+                # `dsnake field` and `dsnake convert` write on the input's grid too.
+                field = os.path.join(self.dir, name + "_field.nii.gz")
+                run("field", "--image", os.path.join(self.dir, name + ".nii.gz"), "--type", "gradient", "--out", field)
+                converted = os.path.join(self.dir, name + "_converted.nii.gz")
+                run("convert", os.path.join(self.dir, name + ".nii.gz"), converted)
+                for path in (field, converted):
+                    written = nib.load(path)
+                    self.assertEqual(written.shape[:3], labels.shape, path)
+                    np.testing.assert_allclose(written.affine, source.affine, atol=1e-4, err_msg=path)
+                np.testing.assert_array_equal(np.asarray(nib.load(converted).dataobj), image)
                 if extra:  # image.nii.gz: the input's voxels in the input's order
                     written = nib.load(os.path.join(out, "image.nii.gz"))
                     self.assertTrue(np.array_equal(written.affine, source.affine))
