@@ -183,7 +183,8 @@ void read_nifti_orientation(const std::string& bytes, bool swap, NiftiTransform 
   if (lacks) choice = NiftiTransform::kAuto;
   const bool use_s = has_s && choice != NiftiTransform::kQform, use_q = !use_s && has_q;
   if (warn && lacks)
-    std::fprintf(stderr, "dsnake: warning: %s: image.nifti_transform asks for the %s, but its %s_code is 0; using %s\n",
+    std::fprintf(stderr, "dsnake: warning: %s: the %s was asked for (image.nifti_transform or --nifti-transform), but its "
+                 "%s_code is 0; using %s\n",
                  path.c_str(), wanted, wanted, use_s ? "the sform" : use_q ? "the qform" : "pixdim at the origin");
   NiftiPlacement p;
   p.spacing = v.spacing;

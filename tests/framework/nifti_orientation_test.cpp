@@ -207,10 +207,12 @@ TEST(NiftiOrientation, SformOnlyQformOnlyAndBothEqual) {
   want_s.nifti_transform = NiftiTransform::kSform;
   want_q.nifti_transform = NiftiTransform::kQform;
   expect_voxels_at(read_capturing(dir + "/q.nii", want_s, err), qform_only.dim, qa, 1e-4);
-  EXPECT_EQ(err, "dsnake: warning: " + dir + "/q.nii: image.nifti_transform asks for the sform, but its sform_code is 0; using the qform\n");
+  EXPECT_EQ(err, "dsnake: warning: " + dir + "/q.nii: the sform was asked for (image.nifti_transform or "
+                 "--nifti-transform), but its sform_code is 0; using the qform\n");
   expect_voxels_at(read_capturing(dir + "/s.nii", want_q, err), sform_only.dim, sform_only.sform, 1e-4);
   EXPECT_EQ(lines_of(err), 1) << err;
-  EXPECT_TRUE(contains(err, "asks for the qform, but its qform_code is 0; using the sform")) << err;
+  EXPECT_TRUE(contains(err, "the qform was asked for (image.nifti_transform or --nifti-transform), but its qform_code "
+                           "is 0; using the sform")) << err;
 }
 
 // Transforms that differ only in direction (by 5 degrees about z, the same origin): the sform
