@@ -1,4 +1,4 @@
-// Internal to the image I/O (framework/io/image_io.cpp, metaimage.cpp, nifti.cpp, nrrd.cpp,
+// Internal to the image I/O (framework/io/image_io.cpp, metaimage.cpp, nifti.cpp, nrrd.cpp, source_grid.cpp,
 // inr.cpp): the decoded form every reader produces and the byte helpers the formats share. Not part of the API.
 #pragma once
 
@@ -170,6 +170,25 @@ void write_meta(const RawVolume& v, const std::string& path, bool compress);
 int meta_dimension(const std::string& path);
 
 inline constexpr size_t kNiftiHeaderBytes = 348;
+
+// The geometry RawVolume and ImageLayout share (dimensions, sizes, spacing, origin, axes),
+// copied from one to the other.
+template <class To, class From>
+void copy_geometry(To& to, const From& from) {
+  to.ndims = from.ndims;
+  to.size = from.size;
+  to.spacing = from.spacing;
+  to.origin = from.origin;
+  to.axes = from.axes;
+}
+
+// Image layouts (source_grid.cpp; image_io.h, ImageLayout): the formats that store a direction
+// (MetaImage, NIfTI, NRRD), so that a volume written to them can keep its file's voxel order;
+// and a volume read from `layout`'s file put back in that order and geometry (the inverse of
+// align_axes), its values (all channels, its own or borrowed) through one new buffer when they
+// were reordered.
+bool stores_direction(const std::string& ext);
+void restore_stored_order(RawVolume& v, const ImageLayout& layout);
 
 // NIfTI-1 (nifti.cpp): decode a header (the geometry, placed by `transform`; with `warn`, the
 // warning lines of image_io.h's NiftiTransform on stderr) from the file's first bytes; write
