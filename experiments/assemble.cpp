@@ -54,7 +54,8 @@ Template<D> read_template_file(const std::string& path) {
 // (its image moved into `image`: a volume is not copied), whose truth the experiment takes
 // unless files override it.
 template <int D>
-std::optional<Phantom<D>> assemble_image(const ExperimentSpec<D>& spec, Image<D>& image) {
+std::optional<Phantom<D>> assemble_image(const ExperimentSpec<D>& spec, Image<D>& image,
+                                         std::optional<ImageLayout>& layout) {
   std::optional<Phantom<D>> phantom;
   if (spec.image.phantom) {
     JsonReader r(spec.image.phantom->object, spec.image.phantom->file, spec.image.phantom->path);
@@ -62,7 +63,8 @@ std::optional<Phantom<D>> assemble_image(const ExperimentSpec<D>& spec, Image<D>
     r.finish();
     image = std::move(phantom->image);
   } else {
-    image = read_image<D>(spec.image.file);
+    layout.emplace();
+    image = read_image<D>(spec.image.file, spec.image.read, &*layout);
   }
   for (size_t i = 0; i < spec.image.corruptions.size(); ++i)
     apply_corruption<D>(image, spec.image.corruptions[i], spec.seed, static_cast<int>(i));
@@ -102,7 +104,7 @@ Template<D> assemble_template(const ExperimentSpec<D>& spec) {
 template <int D>
 Image<D> read_reference_image(const ExperimentSpec<D>& spec) {
   try {
-    return read_image<D>(spec.tmpl.reference_image);
+    return read_image<D>(spec.tmpl.reference_image, spec.image.read);
   } catch (const InputError& e) {
     const std::string where = e.where().empty() ? "" : " (" + e.where() + ")";
     throw InputError(spec.file.path, "template.reference_image", e.file() + where + ": " + e.message());
@@ -122,7 +124,7 @@ GroundTruth<D> assemble_truth(const ExperimentSpec<D>& spec, std::optional<Phant
     if (spec.tmpl.phantom) truth.targets = phantom_targets<D>(spec.image.phantom->object, spec.tmpl.phantom->object, tmpl);
   }
   const GroundTruthSpec& files = spec.truth;
-  if (!files.mask.empty()) truth.mask = read_image<D>(files.mask);
+  if (!files.mask.empty()) truth.mask = read_image<D>(files.mask, spec.image.read);
   if (!files.surface.empty()) truth.surface = read_shape<D>(files.surface);
   if (!files.correspondence.empty()) truth.targets = read_targets<D>(files.correspondence, tmpl.num_vertices());
   return truth;
@@ -309,7 +311,7 @@ Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   ex.collision_guard = spec.collision_guard;
   ex.global = spec.global;
   ex.potential = spec.potential;
-  std::optional<Phantom<D>> phantom = assemble_image(spec, ex.image);
+  std::optional<Phantom<D>> phantom = assemble_image(spec, ex.image, ex.image_layout);
   ex.image_is_file_as_read = !spec.image.phantom && spec.image.corruptions.empty();
   ex.tmpl = assemble_template(spec);
   const PlacementSpec<D>& t = spec.tmpl.transform;

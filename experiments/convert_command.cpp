@@ -74,7 +74,7 @@ int run_convert_command(const ConvertCommandOptions& o) {
   if (in == Kind::kVolume) {
     ImageWriteOptions w;
     w.compress = o.compress;
-    convert_image_file(o.in, o.out, w);
+    convert_image_file(o.in, o.out, w, o.read);
   } else if (in == Kind::kMesh) {
     const Template<3> mesh = read_mesh_template(o.in);
     write_mesh(mesh.positions, mesh.connectivity, o.out);

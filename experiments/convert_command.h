@@ -9,6 +9,8 @@
 // is written when reading or checking fails (the writers are atomic).
 #pragma once
 
+#include "framework/io/image_io.h"
+
 #include <string>
 
 namespace dsnake {
@@ -16,6 +18,7 @@ namespace dsnake {
 struct ConvertCommandOptions {
   std::string in;         // input file
   std::string out;        // output file
+  ImageReadOptions read;  // --nifti-transform: which NIfTI transform places an image input
   bool compress = false;  // --compress: zlib MetaImage data, gzip NRRD encoding
 };
 

@@ -7,6 +7,7 @@
 #pragma once
 
 #include "experiments/template_init.h"
+#include "framework/io/image_io.h"
 #include "framework/core/evolver.h"
 #include "fields/region.h"
 #include "fields/smooth_potential.h"
@@ -93,7 +94,7 @@ struct OutputOptions {
   void visit(V& v) {
     v(snapshot_every, Key{"snapshot_every", "iterations", "write the snake every n iterations into snapshots/ (0: never)", Range::at_least(0)});
     v(figures, Key{"figures", "", "write the PNG figures"});
-    v(result_mask, Key{"result_mask", "", "write result_mask.nii.gz: the result's interior as a uint8 label map on the image's grid, with its orientation"});
+    v(result_mask, Key{"result_mask", "", "write result_mask.nii.gz: the result's interior as a uint8 label map on the image file's own grid (its dimensions, voxel order and NIfTI header; a phantom's grid otherwise)"});
     v(start_metrics, Key{"start_metrics", "", "also measure the placed template against the ground truth (result.json's \"start\"), to see what the run gained; costs one more metrics pass"});
     v(image, Key{"image", "", "write image.nii.gz, the image that was registered: auto (when it is a phantom or was corrupted), always or never"});
   }
@@ -146,6 +147,9 @@ struct Experiment {
   std::optional<PotentialOptions> potential;  // the external term's potential (global view)
   Image<D> image;
   bool image_is_file_as_read = false;  // a file without corruptions (so image.nii.gz would be a copy)
+  // A file's image: how the file stores its voxels, so that the images written from it
+  // (result_mask.nii.gz, image.nii.gz) are on its own grid (image_io.h, write_image_on_source_grid).
+  std::optional<ImageLayout> image_layout;
   Template<D> tmpl;
   PointList<D> initial;  // the placed template: the snake's start
   // "template.reference_image": the template at its rest positions lies on its object there

@@ -37,7 +37,8 @@ template <int D>
 ImageSpec<D> read_image_section(JsonReader& top, const ExperimentFile& f) {
   ImageSpec<D> spec;
   JsonReader r = top.child("image");
-  spec.phantom = read_source(r, f, spec.file, {});
+  read_options(r, spec.read);
+  spec.phantom = read_source(r, f, spec.file, {"nifti_transform"});
   r.finish();
   if (top.has("corruption")) {
     const auto& list = top.raw("corruption");
@@ -78,7 +79,7 @@ TemplateInitOptions read_init(JsonReader r, const ExperimentFile& f) {
 }
 
 template <int D>
-TemplateSpec<D> read_template_section(JsonReader& top, const ExperimentFile& f) {
+TemplateSpec<D> read_template_section(JsonReader& top, const ExperimentFile& f, const ImageReadOptions& read) {
   TemplateSpec<D> spec;
   JsonReader r = top.child("template");
   spec.phantom = read_source(r, f, spec.file, {"landmarks", "transform", "reference_image", "init"});
@@ -96,6 +97,7 @@ TemplateSpec<D> read_template_section(JsonReader& top, const ExperimentFile& f) 
   if (r.has("reference_image")) r.expect(!spec.reference_image.empty(), "reference_image", "expected an image file");
   spec.reference_image = resolve(f, spec.reference_image);
   if (r.has("init")) spec.init = read_init<D>(r.child("init"), f);
+  if (spec.init) spec.init->mask_read = read;
   r.finish();
   return spec;
 }
@@ -213,7 +215,7 @@ ExperimentSpec<D> read_experiment_spec(const ExperimentFile& file) {
   JsonReader top(file.document, file.path, "");
   read_run_keys(top, spec);
   spec.image = read_image_section<D>(top, file);
-  spec.tmpl = read_template_section<D>(top, file);
+  spec.tmpl = read_template_section<D>(top, file, spec.image.read);
   if (top.has("ground_truth")) spec.truth = read_truth_section(top.child("ground_truth"), file);
   {
     JsonReader r = top.child("field");

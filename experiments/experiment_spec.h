@@ -31,6 +31,7 @@ struct ImageSpec {
   std::string file;                      // resolved against the experiment file's folder
   std::optional<PhantomSource> phantom;  // exactly one of file and phantom
   std::vector<CorruptionSpec> corruptions;  // "corruption": applied in order
+  ImageReadOptions read;  // "nifti_transform": for every image file the experiment reads
 };
 
 template <int D>

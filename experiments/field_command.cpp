@@ -95,7 +95,8 @@ void write_field_png(const Image<2>& image, const VectorField<2>& field, const s
 
 template <int D>
 int run(const FieldCommandOptions& o) {
-  Image<D> image = read_image<D>(o.image);
+  ImageLayout layout;
+  Image<D> image = read_image<D>(o.image, o.read, &layout);
   const nlohmann::json spec = field_spec(o);
   JsonReader reader(spec, "", "field");
   auto field = build_field<D>(read_field_spec<D>(reader));
@@ -107,7 +108,7 @@ int run(const FieldCommandOptions& o) {
     field->compute_releasing(std::move(image));  // the image is not needed again (issue 21)
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  write_vector_field(field->vectors(), o.out);
+  write_vector_field(field->vectors(), o.out, layout);  // on the image file's grid
   std::printf("%s: %s field of %s (%.3f s) -> %s\n", o.image.c_str(), field->type().c_str(),
               D == 2 ? "an image" : "a volume", seconds, o.out.c_str());
   if constexpr (D == 2) {

@@ -6,6 +6,8 @@
 // upscaled, physical aspect; arrows on a regular grid, the longest one grid-step long).
 #pragma once
 
+#include "framework/io/image_io.h"
+
 #include <string>
 #include <vector>
 
@@ -18,6 +20,7 @@ struct FieldCommandOptions {
                                     // the value is read as JSON (number, bool) or else a string
   std::string cache;                // --field-cache DIR: inserted as "cache" ("" = none)
   std::string out;                  // --out: .mha / .mhd / .nii / .nii.gz / .nrrd / .nhdr / .inr / .inr.gz
+  ImageReadOptions read;            // --nifti-transform: which NIfTI transform places the image
   std::string png;                  // --png: 2D figure; "" = --out with its extension -> .png
   bool no_png = false;              // --no-png: skip the figure
 };

@@ -42,6 +42,7 @@ nlohmann::ordered_json recommended(const InitCommandOptions& o, const Grid<D>& g
   j["description"] = "Written by dsnake init for " + o.image + " and the template " + o.tmpl + ", from " +
                      "experiments/real/recipe_" + std::to_string(D) + "d.json. " + j["description"].get<std::string>();
   j["image"] = {{"file", fs::absolute(o.image).string()}};
+  if (o.read.nifti_transform != NiftiTransform::kAuto) j["image"]["nifti_transform"] = enum_name(o.read.nifti_transform);
   j["template"] = {{"file", fs::absolute(o.tmpl).string()}};
   if (!o.reference.empty()) j["template"]["reference_image"] = fs::absolute(o.reference).string();
   // Without the recipe's ground truth. Not ordered_json::erase: nlohmann 3.11.2's ordered_map
@@ -64,7 +65,7 @@ nlohmann::ordered_json recommended(const InitCommandOptions& o, const Grid<D>& g
 
 template <int D>
 nlohmann::ordered_json init_experiment(const InitCommandOptions& o) {
-  const Image<D> image = read_image<D>(o.image);
+  const Image<D> image = read_image<D>(o.image, o.read);
   // The template is read here only to refuse a bad one before anything is printed.
   if constexpr (D == 3) read_mesh_template(o.tmpl);
   else read_contour_template(o.tmpl);

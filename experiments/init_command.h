@@ -8,6 +8,8 @@
 // before it is printed; nothing is printed on an error (exit code 2).
 #pragma once
 
+#include "framework/io/image_io.h"
+
 #include <string>
 
 namespace dsnake {
@@ -18,6 +20,7 @@ struct InitCommandOptions {
   std::string reference; // --reference: an image in which the template sits on its object (template.reference_image); "" = none
   std::string mask;      // --mask: ground truth, a label image (non-zero inside) or a surface file; "" = none
   std::string name;      // --name: the experiment's name ("" = the image's file name)
+  ImageReadOptions read; // --nifti-transform: written as image.nifti_transform unless auto
 };
 
 // Prints the experiment file; returns 0. Bad input throws InputError naming it.

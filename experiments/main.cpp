@@ -13,6 +13,8 @@
 //   dsnake sweep SWEEP.json [--out DIR] [-j N] [--threads T] [--manifest parallel|slurm]
 //                [--aggregate-only] [--quiet]                    (experiments/sweep.h)
 //   dsnake schema [--markdown]       the experiment file's JSON Schema, or its key tables
+// field, convert, template and init take --nifti-transform auto|sform|qform: which NIfTI
+// transform places the voxels (framework/io/image_io.h, NiftiTransform).
 // Exit codes: 0 done, 2 bad input (one line on stderr naming the file and the JSON path or
 // element), 1 anything else (for a sweep: a run failed), 130 a sweep stopped by a signal.
 #include "experiments/convert_command.h"
@@ -123,6 +125,7 @@ struct CommandLine {
   std::string sweep_file;
   SweepOptions sweep;
   bool schema_markdown = false;
+  std::string nifti_transform;  // --nifti-transform of template, convert, field and init ("" = auto)
   CLI::App *run_cmd = nullptr, *validate_cmd = nullptr, *field_cmd = nullptr, *sweep_cmd = nullptr,
            *schema_cmd = nullptr, *convert_cmd = nullptr, *template_cmd = nullptr,
            *init_cmd = nullptr;
@@ -134,6 +137,23 @@ void add_overrides(CLI::App* cmd, std::vector<std::string>& overrides, const cha
       ->expected(1)
       ->allow_extra_args(false)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+}
+
+// "--nifti-transform auto|sform|qform": checked in dispatch, where the error can name the file.
+void add_nifti_transform(CLI::App* cmd, CommandLine& c) {
+  cmd->add_option("--nifti-transform", c.nifti_transform,
+                  "Which NIfTI transform places the voxels: auto (default: the sform when sform_code > 0, else the "
+                  "qform, else pixdim, as nibabel reads it), sform or qform");
+}
+
+// The read options of --nifti-transform VALUE for `file`; a bad value names the option and the file.
+ImageReadOptions read_options_of(const std::string& value, const std::string& file) {
+  ImageReadOptions o;
+  if (value.empty()) return o;
+  const auto t = enum_from_name<NiftiTransform>(value);
+  if (!t) throw InputError(file, "--nifti-transform " + value, "must be " + enum_choices<NiftiTransform>());
+  o.nifti_transform = *t;
+  return o;
 }
 
 void add_run_and_validate(CLI::App& app, CommandLine& c) {
@@ -166,6 +186,7 @@ void add_field(CLI::App& app, CommandLine& c) {
   c.field_cmd->add_option("--out,-o", f.out, "Output vector image (.mha, .mhd, .nii, .nii.gz, .nrrd, .nhdr, .inr, .inr.gz)")->required();
   c.field_cmd->add_option("--png", f.png, "2D figure (default: --out with .png)");
   c.field_cmd->add_flag("--no-png", f.no_png, "No 2D figure");
+  add_nifti_transform(c.field_cmd, c);
   c.field_cmd->add_option("--threads,-j", c.threads, "OpenMP threads (default: all cores)")->check(CLI::Range(1, 1024));
 }
 
@@ -174,12 +195,14 @@ void add_convert(CLI::App& app, CommandLine& c) {
       "convert",
       "Copy an image/volume, mesh or contour to another format (by extension). Images and volumes "
       "(2D, 3D, vector fields): .mha .mhd .nii .nii.gz .nrrd .nhdr .inr .inr.gz, 2D also .png .tif "
-      ".tiff .jpg .jpeg .bmp; spacing, origin and direction are kept, the voxel values go through as "
+      ".tiff .jpg .jpeg .bmp; spacing, origin and direction are kept (and the voxel order, where the output "
+      "format stores a direction), the voxel values go through as "
       "float32 (8-bit grey for the 2D raster formats). Meshes: .off .obj .ply .stl .vtk; contours: "
       ".txt .json .vtk; vertex order kept. Nothing is written on an error (exit code 2)");
   c.convert_cmd->add_option("in", c.convert.in, "Input file")->required();
   c.convert_cmd->add_option("out", c.convert.out, "Output file")->required();
   c.convert_cmd->add_flag("--compress", c.convert.compress, "zlib-compressed MetaImage data, gzip-encoded NRRD");
+  add_nifti_transform(c.convert_cmd, c);
 }
 
 void add_init(CLI::App& app, CommandLine& c) {
@@ -192,6 +215,7 @@ void add_init(CLI::App& app, CommandLine& c) {
   c.init_cmd->add_option("--reference", i.reference, "Reference image in which the template sits on its object (an atlas, the previous slice): the profile force's expected profiles");
   c.init_cmd->add_option("--mask", i.mask, "Ground truth: a label image (non-zero inside) or a surface file");
   c.init_cmd->add_option("--name", i.name, "Experiment name (default: the image's file name)");
+  add_nifti_transform(c.init_cmd, c);
 }
 
 void add_template(CLI::App& app, CommandLine& c) {
@@ -205,6 +229,7 @@ void add_template(CLI::App& app, CommandLine& c) {
   c.template_cmd->add_option("--vertices", t.vertices, "Vertex count (3D: within 10%; default 400)");
   c.template_cmd->add_option("--smoothing", t.smoothing, "Taubin smoothing steps before decimation (default 10)");
   c.template_cmd->add_flag("--allow-border", t.allow_border, "Accept a label touching the image border (flat cap)");
+  add_nifti_transform(c.template_cmd, c);
   c.template_cmd->add_option("--out,-o", t.out, "3D: .off .obj .ply .stl .vtk; 2D: .txt .json .vtk")->required();
   c.template_cmd->add_option("--threads,-j", c.threads, "OpenMP threads (default: all cores)")->check(CLI::Range(1, 1024));
 }
@@ -240,12 +265,28 @@ int schema(bool markdown) {
 int dispatch(const CommandLine& c) {
   if (c.threads > 0) omp_set_num_threads(c.threads);
   if (*c.run_cmd) return run(c.config, c.overrides, c.field_cache, c.run);
-  if (*c.field_cmd) return run_field_command(c.field);
-  if (*c.template_cmd) return run_template_command(c.templ);
-  if (*c.init_cmd) return run_init_command(c.init);
+  if (*c.field_cmd) {
+    FieldCommandOptions f = c.field;
+    f.read = read_options_of(c.nifti_transform, f.image);
+    return run_field_command(f);
+  }
+  if (*c.template_cmd) {
+    TemplateCommandOptions t = c.templ;
+    t.read = read_options_of(c.nifti_transform, t.mask);
+    return run_template_command(t);
+  }
+  if (*c.init_cmd) {
+    InitCommandOptions i = c.init;
+    i.read = read_options_of(c.nifti_transform, i.image);
+    return run_init_command(i);
+  }
   if (*c.sweep_cmd) return sweep(c.sweep_file, c.sweep);
   if (*c.schema_cmd) return schema(c.schema_markdown);
-  if (*c.convert_cmd) return run_convert_command(c.convert);
+  if (*c.convert_cmd) {
+    ConvertCommandOptions o = c.convert;
+    o.read = read_options_of(c.nifti_transform, o.in);
+    return run_convert_command(o);
+  }
   return validate(c.validate_config, c.validate_overrides);
 }
 

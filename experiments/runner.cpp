@@ -419,12 +419,22 @@ bool writes_image(const Experiment<D>& ex) {
   return ex.output.image == ImageOutput::kAlways || (ex.output.image == ImageOutput::kAuto && !ex.image_is_file_as_read);
 }
 
+// An image on the experiment image's grid, written on the grid of the user's file when the image
+// is one (its dimensions, voxel order and header, so that numpy compares it voxel by voxel with
+// the user's own arrays), else (a phantom) with the image's geometry.
+template <int D>
+void write_from_image(const Experiment<D>& ex, const Image<D>& image, const std::string& path,
+                      const ImageWriteOptions& options) {
+  if (ex.image_layout) write_image_on_source_grid<D>(image, *ex.image_layout, path, options);
+  else write_image<D>(image, path, options);
+}
+
 // result_mask.nii.gz: the result's interior (1) on the image's grid, with the image's geometry,
 // as a label map that 3D Slicer and ITK-SNAP overlay on the image.
 template <int D>
 void write_result_mask(const Experiment<D>& ex, const Snake<D>& snake, const fs::path& staging) {
   Image<D> mask = rasterize_interior<D>({snake.positions(), snake.connectivity()}, ex.image.grid());
-  write_image<D>(mask, (staging / "result_mask.nii.gz").string(), ImageWriteOptions{.compress = true, .label = true});
+  write_from_image<D>(ex, mask, (staging / "result_mask.nii.gz").string(), ImageWriteOptions{.compress = true, .label = true});
 }
 
 // final.* and initial.* (positions in world coordinates; final.vtk with final_arrays), the CSV
@@ -445,7 +455,7 @@ void write_outputs(const Experiment<D>& ex, const RunRecord<D>& rec, const fs::p
   write_file_atomically((staging / "correspondence.csv").string(), correspondence_csv(ex, snake, rec.correspondence));
   write_file_atomically((staging / "energy_trace.csv").string(), trace_csv<D>(rec.recorder.trace, rec.names));
   if (rec.finite && ex.output.result_mask) write_result_mask(ex, snake, staging);
-  if (writes_image(ex)) write_image<D>(ex.image, (staging / "image.nii.gz").string(), ImageWriteOptions{.compress = true});
+  if (writes_image(ex)) write_from_image<D>(ex, ex.image, (staging / "image.nii.gz").string(), ImageWriteOptions{.compress = true});
   if (ex.output.figures && rec.finite) write_figures(ex, snake, staging, rec.recorder.trace, rec.names);
 }
 

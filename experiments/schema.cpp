@@ -7,6 +7,7 @@
 #include "fields/registry.h"
 #include "fields/smooth_potential.h"
 #include "framework/core/options_schema.h"
+#include "framework/io/image_io.h"
 #include "remesh/registry.h"
 
 #include <map>
@@ -170,8 +171,8 @@ json image_schema() {
   PhantomKeys keys;
   image_keys<2>(keys);
   image_keys<3>(keys);
-  return source_schema(union_of(image_phantom_kinds<2>(), image_phantom_kinds<3>()), keys, json::object(),
-                       "the image or volume: a file, or a phantom");
+  return source_schema(union_of(image_phantom_kinds<2>(), image_phantom_kinds<3>()), keys,
+                       options_schema<ImageReadOptions>(), "the image or volume: a file, or a phantom");
 }
 
 json phase_schema() {
@@ -253,6 +254,8 @@ nlohmann::ordered_json experiment_schema() {
 
 std::string experiment_reference_markdown() {
   std::string s;
+  s += "### `image`: how image files are read\n\n";
+  s += key_table_markdown(options_rows<ImageReadOptions>()) + "\n";
   s += "### `collision_guard`: the snake iteration's non-self-intersection check\n\n";
   s += key_table_markdown(options_rows<CollisionGuardOptions>()) + "\n";
   s += "### `global`: Ceres' options and the external term's potential\n\n";

@@ -83,7 +83,7 @@ MirrorPlane found_plane(const Image<D>& labels, int axis, const TemplateCommandO
   if (dimension != D)
     throw InputError(c.image, "--image", "is a " + std::to_string(dimension) + "D image, the label map " +
                                              std::to_string(D) + "D: give an image of the label map's dimension");
-  const Image<D> image = naming_option("--image", [&] { return read_image<D>(c.image); });
+  const Image<D> image = naming_option("--image", [&] { return read_image<D>(c.image, c.read); });
   if (!image.grid().axis_aligned())
     throw InputError(c.image, "--image", "the image's grid is oblique: give the plane with --mirror-plane");
   MirrorPlane plane;
@@ -159,7 +159,7 @@ int run(const TemplateCommandOptions& c) {
   if (c.vertices < kMinTemplateVertices || c.vertices > kMaxTemplateVertices)
     throw InputError("", "--vertices " + std::to_string(c.vertices),
                      "must be in [" + std::to_string(kMinTemplateVertices) + ", " + std::to_string(kMaxTemplateVertices) + "]");
-  const Image<D> labels = read_image<D>(c.mask);
+  const Image<D> labels = read_image<D>(c.mask, c.read);
   std::string plane_source;
   if (given) {
     check_plane_inside<D>(*given, labels.grid(), c.mask, "--mirror-plane " + c.mirror_plane);

@@ -8,6 +8,8 @@
 // makes and mirrors the template, meshing/symmetry_plane.h finds the plane.
 #pragma once
 
+#include "framework/io/image_io.h"
+
 #include <string>
 
 namespace dsnake {
@@ -22,6 +24,7 @@ struct TemplateCommandOptions {
   int smoothing = 10;        // --smoothing: Taubin λ|μ steps before decimation
   bool allow_border = false; // --allow-border: accept a label touching the image border
   std::string out;           // --out: mesh or contour file, by extension
+  ImageReadOptions read;     // --nifti-transform: which NIfTI transform places the label map
 };
 
 // Runs the command; returns 0. Bad input throws InputError naming the file or option (exit 2);

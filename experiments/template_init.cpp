@@ -30,7 +30,7 @@ namespace {
 template <int D>
 Moments<D> target_moments(const TemplateInitOptions& o, const Image<D>& image, const std::string& file) {
   if (!o.mask.empty()) {
-    const Image<D> mask = read_image<D>(o.mask);
+    const Image<D> mask = read_image<D>(o.mask, o.mask_read);
     const std::optional<int> label = o.label;
     const Moments<D> m = region_moments<D>(mask, [label](float v) { return label ? v == float(*label) : v != 0.0f; });
     if (m.measure == 0.0)

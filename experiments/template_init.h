@@ -22,6 +22,8 @@
 
 #include <map>
 #include <nlohmann/json.hpp>
+#include "framework/io/image_io.h"
+
 #include <optional>
 #include <string>
 #include <vector>
@@ -43,6 +45,7 @@ struct TemplateInitOptions {
   double isotropy_tolerance = 0.05;
   NamedPoints points;             // landmarks: name -> world point
   SimilarityTransform transform = SimilarityTransform::kSimilarity;
+  ImageReadOptions mask_read;     // how `mask` is read: the experiment's image.nifti_transform (not a key here)
 
   template <class V>
   void visit(V& v) {

@@ -78,8 +78,7 @@ template std::vector<double> decode<double>(const char*, int64_t, Scalar, bool);
 // Values rounded and clamped to [0, 255], one byte each (label maps).
 std::string label_bytes(const std::vector<float>& values) {
   std::string out(values.size(), '\0');
-  for (size_t i = 0; i < values.size(); ++i)
-    out[i] = char(uint8_t(std::lround(std::clamp(double(values[i]), 0.0, 255.0))));
+  for (size_t i = 0; i < values.size(); ++i) out[i] = char(label_byte(values[i]));
   return out;
 }
 
@@ -473,7 +472,9 @@ void orthonormalize_axes(RawVolume& v, const std::string& path) {
 // if it is a reflection (determinant -1), the last index axis is reversed so that it becomes a
 // rotation, which keeps the frame's orientation and so the templates' outward normals.
 // A 2D image taken from a 3D file must lie in the x-y plane; an oblique one is refused.
-void align_axes(RawVolume& v, const std::string& path) {
+// `layout` (when not null) receives the stored geometry and the reordering.
+void align_axes(RawVolume& v, const std::string& path, ImageLayout* layout) {
+  if (layout) copy_geometry(*layout, v);
   if (v.effective_dimension() == 2 && v.ndims == 3) {
     if (std::abs(std::abs(v.axes[2][2]) - 1) > 1e-4 || std::abs(v.axes[0][2]) > 1e-4 || std::abs(v.axes[1][2]) > 1e-4)
       throw InputError(path, "direction", "a single-slice image whose plane is not the world's x-y plane cannot be "
@@ -487,9 +488,13 @@ void align_axes(RawVolume& v, const std::string& path) {
     Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
     for (int a = 0; a < v.ndims; ++a)
       for (int k = 0; k < v.ndims; ++k) m(k, a) = v.axes[a][k];
-    if (m.determinant() < 0) reverse_axis(v, v.ndims - 1);
+    if (m.determinant() < 0) {
+      reverse_axis(v, v.ndims - 1);
+      if (layout) layout->sign[v.ndims - 1] = -1;
+    }
     return;
   }
+  if (layout) layout->to = to, layout->sign = sign;
   bool identity = true;
   for (int a = 0; a < v.ndims; ++a) identity &= to[a] == a && sign[a] == 1;
   if (identity) return;
@@ -512,18 +517,28 @@ void align_axes(RawVolume& v, const std::string& path) {
   v = std::move(out);
 }
 
-// Decodes any supported file by its extension, its axes aligned with the world's.
-RawVolume read_volume(const std::string& path) {
+// Decodes any supported file by its extension, its axes aligned with the world's; `layout`
+// (when not null) receives how the file stores its voxels.
+RawVolume read_volume(const std::string& path, const ImageReadOptions& options = {}, ImageLayout* layout = nullptr) {
   const std::string ext = extension_of(path);
   RawVolume v;
+  if (layout) {
+    *layout = ImageLayout();
+    layout->path = path;
+  }
   if (ext == ".mha" || ext == ".mhd") v = read_meta(path);
-  else if (ext == ".nii" || ext == ".nii.gz") v = read_nifti(path);
+  else if (ext == ".nii" || ext == ".nii.gz")
+    v = read_nifti(path, options.nifti_transform, layout ? &layout->nifti_header : nullptr);
   else if (ext == ".nrrd" || ext == ".nhdr") v = read_nrrd(path);
   else if (ext == ".inr" || ext == ".inr.gz") v = read_inr(path);
-  else if (is_opencv_extension(ext)) return read_opencv(path);
+  else if (is_opencv_extension(ext)) {
+    v = read_opencv(path);
+    if (layout) layout->ndims = 2, layout->size = v.size;
+    return v;
+  }
   else if (is_dicom_path(path)) v = read_dicom(path);
   else unknown_format(path);
-  align_axes(v, path);
+  align_axes(v, path, layout);
   return v;
 }
 
@@ -603,10 +618,20 @@ int image_file_dimension(const std::string& path) {
 
 // Decodes, checks (dimension, one channel, spacing, finite voxels) and converts to float.
 template <int D>
-Image<D> read_image(const std::string& path) {
-  RawVolume v = read_volume(path);
+Image<D> read_image(const std::string& path, const ImageReadOptions& options, ImageLayout* layout) {
+  RawVolume v = read_volume(path, options, layout);
   const Grid<D> grid = checked_grid<D>(v, path, 1);
   return Image<D>(grid, std::move(v.values));  // the decoded floats are the image's (same size: checked_grid)
+}
+
+template <int D>
+Image<D> read_image(const std::string& path, const ImageReadOptions& options) {
+  return read_image<D>(path, options, nullptr);
+}
+
+template <int D>
+Image<D> read_image(const std::string& path) {
+  return read_image<D>(path, ImageReadOptions{}, nullptr);
 }
 
 // Stores the grid and the voxels through the shared RawVolume writer.
@@ -626,8 +651,9 @@ void write_image(const Image<D>& image, const std::string& path) {
 
 // Vector fields go to MetaImage (channels), NIfTI (intent vector), NRRD (vector axis) or
 // INRIMAGE (VDIM) only.
+// `layout`: null, or the file whose grid the field is on (written in its order where the format can).
 template <int D>
-void write_vector_field(const VectorField<D>& field, const std::string& path) {
+void write_vector_field_to(const VectorField<D>& field, const std::string& path, const ImageLayout* layout) {
   RawVolume v = raw_of<D>(field.grid(), D);
   const auto& r = field.grid().direction;  // frame components -> world components (as ITK stores them)
   const bool rotate = !field.grid().axis_aligned();
@@ -639,7 +665,18 @@ void write_vector_field(const VectorField<D>& field, const std::string& path) {
   }
   const std::string ext = extension_of(path);
   if (is_opencv_extension(ext)) throw InputError(path, "", "vector fields need .mha, .mhd, .nii, .nii.gz, .nrrd, .nhdr, .inr or .inr.gz");
+  if (layout && stores_direction(ext)) restore_stored_order(v, *layout);
   write_volume(v, path, ImageWriteOptions{});
+}
+
+template <int D>
+void write_vector_field(const VectorField<D>& field, const std::string& path) {
+  write_vector_field_to<D>(field, path, nullptr);
+}
+
+template <int D>
+void write_vector_field(const VectorField<D>& field, const std::string& path, const ImageLayout& layout) {
+  write_vector_field_to<D>(field, path, &layout);
 }
 
 // As read_image, with D interleaved components per voxel (world components; rotated into the
@@ -660,23 +697,35 @@ VectorField<D> read_vector_field(const std::string& path) {
 
 // Decodes `in` as read_volume does, checks it as read_image/read_vector_field would, and
 // writes it to `out` with its geometry (spacing, origin, axes) as float32 voxels.
-void convert_image_file(const std::string& in, const std::string& out, const ImageWriteOptions& options) {
-  RawVolume v = read_volume(in);
+void convert_image_file(const std::string& in, const std::string& out, const ImageWriteOptions& options,
+                        const ImageReadOptions& read_options) {
+  ImageLayout layout;
+  RawVolume v = read_volume(in, read_options, &layout);
   const int d = v.effective_dimension();
   if (d == 2) checked_grid<2>(v, in, v.channels == 2 ? 2 : 1);
   else checked_grid<3>(v, in, v.channels == 3 ? 3 : 1);
-  if (d == 2 && is_opencv_extension(extension_of(out))) v.ndims = 2;  // a one-slice volume to PNG
+  const std::string ext = extension_of(out);
+  // Formats that store a direction get the input's own voxel order and axes; INRIMAGE and the
+  // raster formats, which store none, the axis-aligned grid read_volume made.
+  if (stores_direction(ext)) restore_stored_order(v, layout);
+  if (d == 2 && is_opencv_extension(ext)) v.ndims = 2;  // a one-slice volume to PNG
   write_volume(v, out, options);
 }
 
 template Image<2> read_image<2>(const std::string&);
 template Image<3> read_image<3>(const std::string&);
+template Image<2> read_image<2>(const std::string&, const ImageReadOptions&);
+template Image<3> read_image<3>(const std::string&, const ImageReadOptions&);
+template Image<2> read_image<2>(const std::string&, const ImageReadOptions&, ImageLayout*);
+template Image<3> read_image<3>(const std::string&, const ImageReadOptions&, ImageLayout*);
 template void write_image<2>(const Image<2>&, const std::string&);
 template void write_image<3>(const Image<3>&, const std::string&);
 template void write_image<2>(const Image<2>&, const std::string&, const ImageWriteOptions&);
 template void write_image<3>(const Image<3>&, const std::string&, const ImageWriteOptions&);
 template void write_vector_field<2>(const VectorField<2>&, const std::string&);
 template void write_vector_field<3>(const VectorField<3>&, const std::string&);
+template void write_vector_field<2>(const VectorField<2>&, const std::string&, const ImageLayout&);
+template void write_vector_field<3>(const VectorField<3>&, const std::string&, const ImageLayout&);
 template VectorField<2> read_vector_field<2>(const std::string&);
 template VectorField<3> read_vector_field<3>(const std::string&);
 

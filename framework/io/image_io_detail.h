@@ -1,9 +1,12 @@
-// Internal to the image I/O (framework/io/image_io.cpp, metaimage.cpp, nifti.cpp, nrrd.cpp,
+// Internal to the image I/O (framework/io/image_io.cpp, metaimage.cpp, nifti.cpp, nrrd.cpp, source_grid.cpp,
 // inr.cpp): the decoded form every reader produces and the byte helpers the formats share. Not part of the API.
 #pragma once
 
+#include "framework/io/image_io.h"
+
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <exception>
@@ -63,6 +66,8 @@ std::vector<T> decode(const char* data, int64_t count, Scalar s, bool swap);
 template <class T>
 void decode_into(const char* data, int64_t count, Scalar s, bool swap, T* out);
 
+// A value rounded and clamped to [0, 255] (a label map's byte).
+inline uint8_t label_byte(float value) { return uint8_t(std::lround(std::clamp(double(value), 0.0, 255.0))); }
 // Values rounded and clamped to [0, 255], one byte each (label maps).
 std::string label_bytes(const std::vector<float>& values);
 
@@ -166,13 +171,44 @@ int meta_dimension(const std::string& path);
 
 inline constexpr size_t kNiftiHeaderBytes = 348;
 
-// NIfTI-1 (nifti.cpp): decode a header (the geometry) from the file's first bytes; write
+// The geometry RawVolume and ImageLayout share (dimensions, sizes, spacing, origin, axes),
+// copied from one to the other.
+template <class To, class From>
+void copy_geometry(To& to, const From& from) {
+  to.ndims = from.ndims;
+  to.size = from.size;
+  to.spacing = from.spacing;
+  to.origin = from.origin;
+  to.axes = from.axes;
+}
+
+// Image layouts (source_grid.cpp; image_io.h, ImageLayout): the formats that store a direction
+// (MetaImage, NIfTI, NRRD), so that a volume written to them can keep its file's voxel order;
+// and a volume read from `layout`'s file put back in that order and geometry (the inverse of
+// align_axes), its values (all channels, its own or borrowed) through one new buffer when they
+// were reordered.
+bool stores_direction(const std::string& ext);
+void restore_stored_order(RawVolume& v, const ImageLayout& layout);
+
+// NIfTI-1 (nifti.cpp): decode a header (the geometry, placed by `transform`; with `warn`, the
+// warning lines of image_io.h's NiftiTransform on stderr) from the file's first bytes; write
 // float32 .nii or .nii.gz.
-RawVolume decode_nifti_header(const std::string& bytes, const std::string& path);
+RawVolume decode_nifti_header(const std::string& bytes, const std::string& path,
+                              NiftiTransform transform = NiftiTransform::kAuto, bool warn = false);
 void write_nifti(const RawVolume& v, const std::string& path);
+// The 352 bytes before the values that write_nifti stores for v's geometry (qform and sform, codes 1).
+std::string nifti_header_of(const RawVolume& v);
+// A NIfTI input's own header `source` (348 bytes) for values stored as uint8 (label) or float32
+// from byte 352, no scaling, no extensions; every other field kept, in the source's byte order
+// (`swap` says it is foreign: float32 values must then be stored swapped).
+std::string nifti_header_for_values(const std::string& source, bool label, bool& swap);
+// Writes parts (a header, the values) as .nii, or gzipped as .nii.gz, atomically.
+void write_nifti_parts(const std::vector<std::string_view>& parts, const std::string& path);
 // Reads a .nii or .nii.gz: the header first, then no more bytes than it declares (a gzip bomb
-// behind a small header is not inflated), after the limits above.
-RawVolume read_nifti(const std::string& path);
+// behind a small header is not inflated), after the limits above; the orientation warnings on
+// stderr. `header`, when not null, receives the 348 header bytes as stored.
+RawVolume read_nifti(const std::string& path, NiftiTransform transform = NiftiTransform::kAuto,
+                     std::string* header = nullptr);
 
 // NRRD (nrrd.cpp): read a .nrrd (attached data) or .nhdr (detached data file) completely, or
 // only its header's dimension; write float32 little-endian LPS NRRD, gzip-encoded when

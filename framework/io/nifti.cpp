@@ -9,7 +9,9 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <limits>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -35,14 +37,15 @@ void put(std::string& h, size_t offset, T value) {
 
 // NIfTI's world is RAS (x to the right, y anterior); dsnake's is LPS: negates the x and y
 // components of the origin and of every axis direction (its own inverse, so writing uses it too).
-void ras_to_lps(RawVolume& v) {
-  v.origin[0] = -v.origin[0];
-  v.origin[1] = -v.origin[1];
-  for (auto& axis : v.axes) {
+void ras_to_lps(std::array<double, 3>& origin, std::array<std::array<double, 3>, 3>& axes) {
+  origin[0] = -origin[0];
+  origin[1] = -origin[1];
+  for (auto& axis : axes) {
     axis[0] = -axis[0];
     axis[1] = -axis[1];
   }
 }
+void ras_to_lps(RawVolume& v) { ras_to_lps(v.origin, v.axes); }
 
 // The NIfTI quaternion (b, c, d) and qfac of a 3x3 direction matrix whose columns are the
 // axes (NIfTI-1 header comments, "method 2"): a proper rotation has qfac 1; a reflection is
@@ -83,44 +86,123 @@ std::array<double, 4> quaternion_of(std::array<std::array<double, 3>, 3> axes) {
   return {b, c, d, qfac};
 }
 
-// Origin and axis directions from the qform (preferred, as before) or the sform, in NIfTI's
-// RAS (decode_nifti converts them to dsnake's LPS world). Neither: the identity at 0.
-void read_nifti_orientation(const std::string& bytes, bool swap, RawVolume& v) {
-  if (nifti_field<int16_t>(bytes, 252, swap) > 0) {
-    for (int a = 0; a < 3; ++a) v.origin[a] = nifti_field<float>(bytes, 268 + 4 * a, swap);
-    double b = nifti_field<float>(bytes, 256, swap), c = nifti_field<float>(bytes, 260, swap),
-           d = nifti_field<float>(bytes, 264, swap);
-    // As NIfTI's reference code does: when a^2 = 1 - (b^2 + c^2 + d^2) is below 1e-7 (a half
-    // turn, whose float32 (b, c, d) leave a tiny positive rest), a is 0 and (b, c, d) is
-    // renormalised; else the rest would tilt the axes by ~0.015 degrees and make a plain axis
-    // permutation look oblique.
-    double a = 1.0 - (b * b + c * c + d * d);
-    if (a < 1e-7) {
-      const double norm = std::sqrt(b * b + c * c + d * d);
-      if (norm > 0) b /= norm, c /= norm, d /= norm;
-      a = 0;
-    } else {
-      a = std::sqrt(a);
-    }
-    const double qfac = nifti_field<float>(bytes, 76, swap) < 0 ? -1.0 : 1.0;
-    const double r[3][3] = {{a * a + b * b - c * c - d * d, 2 * (b * c - a * d), 2 * (b * d + a * c)},
-                            {2 * (b * c + a * d), a * a + c * c - b * b - d * d, 2 * (c * d - a * b)},
-                            {2 * (b * d - a * c), 2 * (c * d + a * b), a * a + d * d - b * b - c * c}};
-    for (int axis = 0; axis < 3; ++axis)
-      for (int k = 0; k < 3; ++k) v.axes[axis][k] = r[k][axis] * (axis == 2 ? qfac : 1.0);
-  } else if (nifti_field<int16_t>(bytes, 254, swap) > 0) {
-    for (int a = 0; a < 3; ++a) v.origin[a] = nifti_field<float>(bytes, 280 + 16 * a + 12, swap);
-    for (int axis = 0; axis < 3; ++axis) {
-      double column[3], norm = 0;
-      for (int k = 0; k < 3; ++k) {
-        column[k] = nifti_field<float>(bytes, 280 + 16 * k + 4 * axis, swap);
-        norm += column[k] * column[k];
-      }
-      norm = std::sqrt(norm);
-      if (norm > 0)
-        for (int k = 0; k < 3; ++k) v.axes[axis][k] = column[k] / norm;
-    }
+// One of the ways a NIfTI-1 header places its voxels, in NIfTI's RAS: voxel (i, j, k) is at
+// origin + sum_a spacing[a] index[a] axes[a].
+struct NiftiPlacement {
+  std::array<double, 3> origin{0, 0, 0};
+  std::array<std::array<double, 3>, 3> axes{{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
+  std::array<double, 3> spacing{1, 1, 1};
+};
+
+// The header's "method 2": the qform (quaternion b, c, d, qfac in pixdim[0], qoffset), with
+// pixdim's spacing.
+NiftiPlacement qform_placement(const std::string& bytes, bool swap, const std::array<double, 3>& pixdim) {
+  NiftiPlacement p;
+  p.spacing = pixdim;
+  for (int a = 0; a < 3; ++a) p.origin[a] = nifti_field<float>(bytes, 268 + 4 * a, swap);
+  double b = nifti_field<float>(bytes, 256, swap), c = nifti_field<float>(bytes, 260, swap),
+         d = nifti_field<float>(bytes, 264, swap);
+  // As NIfTI's reference code does: when a^2 = 1 - (b^2 + c^2 + d^2) is below 1e-7 (a half
+  // turn, whose float32 (b, c, d) leave a tiny positive rest), a is 0 and (b, c, d) is
+  // renormalised; else the rest would tilt the axes by ~0.015 degrees and make a plain axis
+  // permutation look oblique.
+  double a = 1.0 - (b * b + c * c + d * d);
+  if (a < 1e-7) {
+    const double norm = std::sqrt(b * b + c * c + d * d);
+    if (norm > 0) b /= norm, c /= norm, d /= norm;
+    a = 0;
+  } else {
+    a = std::sqrt(a);
   }
+  const double qfac = nifti_field<float>(bytes, 76, swap) < 0 ? -1.0 : 1.0;
+  const double r[3][3] = {{a * a + b * b - c * c - d * d, 2 * (b * c - a * d), 2 * (b * d + a * c)},
+                          {2 * (b * c + a * d), a * a + c * c - b * b - d * d, 2 * (c * d - a * b)},
+                          {2 * (b * d - a * c), 2 * (c * d + a * b), a * a + d * d - b * b - c * c}};
+  for (int axis = 0; axis < 3; ++axis)
+    for (int k = 0; k < 3; ++k) p.axes[axis][k] = r[k][axis] * (axis == 2 ? qfac : 1.0);
+  return p;
+}
+
+// The header's "method 3": the sform's rows srow_x, srow_y, srow_z. Its column norms are the
+// spacing, so that each voxel is where the affine puts it (nibabel's `affine` is the sform
+// itself); a zero column (a 2D file's third) keeps pixdim's spacing and the default axis.
+NiftiPlacement sform_placement(const std::string& bytes, bool swap, const std::array<double, 3>& pixdim) {
+  NiftiPlacement p;
+  p.spacing = pixdim;
+  for (int a = 0; a < 3; ++a) p.origin[a] = nifti_field<float>(bytes, 280 + 16 * a + 12, swap);
+  for (int axis = 0; axis < 3; ++axis) {
+    double column[3], norm = 0;
+    for (int k = 0; k < 3; ++k) {
+      column[k] = nifti_field<float>(bytes, 280 + 16 * k + 4 * axis, swap);
+      norm += column[k] * column[k];
+    }
+    norm = std::sqrt(norm);
+    if (!(norm > 0)) continue;
+    p.spacing[axis] = norm;
+    for (int k = 0; k < 3; ++k) p.axes[axis][k] = column[k] / norm;
+  }
+  return p;
+}
+
+// How far apart two placements put the grid of `size` voxels: the largest distance (mm) between
+// their positions of the first voxel and of the grid's corner voxels, and the largest angle
+// (degrees) between their directions of one index axis.
+std::pair<double, double> placement_disagreement(const NiftiPlacement& s, const NiftiPlacement& q,
+                                                 const std::array<int64_t, 3>& size) {
+  double mm = 0, degrees = 0;
+  for (int corner = 0; corner < 8; ++corner) {
+    double d2 = 0;
+    for (int k = 0; k < 3; ++k) {
+      double ds = s.origin[k], dq = q.origin[k];
+      for (int a = 0; a < 3; ++a) {
+        const double index = (corner >> a & 1) ? double(size[a] - 1) : 0.0;
+        ds += s.axes[a][k] * s.spacing[a] * index;
+        dq += q.axes[a][k] * q.spacing[a] * index;
+      }
+      d2 += (ds - dq) * (ds - dq);
+    }
+    mm = std::max(mm, std::sqrt(d2));
+  }
+  for (int a = 0; a < 3; ++a) {
+    if (size[a] <= 1) continue;  // an axis of one voxel (a 2D file's third) places nothing
+    double dot = 0;
+    for (int k = 0; k < 3; ++k) dot += s.axes[a][k] * q.axes[a][k];
+    degrees = std::max(degrees, std::acos(std::clamp(dot, -1.0, 1.0)) * 180.0 / 3.14159265358979323846);
+  }
+  return {mm, degrees};
+}
+
+// Origin, spacing and axis directions by `choice` (image_io.h, NiftiTransform: nibabel's rule
+// by default), in NIfTI's RAS (decode_nifti_header converts them to dsnake's LPS world). With
+// `warn`, the one warning line of a disagreement or of a requested transform the file lacks.
+void read_nifti_orientation(const std::string& bytes, bool swap, NiftiTransform choice, bool warn,
+                            const std::string& path, RawVolume& v) {
+  const bool has_q = nifti_field<int16_t>(bytes, 252, swap) > 0, has_s = nifti_field<int16_t>(bytes, 254, swap) > 0;
+  const char* const wanted = choice == NiftiTransform::kSform ? "sform" : "qform";
+  const bool lacks = (choice == NiftiTransform::kSform && !has_s) || (choice == NiftiTransform::kQform && !has_q);
+  if (lacks) choice = NiftiTransform::kAuto;
+  const bool use_s = has_s && choice != NiftiTransform::kQform, use_q = !use_s && has_q;
+  if (warn && lacks)
+    std::fprintf(stderr, "dsnake: warning: %s: the %s was asked for (image.nifti_transform or --nifti-transform), but its "
+                 "%s_code is 0; using %s\n",
+                 path.c_str(), wanted, wanted, use_s ? "the sform" : use_q ? "the qform" : "pixdim at the origin");
+  NiftiPlacement p;
+  p.spacing = v.spacing;
+  if (use_s) p = sform_placement(bytes, swap, v.spacing);
+  else if (use_q) p = qform_placement(bytes, swap, v.spacing);
+  if (warn && choice == NiftiTransform::kAuto && has_s && has_q) {
+    const auto [mm, degrees] = placement_disagreement(p, qform_placement(bytes, swap, v.spacing), v.size);
+    double voxel = std::numeric_limits<double>::infinity();
+    for (int a = 0; a < v.ndims; ++a) voxel = std::min(voxel, p.spacing[a]);
+    if (mm > voxel || degrees > 1.0)
+      std::fprintf(stderr,
+                   "dsnake: warning: %s: sform and qform disagree by %.3g mm / %.3g degrees; using the sform "
+                   "(image.nifti_transform or --nifti-transform: qform for the qform)\n",
+                   path.c_str(), mm, degrees);
+  }
+  v.origin = p.origin;
+  v.axes = p.axes;
+  v.spacing = p.spacing;
 }
 
 // Where a NIfTI-1 file's values are and how they become voxels (from the header).
@@ -186,7 +268,8 @@ void decode_nifti_block(const NiftiData& d, const char* data, int64_t start, int
 }
 
 // Decodes a NIfTI-1 header (the geometry) from its bytes; read_nifti streams the values.
-RawVolume decode_nifti_header(const std::string& bytes, const std::string& path) {
+RawVolume decode_nifti_header(const std::string& bytes, const std::string& path, NiftiTransform transform,
+                              bool warn) {
   if (bytes.size() < kNiftiHeaderBytes)
     throw InputError(path, "header", "unreadable header: file holds " + std::to_string(bytes.size()) +
                                          " bytes, a NIfTI-1 header needs 348");
@@ -214,23 +297,19 @@ RawVolume decode_nifti_header(const std::string& bytes, const std::string& path)
   for (int a = 0; a < v.ndims; ++a) v.size[a] = dim[a + 1];
   v.channels = dim[0] == 5 ? dim[5] : 1;
   for (int a = 0; a < 3; ++a) v.spacing[a] = nifti_field<float>(bytes, 76 + 4 * (a + 1), swap);
-  read_nifti_orientation(bytes, swap, v);
+  read_nifti_orientation(bytes, swap, transform, warn, path, v);
   ras_to_lps(v);
   return v;
 }
 
-// Writes a float32 (or, for a label map, uint8) NIfTI-1 (.nii, or gzipped .nii.gz). The LPS origin and directions are
-// converted to NIfTI's RAS and stored twice, as ITK and nibabel write them: as the qform
-// (quaternion, qform_code 1) and as the sform's rows (spacing times direction, sform_code 1).
-void write_nifti(const RawVolume& lps, const std::string& path) {
-  RawVolume v;  // the geometry in RAS; the values stay in `lps`
-  v.ndims = lps.ndims;
-  v.size = lps.size;
-  v.spacing = lps.spacing;
-  v.origin = lps.origin;
-  v.axes = lps.axes;
-  v.channels = lps.channels;
-  ras_to_lps(v);
+// The header (and the empty extension flag after it) of a float32 (or, for a label map, uint8)
+// NIfTI-1 of `v`'s geometry. The LPS origin and directions are converted to NIfTI's RAS and
+// stored twice, as ITK and nibabel write them: as the qform (quaternion, qform_code 1) and as the
+// sform's rows (spacing times direction, sform_code 1).
+std::string nifti_header_of(const RawVolume& v) {
+  std::array<double, 3> origin = v.origin;  // in RAS
+  std::array<std::array<double, 3>, 3> axes = v.axes;
+  ras_to_lps(origin, axes);
   std::string h(kNiftiVoxOffset, '\0');
   put<int32_t>(h, 0, 348);
   std::array<int16_t, 8> dim{};
@@ -240,9 +319,9 @@ void write_nifti(const RawVolume& lps, const std::string& path) {
   dim[5] = int16_t(v.channels);
   for (int i = 0; i < 8; ++i) put<int16_t>(h, 40 + 2 * i, dim[i]);
   if (v.channels > 1) put<int16_t>(h, 68, 1007);  // NIFTI_INTENT_VECTOR
-  put<int16_t>(h, 70, lps.label ? 2 : 16);  // uint8 or float32
-  put<int16_t>(h, 72, lps.label ? 8 : 32);
-  const std::array<double, 4> q = quaternion_of(v.axes);
+  put<int16_t>(h, 70, v.label ? 2 : 16);  // uint8 or float32
+  put<int16_t>(h, 72, v.label ? 8 : 32);
+  const std::array<double, 4> q = quaternion_of(axes);
   put<float>(h, 76, float(q[3]));  // qfac
   for (int a = 0; a < 3; ++a) put<float>(h, 80 + 4 * a, float(a < v.ndims ? v.spacing[a] : 1.0));
   for (int i = 4; i < 8; ++i) put<float>(h, 76 + 4 * i, 1.0f);
@@ -252,31 +331,67 @@ void write_nifti(const RawVolume& lps, const std::string& path) {
   put<int16_t>(h, 252, 1);   // qform_code: scanner
   put<int16_t>(h, 254, 1);   // sform_code: scanner
   for (int k = 0; k < 3; ++k) put<float>(h, 256 + 4 * k, float(q[k]));
-  for (int a = 0; a < 3; ++a) put<float>(h, 268 + 4 * a, float(v.origin[a]));
+  for (int a = 0; a < 3; ++a) put<float>(h, 268 + 4 * a, float(origin[a]));
   for (int k = 0; k < 3; ++k) {  // srow_x, srow_y, srow_z
     for (int a = 0; a < 3; ++a)
-      put<float>(h, 280 + 16 * k + 4 * a, float(v.axes[a][k] * (a < v.ndims ? v.spacing[a] : 1.0)));
-    put<float>(h, 280 + 16 * k + 12, float(v.origin[k]));
+      put<float>(h, 280 + 16 * k + 4 * a, float(axes[a][k] * (a < v.ndims ? v.spacing[a] : 1.0)));
+    put<float>(h, 280 + 16 * k + 12, float(origin[k]));
   }
   std::memcpy(h.data() + 344, "n+1", 4);
-  // NIfTI keeps components slowest (one volume per component); RawVolume interleaves them.
-  std::vector<float> planar;
-  if (v.channels > 1) {
-    const int64_t n = v.num_voxels();
-    const std::vector<float>& interleaved = lps.data();
-    planar.resize(interleaved.size());
-    for (int c = 0; c < v.channels; ++c)
-      for (int64_t i = 0; i < n; ++i) planar[c * n + i] = interleaved[i * v.channels + c];
+  return h;
+}
+
+// Stores a header field in the header's own byte order (`swap`: the file's order is foreign).
+template <class T>
+void put_in_order(std::string& h, size_t offset, T value, bool swap) {
+  put<T>(h, offset, value);
+  if (swap) std::reverse(h.data() + offset, h.data() + offset + sizeof(T));
+}
+
+std::string nifti_header_for_values(const std::string& source, bool label, bool& swap) {
+  DSNAKE_ASSERT(source.size() >= kNiftiHeaderBytes, "a whole NIfTI-1 header");
+  swap = nifti_field<int32_t>(source, 0, false) != 348;
+  std::string h = source.substr(0, kNiftiHeaderBytes);
+  h.resize(kNiftiVoxOffset, '\0');  // extension flag 0: no extensions follow
+  put_in_order<int16_t>(h, 70, label ? 2 : 16, swap);  // datatype: uint8 or float32
+  put_in_order<int16_t>(h, 72, label ? 8 : 32, swap);  // bitpix
+  put_in_order<float>(h, 108, float(kNiftiVoxOffset), swap);
+  put_in_order<float>(h, 112, 1.0f, swap);  // scl_slope, scl_inter: the values as stored
+  put_in_order<float>(h, 116, 0.0f, swap);
+  if (label) {  // a mask is no statistic and has no display window of the source's intensities
+    put_in_order<int16_t>(h, 68, 0, swap);  // intent_code: none
+    put_in_order<float>(h, 124, 0.0f, swap);  // cal_max, cal_min: unset
+    put_in_order<float>(h, 128, 0.0f, swap);
   }
-  std::string converted;
-  const std::vector<std::string_view> parts{h, stored_view(v.channels > 1 ? planar : lps.data(), lps.label, converted)};
+  return h;
+}
+
+void write_nifti_parts(const std::vector<std::string_view>& parts, const std::string& path) {
   if (extension_of(path) == ".nii") write_file_atomically(path, parts);
   else write_stream_atomically(path, [&](const auto& put) { gzip_into(parts, path, put); });
 }
 
-RawVolume read_nifti(const std::string& path) {
+// Writes a float32 (or, for a label map, uint8) NIfTI-1 (.nii, or gzipped .nii.gz) with
+// nifti_header_of's header.
+void write_nifti(const RawVolume& lps, const std::string& path) {
+  const std::string h = nifti_header_of(lps);
+  // NIfTI keeps components slowest (one volume per component); RawVolume interleaves them.
+  std::vector<float> planar;
+  if (lps.channels > 1) {
+    const int64_t n = lps.num_voxels();
+    const std::vector<float>& interleaved = lps.data();
+    planar.resize(interleaved.size());
+    for (int c = 0; c < lps.channels; ++c)
+      for (int64_t i = 0; i < n; ++i) planar[c * n + i] = interleaved[i * lps.channels + c];
+  }
+  std::string converted;
+  write_nifti_parts({h, stored_view(lps.channels > 1 ? planar : lps.data(), lps.label, converted)}, path);
+}
+
+RawVolume read_nifti(const std::string& path, NiftiTransform transform, std::string* header) {
   const std::string head = read_gz_bytes(path, kNiftiHeaderBytes);
-  RawVolume v = decode_nifti_header(head, path);
+  RawVolume v = decode_nifti_header(head, path, transform, /*warn=*/true);
+  if (header) *header = head.substr(0, kNiftiHeaderBytes);
   const bool swap = nifti_field<int32_t>(head, 0, false) != 348;
   const double values = double(v.num_voxels()) * v.channels;
   check_declared_values(values, path, "dim");

@@ -207,6 +207,40 @@ TEST_F(CliTest, SetOverrideIsValidatedToo) {
   EXPECT_FALSE(fs::exists(out));
 }
 
+// image.nifti_transform and --nifti-transform: a bad value is one line naming the file and the
+// key or option, exit code 2, nothing written.
+TEST_F(CliTest, BadNiftiTransformKeyAndOption) {
+  const auto file = experiment("default", [](nlohmann::json& j) { j["image"]["nifti_transform"] = "sfrom"; });
+  expect_bad_input(file, {file.string() + ": image.nifti_transform: must be \"auto\", \"sform\" or \"qform\"", "sfrom"});
+  const auto typed = experiment("default", [](nlohmann::json& j) { j["image"]["nifti_transform"] = 2; });
+  expect_bad_input(typed, {typed.string() + ": image.nifti_transform"});
+
+  Grid<3> g;
+  g.size = {8, 8, 8};
+  Image<3> labels(g, 0.0f);
+  labels.at({3, 3, 3}) = 1;
+  const std::string nii = (dir_ / "labels.nii.gz").string();
+  write_image(labels, nii, ImageWriteOptions{.label = true});
+  write("t.off", icosahedron_off(false));
+  const std::string out = (dir_ / "written").string();
+  const std::string cases[] = {
+      "template --mask " + nii + " --label 1 --out " + out + ".off --nifti-transform both",
+      "convert " + nii + " " + out + ".mha --nifti-transform both",
+      "field --image " + nii + " --out " + out + ".mha --nifti-transform both",
+      "init --image " + nii + " --template " + (dir_ / "t.off").string() + " --nifti-transform both"};
+  for (const std::string& args : cases) {
+    const CommandResult r = dsnake(args);
+    EXPECT_EQ(r.exit_code, 2) << args << ": " << r.err;
+    EXPECT_EQ(r.err, "dsnake: error: " + nii + ": --nifti-transform both: must be \"auto\", \"sform\" or \"qform\"\n") << args;
+    EXPECT_EQ(r.out, "") << args;
+    for (const char* ext : {".off", ".mha", ".png"}) EXPECT_FALSE(fs::exists(out + ext)) << args;
+  }
+  // A good value is accepted, and `init` writes it into the experiment file.
+  const CommandResult ok = dsnake("init --image " + nii + " --template " + (dir_ / "t.off").string() + " --nifti-transform qform");
+  ASSERT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_EQ(nlohmann::json::parse(ok.out)["image"]["nifti_transform"], "qform");
+}
+
 TEST_F(CliTest, MissingImage) {
   const auto file = experiment("default", [](nlohmann::json& j) { j["image"] = {{"file", "no_such_image.mha"}}; });
   expect_bad_input(file, {"no_such_image.mha"});
