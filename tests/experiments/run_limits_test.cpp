@@ -117,6 +117,23 @@ TEST_F(RunLimitsTest, AGlobalSolveThatRunsAwayStopsAtOnce) {
   EXPECT_EQ(final_txt, slurp(out / "initial.txt"));  // iteration 1 failed: the start is the last good state
 }
 
+// A snake step whose proposals run away under the collision guard (the external step 1e9 on the
+// sphere example): the watchdog sees the proposed moves, not the guard's shortened ones. Before,
+// the guard shortened every step to nothing, each iteration testing every pair of facets, and
+// the run went on for minutes with "max move 0".
+TEST_F(RunLimitsTest, AGuardedSnakeThatRunsAwayStopsAtOnce) {
+  const fs::path out = dir_ / "guarded";
+  const std::string file = std::string(DSNAKE_SOURCE_DIR) + "/experiments/examples/dsnake_sphere_to_ellipsoid.json";
+  const Outcome o = dsnake("run " + file + " --set 'energies[1].tau=1e9' --quiet --out " + out.string());
+  EXPECT_EQ(o.exit_code, 3) << o.err;
+  EXPECT_EQ(o.lines(), 1) << o.err;
+  EXPECT_TRUE(o.says("a vertex moved more than watchdog.max_move")) << o.err;
+  EXPECT_LT(o.seconds, 10.0);
+  const auto result = nlohmann::json::parse(slurp(out / "result.json"));
+  EXPECT_EQ(result["divergence"]["term"], "energies[1] (external)");
+  EXPECT_EQ(result["divergence"]["phase_iteration"], 1);  // the first step's proposals already ran away
+}
+
 // global.max_time_s: a bound of a millisecond stops the solve after its first iterations, as
 // diverged, naming the key; global.max_iterations bounds each solve's Ceres iterations.
 TEST_F(RunLimitsTest, TheGlobalSolveKeepsItsTimeAndIterationBounds) {
