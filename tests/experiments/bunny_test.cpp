@@ -43,12 +43,12 @@ class BunnyTest : public test_support::TempDirTest {
   }
 
   // Runs experiments/paper/<file> with the --set overrides, one thread, no figures; result.json.
-  json run(const std::string& file, const std::vector<std::string>& sets) {
+  json run(const std::string& file, const std::vector<std::string>& sets, int exit_code = 0) {
     const fs::path out = dir_ / ("run" + std::to_string(runs_++)), err = dir_ / "stderr.txt";
     std::string cmd = std::string(DSNAKE_EXE) + " run " + std::string(DSNAKE_SOURCE_DIR) + "/experiments/paper/" + file +
                       " --out " + out.string() + " --quiet -j 1 --set output.figures=false";
     for (const auto& s : sets) cmd += " --set '" + s + "'";
-    EXPECT_EQ(shell(cmd + " 2>" + err.string()), 0) << cmd << "\n" << slurp(err);
+    EXPECT_EQ(shell(cmd + " 2>" + err.string()), exit_code) << cmd << "\n" << slurp(err);
     std::ifstream in(out / "result.json");
     if (!in) {
       ADD_FAILURE() << "no result.json: " << cmd;
@@ -276,9 +276,15 @@ TEST_F(BunnyTest, BunnyStandInDSnakeBeatsDdgvf) {
 }
 
 // Fig. 1, reduced (150 iterations): the classical snake leaves the sphere (it collapses under
-// alpha 0.5) while the D-Snake stays a similarity of the template (REPRODUCTION.md (Figures 1, 10, 11-12)).
+// alpha 0.5, which the watchdog reports: exit code 3, the last state before the collapse written)
+// while the D-Snake stays a similarity of the template (REPRODUCTION.md (Figures 1, 10, 11-12)).
 TEST_F(BunnyTest, ThreePointsDSnakeStaysSpherical) {
-  const json c = run("three_points_classical.json", {"phases[0].iterations=150"});
+  const json c = run("three_points_classical.json", {"phases[0].iterations=150"}, 3);
+  EXPECT_EQ(c["status"], "diverged");
+  EXPECT_NE(c["divergence"]["reason"].get<std::string>().find("the snake collapsed"), std::string::npos);
+  EXPECT_EQ(c["divergence"]["term"], "energies[0] (internal)");
+  EXPECT_LT(c["divergence"]["phase_iteration"].get<int>(), 150);
+  EXPECT_GE(c["pose"]["measure_ratio"].get<double>(), 1e-3);  // the last good state
   const json d = run("three_points_dsnake.json", {"phases[0].iterations=150"});
   // Mean surface distance to the 3 balls: the D-Snake keeps its radius 16 shell (about 10 from
   // the balls on average); the classical snake shrinks towards its centre (farther, > 15).
