@@ -119,8 +119,8 @@ TEST_F(RunLimitsTest, AGlobalSolveThatRunsAwayStopsAtOnce) {
 TEST_F(RunLimitsTest, AGuardedSnakeThatRunsAwayStopsAtOnce) {
   const fs::path out = dir_ / "guarded";
   const std::string file = std::string(DSNAKE_SOURCE_DIR) + "/experiments/examples/dsnake_sphere_to_ellipsoid.json";
-  // (a gradient field: the cheapest, as the step runs away at once whatever the field)
-  const Outcome o = dsnake("run " + file + " --set 'energies[1].tau=1e9' --set 'field={\"type\": \"gradient\", \"sigma\": 1}' --quiet --out " +
+  // (a gradient field and coarse metrics samples: the cheapest; the step runs away at once whatever they are)
+  const Outcome o = dsnake("run " + file + " --set 'energies[1].tau=1e9' --set 'field={\"type\": \"gradient\", \"sigma\": 1}' --set metrics.sample_spacing=1 --quiet --out " +
                            out.string());
   EXPECT_EQ(o.exit_code, 3) << o.err;
   EXPECT_EQ(o.lines(), 1) << o.err;
