@@ -243,20 +243,31 @@ void express_in_image_frame(Experiment<D>& ex, const GroundTruthSpec& files) {
 
 }  // namespace
 
-// The placed template must lie near the image (issue 22: a template scaled by 1e200 ran, diverged
-// and crashed instead of being refused): every vertex within one image extent of the image's box,
+namespace {
+
+// The first axis along which p lies more than the image's extent beyond its border, in
+// continuous voxel indices (or is not finite); -1 when it lies near the image.
+template <int D>
+int axis_beyond_image(const Grid<D>& g, const Point<D>& p) {
+  const Point<D> c = g.to_continuous_index(p);
+  for (int a = 0; a < D; ++a)
+    if (!std::isfinite(c[a]) || c[a] < -double(g.size[a]) || c[a] > 2.0 * g.size[a]) return a;
+  return -1;
+}
+
+}  // namespace
+
+// The placed template must lie near the image (a template scaled by 1e200 ran, diverged and
+// crashed instead of being refused): every vertex within one image extent of the image's box,
 // in continuous voxel indices.
 template <int D>
 void check_placement(const Experiment<D>& ex, const std::string& file) {
   const Grid<D>& g = ex.image.grid();
-  for (size_t v = 0; v < ex.initial.size(); ++v) {
-    const Point<D> c = g.to_continuous_index(ex.initial[v]);
-    for (int a = 0; a < D; ++a)
-      if (!std::isfinite(c[a]) || c[a] < -double(g.size[a]) || c[a] > 2.0 * g.size[a])
-        throw InputError(file, "template.transform",
-                         "the placed template lies outside the image: vertex " + std::to_string(v) +
-                             " is more than the image's extent beyond its border along axis " + std::to_string(a));
-  }
+  for (size_t v = 0; v < ex.initial.size(); ++v)
+    if (const int a = axis_beyond_image(g, ex.initial[v]); a >= 0)
+      throw InputError(file, "template.transform",
+                       "the placed template lies outside the image: vertex " + std::to_string(v) +
+                           " is more than the image's extent beyond its border along axis " + std::to_string(a));
   // A template smaller than a voxel has nothing to register at this image's resolution (the
   // forces are sampled a voxel apart, §5.4), and its degenerate facets made the metrics' nearest
   // facet search visit every facet for every sample.
@@ -279,13 +290,10 @@ void check_placement(const Experiment<D>& ex, const std::string& file) {
 // targets within one image extent of the image's box, as the template's.
 template <int D>
 void check_truth_placement(const Experiment<D>& ex, const ExperimentSpec<D>& spec) {
-  const Grid<D>& g = ex.image.grid();
   auto check = [&](const Point<D>& p, const std::string& file, const std::string& key, const std::string& what) {
-    const Point<D> c = g.to_continuous_index(p);
-    for (int a = 0; a < D; ++a)
-      if (!std::isfinite(c[a]) || c[a] < -double(g.size[a]) || c[a] > 2.0 * g.size[a])
-        throw InputError(file, key, what + " lies outside the image: more than the image's extent beyond its border along axis " +
-                                        std::to_string(a));
+    if (const int a = axis_beyond_image(ex.image.grid(), p); a >= 0)
+      throw InputError(file, key, what + " lies outside the image: more than the image's extent beyond its border along axis " +
+                                      std::to_string(a));
   };
   if (ex.truth.surface) {
     const bool from_file = !spec.truth.surface.empty();
