@@ -100,7 +100,7 @@ struct OutputOptions {
   }
 };
 
-// "watchdog" (issue 22): when a run is stopped as diverged (framework/core/phase_driver.h,
+// "watchdog": when a run is stopped as diverged (framework/core/phase_driver.h,
 // Watchdog). A vertex moving more than max_move in one iteration, by a non-finite amount, a
 // remeshing that would leave more than max_vertices vertices, or a snake whose enclosed area
 // (2D) or volume (3D) falls below min_size of the placed template's stops the run with status
