@@ -9,6 +9,7 @@
 #include "energies/internal.h"
 #include "energies/landmarks.h"
 #include "energies/laplacian.h"
+#include "energies/patch.h"
 #include "energies/profile.h"
 #include "energies/region_term.h"
 #include "energies/similarity.h"
@@ -27,6 +28,7 @@ const Registry<Energy<D>>& energy_registry() {
     r.template add<BalloonEnergy<D>>();
     r.template add<SimilarityEnergy<D>>();
     r.template add<ProfileEnergy<D>>();
+    r.template add<PatchEnergy<D>>();
     r.template add<RegionTermEnergy<D>>();
     r.template add<LandmarksEnergy<D>>();
     return r;

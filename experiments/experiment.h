@@ -95,7 +95,7 @@ struct OutputOptions {
     v(snapshot_every, Key{"snapshot_every", "iterations", "write the snake every n iterations into snapshots/ (0: never)", Range::at_least(0)});
     v(figures, Key{"figures", "", "write the PNG figures"});
     v(result_mask, Key{"result_mask", "", "write result_mask.nii.gz: the result's interior as a uint8 label map on the image file's own grid (its dimensions, voxel order and NIfTI header; a phantom's grid otherwise)"});
-    v(start_metrics, Key{"start_metrics", "", "also measure the placed template against the ground truth (result.json's \"start\"), to see what the run gained; costs one more metrics pass"});
+    v(start_metrics, Key{"start_metrics", "", "also measure the placed template (result.json's \"start\") and the snake at the end of every phase (\"phases\"[i].\"metrics\") against the ground truth, to see what each step gained; costs one more metrics pass each"});
     v(image, Key{"image", "", "write image.nii.gz, the image that was registered: auto (when it is a phantom or was corrupted), always or never"});
   }
 };

@@ -108,6 +108,7 @@ class RecordingObserver : public EvolverObserver<D> {
   }
   // Mesh quality after each 3D phase that remeshed ("mesh_quality" in result.json, docs/experiment-file.md).
   void on_phase_end(int phase, const PhaseSummary& summary, const Snake<D>& snake) override {
+    if (keep_phase_ends) phase_ends[phase] = snake;
     if constexpr (D == 3) {
       if (summary.remesh_reports.empty()) return;
       nlohmann::json j;
@@ -117,6 +118,8 @@ class RecordingObserver : public EvolverObserver<D> {
   }
   std::vector<IterationInfo> trace;
   std::map<int, nlohmann::json> mesh_quality;  // per phase index
+  bool keep_phase_ends = false;  // output.start_metrics: each phase's last snake, to be measured
+  std::map<int, Snake<D>> phase_ends;  // per phase index
 
  private:
   std::string snapshot_dir_;
@@ -251,6 +254,7 @@ struct RunRecord {
   nlohmann::ordered_json global_report;
   Metrics metrics;
   std::optional<Metrics> start_metrics;  // output.start_metrics: the placed template's
+  std::map<int, Metrics> phase_metrics;  // output.start_metrics: each phase's end (phases_json)
   nlohmann::ordered_json pose;           // result.json's "pose" (experiments/pose_report.h)
   CorrespondenceError correspondence;
   bool finite = false;  // a diverged snake (non-finite positions) has no meaningful metrics
@@ -366,6 +370,7 @@ void evolve(Experiment<D>& ex, const RunOptions& options, RunRecord<D>& rec) {
   if (guarded(ex)) driver.set_move_guard(std::make_unique<CollisionGuard<D>>(ex.collision_guard));
   driver.set_watchdog(watchdog_of(ex));
   rec.names = term_names(driver.energies());
+  rec.recorder.keep_phase_ends = ex.output.start_metrics;
   driver.add_observer(&rec.recorder);
   if (!options.quiet) driver.add_observer(&progress);
   rec.summary = driver.run(rec.snake, ex.phases);
@@ -383,6 +388,11 @@ void measure(const Experiment<D>& ex, RunRecord<D>& rec) {
   rec.metrics = rec.finite ? compute_metrics(rec.snake, ex.truth, ex.metrics) : Metrics{};
   const Snake<D> start = Snake<D>::from_template(ex.tmpl, ex.initial);
   if (ex.output.start_metrics) rec.start_metrics = compute_metrics(start, ex.truth, ex.metrics);
+  for (const auto& [phase, snake] : rec.recorder.phase_ends) {
+    const bool finite = std::all_of(snake.positions().begin(), snake.positions().end(),
+                                    [](const Point<D>& p) { return p.allFinite(); });
+    if (finite) rec.phase_metrics[phase] = compute_metrics(snake, ex.truth, ex.metrics);
+  }
   rec.metrics_s = seconds_since(t);
   if (rec.finite) rec.pose = pose_json(start, rec.snake, ex.image.grid());
   rec.correspondence = correspondence_error(rec.snake, ex.truth.targets);
@@ -499,6 +509,8 @@ nlohmann::ordered_json phases_json(const Experiment<D>& ex, const RunRecord<D>& 
     if (quality != rec.recorder.mesh_quality.end()) j["mesh_quality"] = quality->second;
     if (guarded(ex)) j["collision_guard"] = guard_json(ps.move_guard);
     if (ps.divergence) j["divergence"] = divergence_json(*ps.divergence);
+    const auto measured = rec.phase_metrics.find(int(p));
+    if (measured != rec.phase_metrics.end()) j["metrics"] = metrics_json(measured->second, true);
     phases.push_back(j);
   }
   return phases;

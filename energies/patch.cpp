@@ -1,0 +1,220 @@
+// The patch force; see patch.h. Normalised cross-correlation of atlas patches at the rest
+// positions, and the Gauss-Newton (Lucas-Kanade) step that raises it (Baker & Matthews, IJCV 2004,
+// §2; the contrast a projected out in closed form).
+#include "energies/patch.h"
+
+#include "energies/rest_positions.h"
+#include "framework/core/alignment.h"
+#include "framework/core/errors.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace dsnake {
+
+namespace {
+
+constexpr double kFlat = 1e-12;  // a patch whose centred norm^2 is below this has no appearance
+
+int ipow(int b, int e) {
+  int r = 1;
+  for (int i = 0; i < e; ++i) r *= b;
+  return r;
+}
+
+// Removes the mean and scales to unit norm; false (cleared) when flat.
+bool centre_and_normalise(std::vector<double>& x) {
+  double mean = 0.0;
+  for (double v : x) mean += v;
+  mean /= double(x.size());
+  double norm2 = 0.0;
+  for (double& v : x) {
+    v -= mean;
+    norm2 += v * v;
+  }
+  if (!(norm2 > kFlat)) {
+    x.clear();
+    return false;
+  }
+  const double s = 1.0 / std::sqrt(norm2);
+  for (double& v : x) v *= s;
+  return true;
+}
+
+// The linear part of the least-squares affine map a_i -> b_i (centred), or of the similarity when
+// the affine is singular, reflecting or far from conformal (an ill-posed fit of a flat template).
+template <int D>
+Eigen::Matrix<double, D, D> placement_linear_part(const PointList<D>& a, const PointList<D>& b) {
+  using Mat = Eigen::Matrix<double, D, D>;
+  const size_t n = a.size();
+  if (n <= size_t(D)) return Mat::Identity();
+  Point<D> ca = Point<D>::Zero(), cb = Point<D>::Zero();
+  for (size_t i = 0; i < n; ++i) ca += a[i], cb += b[i];
+  ca /= double(n);
+  cb /= double(n);
+  Mat aa = Mat::Zero(), ba = Mat::Zero();
+  for (size_t i = 0; i < n; ++i) {
+    aa += (a[i] - ca) * (a[i] - ca).transpose();
+    ba += (b[i] - cb) * (a[i] - ca).transpose();
+  }
+  Eigen::JacobiSVD<Mat> aa_svd(aa);
+  if (aa_svd.singularValues()(D - 1) > 1e-9 * aa_svd.singularValues()(0)) {
+    const Mat l = ba * aa.inverse();
+    Eigen::JacobiSVD<Mat> svd(l);
+    const auto sv = svd.singularValues();
+    if (l.determinant() > 0 && sv(D - 1) > 0 && sv(0) / sv(D - 1) < 4.0) return l;
+  }
+  const Similarity<D> s = fit_similarity<D>(a, b, true);
+  return s.scale * s.rotation;
+}
+
+}  // namespace
+
+template <int D>
+Point<D> patch_offset(int k, int half) {
+  Point<D> o;
+  const int w = 2 * half + 1;
+  for (int d = 0; d < D; ++d) {
+    o(d) = double(k % w - half);
+    k /= w;
+  }
+  return o;
+}
+
+template <int D>
+PatchEnergy<D>::PatchEnergy(const PatchOptions& options) : options_(checked(options, kType)) {}
+
+template <int D>
+void PatchEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& snake) {
+  DSNAKE_ASSERT(context.image != nullptr && context.tmpl != nullptr, "the patch energy samples the image");
+  if (context.reference_image == nullptr)
+    throw OptionError{"type", "the patch force needs an atlas image: template.reference_image"};
+  const Image<D>& scan = image_.of(*context.image, options_.sigma, context.smoothed_images);
+  const Image<D>& ref = reference_.of(*context.reference_image, options_.sigma, context.smoothed_images);
+  h_ = options_.spacing > 0 ? options_.spacing : scan.grid().spacing.minCoeff();
+  half_ = std::max(1, static_cast<int>(std::lround(options_.radius / h_)));
+  count_ = ipow(2 * half_ + 1, D);
+
+  const Template<D>& tmpl = *context.tmpl;
+  const RestPositions<D> rest = rest_positions(tmpl, snake);
+  const int n = snake.num_vertices();
+  PointList<D> p(n), a, b;
+  for (int v = 0; v < n; ++v) {
+    p[v] = ref.grid().to_frame(rest.positions[v]);
+    if (snake.is_deformation_vertex(v)) {
+      a.push_back(p[v]);
+      b.push_back(snake.positions()[v]);
+    }
+  }
+  linear_ = placement_linear_part<D>(a, b);
+  const Eigen::Matrix<double, D, D> back = linear_.inverse();
+  expected_.assign(n, {});
+#pragma omp parallel for schedule(static) if (n >= 64)
+  for (int v = 0; v < n; ++v) {
+    std::vector<double> e(count_);
+    for (int k = 0; k < count_; ++k) e[k] = ref.sample(p[v] + back * (h_ * patch_offset<D>(k, half_)));
+    if (centre_and_normalise(e)) expected_[v] = std::move(e);
+  }
+  correlation_.assign(n, 0.0);
+  scratch_.resize(size_t(n) * ipow(2 * half_ + 3, D));
+}
+
+template <int D>
+double PatchEnergy<D>::match(int v, const Point<D>& x, Point<D>* move, double* s) const {
+  const std::vector<double>& e = expected_[v];
+  if (e.empty()) return 0.0;
+  const Image<D>& scan = image_.image();
+  const int w = 2 * half_ + 3;  // the patch and one ring more, for the central differences
+  const int total = ipow(w, D);
+  for (int k = 0; k < total; ++k) s[k] = scan.sample(x + (h_ * patch_offset<D>(k, half_ + 1)));
+  // Inner point k (half-width K) -> its index in the outer grid (half-width K + 1).
+  int stride[D];
+  stride[0] = 1;
+  for (int d = 1; d < D; ++d) stride[d] = stride[d - 1] * w;
+  auto outer = [&](int k) {
+    int idx = 0, r = k;
+    for (int d = 0; d < D; ++d) {
+      idx += (r % (2 * half_ + 1) + 1) * stride[d];
+      r /= 2 * half_ + 1;
+    }
+    return idx;
+  };
+  double mean = 0.0;
+  Point<D> gmean = Point<D>::Zero();
+  for (int k = 0; k < count_; ++k) {
+    const int o = outer(k);
+    mean += s[o];
+    if (move)
+      for (int d = 0; d < D; ++d) gmean(d) += s[o + stride[d]] - s[o - stride[d]];
+  }
+  mean /= count_;
+  gmean /= (2.0 * h_ * count_);
+  double es = 0.0, ss = 0.0;
+  for (int k = 0; k < count_; ++k) {
+    const double c = s[outer(k)] - mean;
+    es += e[k] * c;
+    ss += c * c;
+  }
+  if (!(ss > kFlat)) return 0.0;
+  const double ncc = es / std::sqrt(ss);
+  if (!move) return ncc;
+  *move = Point<D>::Zero();
+  const double a = es / ss;
+  if (!(a > 0) || ncc < options_.min_correlation) return ncc;
+  Eigen::Matrix<double, D, D> h = Eigen::Matrix<double, D, D>::Zero();
+  Point<D> g = Point<D>::Zero();
+  for (int k = 0; k < count_; ++k) {
+    const int o = outer(k);
+    Point<D> grad;
+    for (int d = 0; d < D; ++d) grad(d) = (s[o + stride[d]] - s[o - stride[d]]) / (2.0 * h_);
+    grad -= gmean;
+    const double r = e[k] - a * (s[o] - mean);
+    h += grad * grad.transpose();
+    g += grad * r;
+  }
+  const double lambda = options_.damping * h.trace() / D;
+  h.diagonal().array() += lambda;
+  if (!(h.trace() > 0)) return ncc;
+  Point<D> delta = h.ldlt().solve(g / a);
+  const double longest = options_.max_step > 0 ? options_.max_step : h_;
+  const double len = delta.norm();
+  if (!std::isfinite(len)) return ncc;
+  if (len > longest) delta *= longest / len;
+  *move = delta;
+  return ncc;
+}
+
+template <int D>
+void PatchEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
+  const int n = snake.num_vertices();
+  DSNAKE_ASSERT(int(out.size()) == n && int(expected_.size()) == n, "bind() before propose(), one entry per vertex");
+  const PointList<D>& q = snake.positions();
+  const size_t stride = ipow(2 * half_ + 3, D);
+  const double step = options_.step;
+#pragma omp parallel for schedule(static) if (n >= 64)
+  for (int v = 0; v < n; ++v) {
+    Point<D> delta;
+    correlation_[v] = match(v, q[v], &delta, scratch_.data() + v * stride);
+    out[v] = q[v] + step * delta;
+  }
+}
+
+template <int D>
+double PatchEnergy<D>::value(const Snake<D>& snake) const {
+  const int n = snake.num_vertices();
+  if (int(expected_.size()) != n) return std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> s(ipow(2 * half_ + 3, D)), terms(n);
+  for (int v = 0; v < n; ++v) terms[v] = 1.0 - match(v, snake.positions()[v], nullptr, s.data());
+  double total = 0.0;
+  for (double t : terms) total += t;
+  return total;
+}
+
+template Point<2> patch_offset<2>(int, int);
+template Point<3> patch_offset<3>(int, int);
+template class PatchEnergy<2>;
+template class PatchEnergy<3>;
+
+}  // namespace dsnake

@@ -1,0 +1,115 @@
+// The patch force: the atlas's appearance at every vertex, matched by normalised cross-
+// correlation (NCC) and followed by a Gauss-Newton (Lucas-Kanade) step. It needs an atlas image
+// (template.reference_image, EnergyContext::reference_image) in which the template at its rest
+// positions lies on its object. The active-shape model's grey-level model (Cootes et al., CVIU
+// 1995, §4.1) keeps one expected profile per landmark along its normal; here every vertex keeps a
+// small D-dimensional patch, so that it also sees along the boundary (block matching, Ourselin
+// et al. 2000), and every vertex has its own, including the free vertices that remeshing inserts:
+// their patches come from their rest positions (energies/rest_positions.h), never from a mean.
+//
+// For a vertex v with rest position p_v (reference frame) and current position q_v:
+//  - the expected patch e_v: the smoothed reference at p_v + L^{-1} h k, k in {-K..K}^D
+//    (K = round(radius / h)), with its mean removed and unit norm; L is the linear part of the
+//    least-squares affine map from the deformation vertices' rest positions to their current
+//    positions, taken at bind (the placement: template.transform, template.init), so the patch
+//    covers the same anatomy as the scan's axis-aligned patch below;
+//  - the scan's patch s(q) at q_v + h k (smoothed scan), with its mean removed: s';
+//    NCC = e . s' / |s'| (1 where the scan is the atlas up to a positive linear change of
+//    contrast a I + b, a > 0);
+//  - the move delta minimises |e - a (s' + G' delta)|^2 with a = e . s' / |s'|^2 held (the
+//    contrast, in closed form) and G' the centred gradients of the scan at the patch's points
+//    (central differences of the samples one ring further out): (G'^T G' + lambda I) delta =
+//    G'^T (e - a s') / a, lambda = damping * trace(G'^T G') / D (Levenberg: along a straight
+//    boundary the patch only says where the boundary is, and delta follows the normal);
+//    |delta| <= max_step;
+//  - propose: q + step delta where NCC >= min_correlation and a > 0; elsewhere q (the vertex holds:
+//    no consistent evidence there, and the regularisers move it).
+// The search is coarse to fine across phases: a large sigma and radius in the fit phase, small
+// ones in the refine phase (experiments/real/recipe_3d.json).
+// Global view: value() = sum over vertices of (1 - NCC_v) (0 at a perfect match), defined at every
+// q; no least-squares form (NCC is a ratio), so "solver": "global" refuses it.
+#pragma once
+
+#include "energies/polarity.h"
+#include "framework/core/energy.h"
+#include "framework/core/options.h"
+
+#include <string>
+#include <vector>
+
+namespace dsnake {
+
+struct PatchOptions {
+  double sigma = 1.0;             // mm
+  double radius = 3.0;            // mm
+  double spacing = 0.0;           // mm; 0: the image's smallest voxel size
+  double min_correlation = 0.5;   // 1
+  double damping = 0.1;           // 1
+  double max_step = 0.0;          // mm; 0: the sampling step
+  double step = 1.0;              // 1
+
+  template <class V>
+  void visit(V& v) {
+    v(sigma, Key{"sigma", "mm", "Gaussian smoothing of the image and of the atlas image before sampling (0: none)",
+                 Range::at_least(0)});
+    v(radius, Key{"radius", "mm", "half-width of the compared patch (a cube, or a square in 2D)", Range::greater_than(0)});
+    v(spacing, Key{"spacing", "mm", "distance between the patch's samples (0: the image's smallest voxel size)",
+                   Range::at_least(0)});
+    v(min_correlation, Key{"min_correlation", "1", "vertices whose patch correlates less than this with the atlas's "
+                                                   "hold (no evidence to follow)", Range::closed_open(-1, 1)});
+    v(damping, Key{"damping", "1", "Levenberg damping of the Gauss-Newton step, relative to the mean eigenvalue",
+                   Range::at_least(0)});
+    v(max_step, Key{"max_step", "mm", "longest move proposed per iteration (0: the sampling step)", Range::at_least(0)});
+    v(step, Key{"step", "1", "share of the Gauss-Newton move proposed per iteration", Range::open_closed(0, 1)});
+  }
+};
+
+template <int D>
+class PatchEnergy final : public Energy<D> {
+ public:
+  using Options = PatchOptions;
+  static constexpr const char* kType = "patch";
+  static constexpr const char* kSummary =
+      "the atlas image's patch at every vertex's rest position, matched by normalised cross-correlation "
+      "(Gauss-Newton step); needs template.reference_image";
+
+  explicit PatchEnergy(const PatchOptions& options = {});
+  std::string type() const override { return kType; }
+  const PatchOptions& options() const { return options_; }
+
+  // Smooths both images (once), fits the placement's linear part and samples every vertex's
+  // expected patch at its rest position. context.image and context.reference_image must be set.
+  void bind(const EnergyContext<D>& context, const Snake<D>& snake) override;
+  // out[v] as above; parallel over vertices, the same bits for any thread count.
+  void propose(const Snake<D>& snake, PointList<D>& out) override;
+  double value(const Snake<D>& snake) const override;
+
+  // Each vertex's expected patch (empty when the atlas is flat there), (2K + 1)^D values with the
+  // first axis fastest, mean removed and unit norm; and the NCC of the last propose().
+  const std::vector<std::vector<double>>& expected() const { return expected_; }
+  const std::vector<double>& correlations() const { return correlation_; }
+  double sampling_step() const { return h_; }
+  int half_width() const { return half_; }
+  // The linear part L of the placement found at the last bind (reference frame -> image frame).
+  const Eigen::Matrix<double, D, D>& placement_linear() const { return linear_; }
+
+ private:
+  // NCC of vertex v's expected patch with the scan at x; with `move`, also the Gauss-Newton move.
+  double match(int v, const Point<D>& x, Point<D>* move, double* scratch) const;
+
+  PatchOptions options_;
+  double h_ = 0.0;
+  int half_ = 0;
+  int count_ = 0;  // (2K + 1)^D
+  SmoothedImage<D> image_, reference_;
+  Eigen::Matrix<double, D, D> linear_ = Eigen::Matrix<double, D, D>::Identity();
+  std::vector<std::vector<double>> expected_;  // per snake vertex
+  std::vector<double> correlation_;
+  std::vector<double> scratch_;
+};
+
+// The k-th offset (in steps h) of a patch of half-width K: k = sum_d (k_d + K) (2K + 1)^d.
+template <int D>
+Point<D> patch_offset(int k, int half);
+
+}  // namespace dsnake
