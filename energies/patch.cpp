@@ -127,8 +127,7 @@ double PatchEnergy<D>::match(int v, const Point<D>& x, Point<D>* move, double* s
   if (e.empty()) return 0.0;
   const Image<D>& scan = image_.image();
   const int w = 2 * half_ + 3;  // the patch and one ring more, for the central differences
-  const int total = ipow(w, D);
-  for (int k = 0; k < total; ++k) s[k] = scan.sample(x + (h_ * patch_offset<D>(k, half_ + 1)));
+  scan.sample_lattice(x, h_, half_ + 1, s);
   // Inner point k (half-width K) -> its index in the outer grid (half-width K + 1).
   int stride[D];
   stride[0] = 1;

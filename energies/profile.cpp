@@ -2,6 +2,7 @@
 // normalised derivative profile along the normal and the search for its best match.
 #include "energies/profile.h"
 
+#include "energies/rest_positions.h"
 #include "framework/core/errors.h"
 
 #include <algorithm>
@@ -121,7 +122,9 @@ void ProfileEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& sna
   for (int v = 0; v < n; ++v) {
     const int t = snake.template_id(v);
     if (t >= 0 && t < int(expected_.size()) && !expected_[t].empty()) profile_of_[v] = &expected_[t];
+    if (t >= 0 && options_.local_polarity && !context.reference_image) profile_of_[v] = &expected_[t];
   }
+  set_up_free_vertices(context, snake);
   offsets_.assign(n, 0.0);
   scratch_.resize(size_t(n) * (2 * (reach_ + half_) + 1 + 2 * reach_ + 1));
   normals_.reserve(n);
@@ -135,8 +138,7 @@ void ProfileEnergy<D>::set_up_expected(const EnergyContext<D>& context, const Sn
   mean_.clear();
   if (context.reference_image) {
     DSNAKE_ASSERT(context.tmpl != nullptr, "a reference profile needs the template");
-    SmoothedImage<D> reference;
-    const Image<D>& ref = reference.of(*context.reference_image, options_.sigma, context.smoothed_images);
+    const Image<D>& ref = reference_.of(*context.reference_image, options_.sigma, context.smoothed_images);
     PointList<D> p = context.tmpl->positions;
     for (auto& x : p) x = ref.grid().to_frame(x);
     const PointList<D> normals = Snake<D>::from_template(*context.tmpl, p).vertex_normals();
@@ -147,9 +149,90 @@ void ProfileEnergy<D>::set_up_expected(const EnergyContext<D>& context, const Sn
     if (!mean_.empty()) return;
     expected_.clear();  // a reference without any edge: fall back to the step edge
   }
+  if (options_.local_polarity) {
+    set_up_local_polarity(context, snake);
+    return;
+  }
   polarity_ = options_.polarity != EdgePolarity::kAuto ? options_.polarity
                                                         : learn_polarity(image_.image(), snake, options_.search, h_);
   mean_ = step_profile(polarity_sign(polarity_), std::max(options_.sigma, h_), h_, half_);
+}
+
+// One step edge per template vertex, of the sign of its ring's mean contrast at the start (the
+// snake at the first bind carries every template vertex), or none where that contrast is weak.
+template <int D>
+void ProfileEnergy<D>::set_up_local_polarity(const EnergyContext<D>& context, const Snake<D>& snake) {
+  const Image<D>& image = image_.image();
+  const int n = snake.num_vertices();
+  const PointList<D> normals = snake.vertex_normals();
+  const int steps = std::max(1, static_cast<int>(std::lround(options_.search / h_)));
+  std::vector<double> contrast(n, 0.0);
+  for (int v = 0; v < n; ++v) {
+    double inside = 0.0, outside = 0.0;
+    for (int k = 1; k <= steps; ++k) {
+      inside += image.sample(snake.positions()[v] - (k * h_) * normals[v]);
+      outside += image.sample(snake.positions()[v] + (k * h_) * normals[v]);
+    }
+    contrast[v] = (inside - outside) / steps;
+  }
+  const double weak = gradient_noise_level(image) * 0.5 * options_.search;
+  expected_.assign(context.tmpl->num_vertices(), {});
+  const std::vector<double> bright = step_profile(-1, std::max(options_.sigma, h_), h_, half_);
+  const std::vector<double> dark = step_profile(+1, std::max(options_.sigma, h_), h_, half_);
+  for (int v = 0; v < n; ++v) {
+    const int t = snake.template_id(v);
+    if (t < 0) continue;
+    double sum = contrast[v];
+    const auto ring = snake.connectivity().neighbors(v);
+    for (int w : ring) sum += contrast[w];
+    const double mean = sum / double(ring.size() + 1);
+    if (std::abs(mean) >= weak) expected_[t] = mean > 0 ? bright : dark;
+  }
+  polarity_ = EdgePolarity::kAuto;
+}
+
+// A free vertex's expected profile: the reference's at its rest position along its normal turned
+// into the template's frame (per_vertex reference), or its nearest template vertex's (local
+// polarity), or the mean.
+template <int D>
+void ProfileEnergy<D>::set_up_free_vertices(const EnergyContext<D>& context, const Snake<D>& snake) {
+  const int n = snake.num_vertices();
+  free_expected_.assign(n, {});
+  if (snake.num_deformation_vertices() == n) return;
+  if (context.reference_image && options_.reference_profile == ReferenceProfile::kPerVertex && !expected_.empty()) {
+    const Image<D>& ref = reference_.image();
+    const RestPositions<D> rest = rest_positions(*context.tmpl, snake);
+    const PointList<D> normals = snake.vertex_normals();
+    for (int v = 0; v < n; ++v) {
+      if (snake.is_deformation_vertex(v)) continue;
+      const Point<D> p = ref.grid().to_frame(rest.positions[v]);
+      const Point<D> nrm = ref.grid().direction.transpose() * (rest.rotation[v] * normals[v]);
+      free_expected_[v] = sample_profile(ref, p, nrm, h_, half_);
+      if (!free_expected_[v].empty()) profile_of_[v] = &free_expected_[v];
+    }
+    return;
+  }
+  if (!context.reference_image && options_.local_polarity) {
+    const Connectivity& c = snake.connectivity();
+    for (int v = 0; v < n; ++v) {
+      if (snake.is_deformation_vertex(v)) continue;
+      std::vector<int> queue{v};
+      std::vector<uint8_t> seen(n, 0);
+      seen[v] = 1;
+      int found = -1;
+      for (size_t head = 0; head < queue.size() && found < 0; ++head)
+        for (int w : c.neighbors(queue[head])) {
+          if (seen[w]) continue;
+          seen[w] = 1;
+          if (snake.is_deformation_vertex(w)) {
+            found = w;
+            break;
+          }
+          queue.push_back(w);
+        }
+      profile_of_[v] = found >= 0 ? &expected_[snake.template_id(found)] : &free_expected_[v];
+    }
+  }
 }
 
 // Samples each vertex's normal line once (2(J + K) + 1 samples), differences it, and slides the

@@ -17,11 +17,18 @@
 //    template sits on its object there: an atlas, the previous slice; template.transform places
 //    it in the target image). One profile per template vertex (reference_profile "per_vertex",
 //    as ASM keeps one per landmark: a boundary's contrast varies along it), or their mean
-//    ("mean": steadier on a noisy reference). Free vertices (added by remeshing, no template
-//    vertex) and vertices whose reference profile is flat take the mean;
-//  - without one: a step edge of the given polarity blurred by max(sigma, h), the same for all
-//    vertices; "auto" learns the polarity at the first bind from the start (energies/polarity.h,
-//    band `search`).
+//    ("mean": steadier on a noisy reference). A free vertex (added by remeshing, no template
+//    vertex) takes the reference's profile at its rest position (energies/rest_positions.h: where
+//    it was inserted, by the local similarity of its neighbours) along its normal turned into
+//    the template's frame; vertices whose reference profile is flat take the mean;
+//  - without one: a step edge of the given polarity blurred by max(sigma, h); "auto" learns one
+//    polarity for all vertices at the first bind from the start (energies/polarity.h, band
+//    `search`). With local_polarity, each template vertex learns its own instead (the inside-
+//    minus-outside contrast along its normal at the start, over the band `search`, averaged over
+//    its ring of neighbours), for a boundary whose contrast changes side (§7, Fig. 3: darker than
+//    one neighbour, brighter than another); where that contrast is below the image's gradient
+//    noise level times search / 2, the vertex has no expected profile and holds. A free vertex
+//    takes the polarity of its nearest template vertex (along the mesh).
 // Global view: none. The best offset is a discrete search, not a smooth function of q, so the
 // term has no least-squares form (value() is NaN; "solver": "global" refuses it).
 #pragma once
@@ -51,6 +58,7 @@ struct ProfileOptions {
   double step = 0.5;     // share of the offset per iteration
   EdgePolarity polarity = EdgePolarity::kAuto;
   ReferenceProfile reference_profile = ReferenceProfile::kPerVertex;
+  bool local_polarity = false;
 
   template <class V>
   void visit(V& v) {
@@ -60,10 +68,14 @@ struct ProfileOptions {
     v(length, Key{"length", "mm", "half-length of the compared profile", Range::greater_than(0)});
     v(spacing, Key{"spacing", "mm", "sampling step along the normal (0: half the smallest voxel size)", Range::at_least(0)});
     v(step, Key{"step", "1", "share of the best offset moved per iteration", Range::open_closed(0, 1)});
-    v(polarity, Key{"polarity", "", "without a reference image, the expected step edge: bright_inside, dark_inside or "
-                                    "auto (learned from the start); ignored with template.reference_image"});
+    v(polarity, Key{"polarity", "", "without a reference image, the expected step edge: bright_inside, dark_inside, "
+                                    "auto (one polarity learned from the start) or local (one per vertex, learned from "
+                                    "the start); ignored with template.reference_image"});
     v(reference_profile, Key{"reference_profile", "", "with template.reference_image: one expected profile per template "
                                                       "vertex (per_vertex) or their mean (mean)"});
+    v(local_polarity, Key{"local_polarity", "", "without a reference image: learn the polarity per vertex from the start "
+                                                "(a boundary whose contrast changes side); vertices without a clear "
+                                                "contrast hold; `polarity` is then not used"});
   }
 };
 
@@ -95,6 +107,9 @@ class ProfileEnergy final : public Energy<D> {
 
  private:
   void set_up_expected(const EnergyContext<D>& context, const Snake<D>& snake);
+  void set_up_free_vertices(const EnergyContext<D>& context, const Snake<D>& snake);
+  void set_up_local_polarity(const EnergyContext<D>& context, const Snake<D>& snake);
+  SmoothedImage<D> reference_;
 
   ProfileOptions options_;
   double h_ = 0.0;               // sampling step, mm
@@ -103,6 +118,7 @@ class ProfileEnergy final : public Energy<D> {
   const Image<D>* expected_for_ = nullptr;  // the image the expected profiles were set up with
   EdgePolarity polarity_ = EdgePolarity::kAuto;
   std::vector<std::vector<double>> expected_;  // per template id (or one), 2K values each
+  std::vector<std::vector<double>> free_expected_;  // per free vertex of the bound snake
   std::vector<double> mean_;                   // the mean expected profile
   std::vector<const std::vector<double>*> profile_of_;  // per snake vertex
   std::vector<double> offsets_;

@@ -118,6 +118,52 @@ double Image<D>::sample(const Point<D>& x) const {
 }
 
 template <int D>
+void Image<D>::sample_lattice(const Point<D>& x, double h, int half, double* out) const {
+  const int w = 2 * half + 1;
+  // Per axis and lattice index: the base voxel's offset, the step to its upper neighbour and
+  // the weight t, exactly as stencil_base() computes them for a single point.
+  std::vector<int64_t> base(static_cast<size_t>(D * w)), step(static_cast<size_t>(D * w));
+  std::vector<double> t(static_cast<size_t>(D * w));
+  int64_t stride = 1;
+  for (int a = 0; a < D; ++a) {
+    for (int i = 0; i < w; ++i) {
+      const double xa = x[a] + h * double(i - half);
+      const double c = (xa - grid_.origin[a]) / grid_.spacing[a];
+      const double ca = std::clamp(std::isfinite(c) ? c : 0.0, 0.0, double(grid_.size[a] - 1));
+      const int lo = std::min(static_cast<int>(std::floor(ca)), std::max(grid_.size[a] - 2, 0));
+      t[a * w + i] = ca - lo;
+      base[a * w + i] = lo * stride;
+      step[a * w + i] = grid_.size[a] > 1 ? stride : 0;
+    }
+    stride *= grid_.size[a];
+  }
+  constexpr int kCorners = D == 2 ? 4 : 8;
+  int64_t total = 1;
+  for (int a = 0; a < D; ++a) total *= w;
+  for (int64_t k = 0; k < total; ++k) {
+    int idx[D];
+    int64_t r = k, b = 0;
+    for (int a = 0; a < D; ++a) {
+      idx[a] = int(r % w);
+      r /= w;
+      b += base[a * w + idx[a]];
+    }
+    double v = 0.0;
+    for (int c = 0; c < kCorners; ++c) {
+      int64_t voxel = b;
+      double wt = 1.0;
+      for (int a = 0; a < D; ++a) {
+        const int bit = (c >> a) & 1;
+        voxel += bit * step[a * w + idx[a]];
+        wt *= bit ? t[a * w + idx[a]] : 1.0 - t[a * w + idx[a]];
+      }
+      v += wt * data_[voxel];
+    }
+    out[k] = v;
+  }
+}
+
+template <int D>
 void Image<D>::prefetch(const Point<D>& x) const {
   if (data_.empty()) return;
   // the stencil's base voxel and its x neighbour (one line, or two when the pair straddles one)

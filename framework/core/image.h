@@ -72,6 +72,10 @@ class Image {
   const std::vector<float>& data() const { return data_; }
 
   double sample(const Point<D>& x) const;  // linear interpolation, physical coordinates
+  // sample() at the lattice x + h (i - half) for i in {0 .. 2 half}^D, first axis fastest, into
+  // out ((2 half + 1)^D values): the same values, bit for bit, with the interpolation's per-axis
+  // indices and weights computed once per axis instead of once per point (patch matching).
+  void sample_lattice(const Point<D>& x, double h, int half, double* out) const;
   // Asks the CPU to fetch the voxels sample(x) will read (a hint: no effect on results), for
   // loops that sample a volume larger than the caches a few points ahead (issue 21).
   void prefetch(const Point<D>& x) const;

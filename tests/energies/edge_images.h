@@ -4,6 +4,7 @@
 #pragma once
 
 #include "experiments/phantoms.h"
+#include "framework/core/energy.h"
 #include "framework/core/image_filters.h"
 #include "framework/core/shape.h"
 

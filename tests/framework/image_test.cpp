@@ -267,5 +267,38 @@ TEST(ImageFilters, PartialDerivativeAtEqualsPartialDerivativeBitForBit) {
   EXPECT_EQ(partial_derivative_at(v, 0, 1, 0, 1, 0.5), 0.0);  // a single-voxel axis
 }
 
+// sample_lattice() gives sample()'s values bit for bit, inside the grid, across its border
+// (clamped) and for a step that is not the voxel size, in 2D and 3D.
+template <int D>
+void lattice_matches_sample() {
+  Grid<D> g;
+  for (int a = 0; a < D; ++a) g.size[a] = 7 + 2 * a;
+  g.spacing = Point<D>::Constant(0.8);
+  g.spacing[0] = 1.1;
+  g.origin = Point<D>::Constant(-2.0);
+  Image<D> image(g);
+  for (int64_t l = 0; l < image.num_voxels(); ++l) image[l] = static_cast<float>(std::sin(0.37 * l) * 50 + l % 7);
+  for (double h : {1.0, 0.63}) {
+    for (const Point<D>& x : {Point<D>(Point<D>::Constant(0.3)), Point<D>(Point<D>::Constant(-2.9)), Point<D>(Point<D>::Constant(5.2))}) {
+      const int half = 3, w = 2 * half + 1;
+      int total = 1;
+      for (int a = 0; a < D; ++a) total *= w;
+      std::vector<double> out(total);
+      image.sample_lattice(x, h, half, out.data());
+      for (int k = 0; k < total; ++k) {
+        Point<D> o;
+        int r = k;
+        for (int a = 0; a < D; ++a) {
+          o[a] = double(r % w - half);
+          r /= w;
+        }
+        EXPECT_EQ(out[k], image.sample(x + h * o));
+      }
+    }
+  }
+}
+TEST(Image, SampleLatticeEqualsSampleBitForBit2D) { lattice_matches_sample<2>(); }
+TEST(Image, SampleLatticeEqualsSampleBitForBit3D) { lattice_matches_sample<3>(); }
+
 }  // namespace
 }  // namespace dsnake

@@ -1,0 +1,193 @@
+// The patch force (energies/patch.h) on objects whose boundary changes polarity: darker than
+// their surroundings on one side and brighter on the other (the paper's Fig. 3 problem, where one
+// expected edge cannot fit the whole boundary). The atlas image holds the object where the
+// template lies; the scan holds it moved, or with another contrast. Known answers: the expected
+// patches are the atlas's samples at the rest positions (exactly, at template and at inserted
+// vertices), the object's moved boundary is reached, the atlas's own object is a fixed point,
+// a linear change of contrast changes nothing, no atlas is refused, and 1 and 2 threads give the
+// same bits.
+#include "energies/patch.h"
+
+#include "energies/rest_positions.h"
+#include "framework/core/errors.h"
+#include "tests/energies/edge_images.h"
+#include "tests/energy_fixtures.h"
+
+#include <Eigen/Dense>
+
+#include <gtest/gtest.h>
+#include <omp.h>
+
+namespace dsnake {
+namespace {
+
+using namespace test_support;
+
+// A disk (ball) of radius 10 mm at `centre`, intensity 100, in surroundings of 200 where x < 0
+// (the object darker) and of 20 where x >= 0 (the object brighter); a 1 mm grid. Each edge is a
+// step blurred by a Gaussian of 1.2 mm, evaluated at the voxel centres (no rasterised step, so a
+// moved object is exactly the moved image). The intensity scale a and offset b give a linear
+// change of contrast a I + b.
+template <int D>
+Image<D> mixed_polarity(const Point<D>& centre, double a = 1.0, double b = 0.0) {
+  Grid<D> g;
+  g.size = GridIndex<D>::Constant(D == 2 ? 48 : 36);
+  g.spacing = Point<D>::Constant(1.0);
+  g.origin = Point<D>::Constant(-0.5 * (g.size[0] - 1));
+  Image<D> image(g);
+  auto step = [](double d) { return 0.5 * std::erfc(d / (1.2 * std::sqrt(2.0))); };  // 1 inside (d < 0)
+  for (int64_t l = 0; l < image.num_voxels(); ++l) {
+    const Point<D> x = g.to_physical(g.index(l));
+    const double outside = 200.0 * step(x[0] - centre[0]) + 20.0 * (1.0 - step(x[0] - centre[0]));
+    const double inside = step((x - centre).norm() - 10.0);
+    image[l] = static_cast<float>(a * (100.0 * inside + outside * (1.0 - inside)) + b);
+  }
+  return image;
+}
+
+// Iterates the patch force alone (the snake moves to its proposal) with the atlas as reference.
+template <int D>
+void iterate_patch(PatchEnergy<D>& energy, const Template<D>& t, const Image<D>& scan, const Image<D>& atlas,
+                   Snake<D>& snake, int iterations) {
+  EnergyContext<D> context{&t, &scan};
+  context.reference_image = &atlas;
+  iterate_alone<D>(energy, context, snake, iterations);
+}
+
+template <int D>
+Template<D> disk_template() {
+  return round_template<D>(10.0, Point<D>::Zero(), 64);
+}
+
+// The scan's object moved by `shift`: every vertex ends within 0.08 mm of the moved circle
+// (mean within 0.03 mm), from a start up to 1.8 mm off.
+template <int D>
+void reaches_moved_object(const Point<D>& shift, double a, double b) {
+  const Image<D> atlas = mixed_polarity<D>(Point<D>::Zero());
+  const Image<D> scan = mixed_polarity<D>(shift, a, b);
+  const Template<D> t = disk_template<D>();
+  Snake<D> snake = Snake<D>::from_template(t, t.positions);
+  PatchEnergy<D> energy;
+  iterate_patch<D>(energy, t, scan, atlas, snake, 60);
+  const auto [mean, worst] = radial_error(snake, 10.0, shift);
+  const auto [mean0, worst0] = radial_error(Snake<D>::from_template(t, t.positions), 10.0, shift);
+  std::printf("patch %dD: distance to the moved boundary %.3f mean, %.3f largest (start %.3f, %.3f)\n", D, mean,
+              worst, mean0, worst0);
+  EXPECT_GT(worst0, 1.5);
+  EXPECT_LT(mean, 0.03);
+  EXPECT_LT(worst, 0.08);
+}
+
+TEST(PatchEnergy, MixedPolarityDiskReachesItsMovedBoundary2D) {
+  reaches_moved_object<2>(Point<2>(1.5, -1.0), 1.0, 0.0);
+}
+TEST(PatchEnergy, MixedPolarityBallReachesItsMovedBoundary3D) {
+  reaches_moved_object<3>(Point<3>(1.2, -0.8, 0.6), 1.0, 0.0);
+}
+// A linear change of contrast (a = 0.4, b = 37) between atlas and scan changes nothing.
+TEST(PatchEnergy, LinearChangeOfContrastIsIgnored) {
+  reaches_moved_object<2>(Point<2>(1.5, -1.0), 0.4, 37.0);
+}
+
+// Started on the atlas's own object, nothing moves (the NCC is 1 and its gradient 0 there).
+template <int D>
+void holds_fixed_point() {
+  const Image<D> atlas = mixed_polarity<D>(Point<D>::Zero());
+  const Image<D> scan = mixed_polarity<D>(Point<D>::Zero(), 2.0, -15.0);
+  const Template<D> t = disk_template<D>();
+  Snake<D> snake = Snake<D>::from_template(t, t.positions);
+  PatchEnergy<D> energy;
+  iterate_patch<D>(energy, t, scan, atlas, snake, 30);
+  double worst = 0.0;
+  for (int v = 0; v < snake.num_vertices(); ++v) worst = std::max(worst, (snake.positions()[v] - t.positions[v]).norm());
+  EXPECT_LT(worst, 1e-3);
+  for (double c : energy.correlations()) EXPECT_GT(c, 0.999);
+}
+TEST(PatchEnergy, AtlasObjectIsAFixedPoint2D) { holds_fixed_point<2>(); }
+TEST(PatchEnergy, AtlasObjectIsAFixedPoint3D) { holds_fixed_point<3>(); }
+
+// The expected patches are the atlas's samples at p + L^{-1} h k, mean removed, unit norm: at a
+// template vertex p is its template position; at a vertex inserted at the midpoint of an edge of a
+// snake that is a rotated, scaled, moved copy of the template, p is the template edge's midpoint
+// and L the copy's linear part.
+TEST(PatchEnergy, ExpectedPatchesAreTheAtlasAtTheRestPositions) {
+  const Image<2> atlas = mixed_polarity<2>(Point<2>::Zero());
+  const Template<2> t = disk_template<2>();
+  const double angle = 0.3, scale = 1.1;
+  Eigen::Matrix2d l;
+  l << std::cos(angle), -std::sin(angle), std::sin(angle), std::cos(angle);
+  l *= scale;
+  const Point<2> move(0.7, -0.4);
+  PointList<2> q;
+  std::vector<int> ids;
+  const int n = t.num_vertices();
+  for (int i = 0; i < n; ++i) {
+    q.push_back(l * t.positions[i] + move);
+    ids.push_back(i);
+    if (i == 5) {  // a free vertex at the midpoint of the edge (5, 6)
+      q.push_back(l * (0.5 * (t.positions[5] + t.positions[6])) + move);
+      ids.push_back(-1);
+    }
+  }
+  const Snake<2> snake(q, Connectivity::polygon(n + 1), ids);
+  PatchEnergy<2> energy;
+  EnergyContext<2> context{&t, &atlas};
+  context.reference_image = &atlas;
+  energy.bind(context, snake);
+  EXPECT_LT((energy.placement_linear() - l).norm(), 1e-9);
+  // The energy samples the atlas smoothed by its sigma (1 mm).
+  const Image<2> smoothed = gaussian_blur(atlas, 1.0);  // the same blur, same bits
+  const Eigen::Matrix2d back = l.inverse();
+  for (int v : {0, 6, 7}) {  // template vertex 0, the free vertex (index 6), template vertex 6
+    const Point<2> p = v == 6 ? Point<2>(0.5 * (t.positions[5] + t.positions[6])) : t.positions[v == 7 ? 6 : 0];
+    std::vector<double> e;
+    for (int k = 0; k < int(energy.expected()[v].size()); ++k)
+      e.push_back(smoothed.sample(p + back * (energy.sampling_step() * patch_offset<2>(k, energy.half_width()))));
+    double mean = 0.0;
+    for (double x : e) mean += x;
+    mean /= double(e.size());
+    double norm = 0.0;
+    for (double& x : e) norm += (x - mean) * (x - mean);
+    norm = std::sqrt(norm);
+    const double tolerance = v == 6 ? 1e-9 : 0.0;  // exact at template vertices
+    for (size_t k = 0; k < e.size(); ++k) EXPECT_NEAR(energy.expected()[v][k], (e[k] - mean) / norm, tolerance + 1e-15);
+  }
+}
+
+TEST(PatchEnergy, WithoutAnAtlasImageItIsRefused) {
+  const Image<2> image = mixed_polarity<2>(Point<2>::Zero());
+  const Template<2> t = disk_template<2>();
+  const Snake<2> snake = Snake<2>::from_template(t, t.positions);
+  PatchEnergy<2> energy;
+  EXPECT_THROW(energy.bind(EnergyContext<2>{&t, &image}, snake), OptionError);
+}
+
+TEST(PatchEnergy, BadKeysNameTheirPath) {
+  test_support::expect_refused_at<2>({{R"({"type": "patch", "radius": 0})", "energies[0].radius"},
+                                      {R"({"type": "patch", "sigma": -1})", "energies[0].sigma"},
+                                      {R"({"type": "patch", "spacing": -0.5})", "energies[0].spacing"},
+                                      {R"({"type": "patch", "min_correlation": 1})", "energies[0].min_correlation"},
+                                      {R"({"type": "patch", "damping": -1})", "energies[0].damping"},
+                                      {R"({"type": "patch", "max_step": -1})", "energies[0].max_step"},
+                                      {R"({"type": "patch", "step": 0})", "energies[0].step"},
+                                      {R"({"type": "patch", "size": 3})", "energies[0].size"}});
+}
+
+TEST(PatchEnergy, SameBitsForOneAndTwoThreads) {
+  const Image<3> atlas = mixed_polarity<3>(Point<3>::Zero());
+  const Image<3> scan = mixed_polarity<3>(Point<3>(1.0, 0.5, -0.5));
+  const Template<3> t = disk_template<3>();
+  PointList<3> result[2];
+  for (int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    Snake<3> snake = Snake<3>::from_template(t, t.positions);
+    PatchEnergy<3> energy;
+    iterate_patch<3>(energy, t, scan, atlas, snake, 5);
+    result[threads - 1] = snake.positions();
+  }
+  omp_set_num_threads(2);
+  for (size_t v = 0; v < result[0].size(); ++v) EXPECT_EQ(result[0][v], result[1][v]);
+}
+
+}  // namespace
+}  // namespace dsnake
