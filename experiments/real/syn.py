@@ -26,7 +26,9 @@ object, GROUND_TRUTH the true mask on FIXED's grid. Steps, into OUT:
        the fixed-point iteration y <- y - A^-1 (F(y) - p) (A: the pre-alignment's linear part), 50
        iterations at most, until |F(y) - p| < 1e-4 mm (the largest residual is reported). dipy's own
        transform_points_inverse (the backward field) is recorded beside it for comparison;
-  3. `dsnake template --mask` makes a surface (VERTICES, default 3000) of the warped mask;
+  3. `dsnake template --mask` makes a surface (VERTICES, default 3000) of the warped mask (when the
+     warped mask touches the image's border, a failed registration, with --allow-border: it is
+     measured all the same, and summary.json says mask_touches_border);
   4. a 0-iteration dsnake run evaluates it against GROUND_TRUTH (Dice, mean surface distance, HD95,
      self-intersections) and, with --targets, the carried vertices' distances to their targets.
 Writes OUT/summary.json. Environment: DSNAKE (default build/release/experiments/dsnake),
@@ -185,14 +187,22 @@ def main():
                         os.path.abspath(__file__), "--register", fixed, moving, f"{out}/moving_mask/result_mask.nii.gz",
                         out] + ([template] if targets else []), check=True, stdout=log, stderr=log,
                        env=dict(os.environ, OMP_NUM_THREADS=threads))
-    tlog = subprocess.run([dsnake, "template", "--mask", f"{out}/syn_mask.nii.gz", "--label", "1", "--vertices",
-                           vertices, "--out", f"{out}/syn_result.off", "-j", threads],
-                          check=True, capture_output=True, text=True).stdout.strip()
+    cmd = [dsnake, "template", "--mask", f"{out}/syn_mask.nii.gz", "--label", "1", "--vertices", vertices,
+           "--out", f"{out}/syn_result.off", "-j", threads]
+    t = subprocess.run(cmd, capture_output=True, text=True)
+    border = t.returncode != 0 and "touches the image border" in t.stderr
+    if border:  # a registration that pushed the mask off the image: still measured, with a flat cap
+        print(t.stderr.strip())
+        t = subprocess.run(cmd + ["--allow-border"], capture_output=True, text=True)
+    if t.returncode != 0:
+        raise SystemExit(f"syn.py: {' '.join(cmd)} failed: {t.stderr.strip()}")
+    tlog = t.stdout.strip()
     zero_run(dsnake, out, "evaluate", fixed, f"{out}/syn_result.off", truth, threads=threads)
     m = json.load(open(f"{out}/evaluate/result.json"))["metrics"]
     wall, kb = open(f"{out}/syn_time.txt").read().split()[-2:]
     reg = json.load(open(f"{out}/registration.json"))
-    summary = {"metrics": m, "syn_wall_s": float(wall), "syn_peak_mb": int(kb) / 1024, "registration": reg}
+    summary = {"metrics": m, "syn_wall_s": float(wall), "syn_peak_mb": int(kb) / 1024, "registration": reg,
+               "mask_touches_border": border}
     if targets:
         # the carried vertices against their targets, measured by dsnake (ground_truth.correspondence)
         write_off(f"{out}/syn_points.off", np.load(f"{out}/syn_points_lps.npy"), template)

@@ -32,9 +32,9 @@ dsnake_stream() {
 
 peer_args() {  # peer_args CASE: sets d, v (the peers' surface vertices), corr (the warp cases' targets)
   d=data/real/anatomy/$1
-  # the surfaces of the peers' masks: 3000 vertices, 2500 for the small structures (the amygdala's
+  # the surfaces of the peers' masks: 3000 vertices, 2000 for the small structures (the amygdala's
   # mask surface has fewer than 3000 vertices)
-  v=2500
+  v=2000
   case $1 in cerebellum_*) v=3000 ;; esac
   corr=""
   [ -e "$d/targets.json" ] && corr=$d/targets.json

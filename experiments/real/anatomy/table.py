@@ -13,14 +13,17 @@ out/real/anatomy/ (experiments/real/anatomy/run_all.sh writes it):
            warp; SyN's registration (affine, SyN, mask warp, vertices) in its child process.
 The fixed point has no correspondence (its template is the truth's surface, not the template).
 
-  table.py [OUT]   (default out/real/anatomy)
+  table.py [OUT] [--compact]   (default out/real/anatomy; --compact: one row per case, Dice / msd
+                               per method, then the warp cases' correspondence errors and the wall times)
 """
 import csv
 import json
 import os
 import sys
 
-OUT = sys.argv[1] if len(sys.argv) > 1 else "out/real/anatomy"
+ARGS = [a for a in sys.argv[1:] if a != "--compact"]
+COMPACT = "--compact" in sys.argv[1:]
+OUT = ARGS[0] if ARGS else "out/real/anatomy"
 CASES = [f"{s}_{v}" for v in ("mirror", "cross", "warp") for s in ("amygdala", "pallidum", "cerebellum")]
 METHODS = [("recipe_noref", "recipe without atlas"), ("recipe", "recipe with atlas"), ("fixed_point", "fixed point")]
 
@@ -53,7 +56,69 @@ def dsnake_runs(case):
     return runs
 
 
+def peer(case, name):
+    path = f"{OUT}/{case}/{name}/summary.json"
+    if not os.path.exists(path):
+        return None, None, None
+    s = json.load(open(path))
+    m = dict(s["metrics"], correspondence_error_mean=s.get("correspondence_error_mean"),
+             correspondence_error_max=s.get("correspondence_error_max"))
+    if name == "elastix":
+        return m, s["elastix_wall_s"] + s["transformix_wall_s"], max(s["elastix_peak_mb"], s["transformix_peak_mb"])
+    return m, s["syn_wall_s"], s["syn_peak_mb"]
+
+
+def compact():
+    cols = ["start", "recipe without atlas", "recipe with atlas", "fixed point", "elastix", "SyN"]
+    table = {}
+    for case in CASES:
+        runs = dsnake_runs(case)
+        rec = runs.get("recipe", (None, None, None))
+        fp = runs.get("fixed_point", (None, None, None))
+        table[case] = {
+            "start": (rec[0].get("start", {}).get("metrics") if rec[0] else None, None, None),
+            "recipe without atlas": (runs["recipe_noref"][0]["metrics"],) + runs["recipe_noref"][1:] if "recipe_noref" in runs else (None, None, None),
+            "recipe with atlas": (rec[0]["metrics"] if rec[0] else None,) + rec[1:],
+            "fixed point": (fp[0]["metrics"] if fp[0] else None,) + fp[1:],
+            "elastix": peer(case, "elastix"), "SyN": peer(case, "syn")}
+        table[case]["fixed point start"] = fp[0].get("start", {}).get("metrics") if fp[0] else None
+    print("Dice / mean surface distance (mm); fixed point: from the truth's own surface (its start Dice in brackets)\n")
+    print("| case | " + " | ".join(cols) + " |")
+    print("| --- |" + " --- |" * len(cols))
+    for case, t in table.items():
+        cells = []
+        for c in cols:
+            m = t[c][0]
+            cell = "-" if m is None else f"{f(m.get('dice'))} / {f(m.get('mean_surface_distance'), 2)}"
+            if c == "fixed point" and t["fixed point start"]:
+                cell += f" ({f(t['fixed point start'].get('dice'))})"
+            cells.append(cell)
+        print(f"| {case} | " + " | ".join(cells) + " |")
+    print("\nWarp cases: correspondence error mean / max (mm), the template's vertices against phi(p)\n")
+    cc = ["start", "recipe without atlas", "recipe with atlas", "elastix", "SyN"]
+    print("| case | " + " | ".join(cc) + " |")
+    print("| --- |" + " --- |" * len(cc))
+    for case, t in table.items():
+        if not case.endswith("_warp"):
+            continue
+        cells = []
+        for c in cc:
+            m = t[c][0]
+            cells.append("-" if m is None or m.get("correspondence_error_mean") is None else
+                         f"{f(m['correspondence_error_mean'], 2)} / {f(m['correspondence_error_max'], 2)}")
+        print(f"| {case} | " + " | ".join(cells) + " |")
+    tc = ["recipe without atlas", "recipe with atlas", "fixed point", "elastix", "SyN"]
+    print("\nWall time (s) / peak memory (MB), one thread each\n")
+    print("| case | " + " | ".join(tc) + " |")
+    print("| --- |" + " --- |" * len(tc))
+    for case, t in table.items():
+        print(f"| {case} | " + " | ".join(f"{f(t[c][1], 1)} / {f(t[c][2], 0)}" for c in tc) + " |")
+
+
 def main():
+    if COMPACT:
+        compact()
+        return
     print(f"Anatomy development set ({OUT}); times: one process, THREADS threads each, two streams side by side.\n")
     for case in CASES:
         if not os.path.isdir(f"{OUT}/{case}"):
