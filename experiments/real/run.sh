@@ -1,6 +1,8 @@
 #!/bin/bash
 # Runs one real experiment of issue 20 and prints its table:
-#   experiments/real/run.sh CASE        (CASE: a folder experiments/real/CASE/ holding sweep.json)
+#   experiments/real/run.sh CASE        (CASE: a folder experiments/real/CASE/ holding sweep.json;
+#                                        anatomy/NAME: the anatomy development set's cases, inputs
+#                                        from experiments/real/anatomy/make_inputs.py)
 # Makes the inputs (data/real/CASE/, not committed) if they are missing, runs the sweep's runs one
 # at a time into out/real/CASE/ (resumable: a finished run is skipped), and prints per method:
 # Dice, mean surface distance, HD95 (mm), self-intersections, Euler characteristic, wall time and
@@ -26,6 +28,7 @@ OUT=out/real/$CASE
 
 case $CASE in
   liver | femur) [ -f data/real/$CASE/inputs.json ] || "$PYTHON" experiments/real/make_3d_inputs.py "$DSNAKE" . "$CASE" ;;
+  anatomy/*) [ -f data/real/anatomy/inputs.json ] || "$PYTHON" experiments/real/anatomy/make_inputs.py "$DSNAKE" . ;;
   *) [ -d data/real/$CASE ] || "$PYTHON" experiments/real/make_2d_inputs.py "$DSNAKE" . ;;
 esac
 
@@ -71,7 +74,7 @@ for run in csv.DictReader(open(f"{out}/results.csv")):  # the sweep's current ru
     rows.append((method, m.get("dice"), m.get("mean_surface_distance"), m.get("hausdorff95"), m.get("self_intersections"),
                  chi, r["vertices"]["final"], r.get("iterations"), float(t[0]), int(t[1]) / 1024.0,
                  r["timings"].get("metrics_s", 0.0), shift))
-order = ["classical", "paper", "recipe", "fixed_point"]
+order = ["classical", "paper", "recipe", "recipe_noref", "fixed_point"]
 rows.sort(key=lambda x: (order.index(x[0]) if x[0] in order else len(order), x[0]))
 fmt = lambda x, p: "-" if x is None else (f"{x:.{p}f}" if isinstance(x, float) else str(x))
 print(f"{'method':<18} {'Dice':>6} {'msd mm':>7} {'HD95 mm':>8} {'SI':>4} {'chi':>4} {'verts':>6} {'iters':>6} "
