@@ -108,7 +108,13 @@ Image<D> crop_voxels(const Image<D>& image, const GridIndex<D>& lo, const GridIn
   g.size = hi - lo + GridIndex<D>::Ones();
   g.origin = image.grid().to_world(image.grid().to_physical(lo));
   Image<D> out(g);
-  for (int64_t l = 0; l < out.num_voxels(); ++l) out[l] = image.at(GridIndex<D>(g.index(l) + lo));
+  const int64_t n = g.size[0], rows = out.num_voxels() / n;
+  for (int64_t row = 0; row < rows; ++row) {  // row by row along x
+    GridIndex<D> idx = lo;
+    int64_t rest = row;
+    for (int a = 1; a < D; ++a) idx[a] += int(rest % g.size[a]), rest /= g.size[a];
+    std::copy_n(image.data().begin() + image.grid().linear(idx), n, out.data().begin() + row * n);
+  }
   return out;
 }
 
@@ -247,13 +253,13 @@ bool make_level(const Image<D>& fixed, const Image<D>& moving, const WorldBox<D>
   lv.r_mean = sum / double(lv.r.size());
   lv.r_ss = 0;
   for (double v : lv.r) lv.r_ss += (v - lv.r_mean) * (v - lv.r_mean);
-  // S around the images of the box under the maps, with a quarter of the box's diagonal for the
+  // S around the images of the box under the maps, with 15% of the box's diagonal for the
   // level's motion (beyond it S is border-replicated: a level moving further is rare and the
   // next level cuts S out again about where it went)
   std::vector<Point<D>> where;
   for (const AffineMap<D>& T : maps)
     for (const Point<D>& x : box_corners) where.push_back(T.apply(x));
-  const double motion = 0.25 * (box.hi - box.lo).norm();
+  const double motion = 0.15 * (box.hi - box.lo).norm();
   lv.full = moving.grid();
   if (!voxel_range<D>(moving.grid(), where, motion + 3.0 * sigma + 2.0 * moving.spacing().maxCoeff(), lo, hi)) {
     // the box maps outside the moving image: a one-voxel image at its nearest corner (overlap 0)
