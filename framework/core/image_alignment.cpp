@@ -163,7 +163,7 @@ Fit evaluate(const Level<D>& lv, const AffineMap<D>& T, const Point<D>& c) {
   const double m_mean = s[0] / double(n), m_ss = s[1] - double(n) * m_mean * m_mean;
   f.finite = std::isfinite(s[0]) && std::isfinite(s[1]) && std::isfinite(s[2]);
   if (!f.finite || !(m_ss > 0) || !(lv.r_ss > 0)) return f;
-  f.ncc = s[2] / std::sqrt(m_ss * lv.r_ss);
+  f.ncc = std::clamp(s[2] / std::sqrt(m_ss * lv.r_ss), -1.0, 1.0);  // |NCC| <= 1 (Cauchy-Schwarz), up to round-off
   f.a = s[2] / m_ss;  // the least-squares contrast and offset: r ~ a m + b
   f.b = lv.r_mean - f.a * m_mean;
   return f;
