@@ -326,7 +326,9 @@ Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   ex.initial = place<D>(ex.tmpl.positions, t.scale, t.rotation_deg, t.translation);
   if (!spec.tmpl.reference_image.empty()) ex.reference_image = read_reference_image(spec);
   // The pre-alignment in world coordinates, after the placement (template_init.h).
-  if (spec.tmpl.init) ex.init = initialize_template<D>(*spec.tmpl.init, ex.tmpl, ex.image, ex.initial, spec.file.path);
+  if (spec.tmpl.init)
+    ex.init = initialize_template<D>(*spec.tmpl.init, ex.tmpl, ex.image, ex.initial, spec.file.path,
+                                     ex.reference_image ? &*ex.reference_image : nullptr);
   ex.truth = assemble_truth(spec, std::move(phantom), ex.tmpl);
   express_in_image_frame(ex, spec.truth);
   check_placement(ex, spec.file.path);

@@ -68,7 +68,7 @@ PlacementSpec<D> read_placement(JsonReader t) {
 // resolved against the experiment's folder.
 template <int D>
 TemplateInitOptions read_init(JsonReader r, const ExperimentFile& f) {
-  if (!r.has("type")) r.fail("type", "is required (\"moments\" or \"landmarks\")");
+  if (!r.has("type")) r.fail("type", "is required (\"moments\", \"landmarks\" or \"image\")");
   TemplateInitOptions init;
   read_options(r, init);
   r.finish();
@@ -97,6 +97,8 @@ TemplateSpec<D> read_template_section(JsonReader& top, const ExperimentFile& f, 
   if (r.has("reference_image")) r.expect(!spec.reference_image.empty(), "reference_image", "expected an image file");
   spec.reference_image = resolve(f, spec.reference_image);
   if (r.has("init")) spec.init = read_init<D>(r.child("init"), f);
+  if (spec.init && spec.init->type == TemplateInitType::kImage && spec.reference_image.empty())
+    r.fail("init.type", "\"image\" needs template.reference_image (the atlas the template's file positions lie on)");
   if (spec.init) spec.init->mask_read = read;
   r.finish();
   return spec;

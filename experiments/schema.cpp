@@ -262,7 +262,7 @@ std::string experiment_reference_markdown() {
   std::vector<KeyRow> global = options_rows<GlobalSolverOptions>();
   for (const auto& r : options_rows<PotentialOptions>()) global.push_back(r);
   s += key_table_markdown(global) + "\n";
-  s += "### `template.init`: the pre-alignment (moments or landmarks)\n\n";
+  s += "### `template.init`: the pre-alignment (moments, landmarks or image)\n\n";
   s += key_table_markdown(options_rows<TemplateInitOptions>()) + "\n";
   s += "### `field`\n\nEvery field also takes `cache` (string): a folder of the field cache, and `region` "
        "(object): where the field is computed (fields/region.h). By default the placed template's bounding box "

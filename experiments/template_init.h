@@ -12,12 +12,19 @@
 //  - "landmarks": the least-squares similarity taking the template's named landmarks
 //    (template.landmarks) onto "points" (world mm; 2D at least 2 pairs, 3D at least 3 not on one
 //    line: the fewest that determine a similarity; the issue asks for 3, the 2D minimum is 2).
-// "transform": "rigid" keeps the scale 1 in both. result.json's "init" reports the map and the
+//  - "image": template.reference_image (the atlas in which the template's file positions lie on
+//    the object) registered onto the experiment's image within the template's bounding box plus
+//    "margin", by normalised cross-correlation over Gaussian "levels" (mm), starting from the
+//    placement (framework/core/image_alignment.h). The found map T (reference world -> scan
+//    world) gives the template at T p; the map applied to the placed template is T o P^-1 (P the
+//    placement), rigid, similar or (this type only) affine.
+// "transform": "rigid" keeps the scale 1 in all. result.json's "init" reports the map and the
 // fit (init_report_json()).
 #pragma once
 
-#include "energies/similarity.h"
 #include "framework/core/alignment.h"
+#include "framework/core/image_alignment.h"
+#include "framework/core/shape.h"
 #include "framework/core/options.h"
 
 #include <map>
@@ -30,11 +37,11 @@
 
 namespace dsnake {
 
-enum class TemplateInitType { kMoments, kLandmarks };
+enum class TemplateInitType { kMoments, kLandmarks, kImage };
 template <>
 struct EnumNames<TemplateInitType> {
-  static constexpr std::array<std::pair<TemplateInitType, const char*>, 2> table{
-      {{TemplateInitType::kMoments, "moments"}, {TemplateInitType::kLandmarks, "landmarks"}}};
+  static constexpr std::array<std::pair<TemplateInitType, const char*>, 3> table{
+      {{TemplateInitType::kMoments, "moments"}, {TemplateInitType::kLandmarks, "landmarks"}, {TemplateInitType::kImage, "image"}}};
 };
 
 struct TemplateInitOptions {
@@ -44,28 +51,40 @@ struct TemplateInitOptions {
   std::vector<double> threshold;  // moments: [lo, hi] on the experiment's image
   double isotropy_tolerance = 0.05;
   NamedPoints points;             // landmarks: name -> world point
-  SimilarityTransform transform = SimilarityTransform::kSimilarity;
+  AlignmentModel transform = AlignmentModel::kSimilarity;
+  double margin = 10.0;                          // image: mm around the template's bounding box
+  std::vector<double> levels = {4.0, 2.0, 1.0};  // image: smoothing sigmas (mm), coarse to fine
+  int iterations = 50;                           // image: steps per level at most
   ImageReadOptions mask_read;     // how `mask` is read: the experiment's image.nifti_transform (not a key here)
 
   template <class V>
   void visit(V& v) {
-    v(type, Key{"type", "", "moments: match centroid, principal axes and area/volume to a region; landmarks: the least-squares similarity of named point pairs (required)"});
+    v(type, Key{"type", "", "moments: match centroid, principal axes and area/volume to a region; landmarks: the least-squares similarity of named point pairs; image: register template.reference_image onto the image by normalised cross-correlation within the template's region (required)"});
     v(mask, Key{"mask", "", "moments: a label image (any grid; world coordinates); exactly one of mask and threshold"});
     v(label, Key{"label", "", "moments with a mask: the voxel value that is inside (default: every non-zero voxel)"});
     v(threshold, Key{"threshold", "image intensity", "moments: [lo, hi], the voxels of the experiment's image (after corruptions) within it are the region"});
     v(isotropy_tolerance, Key{"isotropy_tolerance", "1 (relative)", "moments: eigenvalues of the covariance closer than this times the largest leave their axes undetermined (near-isotropic: the template's orientation is kept)", Range::closed_open(0, 1)});
     v(points, Key{"points", "mm (world, LPS)", "landmarks: {\"name\": [x, y(, z)]} for named template landmarks; 2D >= 2 pairs, 3D >= 3 not on one line"});
-    v(transform, Key{"transform", "", "a similarity (rotation, translation, uniform scale) or a rigid motion (scale 1)"});
+    v(transform, Key{"transform", "", "a similarity (rotation, translation, uniform scale), a rigid motion (scale 1) or, for image only, an affine map (a general matrix)"});
+    v(margin, Key{"margin", "mm", "image: added to every side of the template's bounding box (in the reference image) to make the region compared", Range::at_least(0)});
+    v(levels, Key{"levels", "mm", "image: Gaussian smoothing (standard deviation) of both images per level, coarse to fine, each >= 0; samples every round(sigma / spacing) voxels"});
+    v(iterations, Key{"iterations", "", "image: Levenberg-Marquardt steps per level at most", Range::at_least(1)});
   }
+  // The alignment options of type image.
+  ImageAlignmentOptions alignment() const;
   // The keys of one type only (OptionError naming the key).
   void check() const;
 };
 
-// What the init did: the world map x -> s R x + t applied to the placed template, and the fit.
+// What the init did: the world map x -> s R x + t (moments, landmarks; image with rigid or
+// similarity) or x -> A x + t (`map`, every type) applied to the placed template, and the fit.
 template <int D>
 struct InitReport {
   TemplateInitType type = TemplateInitType::kMoments;
-  Similarity<D> transform;
+  AlignmentModel model = AlignmentModel::kSimilarity;
+  Similarity<D> transform;  // the map when it is a similarity (image with affine: its nearest, unused)
+  AffineMap<D> map;         // the map, always
+  ImageAlignmentResult<D> alignment;  // image: the fit (alignment.transform: reference world -> image world)
   Moments<D> template_moments, target_moments;  // moments
   int axes_matched = 0;                         // moments: D, 1 (3D) or 0
   std::map<std::string, double> residuals;      // landmarks: |S(p_l) - y_l| per name, mm
@@ -73,16 +92,19 @@ struct InitReport {
 };
 
 // Applies the init to `placed` (the placed template in world coordinates, one point per
-// template id). `image` is the experiment's image (for "threshold"). Throws InputError naming
-// `file` and the JSON path ("template.init.points.tip") for unknown names, too few or degenerate
-// pairs and empty regions.
+// template id). `image` is the experiment's image (for "threshold", and the moving image of
+// "image"); `reference` is template.reference_image (required by "image"). Throws InputError
+// naming `file` and the JSON path ("template.init.points.tip") for unknown names, too few or
+// degenerate pairs, empty regions and a missing reference image. An image alignment that keeps
+// its start (no overlap, no improvement) prints its warning on stderr and reports it.
 template <int D>
 InitReport<D> initialize_template(const TemplateInitOptions& options, const Template<D>& tmpl, const Image<D>& image,
-                                  PointList<D>& placed, const std::string& file);
+                                  PointList<D>& placed, const std::string& file, const Image<D>* reference = nullptr);
 
 // result.json's "init": type, scale, rotation (matrix, and the angle in degrees; 3D also the
 // axis), translation (mm) and, for landmarks, the residuals (mm), for moments the two measures
-// and centroids and the axes matched.
+// and centroids and the axes matched; for image the matrix (and, rigid or similarity, the scale
+// and rotation), the NCC before and after, the iterations and each level.
 template <int D>
 nlohmann::ordered_json init_report_json(const InitReport<D>& report);
 
