@@ -266,7 +266,13 @@ void ProfileEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
     const std::vector<double>& expected = *profile_of_[v];
     for (int j = -reach; j <= reach; ++j)
       misfits[j + reach] = expected.empty() ? kInf : misfit(s + (j + reach), expected);
-    const double best = best_offset(misfits, reach);
+    double best = best_offset(misfits, reach);
+    // The evidence gate: a vertex moves only where the best match is clearly better than where it
+    // stands (its misfit at most (1 - min_improvement) times the misfit at offset 0).
+    if (options_.min_improvement > 0 && !std::isnan(best)) {
+      const double at = misfits[int(std::lround(best)) + reach], here = misfits[reach];
+      if (std::isfinite(here) && !(at <= (1.0 - options_.min_improvement) * here)) best = 0.0;
+    }
     offsets_[v] = std::isnan(best) ? 0.0 : best * h;
     out[v] = q[v] + (step * offsets_[v]) * nv;
   }

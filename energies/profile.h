@@ -10,7 +10,8 @@
 //    covariance: one expected profile, no training set); a flat profile (no derivative) has none;
 //  - d runs over -search, ..., +search in steps of h; the best d* (smallest f, ties to the
 //    smallest |d|, then the smaller d) is refined by a parabola through its neighbours' misfits;
-//  - propose: q + step d* n (no profile anywhere: q).
+//  - propose: q + step d* n (no profile anywhere: q); with min_improvement m > 0, q unless
+//    f(d*) <= (1 - m) f(0): a vertex moves only on clear evidence.
 // The expected profile:
 //  - with `template.reference_image` (EnergyContext::reference_image): sampled in that image
 //    along the normals of the template at its rest positions p, as read from its file (the
@@ -59,6 +60,7 @@ struct ProfileOptions {
   EdgePolarity polarity = EdgePolarity::kAuto;
   ReferenceProfile reference_profile = ReferenceProfile::kPerVertex;
   bool local_polarity = false;
+  double min_improvement = 0.0;  // 1
 
   template <class V>
   void visit(V& v) {
@@ -73,6 +75,8 @@ struct ProfileOptions {
                                     "the start); ignored with template.reference_image"});
     v(reference_profile, Key{"reference_profile", "", "with template.reference_image: one expected profile per template "
                                                       "vertex (per_vertex) or their mean (mean)"});
+    v(min_improvement, Key{"min_improvement", "1", "a vertex moves only where its best misfit is at most (1 - this) "
+                                                  "times its misfit where it stands (0: always)", Range::closed_open(0, 1)});
     v(local_polarity, Key{"local_polarity", "", "without a reference image: learn the polarity per vertex from the start "
                                                 "(a boundary whose contrast changes side); vertices without a clear "
                                                 "contrast hold; `polarity` is then not used"});

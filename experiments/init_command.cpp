@@ -30,21 +30,29 @@ bool is_surface_file(const std::string& path, int dimension) {
   return e == ".txt" || e == ".json";
 }
 
-// The recommended experiment: experiments/real/recipe_<D>d.json (compiled in, recipes.h) with
-// only its inputs replaced: name, image, template (file; reference_image with --reference) and
+// The recommended experiment: experiments/real/recipe_<D>d.json (3D without --reference:
+// recipe_3d_without_atlas.json; compiled in, recipes.h) with only its inputs replaced: name,
+// image, template (file; reference_image with --reference, and the recipe's template.init) and
 // ground truth. Every setting is the recipe's, in mm, so that this file runs exactly what the
 // project's real experiments run (REPRODUCTION.md). The recipe's lengths are chosen for scans
 // with voxels of 0.3 to 3 mm; outside that, a warning on stderr says so.
 template <int D>
 nlohmann::ordered_json recommended(const InitCommandOptions& o, const Grid<D>& grid) {
-  nlohmann::ordered_json j = nlohmann::ordered_json::parse(recipe_json(D));
+  const bool atlas = !o.reference.empty();
+  nlohmann::ordered_json j = nlohmann::ordered_json::parse(recipe_json(D, atlas));
+  const std::string recipe_file =
+      "experiments/real/recipe_" + std::to_string(D) + "d" + (D == 3 && !atlas ? "_without_atlas" : "") + ".json";
   j["name"] = o.name.empty() ? fs::path(o.image).filename().string() : o.name;
   j["description"] = "Written by dsnake init for " + o.image + " and the template " + o.tmpl + ", from " +
-                     "experiments/real/recipe_" + std::to_string(D) + "d.json. " + j["description"].get<std::string>();
+                     recipe_file + ". " + j["description"].get<std::string>();
   j["image"] = {{"file", fs::absolute(o.image).string()}};
   if (o.read.nifti_transform != NiftiTransform::kAuto) j["image"]["nifti_transform"] = enum_name(o.read.nifti_transform);
-  j["template"] = {{"file", fs::absolute(o.tmpl).string()}};
-  if (!o.reference.empty()) j["template"]["reference_image"] = fs::absolute(o.reference).string();
+  nlohmann::ordered_json tmpl = {{"file", fs::absolute(o.tmpl).string()}};
+  if (atlas) {
+    tmpl["reference_image"] = fs::absolute(o.reference).string();
+    if (j["template"].contains("init")) tmpl["init"] = j["template"]["init"];
+  }
+  j["template"] = tmpl;
   // Without the recipe's ground truth. Not ordered_json::erase: nlohmann 3.11.2's ordered_map
   // erase leaks the erased value (LeakSanitizer, issue 22; fixed upstream in 3.11.3).
   nlohmann::ordered_json kept = nlohmann::ordered_json::object();
@@ -53,6 +61,12 @@ nlohmann::ordered_json recommended(const InitCommandOptions& o, const Grid<D>& g
   j = std::move(kept);
   if (!o.mask.empty())
     j["ground_truth"] = {{is_surface_file(o.mask, D) ? "surface" : "mask", fs::absolute(o.mask).string()}};
+  if (!atlas)
+    std::fprintf(stderr,
+                 "dsnake: warning: no --reference: an atlas image (one in which the template sits on its object, e.g. "
+                 "the scan the template was made from) is recommended; without it the forces see only edges, and a "
+                 "boundary whose contrast changes side (darker than one neighbour, brighter than another) cannot be "
+                 "followed, so this recipe moves only where the edge evidence is clear\n");
   const double h = grid.spacing.maxCoeff();
   if (h < 0.3 || h > 3.0)
     std::fprintf(stderr,

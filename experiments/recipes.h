@@ -1,11 +1,13 @@
-// The recommended settings for a user's own scan (issue 20): experiments/real/recipe_2d.json and
-// recipe_3d.json, compiled in (CMake reads the files at configure time), so that `dsnake init`
-// writes exactly the files that the real experiments run and a user copies.
+// The recommended settings for a user's own scan: experiments/real/recipe_2d.json, recipe_3d.json
+// (with an atlas image) and recipe_3d_without_atlas.json, compiled in (CMake reads the files at
+// configure time), so that `dsnake init` writes exactly the files that the real experiments run
+// and a user copies.
 #pragma once
 
 namespace dsnake {
 
-// The recipe file's text for dimension 2 or 3.
-const char* recipe_json(int dimension);
+// The recipe file's text for dimension 2 or 3; in 3D with or without an atlas image (2D has one
+// recipe for both).
+const char* recipe_json(int dimension, bool with_atlas = true);
 
 }  // namespace dsnake

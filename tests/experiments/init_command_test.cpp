@@ -73,25 +73,46 @@ TEST_F(InitCommandTest, PrintsTheRecipeWithOnlyTheInputsReplacedAndItsRunRegiste
   std::ofstream(exp) << out_;
   ASSERT_EQ(dsnake("validate " + exp.string()), 0) << err_;
 
-  // Started 10% small on a label volume nobody tuned it for (its own label as the reference
-  // image: the template's rest surface sits on its boundary there), the run ends nearer the
-  // boundary.
+  // Started 10% small on a label volume nobody tuned it for (its own label as the atlas image:
+  // the template's rest surface sits on its boundary there): the recipe's template.init finds
+  // the scale (1 / 0.9) from the images alone, and the run ends on the boundary.
   const fs::path run = dir_ / "run";
   ASSERT_EQ(dsnake("run " + exp.string() + " -o " + run.string() +
                    " -j 2 --quiet --set template.transform.scale=0.9 --set output.start_metrics=true"),
             0)
       << err_;
   const nlohmann::json r = nlohmann::json::parse(slurp(run / "result.json"));
-  const nlohmann::json& s = r["start"];
-  std::printf("  Dice %.3f -> %.3f, mean distance %.3f -> %.3f mm\n", s["metrics"]["dice"].get<double>(),
-              r["metrics"]["dice"].get<double>(), s["metrics"]["mean_surface_distance"].get<double>(),
-              r["metrics"]["mean_surface_distance"].get<double>());
-  EXPECT_GT(r["metrics"]["dice"].get<double>(), s["metrics"]["dice"].get<double>() + 0.05) << s["metrics"].dump();
-  EXPECT_LT(r["metrics"]["mean_surface_distance"].get<double>(),
-            0.5 * s["metrics"]["mean_surface_distance"].get<double>()) << s["metrics"].dump();
+  std::printf("  init scale %.4f, NCC %.3f -> %.3f; Dice %.4f, mean distance %.3f mm\n", r["init"]["scale"].get<double>(),
+              r["init"]["ncc_before"].get<double>(), r["init"]["ncc_after"].get<double>(),
+              r["metrics"]["dice"].get<double>(), r["metrics"]["mean_surface_distance"].get<double>());
+  EXPECT_NEAR(r["init"]["scale"].get<double>(), 1 / 0.9, 0.01);
+  EXPECT_GT(r["init"]["ncc_after"].get<double>(), r["init"]["ncc_before"].get<double>());
+  EXPECT_GT(r["init"]["ncc_after"].get<double>(), 0.999);
+  EXPECT_GT(r["metrics"]["dice"].get<double>(), 0.99);
+  EXPECT_LT(r["metrics"]["mean_surface_distance"].get<double>(), 0.25);
   EXPECT_EQ(r["metrics"]["self_intersections"], 0);
   EXPECT_TRUE(fs::exists(run / "result_mask.nii.gz"));
   EXPECT_FALSE(fs::exists(run / "image.nii.gz"));  // a file read as it is is not copied
+}
+
+// Without --reference (no atlas image) in 3D: the recipe for that case, with no reference image
+// and no image init, and one warning line saying that an atlas image is recommended and why.
+TEST_F(InitCommandTest, WithoutAnAtlasImageItWritesTheRecipeForThatAndSaysWhyAnAtlasHelps) {
+  const fs::path labels = ellipsoid_labels(), tmpl = dir_ / "t.off";
+  ASSERT_EQ(dsnake("template --mask " + labels.string() + " --label 1 --vertices 200 --out " + tmpl.string()), 0) << err_;
+  ASSERT_EQ(dsnake("init --image " + labels.string() + " --template " + tmpl.string()), 0) << err_;
+  const nlohmann::json j = nlohmann::json::parse(out_);
+  std::ifstream recipe(std::string(DSNAKE_SOURCE_DIR) + "/experiments/real/recipe_3d_without_atlas.json");
+  ASSERT_TRUE(recipe.good());
+  EXPECT_EQ(settings_of(j), settings_of(nlohmann::json::parse(recipe)));
+  EXPECT_FALSE(j["template"].contains("reference_image"));
+  EXPECT_FALSE(j["template"].contains("init"));
+  EXPECT_EQ(std::count(err_.begin(), err_.end(), '\n'), 1) << err_;
+  EXPECT_NE(err_.find("warning: no --reference: an atlas image"), std::string::npos) << err_;
+  EXPECT_NE(err_.find("contrast changes side"), std::string::npos) << err_;
+  const fs::path exp = dir_ / "exp.json";
+  std::ofstream(exp) << out_;
+  EXPECT_EQ(dsnake("validate " + exp.string()), 0) << err_;
 }
 
 TEST_F(InitCommandTest, WarnsWhenTheVoxelsAreOutsideTheRecipesRange) {
