@@ -7,7 +7,10 @@
 // least-squares similarity (mls_weights.h) over the `count` deformation vertices nearest along the
 // mesh (breadth-first over edges, ties in the order the rings list them), weighted by
 // 1 / (|q_i - q|^2 + eps^2). Exact wherever the snake is a similar copy of the template near v;
-// its rotation also turns v's normal into the template's frame.
+// its rotation also turns v's normal into the template's frame. The point it gives lies on the
+// template's facets, a chord of the curved object; it is then moved along the turned normal onto
+// the quadric height field fitted to the same template vertices (a free vertex inserted at an
+// edge's midpoint lands on the curved surface, not on the chord).
 #pragma once
 
 #include "framework/core/shape.h"
@@ -28,6 +31,6 @@ struct RestPositions {
 // over their neighbours (so a template vertex's rest position is exact). `count`: the deformation
 // vertices in each fit (at least D). Deterministic and serial per vertex (each vertex alone).
 template <int D>
-RestPositions<D> rest_positions(const Template<D>& tmpl, const Snake<D>& snake, int count = 2 * D + 2);
+RestPositions<D> rest_positions(const Template<D>& tmpl, const Snake<D>& snake, int count = 4 * D);
 
 }  // namespace dsnake

@@ -108,8 +108,8 @@ TEST(PatchEnergy, AtlasObjectIsAFixedPoint3D) { holds_fixed_point<3>(); }
 
 // The expected patches are the atlas's samples at p + L^{-1} h k, mean removed, unit norm: at a
 // template vertex p is its template position; at a vertex inserted at the midpoint of an edge of a
-// snake that is a rotated, scaled, moved copy of the template, p is the template edge's midpoint
-// and L the copy's linear part.
+// snake that is a rotated, scaled, moved copy of the template, p is its rest position (on the
+// circle beside the template edge's midpoint, rest_positions.h) and L the copy's linear part.
 TEST(PatchEnergy, ExpectedPatchesAreTheAtlasAtTheRestPositions) {
   const Image<2> atlas = mixed_polarity<2>(Point<2>::Zero());
   const Template<2> t = disk_template<2>();
@@ -139,7 +139,8 @@ TEST(PatchEnergy, ExpectedPatchesAreTheAtlasAtTheRestPositions) {
   const Image<2> smoothed = gaussian_blur(atlas, 1.0);  // the same blur, same bits
   const Eigen::Matrix2d back = l.inverse();
   for (int v : {0, 6, 7}) {  // template vertex 0, the free vertex (index 6), template vertex 6
-    const Point<2> p = v == 6 ? Point<2>(0.5 * (t.positions[5] + t.positions[6])) : t.positions[v == 7 ? 6 : 0];
+    const Point<2> p = v == 6 ? rest_positions(t, snake).positions[6] : t.positions[v == 7 ? 6 : 0];
+    if (v == 6) EXPECT_NEAR(p.norm(), 10.0, 0.01);  // on the template's circle, not its chord
     std::vector<double> e;
     for (int k = 0; k < int(energy.expected()[v].size()); ++k)
       e.push_back(smoothed.sample(p + back * (energy.sampling_step() * patch_offset<2>(k, energy.half_width()))));
