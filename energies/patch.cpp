@@ -109,16 +109,26 @@ void PatchEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& snake
     }
   }
   linear_ = placement_linear_part<D>(a, b);
+  rest_frame_ = std::move(p);
+  expected_.clear();  // sampled on first use (set_up_expected): a term switched off in this phase costs nothing
+  correlation_.assign(n, 0.0);
+}
+
+// Every vertex's expected patch: the smoothed atlas at its rest position (reference frame) plus
+// L^{-1} h k, mean removed, unit norm.
+template <int D>
+void PatchEnergy<D>::set_up_expected() const {
+  if (!expected_.empty() || rest_frame_.empty()) return;
+  const Image<D>& ref = reference_.image();
+  const int n = static_cast<int>(rest_frame_.size());
   const Eigen::Matrix<double, D, D> back = linear_.inverse();
   expected_.assign(n, {});
 #pragma omp parallel for schedule(static) if (n >= 64)
   for (int v = 0; v < n; ++v) {
     std::vector<double> e(count_);
-    for (int k = 0; k < count_; ++k) e[k] = ref.sample(p[v] + back * (h_ * patch_offset<D>(k, half_)));
+    for (int k = 0; k < count_; ++k) e[k] = ref.sample(rest_frame_[v] + back * (h_ * patch_offset<D>(k, half_)));
     if (centre_and_normalise(e)) expected_[v] = std::move(e);
   }
-  correlation_.assign(n, 0.0);
-  scratch_.resize(size_t(n) * ipow(2 * half_ + 3, D));
 }
 
 template <int D>
@@ -188,21 +198,27 @@ double PatchEnergy<D>::match(int v, const Point<D>& x, Point<D>* move, double* s
 template <int D>
 void PatchEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   const int n = snake.num_vertices();
-  DSNAKE_ASSERT(int(out.size()) == n && int(expected_.size()) == n, "bind() before propose(), one entry per vertex");
+  DSNAKE_ASSERT(int(out.size()) == n && int(rest_frame_.size()) == n, "bind() before propose(), one entry per vertex");
+  set_up_expected();
   const PointList<D>& q = snake.positions();
   const size_t stride = ipow(2 * half_ + 3, D);
   const double step = options_.step;
-#pragma omp parallel for schedule(static) if (n >= 64)
-  for (int v = 0; v < n; ++v) {
-    Point<D> delta;
-    correlation_[v] = match(v, q[v], &delta, scratch_.data() + v * stride);
-    out[v] = q[v] + step * delta;
+#pragma omp parallel if (n >= 64)
+  {
+    std::vector<double> scratch(stride);  // one per thread: each vertex is computed alone
+#pragma omp for schedule(static)
+    for (int v = 0; v < n; ++v) {
+      Point<D> delta;
+      correlation_[v] = match(v, q[v], &delta, scratch.data());
+      out[v] = q[v] + step * delta;
+    }
   }
 }
 
 template <int D>
 double PatchEnergy<D>::value(const Snake<D>& snake) const {
   const int n = snake.num_vertices();
+  set_up_expected();
   if (int(expected_.size()) != n) return std::numeric_limits<double>::quiet_NaN();
   const size_t stride = ipow(2 * half_ + 3, D);
   std::vector<double> terms(n);

@@ -75,10 +75,11 @@ class PatchEnergy final : public Energy<D> {
 
   explicit PatchEnergy(const PatchOptions& options = {});
   std::string type() const override { return kType; }
+  bool needs_reference_image() const override { return true; }
   const PatchOptions& options() const { return options_; }
 
-  // Smooths both images (once), fits the placement's linear part and samples every vertex's
-  // expected patch at its rest position. context.image and context.reference_image must be set.
+  // Smooths both images (once), fits the placement's linear part and finds every vertex's rest
+  // position; the expected patches are sampled there on first use (propose, value). context.image and context.reference_image must be set.
   void bind(const EnergyContext<D>& context, const Snake<D>& snake) override;
   // out[v] as above; parallel over vertices, the same bits for any thread count.
   void propose(const Snake<D>& snake, PointList<D>& out) override;
@@ -86,7 +87,10 @@ class PatchEnergy final : public Energy<D> {
 
   // Each vertex's expected patch (empty when the atlas is flat there), (2K + 1)^D values with the
   // first axis fastest, mean removed and unit norm; and the NCC of the last propose().
-  const std::vector<std::vector<double>>& expected() const { return expected_; }
+  const std::vector<std::vector<double>>& expected() const {
+    set_up_expected();
+    return expected_;
+  }
   const std::vector<double>& correlations() const { return correlation_; }
   double sampling_step() const { return h_; }
   int half_width() const { return half_; }
@@ -103,9 +107,10 @@ class PatchEnergy final : public Energy<D> {
   int count_ = 0;  // (2K + 1)^D
   SmoothedImage<D> image_, reference_;
   Eigen::Matrix<double, D, D> linear_ = Eigen::Matrix<double, D, D>::Identity();
-  std::vector<std::vector<double>> expected_;  // per snake vertex
+  void set_up_expected() const;
+  PointList<D> rest_frame_;  // per snake vertex: its rest position in the reference image's frame
+  mutable std::vector<std::vector<double>> expected_;  // per snake vertex, sampled on first use
   std::vector<double> correlation_;
-  std::vector<double> scratch_;
 };
 
 // The k-th offset (in steps h) of a patch of half-width K: k = sum_d (k_d + K) (2K + 1)^d.

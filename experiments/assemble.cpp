@@ -143,6 +143,9 @@ std::vector<WeightedEnergy<D>> assemble_energies(const ExperimentSpec<D>& spec, 
     } catch (const OptionError& error) {
       throw InputError(spec.file.path, e.path + "." + error.key, error.message);
     }
+    if (we.energy->needs_reference_image() && spec.tmpl.reference_image.empty())
+      throw InputError(spec.file.path, e.path + ".type",
+                       "the " + we.energy->type() + " energy needs an atlas image: set template.reference_image");
     if (spec.solver == SolverKind::kGlobal && !we.energy->has_least_squares_form())
       throw InputError(spec.file.path, e.path + ".type",
                        "the " + we.energy->type() + " energy has no least-squares form, so \"solver\": \"global\" cannot use it");

@@ -8,7 +8,7 @@ PRESET=${1:-release}
 PACKAGES=(cmake ninja-build ccache g++ libeigen3-dev libceres-dev libopenmesh-dev libopencv-dev
           nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libspdlog-dev
           zlib1g-dev libpng-dev libfftw3-dev libgdcm-dev parallel python3-matplotlib python3-jsonschema python3-vtk9
-          python3-numpy python3-scipy python3-nibabel elastix)
+          python3-numpy python3-scipy python3-nibabel python3-dipy elastix)
 [ "$PRESET" = sanitize ] && PACKAGES+=(clang-14 libclang-rt-14-dev libomp-14-dev)
 missing=()
 for p in "${PACKAGES[@]}"; do

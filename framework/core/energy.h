@@ -62,6 +62,9 @@ class Energy {
   // the key. The experiment assembly calls it, so that the message names the file and path;
   // bind() may assume it passed.
   virtual void check_template(const Template<D>& tmpl) const {}
+  // Whether bind() needs EnergyContext::reference_image (an atlas image); the experiment
+  // assembly refuses such a term without "template.reference_image", naming it.
+  virtual bool needs_reference_image() const { return false; }
 
   // Snake view: writes out[v] for every governed vertex v (out has num_vertices() entries;
   // entries of vertices not governed are left as they are).

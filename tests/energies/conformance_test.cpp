@@ -58,7 +58,9 @@ void every_energy_conforms(const Template<D>& t) {
     EXPECT_EQ(energy->type(), name);
     Snake<D> snake = Snake<D>::from_template(t, test_support::perturbed<D>(t.positions, 0.3, 5));
     energy->check_template(t);
-    energy->bind(EnergyContext<D>{&t, &image, &field, nullptr}, snake);
+    EnergyContext<D> context{&t, &image, &field, nullptr};
+    context.reference_image = &image;  // an atlas image, for the terms that need one (patch)
+    energy->bind(context, snake);
     PointList<D> out(snake.num_vertices(), Point<D>::Constant(NAN));
     energy->propose(snake, out);
     const auto mask = energy->governed_mask();

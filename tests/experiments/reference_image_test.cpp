@@ -84,6 +84,13 @@ TEST_F(ReferenceImageTest, ProblemsNameTheKey) {
   j = write_case();
   j["energies"][1]["polarity"] = "any";
   EXPECT_EQ(error_path(j), "energies[1].polarity");
+  // the patch force needs the atlas image: without template.reference_image it is refused
+  j = write_case();
+  j["energies"][1] = {{"type", "patch"}};
+  j["template"].erase("reference_image");
+  EXPECT_EQ(error_path(j), "energies[1].type");
+  j["energies"][1]["radius"] = -1;
+  EXPECT_EQ(error_path(j), "energies[1].radius");
 }
 
 }  // namespace
