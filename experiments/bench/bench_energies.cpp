@@ -5,6 +5,7 @@
 // Run: build/release/experiments/bench/bench_energies --benchmark_repetitions=5
 //        --benchmark_report_aggregates_only=true
 #include "energies/asap_mls.h"
+#include "energies/patch.h"
 #include "energies/registry.h"
 #include "experiments/phantoms.h"
 #include "fields/gradient.h"
@@ -250,6 +251,43 @@ void BM_AsapQuality3d(benchmark::State& state) {
 }
 BENCHMARK(BM_AsapQuality3d)->ArgsProduct({{1, 2, 3}, {1, 2, 3}})->ArgNames({"variant", "rings"})
     ->Unit(benchmark::kMicrosecond)->UseRealTime();
+
+// The patch force on the 7000-vertex torus in the lung-sized volume (the torus' own image as the
+// atlas, the snake moved 0.7 mm off it): one propose() (a Gauss-Newton step per vertex, patches of
+// +-`radius` mm on the 1 mm grid), and one bind() after a remesh (rest positions; the expected
+// patches are sampled on the first propose, included).
+void BM_PatchPropose3d(benchmark::State& state) {
+  static const Image<3> image = [] {
+    Grid<3> g;
+    g.size = {230, 300, 80};
+    Image<3> img(g, 170.0f);
+    for (int64_t l = 0; l < g.num_voxels(); ++l) {
+      const Point<3> x = g.to_physical(g.index(l));
+      const double rho = std::hypot(x[0] - 115, x[1] - 150) - 80;
+      if (std::hypot(rho, x[2] - 40) < 25) img[l] = 85.0f + 30.0f * (x[0] > 115);
+    }
+    return gaussian_blur(img, 1.0);
+  }();
+  omp_set_num_threads(static_cast<int>(state.range(1)));
+  const Template<3> t = torus_7000();
+  PatchOptions o;
+  o.radius = static_cast<double>(state.range(0));
+  PatchEnergy<3> patch(o);
+  PointList<3> moved = t.positions;
+  for (auto& p : moved) p += Point<3>(0.7, 0.0, 0.0);
+  Snake<3> snake = Snake<3>::from_template(t, moved);
+  EnergyContext<3> context{&t, &image};
+  context.reference_image = &image;
+  patch.bind(context, snake);
+  PointList<3> out(snake.num_vertices());
+  patch.propose(snake, out);
+  for (auto _ : state) {
+    patch.propose(snake, out);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.counters["vertices"] = snake.num_vertices();
+}
+BENCHMARK(BM_PatchPropose3d)->ArgsProduct({{3, 4}, {1, 2}})->ArgNames({"radius", "threads"})->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace dsnake
