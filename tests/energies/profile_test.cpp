@@ -122,7 +122,10 @@ TEST(ProfileEnergy, BadKeysNameTheirPath) {
                              {R"({"type": "profile", "length": 0})", "energies[0].length"},
                              {R"({"type": "profile", "sigma": -1})", "energies[0].sigma"},
                              {R"({"type": "profile", "polarity": "any"})", "energies[0].polarity"},
-                             {R"({"type": "profile", "reference_profile": "median"})", "energies[0].reference_profile"}});
+                             {R"({"type": "profile", "reference_profile": "median"})", "energies[0].reference_profile"},
+                             {R"({"type": "profile", "min_improvement": 1})", "energies[0].min_improvement"},
+                             {R"({"type": "profile", "min_improvement": -0.1})", "energies[0].min_improvement"},
+                             {R"({"type": "profile", "local_polarity": "yes"})", "energies[0].local_polarity"}});
 }
 
 // One and two threads give the same proposals, bit for bit (a 642-vertex sphere, 3D).
