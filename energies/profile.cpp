@@ -213,23 +213,27 @@ void ProfileEnergy<D>::set_up_free_vertices(const EnergyContext<D>& context, con
     return;
   }
   if (!context.reference_image && options_.local_polarity) {
+    // Breadth-first from each free vertex to its nearest template vertex; one visited flag per
+    // vertex, cleared after each search (linear in what the search touched, not in n).
     const Connectivity& c = snake.connectivity();
+    std::vector<uint8_t> seen(n, 0);
+    std::vector<int> queue;
     for (int v = 0; v < n; ++v) {
       if (snake.is_deformation_vertex(v)) continue;
-      std::vector<int> queue{v};
-      std::vector<uint8_t> seen(n, 0);
+      queue.assign(1, v);
       seen[v] = 1;
       int found = -1;
       for (size_t head = 0; head < queue.size() && found < 0; ++head)
         for (int w : c.neighbors(queue[head])) {
           if (seen[w]) continue;
           seen[w] = 1;
+          queue.push_back(w);
           if (snake.is_deformation_vertex(w)) {
             found = w;
             break;
           }
-          queue.push_back(w);
         }
+      for (int w : queue) seen[w] = 0;
       profile_of_[v] = found >= 0 ? &expected_[snake.template_id(found)] : &free_expected_[v];
     }
   }
