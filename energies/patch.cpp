@@ -70,6 +70,35 @@ Eigen::Matrix<double, D, D> placement_linear_part(const PointList<D>& a, const P
   return s.scale * s.rotation;
 }
 
+constexpr double kLocalMapRegularisation = 0.05;  // lambda, relative to the mean squared spread
+constexpr double kRemapTolerance = 0.01;           // resample a patch when max |L_v - L_used| exceeds this
+
+// Each vertex's neighbourhood for its local map: v, its one-ring, and every vertex reached from v
+// along edges through vertices whose rest positions lie within `radius` of v's (breadth-first,
+// v first), as offsets + list.
+template <int D>
+void neighbourhoods(const Snake<D>& snake, const PointList<D>& rest, double radius, std::vector<int>& offsets,
+                    std::vector<int>& list) {
+  const int n = snake.num_vertices();
+  const Connectivity& c = snake.connectivity();
+  offsets.assign(1, 0);
+  list.clear();
+  std::vector<int> seen(n, -1);  // the vertex whose search last reached it
+  const double r2 = radius * radius;
+  for (int v = 0; v < n; ++v) {
+    const size_t first = list.size();
+    list.push_back(v);
+    seen[v] = v;
+    for (size_t i = first; i < list.size(); ++i)
+      for (int u : c.neighbors(list[i]))
+        if (seen[u] != v && (i == first || (rest[u] - rest[v]).squaredNorm() <= r2)) {
+          seen[u] = v;
+          list.push_back(u);
+        }
+    offsets.push_back(static_cast<int>(list.size()));
+  }
+}
+
 }  // namespace
 
 template <int D>
@@ -110,25 +139,68 @@ void PatchEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& snake
   }
   linear_ = placement_linear_part<D>(a, b);
   rest_frame_ = std::move(p);
+  if (options_.map_radius > 0) {
+    neighbourhoods<D>(snake, rest_frame_, options_.map_radius, ring_offsets_, ring_);
+    maps_.resize(n);
+    for (int v = 0; v < n; ++v) maps_[v] = local_map(v, snake.positions());
+  }
   expected_.clear();  // sampled on first use (set_up_expected): a term switched off in this phase costs nothing
   correlation_.assign(n, 0.0);
 }
 
-// Every vertex's expected patch: the smoothed atlas at its rest position (reference frame) plus
-// L^{-1} h k, mean removed, unit norm.
+// L_v: the affine map of v's ring (v included, centred on their means) from the rest positions
+// a_i to the current positions b_i, min sum |L (a_i - a) - (b_i - b)|^2 + lambda tr(A) / D |L - S|^2
+// with A = sum (a_i - a)(a_i - a)^T and S the ring's similarity; S itself where the ring is too
+// small, or the affine reflects or is far from conformal.
+template <int D>
+Eigen::Matrix<double, D, D> PatchEnergy<D>::local_map(int v, const PointList<D>& q) const {
+  using Mat = Eigen::Matrix<double, D, D>;
+  const int begin = ring_offsets_[v], end = ring_offsets_[v + 1], m = end - begin;
+  if (m <= 1) return linear_;
+  PointList<D> a(m), b(m);
+  for (int i = 0; i < m; ++i) {
+    a[i] = rest_frame_[ring_[begin + i]];
+    b[i] = q[ring_[begin + i]];
+  }
+  const Similarity<D> sim = fit_similarity<D>(a, b, true);
+  const Mat s = sim.scale * sim.rotation;
+  Point<D> ca = Point<D>::Zero(), cb = Point<D>::Zero();
+  for (int i = 0; i < m; ++i) ca += a[i], cb += b[i];
+  ca /= double(m);
+  cb /= double(m);
+  Mat aa = Mat::Zero(), ba = Mat::Zero();
+  for (int i = 0; i < m; ++i) {
+    aa += (a[i] - ca) * (a[i] - ca).transpose();
+    ba += (b[i] - cb) * (a[i] - ca).transpose();
+  }
+  const double lambda = kLocalMapRegularisation * aa.trace() / D;
+  if (!(lambda > 0)) return linear_;
+  const Mat l = (ba + lambda * s) * (aa + lambda * Mat::Identity()).inverse();
+  Eigen::JacobiSVD<Mat> svd(l);
+  const auto sv = svd.singularValues();
+  if (l.allFinite() && l.determinant() > 0 && sv(D - 1) > 0 && sv(0) / sv(D - 1) < 4.0) return l;
+  return s.allFinite() && sim.scale > 0 ? s : linear_;
+}
+
+// Vertex v's expected patch: the smoothed atlas at its rest position (reference frame) plus
+// m^{-1} h k, mean removed, unit norm.
+template <int D>
+std::vector<double> PatchEnergy<D>::sample_expected(int v, const Eigen::Matrix<double, D, D>& m) const {
+  const Image<D>& ref = reference_.image();
+  const Eigen::Matrix<double, D, D> back = m.inverse();
+  std::vector<double> e(count_);
+  for (int k = 0; k < count_; ++k) e[k] = ref.sample(rest_frame_[v] + back * (h_ * patch_offset<D>(k, half_)));
+  if (!centre_and_normalise(e)) e.clear();
+  return e;
+}
+
 template <int D>
 void PatchEnergy<D>::set_up_expected() const {
   if (!expected_.empty() || rest_frame_.empty()) return;
-  const Image<D>& ref = reference_.image();
   const int n = static_cast<int>(rest_frame_.size());
-  const Eigen::Matrix<double, D, D> back = linear_.inverse();
   expected_.assign(n, {});
 #pragma omp parallel for schedule(static) if (n >= 64)
-  for (int v = 0; v < n; ++v) {
-    std::vector<double> e(count_);
-    for (int k = 0; k < count_; ++k) e[k] = ref.sample(rest_frame_[v] + back * (h_ * patch_offset<D>(k, half_)));
-    if (centre_and_normalise(e)) expected_[v] = std::move(e);
-  }
+  for (int v = 0; v < n; ++v) expected_[v] = sample_expected(v, patch_map(v));
 }
 
 template <int D>
@@ -203,11 +275,19 @@ void PatchEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   const PointList<D>& q = snake.positions();
   const size_t stride = ipow(2 * half_ + 3, D);
   const double step = options_.step;
+  const bool local = options_.map_radius > 0;
 #pragma omp parallel if (n >= 64)
   {
     std::vector<double> scratch(stride);  // one per thread: each vertex is computed alone
 #pragma omp for schedule(static)
     for (int v = 0; v < n; ++v) {
+      if (local) {  // follow the snake's local stretch: refit L_v, resample where it changed
+        const Eigen::Matrix<double, D, D> m = local_map(v, q);
+        if ((m - maps_[v]).cwiseAbs().maxCoeff() > kRemapTolerance) {
+          maps_[v] = m;
+          expected_[v] = sample_expected(v, m);
+        }
+      }
       Point<D> delta;
       correlation_[v] = match(v, q[v], &delta, scratch.data());
       out[v] = q[v] + step * delta;

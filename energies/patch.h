@@ -8,11 +8,19 @@
 // their patches come from their rest positions (energies/rest_positions.h), never from a mean.
 //
 // For a vertex v with rest position p_v (reference frame) and current position q_v:
-//  - the expected patch e_v: the smoothed reference at p_v + L^{-1} h k, k in {-K..K}^D
-//    (K = round(radius / h)), with its mean removed and unit norm; L is the linear part of the
-//    least-squares affine map from the deformation vertices' rest positions to their current
-//    positions, taken at bind (the placement: template.transform, template.init), so the patch
-//    covers the same anatomy as the scan's axis-aligned patch below;
+//  - the expected patch e_v: the smoothed reference at p_v + L_v^{-1} h k, k in {-K..K}^D
+//    (K = round(radius / h)), with its mean removed and unit norm, so that it covers the same
+//    anatomy as the scan's axis-aligned patch below. L_v is v's local linear map from the rest
+//    shape to the snake: the least-squares affine map of v's neighbourhood (v, its one-ring and
+//    the vertices reached along edges whose rest positions lie within `map_radius` of v's) from
+//    their rest positions to their current positions, regularised towards their similarity
+//    (Umeyama) by lambda = 0.05 of the mean squared spread, so that the direction a surface
+//    cannot show (its normal) takes the similarity's scale. The as-similar-as-possible model
+//    (§4) lets a template stretch and shear a little everywhere; a patch matched by translation
+//    alone is biased by as much as that stretch moves its features across its radius. L_v is
+//    refitted at every propose() and the patch resampled where it changed by more than 0.01.
+//    With map_radius = 0, one L for all vertices: the linear part of the affine map of all
+//    deformation vertices at bind (the placement: template.transform, template.init);
 //  - the scan's patch s(q) at q_v + h k (smoothed scan), with its mean removed: s';
 //    NCC = e . s' / |s'| (1 where the scan is the atlas up to a positive linear change of
 //    contrast a I + b, a > 0);
@@ -47,6 +55,7 @@ struct PatchOptions {
   double damping = 0.1;           // 1
   double max_step = 0.0;          // mm; 0: the sampling step
   double step = 1.0;              // 1
+  double map_radius = 6.0;        // mm
 
   template <class V>
   void visit(V& v) {
@@ -61,6 +70,10 @@ struct PatchOptions {
                    Range::at_least(0)});
     v(max_step, Key{"max_step", "mm", "longest move proposed per iteration (0: the sampling step)", Range::at_least(0)});
     v(step, Key{"step", "1", "share of the Gauss-Newton move proposed per iteration", Range::open_closed(0, 1)});
+    v(map_radius, Key{"map_radius", "mm", "each vertex's atlas patch follows the local affine map of the vertices within "
+                                          "this distance of it on the template (and its one-ring), from their rest positions to "
+                                          "where they are (0: one map for all, the placement's)",
+                      Range::at_least(0)});
   }
 };
 
@@ -96,6 +109,8 @@ class PatchEnergy final : public Energy<D> {
   int half_width() const { return half_; }
   // The linear part L of the placement found at the last bind (reference frame -> image frame).
   const Eigen::Matrix<double, D, D>& placement_linear() const { return linear_; }
+  // Vertex v's local linear map L_v its expected patch was last sampled with (map_radius > 0), or L.
+  const Eigen::Matrix<double, D, D>& patch_map(int v) const { return options_.map_radius > 0 ? maps_[v] : linear_; }
 
  private:
   // NCC of vertex v's expected patch with the scan at x; with `move`, also the Gauss-Newton move.
@@ -108,9 +123,15 @@ class PatchEnergy final : public Energy<D> {
   SmoothedImage<D> image_, reference_;
   Eigen::Matrix<double, D, D> linear_ = Eigen::Matrix<double, D, D>::Identity();
   void set_up_expected() const;
+  // The expected patch of vertex v through the linear map m (empty when flat).
+  std::vector<double> sample_expected(int v, const Eigen::Matrix<double, D, D>& m) const;
+  // L_v from the current positions q (map_radius > 0).
+  Eigen::Matrix<double, D, D> local_map(int v, const PointList<D>& q) const;
   PointList<D> rest_frame_;  // per snake vertex: its rest position in the reference image's frame
   mutable std::vector<std::vector<double>> expected_;  // per snake vertex, sampled on first use
   std::vector<double> correlation_;
+  std::vector<int> ring_offsets_, ring_;  // per vertex: its neighbourhood for L_v, v first
+  mutable std::vector<Eigen::Matrix<double, D, D>> maps_;  // per vertex: the L_v its patch was sampled with
 };
 
 // The k-th offset (in steps h) of a patch of half-width K: k = sum_d (k_d + K) (2K + 1)^d.
