@@ -24,7 +24,9 @@ Point<2> perp(const Point<2>& a) { return Point<2>(-a[1], a[0]); }  // (x, y)^pe
 template <int D>
 struct AsapMlsEnergy<D>::Data {
   using Matrix = Eigen::Matrix<double, D, D>;
-  const Template<D>* tmpl = nullptr;
+  const Template<D>* tmpl = nullptr;  // the rest shape (the template, or `phase_rest`)
+  const Template<D>* source = nullptr;  // the template bound (context.tmpl)
+  Template<D> phase_rest;  // rest "phase_start": the template with the phase's start positions
   int n = 0;
   MlsNeighborhoods nb;
   PointList<D> a_fixed;     // per entry: p_i - p_j (the constrained fit, T_j(p_j) = q_j)
@@ -184,61 +186,78 @@ void free_sums(const int* ids, const double* w, const double* a, int count, cons
 template <int D>
 void AsapMlsEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& snake) {
   Data& d = *data_;
-  const Template<D>* tmpl = context.tmpl ? context.tmpl : d.tmpl;
+  const Template<D>* tmpl = context.tmpl ? context.tmpl : d.source;
   DSNAKE_ASSERT(tmpl != nullptr, "asap_mls is bound to a template");
-  if (tmpl != d.tmpl || tmpl->num_vertices() != d.n) {
-    const int n = tmpl->num_vertices();
-    const NeighborhoodSpec& spec = options_.neighborhood;
+  if (tmpl != d.source || tmpl->num_vertices() != d.n) {
     try {
       check_template(*tmpl);
     } catch (const OptionError& e) {
       throw_invalid_options(kType, e);
     }
-    d.tmpl = tmpl;
-    d.n = n;
-    d.nb = build_neighborhoods<D>(*tmpl, spec);
-    const PointList<D>& p = tmpl->positions;
-    const size_t entries = d.nb.index.size();
-    d.a_fixed.resize(entries);
-    d.a_free.resize(entries);
-    d.entry_owner.resize(entries);
-    d.spread_fixed.assign(n, 0.0);
-    d.spread_free.assign(n, 0.0);
-    d.offset.assign(n, Point<D>::Zero());
-    std::vector<int> count(n + 1, 0);
-    for (int j = 0; j < n; ++j) {
-      const auto ids = d.nb.neighbors(j);
-      const auto w = d.nb.weights(j);
-      Point<D> centroid = Point<D>::Zero();
-      for (size_t k = 0; k < ids.size(); ++k) centroid += w[k] * p[ids[k]];
-      if (ids.empty()) centroid = p[j];
-      d.offset[j] = p[j] - centroid;
-      for (size_t k = 0; k < ids.size(); ++k) {
-        const int e = d.nb.offsets[j] + int(k);
-        d.a_fixed[e] = p[ids[k]] - p[j];
-        d.a_free[e] = p[ids[k]] - centroid;
-        d.spread_fixed[j] += w[k] * d.a_fixed[e].squaredNorm();
-        d.spread_free[j] += w[k] * d.a_free[e].squaredNorm();
-        d.entry_owner[e] = j;
-        ++count[ids[k] + 1];
-      }
-    }
-    // reverse lists: for each k, the entries (j, k) with k in N(j) (3D exact position update)
-    for (int k = 0; k < n; ++k) count[k + 1] += count[k];
-    d.reverse_offsets = count;
-    d.reverse_entries.assign(entries, 0);
-    std::vector<int> fill(count.begin(), count.end() - 1);
-    for (size_t e = 0; e < entries; ++e) d.reverse_entries[fill[d.nb.index[e]]++] = int(e);
-    if (D == 2 && options_.variant == AsapVariant::kExact) build_quadratic();
-    if constexpr (D == 3) build_lanes();
-    d.q.resize(n);
-    d.next.resize(n);
-    d.before.resize(n);
-    d.similarity.resize(n);
+    d.source = tmpl;
+    build(*tmpl);
   }
   map_template_vertices(snake, d.n, d.vertex_of_id);
   d.bound_vertices = snake.num_vertices();
   d.bound_version = snake.topology_version();
+}
+
+template <int D>
+void AsapMlsEnergy<D>::begin_phase(const Snake<D>& snake) {
+  Data& d = *data_;
+  if (options_.rest != AsapRest::kPhaseStart || d.source == nullptr) return;
+  d.phase_rest = *d.source;
+  for (int v = 0; v < snake.num_vertices(); ++v)
+    if (snake.is_deformation_vertex(v)) d.phase_rest.positions[snake.template_id(v)] = snake.positions()[v];
+  build(d.phase_rest);
+}
+
+template <int D>
+void AsapMlsEnergy<D>::build(const Template<D>& rest) {
+  Data& d = *data_;
+  const int n = rest.num_vertices();
+  const NeighborhoodSpec& spec = options_.neighborhood;
+  d.tmpl = &rest;
+  d.n = n;
+  d.nb = build_neighborhoods<D>(rest, spec);
+  const PointList<D>& p = rest.positions;
+  const size_t entries = d.nb.index.size();
+  d.a_fixed.resize(entries);
+  d.a_free.resize(entries);
+  d.entry_owner.resize(entries);
+  d.spread_fixed.assign(n, 0.0);
+  d.spread_free.assign(n, 0.0);
+  d.offset.assign(n, Point<D>::Zero());
+  std::vector<int> count(n + 1, 0);
+  for (int j = 0; j < n; ++j) {
+    const auto ids = d.nb.neighbors(j);
+    const auto w = d.nb.weights(j);
+    Point<D> centroid = Point<D>::Zero();
+    for (size_t k = 0; k < ids.size(); ++k) centroid += w[k] * p[ids[k]];
+    if (ids.empty()) centroid = p[j];
+    d.offset[j] = p[j] - centroid;
+    for (size_t k = 0; k < ids.size(); ++k) {
+      const int e = d.nb.offsets[j] + int(k);
+      d.a_fixed[e] = p[ids[k]] - p[j];
+      d.a_free[e] = p[ids[k]] - centroid;
+      d.spread_fixed[j] += w[k] * d.a_fixed[e].squaredNorm();
+      d.spread_free[j] += w[k] * d.a_free[e].squaredNorm();
+      d.entry_owner[e] = j;
+      ++count[ids[k] + 1];
+    }
+  }
+  // reverse lists: for each k, the entries (j, k) with k in N(j) (3D exact position update)
+  for (int k = 0; k < n; ++k) count[k + 1] += count[k];
+  d.reverse_offsets = count;
+  d.reverse_entries.assign(entries, 0);
+  std::vector<int> fill(count.begin(), count.end() - 1);
+  for (size_t e = 0; e < entries; ++e) d.reverse_entries[fill[d.nb.index[e]]++] = int(e);
+  if (D == 2 && options_.variant == AsapVariant::kExact) build_quadratic();
+  if constexpr (D == 3) build_lanes();
+  d.q.resize(n);
+  d.next.resize(n);
+  d.before.resize(n);
+  d.similarity.resize(n);
 }
 
 // The lane groups of Data (3D).

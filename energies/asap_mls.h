@@ -15,6 +15,11 @@
 //    never has, can be removed; by default it is for the approximate variant (see AsapNetMotion).
 // ASAP governs the template ("deformation") vertices only (§6); everything per template vertex
 // is precomputed once per template (§7), and a remesh only rebuilds the id -> vertex map.
+// The rest shape p is the template's (the paper's), or with `rest` "phase_start" the template
+// vertices' positions at the start of each phase (ours): a later phase then keeps locally as
+// similar as possible to what the previous phase found, and where its forces have no evidence
+// (a patch that correlates too little, and holds) the shape stays as the previous phase left
+// it instead of relaxing back towards the template's.
 #pragma once
 
 #include "energies/mls_weights.h"
@@ -55,6 +60,14 @@ struct EnumNames<AsapNetMotion> {
        {AsapNetMotion::kRemoveSimilarity, "remove_similarity"}}};
 };
 
+// The rest shape p of E_def: the template's, or the template vertices where the phase began.
+enum class AsapRest { kTemplate, kPhaseStart };
+template <>
+struct EnumNames<AsapRest> {
+  static constexpr std::array<std::pair<AsapRest, const char*>, 2> table{
+      {{AsapRest::kTemplate, "template"}, {AsapRest::kPhaseStart, "phase_start"}}};
+};
+
 struct AsapMlsOptions {
   AsapVariant variant = AsapVariant::kApproximate;
   NeighborhoodSpec neighborhood;  // JSON: "neighborhood", "k", "rings", "falloff", "weights"
@@ -62,6 +75,7 @@ struct AsapMlsOptions {
   int power = 1;         // m of A3 = A2^m (steps per proposal)
   double damping = 1.0;  // lambda of A4
   AsapNetMotion net_motion = AsapNetMotion::kAuto;
+  AsapRest rest = AsapRest::kTemplate;
 
   bool gauss_seidel() const { return iteration != AsapIteration::kJacobi; }
   AsapNetMotion resolved_net_motion() const {
@@ -76,6 +90,7 @@ struct AsapMlsOptions {
     v(power, Key{"power", "steps", "m of A3 = A2^m: operator steps per proposal", Range::at_least(1)});
     v(damping, Key{"damping", "1", "lambda of A4 = (1 - lambda) I + lambda A2", Range::open_closed(0, 1)});
     v(net_motion, Key{"net_motion", "", "the proposal's net motion (least-squares translation, rotation about the centroid, scaling; unit masses): keep it, remove the rigid part or the similarity part; auto: remove_rigid for approximate (its per-vertex fits rotate the whole shape), keep for exact"});
+    v(rest, Key{"rest", "", "the rest shape p: the template's (template, the paper's) or the template vertices' positions at the start of each phase (phase_start: a refine phase keeps what the fit phase found where its forces have no evidence)"});
   }
 };
 
@@ -105,6 +120,8 @@ class AsapMlsEnergy final : public Energy<D> {
   // template changes; otherwise only the template id -> snake vertex map. The template must pass
   // check_template().
   void bind(const EnergyContext<D>& context, const Snake<D>& snake) override;
+  // With rest "phase_start": the rest shape becomes the template vertices' current positions.
+  void begin_phase(const Snake<D>& snake) override;
   // out[v] for every deformation vertex v (see the variants above).
   void propose(const Snake<D>& snake, PointList<D>& out) override;
   // E_def = sum_j D_j with the optimal constrained similarity per j (closed form in 2D, SVD in 3D).
@@ -120,6 +137,7 @@ class AsapMlsEnergy final : public Energy<D> {
 
  private:
   struct Data;
+  void build(const Template<D>& rest);  // everything per template vertex, from the rest shape
   void build_quadratic();  // 2D exact: H of E_def = q^T H q (§4.1)
   void build_lanes();      // 3D: the neighbourhoods four by four, for the lane kernels
   void step();             // one application of the variant's operator to the positions by id

@@ -254,8 +254,8 @@ BENCHMARK(BM_AsapQuality3d)->ArgsProduct({{1, 2, 3}, {1, 2, 3}})->ArgNames({"var
 
 // The patch force on the 7000-vertex torus in the lung-sized volume (the torus' own image as the
 // atlas, the snake moved 0.7 mm off it): one propose() (a Gauss-Newton step per vertex, patches of
-// +-`radius` mm on the 1 mm grid), and one bind() after a remesh (rest positions; the expected
-// patches are sampled on the first propose, included).
+// +-`radius` mm on the 1 mm grid; with map_radius 6, each vertex's local affine map refitted
+// first, over its neighbours within 6 mm: the map_radius 0 row is the single placement map).
 void BM_PatchPropose3d(benchmark::State& state) {
   static const Image<3> image = [] {
     Grid<3> g;
@@ -272,6 +272,7 @@ void BM_PatchPropose3d(benchmark::State& state) {
   const Template<3> t = torus_7000();
   PatchOptions o;
   o.radius = static_cast<double>(state.range(0));
+  o.map_radius = static_cast<double>(state.range(2));
   PatchEnergy<3> patch(o);
   PointList<3> moved = t.positions;
   for (auto& p : moved) p += Point<3>(0.7, 0.0, 0.0);
@@ -287,7 +288,10 @@ void BM_PatchPropose3d(benchmark::State& state) {
   }
   state.counters["vertices"] = snake.num_vertices();
 }
-BENCHMARK(BM_PatchPropose3d)->ArgsProduct({{3, 4}, {1, 2}})->ArgNames({"radius", "threads"})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PatchPropose3d)
+    ->ArgsProduct({{3, 4}, {1, 2}, {0, 6}})
+    ->ArgNames({"radius", "threads", "map_radius"})
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace dsnake

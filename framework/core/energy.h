@@ -58,6 +58,10 @@ class Energy {
   // Precomputes what depends on the template and the snake's connectivity. Called before the
   // first iteration and again whenever snake.topology_version() changes (after a remesh).
   virtual void bind(const EnergyContext<D>& context, const Snake<D>& snake) = 0;
+  // Called at the start of every phase, after bind(), with the snake as the previous phase left
+  // it; default: nothing. An energy whose rest shape is the snake at the phase's start (asap_mls
+  // "rest": "phase_start") takes it here.
+  virtual void begin_phase(const Snake<D>& snake) {}
   // Rules that depend on the template (e.g. a neighbourhood size): throws OptionError naming
   // the key. The experiment assembly calls it, so that the message names the file and path;
   // bind() may assume it passed.

@@ -148,6 +148,7 @@ EvolveSummary PhaseDriver<D>::run(Snake<D>& snake, std::vector<Phase<D>>& phases
   for (size_t p = 0; p < phases.size(); ++p) {
     apply_phase_weights(energies_, base_weights_, phases[p].weights);
     bind(snake);
+    for (auto& e : energies_) e.energy->begin_phase(snake);
     PhaseSummary ps = minimizer_->run_phase(*this, snake, phases[p], static_cast<int>(p));
     summary.status = ps.status;
     summary.phases.push_back(ps);

@@ -158,6 +158,52 @@ TEST(AsapMls, SimilaritiesAreFixedPoints) {
   }
 }
 
+// rest "phase_start": at the start of a phase the rest shape becomes where the snake is. A snake
+// that is no similar copy of the template (the jittered shape stretched 1.4 x along one axis)
+// has E_def > 0 and a proposal that moves it with the template's rest shape; after
+// begin_phase() with rest "phase_start" E_def is 0 and the proposal leaves every vertex where it
+// is (the previous phase's shape is kept); "template" ignores begin_phase(). 2D and 3D, both
+// variants.
+template <int D>
+void phase_start_rest_keeps_the_shape(const Template<D>& t, const std::string& variant) {
+  PointList<D> q;
+  for (Point<D> p : t.positions) {
+    p[0] *= 1.4;
+    q.push_back(p + Point<D>::Constant(2.0));
+  }
+  const Snake<D> s = Snake<D>::from_template(t, q);
+  for (const char* rest : {"template", "phase_start"}) {
+    SCOPED_TRACE(std::string(variant) + ", rest " + rest);
+    const std::string json = R"({"type": "asap_mls", "neighborhood": "rings", "rings": 2, "variant": ")" + variant +
+                             R"(", "rest": ")" + rest + R"("})";
+    std::unique_ptr<Energy<D>> e;
+    if constexpr (D == 2)
+      e = make2(json);
+    else
+      e = make3(json);
+    e->bind({&t}, s);
+    EXPECT_GT(e->value(s), 1.0);
+    e->begin_phase(s);
+    PointList<D> out(q.size());
+    e->propose(s, out);
+    double moved = 0.0;
+    for (size_t v = 0; v < q.size(); ++v) moved = std::max(moved, (out[v] - q[v]).norm());
+    if (std::string(rest) == "template") {
+      EXPECT_GT(e->value(s), 1.0);
+      EXPECT_GT(moved, 0.05);
+    } else {
+      EXPECT_LT(e->value(s), 1e-12);
+      EXPECT_LT(moved, 1e-9);
+    }
+  }
+}
+TEST(AsapMls, PhaseStartRestKeepsThePreviousPhasesShape) {
+  for (const char* variant : {"exact", "approximate"}) {
+    phase_start_rest_keeps_the_shape<2>(jittered_polygon(24, 4), variant);
+    phase_start_rest_keeps_the_shape<3>(jittered_sphere(1, 6), variant);
+  }
+}
+
 // Exact 2D (§4.1): each vertex's Jacobi proposal minimises E_def over that vertex with the others
 // fixed: moving it away from the proposal in any direction increases the energy quadratically.
 TEST(AsapMls, Exact2dProposalIsTheCoordinateMinimiser) {

@@ -15,6 +15,7 @@ class ConstantEnergy : public Energy<2> {
   std::string type() const override { return "constant"; }
   Governs governs() const override { return governs_; }
   void bind(const EnergyContext<2>&, const Snake<2>&) override { ++binds; }
+  void begin_phase(const Snake<2>& snake) override { phase_starts.push_back(snake.positions()[0]); }
   void propose(const Snake<2>& snake, PointList<2>& out) override {
     for (int v = 0; v < snake.num_vertices(); ++v)
       if (governs_ == Governs::kAllVertices || snake.is_deformation_vertex(v)) out[v] = target_;
@@ -25,6 +26,7 @@ class ConstantEnergy : public Energy<2> {
     return e;
   }
   int binds = 0;
+  PointList<2> phase_starts;  // vertex 0 at each begin_phase()
 
  private:
   Point<2> target_;
@@ -132,6 +134,23 @@ TEST(Evolver, PhaseWeightsSwitchTermsOffAndOn) {
   two[1].iterations = 1;
   evolver.run(check, two);
   EXPECT_NEAR((check.positions()[1] - after_phase2).norm(), 0, 1e-15);
+}
+
+// Every energy hears begin_phase() once at the start of each phase, after bind(), with the snake
+// as the previous phase left it (an energy whose rest shape is the phase's start takes it there).
+TEST(Evolver, EveryPhaseBeginsWithBeginPhaseOnTheSnakeAsLeft) {
+  std::vector<WeightedEnergy<2>> e;
+  e.push_back({1.0, std::make_unique<ConstantEnergy>(Point<2>(3, 4), Governs::kAllVertices)});
+  auto* constant = static_cast<ConstantEnergy*>(e[0].energy.get());
+  Evolver<2> evolver({}, std::move(e));
+  Snake<2> s = square_snake();
+  std::vector<Phase<2>> phases(3);
+  for (auto& p : phases) p.iterations = 1;
+  evolver.run(s, phases);
+  ASSERT_EQ(constant->phase_starts.size(), 3u);
+  EXPECT_EQ(constant->phase_starts[0], Point<2>(1, 1));
+  EXPECT_EQ(constant->phase_starts[1], Point<2>(3, 4));
+  EXPECT_EQ(constant->phase_starts[2], Point<2>(3, 4));
 }
 
 TEST(Evolver, PhasesStopAtTheToleranceOrTheBudget) {

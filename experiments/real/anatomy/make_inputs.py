@@ -29,6 +29,8 @@ Cases, each a folder data/real/anatomy/CASE/ with the same file names (symlinks 
   fixed_template.off    the fixed-point runs' template: the truth's own surface (450 vertices)
   fixed_reference.nii.gz the fixed-point runs' reference: the scan itself
   targets.json          (warp cases) ground_truth.correspondence: phi(p) per template vertex
+  true_correspondence.off (warp cases) the template with every vertex at phi(p): what the truth
+                        scores at the template's resolution
   S_mirror  scan ch2; template: the right structure's surface mirrored onto the left about the
             symmetry plane of ch2's intensities (`dsnake template --mirror x --image ch2.nii.gz`);
             reference: ch2 mirrored about the same plane (linear interpolation, on ch2's grid).
@@ -117,6 +119,16 @@ def read_off(path):
     assert tok[0] == "OFF"
     nv = int(tok[1])
     return np.array(tok[4:4 + 3 * nv], dtype=np.float64).reshape(nv, 3)
+
+
+def write_off_like(path, verts, out):
+    """The OFF mesh at path with its vertices moved to verts (3, N): same faces, same order."""
+    body = [line for line in open(path) if line.split("#")[0].strip()]
+    nv = int(body[1].split()[0])
+    assert verts.shape == (3, nv)
+    lines = body[:2] + [" ".join(repr(float(x)) for x in p) + "\n" for p in verts.T] + body[2 + nv:]
+    open(out + ".tmp", "w").writelines(lines)
+    os.replace(out + ".tmp", out)
 
 
 class Warp:
@@ -246,6 +258,8 @@ def main():
         back = w.inverse(targets)
         assert np.abs(back - verts).max() < 1e-4
         json.dump({"targets": targets.T.tolist()}, open(f"{com}/{name}_targets.json", "w"))
+        write_off_like(f"{com}/{name}_truth_{VERTICES}.off", targets,
+                       f"{com}/{name}_true_correspondence_{VERTICES}.off")
         disp = np.linalg.norm(targets - verts, axis=0)
         st["warp"] = {"seed": SEEDS[name], "rbf_sigma_mm": s, "centres_lps": w.c.tolist(), "amplitudes_mm": w.a.tolist(),
                       "jacobian_det_min": float(det.min()), "jacobian_det_max": float(det.max()),
@@ -264,7 +278,8 @@ def main():
             f"{name}_warp": {"image": f"{name}_warped.nii.gz", "reference": "ch2.nii.gz",
                              "template": f"{name}_truth_{VERTICES}.off", "truth": f"{name}_warped_truth.nii.gz",
                              "fixed_template": f"{name}_warped_truth_{VERTICES}.off",
-                             "targets": f"{name}_targets.json"},
+                             "targets": f"{name}_targets.json",
+                             "true_correspondence": f"{name}_true_correspondence_{VERTICES}.off"},
         }
         for case, files in cases.items():
             d = f"{out}/{case}"
@@ -274,6 +289,7 @@ def main():
                      "fixed_template.off": files["fixed_template"], "fixed_reference.nii.gz": files["image"]}
             if "targets" in files:
                 links["targets.json"] = files["targets"]
+                links["true_correspondence.off"] = files["true_correspondence"]
             for link, target in links.items():
                 if os.path.lexists(f"{d}/{link}"):
                     os.remove(f"{d}/{link}")

@@ -25,7 +25,8 @@ ARGS = [a for a in sys.argv[1:] if a != "--compact"]
 COMPACT = "--compact" in sys.argv[1:]
 OUT = ARGS[0] if ARGS else "out/real/anatomy"
 CASES = [f"{s}_{v}" for v in ("mirror", "cross", "warp") for s in ("amygdala", "pallidum", "cerebellum")]
-METHODS = [("recipe_noref", "recipe without atlas"), ("recipe", "recipe with atlas"), ("fixed_point", "fixed point")]
+METHODS = [("recipe_noref", "recipe without atlas"), ("recipe", "recipe with atlas"), ("fixed_point", "fixed point"),
+           ("true_correspondence", "template at phi(p)")]
 
 
 def f(x, p=3):
@@ -94,18 +95,21 @@ def compact():
                 cell += f" ({f(t['fixed point start'].get('dice'))})"
             cells.append(cell)
         print(f"| {case} | " + " | ".join(cells) + " |")
-    print("\nWarp cases: correspondence error mean / max (mm), the template's vertices against phi(p)\n")
+    print("\nWarp cases: correspondence error mean / max (mm), the template's vertices against phi(p); "
+          "last column: the Dice of the template with every vertex at phi(p) (the truth at the template's resolution)\n")
     cc = ["start", "recipe without atlas", "recipe with atlas", "elastix", "SyN"]
-    print("| case | " + " | ".join(cc) + " |")
-    print("| --- |" + " --- |" * len(cc))
+    print("| case | " + " | ".join(cc) + " | Dice at phi(p) |")
+    print("| --- |" + " --- |" * (len(cc) + 1))
     for case, t in table.items():
         if not case.endswith("_warp"):
             continue
+        truth = dsnake_runs(case).get("true_correspondence", (None,))[0]
         cells = []
         for c in cc:
             m = t[c][0]
             cells.append("-" if m is None or m.get("correspondence_error_mean") is None else
                          f"{f(m['correspondence_error_mean'], 2)} / {f(m['correspondence_error_max'], 2)}")
+        cells.append(f(truth["metrics"].get("dice")) if truth else "-")
         print(f"| {case} | " + " | ".join(cells) + " |")
     tc = ["recipe without atlas", "recipe with atlas", "fixed point", "elastix", "SyN"]
     print("\nWall time (s) / peak memory (MB), one thread each\n")
@@ -130,6 +134,8 @@ def main():
         start = runs.get("recipe", runs.get("recipe_noref", (None,)))[0]
         print(row("start", start.get("start", {}).get("metrics") if start else None))
         for key, name in METHODS:
+            if key == "true_correspondence" and not case.endswith("_warp"):
+                continue
             if key not in runs:
                 print(row(name, None))
                 continue
