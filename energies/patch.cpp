@@ -125,6 +125,17 @@ void PatchEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& snake
   h_ = options_.spacing > 0 ? options_.spacing : scan.grid().spacing.minCoeff();
   half_ = std::max(1, static_cast<int>(std::lround(options_.radius / h_)));
   count_ = ipow(2 * half_ + 1, D);
+  // Inner point k (half-width K) -> its index in the outer lattice (half-width K + 1).
+  outer_.resize(count_);
+  for (int k = 0; k < count_; ++k) {
+    int idx = 0, r = k, stride = 1;
+    for (int d = 0; d < D; ++d) {
+      idx += (r % (2 * half_ + 1) + 1) * stride;
+      r /= 2 * half_ + 1;
+      stride *= 2 * half_ + 3;
+    }
+    outer_[k] = idx;
+  }
 
   const Template<D>& tmpl = *context.tmpl;
   const RestPositions<D> rest = rest_positions(tmpl, snake);
@@ -208,20 +219,26 @@ double PatchEnergy<D>::match(int v, const Point<D>& x, Point<D>* move, double* s
   const std::vector<double>& e = expected_[v];
   if (e.empty()) return 0.0;
   const Image<D>& scan = image_.image();
+  if (!move) {  // the NCC alone: the patch's own samples, no ring for the differences
+    scan.sample_lattice(x, h_, half_, s);
+    double mean = 0.0;
+    for (int k = 0; k < count_; ++k) mean += s[k];
+    mean /= count_;
+    double es = 0.0, ss = 0.0;
+    for (int k = 0; k < count_; ++k) {
+      const double c = s[k] - mean;
+      es += e[k] * c;
+      ss += c * c;
+    }
+    return ss > kFlat ? es / std::sqrt(ss) : 0.0;
+  }
   const int w = 2 * half_ + 3;  // the patch and one ring more, for the central differences
   scan.sample_lattice(x, h_, half_ + 1, s);
-  // Inner point k (half-width K) -> its index in the outer grid (half-width K + 1).
   int stride[D];
   stride[0] = 1;
   for (int d = 1; d < D; ++d) stride[d] = stride[d - 1] * w;
-  auto outer = [&](int k) {
-    int idx = 0, r = k;
-    for (int d = 0; d < D; ++d) {
-      idx += (r % (2 * half_ + 1) + 1) * stride[d];
-      r /= 2 * half_ + 1;
-    }
-    return idx;
-  };
+  const int* outer_index = outer_.data();
+  auto outer = [outer_index](int k) { return outer_index[k]; };
   double mean = 0.0;
   Point<D> gmean = Point<D>::Zero();
   for (int k = 0; k < count_; ++k) {

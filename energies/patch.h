@@ -120,6 +120,7 @@ class PatchEnergy final : public Energy<D> {
   double h_ = 0.0;
   int half_ = 0;
   int count_ = 0;  // (2K + 1)^D
+  std::vector<int> outer_;  // inner patch point k -> its index in the lattice one ring wider
   SmoothedImage<D> image_, reference_;
   Eigen::Matrix<double, D, D> linear_ = Eigen::Matrix<double, D, D>::Identity();
   void set_up_expected() const;
