@@ -43,28 +43,46 @@ bool centre_and_normalise(std::vector<double>& x) {
   return true;
 }
 
+// The centred second moments of a least-squares affine fit a_i -> b_i: A = sum (a_i - a)(a_i - a)^T
+// and B = sum (b_i - b)(a_i - a)^T (a, b the means); the fit's linear part is B A^{-1}.
+template <int D>
+void centred_moments(const PointList<D>& a, const PointList<D>& b, Eigen::Matrix<double, D, D>& aa,
+                     Eigen::Matrix<double, D, D>& ba) {
+  const size_t n = a.size();
+  Point<D> ca = Point<D>::Zero(), cb = Point<D>::Zero();
+  for (size_t i = 0; i < n; ++i) ca += a[i], cb += b[i];
+  ca /= double(n);
+  cb /= double(n);
+  aa.setZero();
+  ba.setZero();
+  for (size_t i = 0; i < n; ++i) {
+    aa += (a[i] - ca) * (a[i] - ca).transpose();
+    ba += (b[i] - cb) * (a[i] - ca).transpose();
+  }
+}
+
+// Whether a linear map is usable for a patch: orientation-preserving and not far from conformal
+// (singular values within a factor 4).
+template <int D>
+bool near_conformal(const Eigen::Matrix<double, D, D>& l) {
+  if (!l.allFinite() || !(l.determinant() > 0)) return false;
+  Eigen::JacobiSVD<Eigen::Matrix<double, D, D>> svd(l);
+  const auto sv = svd.singularValues();
+  return sv(D - 1) > 0 && sv(0) / sv(D - 1) < 4.0;
+}
+
 // The linear part of the least-squares affine map a_i -> b_i (centred), or of the similarity when
 // the affine is singular, reflecting or far from conformal (an ill-posed fit of a flat template).
 template <int D>
 Eigen::Matrix<double, D, D> placement_linear_part(const PointList<D>& a, const PointList<D>& b) {
   using Mat = Eigen::Matrix<double, D, D>;
-  const size_t n = a.size();
-  if (n <= size_t(D)) return Mat::Identity();
-  Point<D> ca = Point<D>::Zero(), cb = Point<D>::Zero();
-  for (size_t i = 0; i < n; ++i) ca += a[i], cb += b[i];
-  ca /= double(n);
-  cb /= double(n);
-  Mat aa = Mat::Zero(), ba = Mat::Zero();
-  for (size_t i = 0; i < n; ++i) {
-    aa += (a[i] - ca) * (a[i] - ca).transpose();
-    ba += (b[i] - cb) * (a[i] - ca).transpose();
-  }
+  if (a.size() <= size_t(D)) return Mat::Identity();
+  Mat aa, ba;
+  centred_moments<D>(a, b, aa, ba);
   Eigen::JacobiSVD<Mat> aa_svd(aa);
   if (aa_svd.singularValues()(D - 1) > 1e-9 * aa_svd.singularValues()(0)) {
     const Mat l = ba * aa.inverse();
-    Eigen::JacobiSVD<Mat> svd(l);
-    const auto sv = svd.singularValues();
-    if (l.determinant() > 0 && sv(D - 1) > 0 && sv(0) / sv(D - 1) < 4.0) return l;
+    if (near_conformal<D>(l)) return l;
   }
   const Similarity<D> s = fit_similarity<D>(a, b, true);
   return s.scale * s.rotation;
@@ -175,21 +193,12 @@ Eigen::Matrix<double, D, D> PatchEnergy<D>::local_map(int v, const PointList<D>&
   }
   const Similarity<D> sim = fit_similarity<D>(a, b, true);
   const Mat s = sim.scale * sim.rotation;
-  Point<D> ca = Point<D>::Zero(), cb = Point<D>::Zero();
-  for (int i = 0; i < m; ++i) ca += a[i], cb += b[i];
-  ca /= double(m);
-  cb /= double(m);
-  Mat aa = Mat::Zero(), ba = Mat::Zero();
-  for (int i = 0; i < m; ++i) {
-    aa += (a[i] - ca) * (a[i] - ca).transpose();
-    ba += (b[i] - cb) * (a[i] - ca).transpose();
-  }
+  Mat aa, ba;
+  centred_moments<D>(a, b, aa, ba);
   const double lambda = kLocalMapRegularisation * aa.trace() / D;
   if (!(lambda > 0)) return linear_;
   const Mat l = (ba + lambda * s) * (aa + lambda * Mat::Identity()).inverse();
-  Eigen::JacobiSVD<Mat> svd(l);
-  const auto sv = svd.singularValues();
-  if (l.allFinite() && l.determinant() > 0 && sv(D - 1) > 0 && sv(0) / sv(D - 1) < 4.0) return l;
+  if (near_conformal<D>(l)) return l;
   return s.allFinite() && sim.scale > 0 ? s : linear_;
 }
 
