@@ -558,6 +558,7 @@ TEST(AsapMls, BadInputNamesTheKey) {
   EXPECT_EQ(where2(R"({"type": "asap_mls", "neighborhood": "ball"})"), "energies[0].neighborhood");
   EXPECT_EQ(where2(R"({"type": "asap_mls", "damping": 0})"), "energies[0].damping");
   EXPECT_EQ(where2(R"({"type": "asap_mls", "power": 0})"), "energies[0].power");
+  EXPECT_EQ(where3(R"({"type": "asap_mls", "rest": "start"})"), "energies[0].rest");
   EXPECT_EQ(where2(R"({"type": "asap_mls", "fallof": 1})"), "energies[0].fallof");
   EXPECT_EQ(where3(R"({"type": "asap_mls", "variant": "exact"})"), "no error");  // 3D exact defaults to jacobi
   // k larger than the template: check_template() names the key (the experiment assembly adds

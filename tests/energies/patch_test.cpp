@@ -202,6 +202,7 @@ TEST(PatchEnergy, BadKeysNameTheirPath) {
                                       {R"({"type": "patch", "damping": -1})", "energies[0].damping"},
                                       {R"({"type": "patch", "max_step": -1})", "energies[0].max_step"},
                                       {R"({"type": "patch", "step": 0})", "energies[0].step"},
+                                      {R"({"type": "patch", "map_radius": -1})", "energies[0].map_radius"},
                                       {R"({"type": "patch", "size": 3})", "energies[0].size"}});
 }
 
