@@ -274,13 +274,25 @@ TEST(PatchEnergy, SameBitsForOneAndTwoThreads) {
   const Image<3> atlas = mixed_polarity<3>(Point<3>::Zero());
   const Image<3> scan = mixed_polarity<3>(Point<3>(1.0, 0.5, -0.5));
   const Template<3> t = disk_template<3>();
+  // Started stretched (1.1 along x) so that the local maps change and the patches are resampled.
+  PointList<3> start = t.positions;
+  for (Point<3>& p : start) p[0] *= 1.1;
   PointList<3> result[2];
   for (int threads : {1, 2}) {
     omp_set_num_threads(threads);
-    Snake<3> snake = Snake<3>::from_template(t, t.positions);
+    Snake<3> snake = Snake<3>::from_template(t, start);
     PatchEnergy<3> energy;
     iterate_patch<3>(energy, t, scan, atlas, snake, 5);
     result[threads - 1] = snake.positions();
+    // Some patches were resampled: their maps moved by more than the tolerance since the bind.
+    PatchEnergy<3> at_start;
+    EnergyContext<3> context{&t, &scan};
+    context.reference_image = &atlas;
+    at_start.bind(context, Snake<3>::from_template(t, start));
+    double changed = 0.0;
+    for (int v = 0; v < snake.num_vertices(); ++v)
+      changed = std::max(changed, (energy.patch_map(v) - at_start.patch_map(v)).cwiseAbs().maxCoeff());
+    EXPECT_GT(changed, 0.01);
   }
   omp_set_num_threads(2);
   for (size_t v = 0; v < result[0].size(); ++v) EXPECT_EQ(result[0][v], result[1][v]);
