@@ -29,19 +29,24 @@ json read_json(const fs::path& p) {
   return json::parse(in);
 }
 
-// Every case's "recipe" and "fixed_point" methods take the recipe file as it is (no base of their
-// own) and override only inputs: what a user changes when copying it.
+// Every case's "recipe" and "fixed_point" methods (the four real scans and the anatomy
+// development set) take the recipe file as it is (no base of their own) and override only
+// inputs: what a user changes when copying it.
 TEST(RealExperiments, RecipeMethodsChangeOnlyTheInputs) {
   const std::set<std::string> inputs = {"name", "image", "template", "ground_truth", "output"};
   const std::set<std::string> template_inputs = {"file", "reference_image", "transform"};
   int cases = 0;
-  for (const auto& entry : fs::directory_iterator(kReal)) {
-    const fs::path sweep = entry.path() / "sweep.json";
-    if (!fs::exists(sweep)) continue;
+  std::vector<fs::path> folders;  // experiments/real/CASE and experiments/real/anatomy/CASE
+  for (const fs::path& root : {kReal, kReal / "anatomy"})
+    for (const auto& entry : fs::directory_iterator(root))
+      if (fs::exists(entry.path() / "sweep.json")) folders.push_back(entry.path());
+  for (const fs::path& folder : folders) {
+    const fs::path sweep = folder / "sweep.json";
     ++cases;
     const json s = read_json(sweep);
     const std::string recipe = s.at("base").get<std::string>();
-    EXPECT_TRUE(recipe == "../recipe_2d.json" || recipe == "../recipe_3d.json") << sweep;
+    const std::string up = folder.parent_path() == kReal ? "../" : "../../";
+    EXPECT_TRUE(recipe == up + "recipe_2d.json" || recipe == up + "recipe_3d.json") << sweep;
     for (const char* method : {"recipe", "fixed_point"}) {
       SCOPED_TRACE(sweep.string() + " " + method);
       const json& m = s.at("methods").at(method);
@@ -67,7 +72,7 @@ TEST(RealExperiments, RecipeMethodsChangeOnlyTheInputs) {
       }
     }
   }
-  EXPECT_GE(cases, 4);
+  EXPECT_GE(cases, 4 + 9);  // the four real scans and the nine anatomy cases
 }
 
 class RealExperiments2d : public test_support::TempDirTest {
