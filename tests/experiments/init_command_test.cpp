@@ -20,16 +20,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class InitCommandTest : public test_support::TempDirTest {
+class InitCommandTest : public test_support::CommandTest {
  protected:
-  // Runs dsnake with `args`; returns the exit code, stdout and stderr in out_/err_.
-  int dsnake(const std::string& args) {
-    const std::string o = (dir_ / "stdout.txt").string(), e = (dir_ / "stderr.txt").string();
-    const int status = std::system((std::string(DSNAKE_EXE) + " " + args + " >" + o + " 2>" + e).c_str());
-    out_ = slurp(o);
-    err_ = slurp(e);
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  }
   // A label volume: 1 inside an ellipsoid (semi-axes 14, 11, 9 mm), anisotropic voxels.
   fs::path ellipsoid_labels() {
     Grid<3> g{GridIndex<3>(44, 36, 26), Point<3>(0.8, 0.8, 1.2), Point<3>(-20, 35, 7)};
@@ -43,7 +35,6 @@ class InitCommandTest : public test_support::TempDirTest {
     write_image<3>(im, p.string());
     return p;
   }
-  std::string out_, err_;
 };
 
 // The recipe file of a dimension with its inputs (name, description, image, template,

@@ -26,15 +26,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class MixedPolarityRecipeTest : public test_support::TempDirTest {
+class MixedPolarityRecipeTest : public test_support::CommandTest {
  protected:
-  int dsnake(const std::string& args) {
-    const std::string o = (dir_ / "stdout.txt").string(), e = (dir_ / "stderr.txt").string();
-    const int status = std::system((std::string(DSNAKE_EXE) + " " + args + " >" + o + " 2>" + e).c_str());
-    out_ = slurp(o);
-    err_ = slurp(e);
-    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  }
   // The phantom on a 1 mm grid: the ellipsoid (semi-axes 12, 9, 7 mm) mapped by x -> c + M (x - c0)
   // + bump, its label (1 inside), and the intensity a I + b with Gaussian noise of `noise`. The
   // surroundings flip at the ellipsoid's own mid-plane x = c_x; each edge blurred over ~1 mm.
@@ -77,7 +70,6 @@ class MixedPolarityRecipeTest : public test_support::TempDirTest {
         << err_;
     return nlohmann::json::parse(slurp(run / "result.json"));
   }
-  std::string out_, err_;
 };
 
 TEST_F(MixedPolarityRecipeTest, TheRecipeRegistersTheMovedObjectAndHoldsTheTruth) {

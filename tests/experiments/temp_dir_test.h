@@ -1,13 +1,16 @@
 // A GoogleTest fixture for tests that write files: a fresh folder per test,
-// <tmp>/dsnake_<suite>_<pid>_<test>, removed afterwards, and a helper that reads a file whole.
+// <tmp>/dsnake_<suite>_<pid>_<test>, removed afterwards, and a helper that reads a file whole;
+// and one for tests that run the dsnake binary (DSNAKE_EXE) in that folder.
 #pragma once
 
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
+#include <cstdlib>
 #include <sstream>
 #include <string>
+#include <sys/wait.h>
 #include <unistd.h>
 
 namespace dsnake::test_support {
@@ -31,6 +34,20 @@ class TempDirTest : public ::testing::Test {
   }
 
   std::filesystem::path dir_;
+};
+
+class CommandTest : public TempDirTest {
+ protected:
+  // Runs dsnake with `args` (a shell command line's arguments); returns the exit code, and its
+  // stdout and stderr in out_ and err_.
+  int dsnake(const std::string& args) {
+    const std::string o = (dir_ / "stdout.txt").string(), e = (dir_ / "stderr.txt").string();
+    const int status = std::system((std::string(DSNAKE_EXE) + " " + args + " >" + o + " 2>" + e).c_str());
+    out_ = slurp(o);
+    err_ = slurp(e);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+  std::string out_, err_;
 };
 
 }  // namespace dsnake::test_support
