@@ -88,6 +88,25 @@ Eigen::Matrix<double, D, D> placement_linear_part(const PointList<D>& a, const P
   return s.scale * s.rotation;
 }
 
+// The sums of a patch comparison: the mean of the samples s[index(k)] and, with c_k = s[index(k)] -
+// mean, es = sum e_k c_k and ss = sum c_k^2 (NCC = es / sqrt(ss) for a unit-norm, centred e).
+struct Correlation {
+  double mean = 0.0, es = 0.0, ss = 0.0;
+};
+template <class Index>
+Correlation correlate(const std::vector<double>& e, const double* s, Index index) {
+  const int count = static_cast<int>(e.size());
+  Correlation r;
+  for (int k = 0; k < count; ++k) r.mean += s[index(k)];
+  r.mean /= count;
+  for (int k = 0; k < count; ++k) {
+    const double c = s[index(k)] - r.mean;
+    r.es += e[k] * c;
+    r.ss += c * c;
+  }
+  return r;
+}
+
 constexpr double kLocalMapRegularisation = 0.05;  // lambda, relative to the mean squared spread
 constexpr double kRemapTolerance = 0.01;           // resample a patch when max |L_v - L_used| exceeds this
 
@@ -225,21 +244,14 @@ void PatchEnergy<D>::set_up_expected() const {
 
 template <int D>
 double PatchEnergy<D>::match(int v, const Point<D>& x, Point<D>* move, double* s) const {
+  if (move) *move = Point<D>::Zero();  // no evidence (a flat patch here or in the atlas): hold
   const std::vector<double>& e = expected_[v];
   if (e.empty()) return 0.0;
   const Image<D>& scan = image_.image();
   if (!move) {  // the NCC alone: the patch's own samples, no ring for the differences
     scan.sample_lattice(x, h_, half_, s);
-    double mean = 0.0;
-    for (int k = 0; k < count_; ++k) mean += s[k];
-    mean /= count_;
-    double es = 0.0, ss = 0.0;
-    for (int k = 0; k < count_; ++k) {
-      const double c = s[k] - mean;
-      es += e[k] * c;
-      ss += c * c;
-    }
-    return ss > kFlat ? es / std::sqrt(ss) : 0.0;
+    const Correlation c = correlate(e, s, [](int k) { return k; });
+    return c.ss > kFlat ? c.es / std::sqrt(c.ss) : 0.0;
   }
   const int w = 2 * half_ + 3;  // the patch and one ring more, for the central differences
   scan.sample_lattice(x, h_, half_ + 1, s);
@@ -248,26 +260,14 @@ double PatchEnergy<D>::match(int v, const Point<D>& x, Point<D>* move, double* s
   for (int d = 1; d < D; ++d) stride[d] = stride[d - 1] * w;
   const int* outer_index = outer_.data();
   auto outer = [outer_index](int k) { return outer_index[k]; };
-  double mean = 0.0;
-  Point<D> gmean = Point<D>::Zero();
-  for (int k = 0; k < count_; ++k) {
-    const int o = outer(k);
-    mean += s[o];
-    if (move)
-      for (int d = 0; d < D; ++d) gmean(d) += s[o + stride[d]] - s[o - stride[d]];
-  }
-  mean /= count_;
-  gmean /= (2.0 * h_ * count_);
-  double es = 0.0, ss = 0.0;
-  for (int k = 0; k < count_; ++k) {
-    const double c = s[outer(k)] - mean;
-    es += e[k] * c;
-    ss += c * c;
-  }
-  if (!(ss > kFlat)) return 0.0;
+  const Correlation c = correlate(e, s, outer);
+  if (!(c.ss > kFlat)) return 0.0;
+  const double mean = c.mean, es = c.es, ss = c.ss;
   const double ncc = es / std::sqrt(ss);
-  if (!move) return ncc;
-  *move = Point<D>::Zero();
+  Point<D> gmean = Point<D>::Zero();
+  for (int k = 0; k < count_; ++k)
+    for (int d = 0; d < D; ++d) gmean(d) += s[outer(k) + stride[d]] - s[outer(k) - stride[d]];
+  gmean /= (2.0 * h_ * count_);
   const double a = es / ss;
   if (!(a > 0) || ncc < options_.min_correlation) return ncc;
   Eigen::Matrix<double, D, D> h = Eigen::Matrix<double, D, D>::Zero();

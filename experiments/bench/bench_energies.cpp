@@ -50,16 +50,25 @@ Template<3> torus_7000() {
   return t;
 }
 
+// A lung-sized volume (230 x 300 x 80 voxels of 1 mm, 170 outside) holding a solid torus about
+// the z axis through (115, 150, 40), of major radius `major` and minor radius `minor` (mm), its
+// voxels set to inside(x).
+template <class Inside>
+Image<3> torus_volume(double major, double minor, Inside inside) {
+  Grid<3> g;
+  g.size = {230, 300, 80};
+  Image<3> img(g, 170.0f);
+  for (int64_t l = 0; l < g.num_voxels(); ++l) {
+    const Point<3> x = g.to_physical(g.index(l));
+    const double rho = std::hypot(x[0] - 115, x[1] - 150) - major;
+    if (std::hypot(rho, x[2] - 40) < minor) img[l] = inside(x);
+  }
+  return img;
+}
+
 const GradientField<3>& lung_size_field() {
   static const GradientField<3> field = [] {
-    Grid<3> g;
-    g.size = {230, 300, 80};
-    Image<3> img(g, 170.0f);
-    for (int64_t l = 0; l < g.num_voxels(); ++l) {
-      const Point<3> x = g.to_physical(g.index(l));
-      const double rho = std::hypot(x[0] - 115, x[1] - 150) - 85;
-      if (std::hypot(rho, x[2] - 40) < 22) img[l] = 85.0f;
-    }
+    const Image<3> img = torus_volume(85, 22, [](const Point<3>&) { return 85.0f; });
     GradientField<3> f;
     f.compute(img);
     return f;
@@ -257,17 +266,8 @@ BENCHMARK(BM_AsapQuality3d)->ArgsProduct({{1, 2, 3}, {1, 2, 3}})->ArgNames({"var
 // +-`radius` mm on the 1 mm grid; with map_radius 6, each vertex's local affine map refitted
 // first, over its neighbours within 6 mm: the map_radius 0 row is the single placement map).
 void BM_PatchPropose3d(benchmark::State& state) {
-  static const Image<3> image = [] {
-    Grid<3> g;
-    g.size = {230, 300, 80};
-    Image<3> img(g, 170.0f);
-    for (int64_t l = 0; l < g.num_voxels(); ++l) {
-      const Point<3> x = g.to_physical(g.index(l));
-      const double rho = std::hypot(x[0] - 115, x[1] - 150) - 80;
-      if (std::hypot(rho, x[2] - 40) < 25) img[l] = 85.0f + 30.0f * (x[0] > 115);
-    }
-    return gaussian_blur(img, 1.0);
-  }();
+  static const Image<3> image =
+      gaussian_blur(torus_volume(80, 25, [](const Point<3>& x) { return 85.0f + 30.0f * (x[0] > 115); }), 1.0);
   omp_set_num_threads(static_cast<int>(state.range(1)));
   const Template<3> t = torus_7000();
   PatchOptions o;

@@ -270,6 +270,27 @@ TEST(PatchEnergy, LocalMapsFollowANonUniformStretch) {
   EXPECT_LT(error[1], 0.5 * error[0]);
 }
 
+// Where the atlas is flat (no appearance to match) every vertex holds: the proposal is exactly
+// where it stands, never an undefined move.
+TEST(PatchEnergy, AFlatAtlasGivesNoMove) {
+  const Image<3> scan = mixed_polarity<3>(Point<3>::Zero());
+  Image<3> atlas(scan.grid(), 100.0f);
+  const Template<3> t = disk_template<3>();
+  PointList<3> start = t.positions;
+  for (Point<3>& p : start) p += Point<3>(0.7, -0.3, 0.2);
+  const Snake<3> snake = Snake<3>::from_template(t, start);
+  PatchEnergy<3> energy;
+  EnergyContext<3> context{&t, &scan};
+  context.reference_image = &atlas;
+  energy.bind(context, snake);
+  PointList<3> out(snake.num_vertices(), Point<3>::Constant(std::nan("")));
+  energy.propose(snake, out);
+  for (int v = 0; v < snake.num_vertices(); ++v) {
+    EXPECT_TRUE(energy.expected()[v].empty());
+    EXPECT_EQ(out[v], start[v]) << v;
+  }
+}
+
 TEST(PatchEnergy, SameBitsForOneAndTwoThreads) {
   const Image<3> atlas = mixed_polarity<3>(Point<3>::Zero());
   const Image<3> scan = mixed_polarity<3>(Point<3>(1.0, 0.5, -0.5));
