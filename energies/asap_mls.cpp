@@ -87,7 +87,7 @@ static Eigen::Matrix<double, D, D> fixed_fit(const MlsNeighborhoods& nb, const P
 
 namespace {
 
-// Four neighbourhoods at once (issue 21: the energy trace evaluates every D_j at every iteration,
+// Four neighbourhoods at once (the energy trace evaluates every D_j at every iteration,
 // 96 000 terms on the lung's 310 vertices with N(j) = all, and the approximate step fits as many).
 // Each lane does exactly the arithmetic of the scalar loops it stands for, in the same order (the
 // compiler fuses no multiply and add: -ffp-contract=off), so every sum has the same bits; a lane

@@ -50,7 +50,7 @@ struct EnumNames<AsapIteration> {
 // along the translations, the rotations about the centroid and the scaling of q, unit masses on
 // the template vertices). The energy is similarity invariant, so its gradient has none (no net
 // force, torque or dilation); the per-vertex fits of the approximate variant do have some, which
-// keeps and grows a start rotation (issue 19). kAuto: kRemoveRigid for "approximate", kKeep for
+// keeps and grows a start rotation. kAuto: kRemoveRigid for "approximate", kKeep for
 // "exact".
 enum class AsapNetMotion { kAuto, kKeep, kRemoveRigid, kRemoveSimilarity };
 template <>

@@ -32,7 +32,7 @@ struct EnumNames<ForceNormalization> {
       {{ForceNormalization::kNone, "none"}, {ForceNormalization::kMax, "max"}, {ForceNormalization::kUnit, "unit"}}};
 };
 
-// The polarity rule (issue 20, "edges with a side"), for any field: "any" (default) leaves the
+// The polarity rule, which gives edges a side, for any field: "any" (default) leaves the
 // force as the field gives it (bit-identical to the energy without the rule); otherwise at each
 // vertex q with outward unit normal n and force f != 0, on the image smoothed by polarity_sigma:
 //  1. the edge the force pulls q onto is the first local maximum of |dI/du| (u = f / |f|) along

@@ -712,7 +712,7 @@ double InternalEnergy<D>::physical_value(const Snake<D>& snake) const {
   const PointList<D>& q = snake.positions();
   const std::vector<int> elements = element_vertices<D>(snake.connectivity());
   std::vector<double> local, mass;
-  // M and K q only for the rigidity (issue 21: the energy trace of a tension-only run, beta = 0,
+  // M and K q only for the rigidity (the energy trace of a tension-only run, beta = 0,
   // evaluates this at every iteration).
   const bool rigid = options_.beta > 0;
   element_operators<D>(q, elements, local, mass, rigid);

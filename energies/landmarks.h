@@ -1,4 +1,4 @@
-// The landmark energy (issue 20; landmarks are the future work of the paper's §9, ours): soft
+// The landmark energy (ours; landmarks are the future work of the paper's §9): soft
 // springs that pull named template vertices towards points the user gives,
 //   E_lm(q) = sum_l |q_{v(l)} - y_l|^2   [mm^2],
 // over the landmarks l named in "points" (template.landmarks gives each name its template vertex

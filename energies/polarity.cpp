@@ -80,15 +80,14 @@ void for_each_gradient_magnitude(const Image<D>& image, Visit&& visit) {
 }
 
 // The median of the voxels' gradient magnitudes by radix selection on their IEEE-754 patterns
-// (monotone for non-negative doubles), without a copy of the volume (issue 21): each pass counts,
+// (monotone for non-negative doubles), without a copy of the volume: each pass counts,
 // among the voxels whose pattern begins with the bits found so far, the next 16 bits, and keeps
 // the digit that holds the median's rank; once the voxels that share the found bits are at most
 // `gather_max`, they are gathered and selected (nth_element). So a noisy image takes two passes
 // over the volume, and one whose magnitudes are mostly equal (a phantom, a label map: most of
-// them 0) at most four, never holding more than gather_max values (the first version gathered
-// the whole first bucket: 583 MB and per-thread copies of up to 512 MB each on a 512 x 512 x 300
-// phantom). The same value as an nth_element over all voxels, for any thread count (integer
-// counts; the selected value does not depend on the order).
+// them 0) at most four, never holding more than gather_max values (the whole first bucket
+// can be most of a phantom's voxels). The same value as an nth_element over all voxels, for any
+// thread count (integer counts; the selected value does not depend on the order).
 constexpr int kNoiseDigitBits = 16;
 constexpr int64_t kNoiseDigits = int64_t(1) << kNoiseDigitBits;
 

@@ -1,4 +1,4 @@
-// The global similarity term (issue 19, pose capture; ours, not the paper's): the squared
+// The global similarity term (pose capture; ours, not the paper's): the squared
 // distance of the snake's template vertices to the nearest similar (or congruent) copy of the
 // template,
 //   E_sim(q) = min_{S} sum_i |S(p_i) - q_i|^2,  S(x) = mu R x + t (mu = 1 for "rigid"),
@@ -9,7 +9,7 @@
 // q <- (kappa q_ext + w S*(p)) / (kappa + w) makes the snake follow the field's pull as one
 // similar body (an ICP-like pose phase); a later phase switches it off (phase weight 0) and lets
 // ASAP fit the shape locally. Governs the template ("deformation") vertices only. No
-// least-squares form: the global solve already turns the template (REPRODUCTION.md, issue 7).
+// least-squares form: the global solve already turns the template (REPRODUCTION.md).
 #pragma once
 
 #include "framework/core/energy.h"

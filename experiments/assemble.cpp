@@ -82,7 +82,7 @@ Template<D> assemble_template(const ExperimentSpec<D>& spec) {
   } else {
     tmpl = read_template_file<D>(t.file);
     // A template that crosses itself (a figure-eight contour, a mesh through itself) has no
-    // inside: refused (issue 22). A file's template only: the phantoms are simple by construction.
+    // inside: refused. A file's template only: the phantoms are simple by construction.
     const int crossings = count_self_intersections<D>({tmpl.positions, tmpl.connectivity});
     if (crossings > 0)
       throw InputError(t.file, "", std::string("the template crosses itself (") + std::to_string(crossings) +

@@ -10,9 +10,9 @@ namespace {
 
 // A classical snake (Kass internal force + the basic edge-map force of §1) started from a
 // circle outside a blurred square: the tension shrinks it onto the edges. The parameters are
-// our choice (the paper has no such experiment); they are fixed here and in the README. The
-// internal energy is in physical units (alpha mm^2, beta mm^4; issue 19): 2D alpha 2, beta 3 is
-// the per-vertex alpha 0.1, beta 0.01 of the first version at the circle's 4.3 mm edges.
+// our choice (the paper has no such experiment); they are fixed here and in docs/methods.md. The
+// internal energy is in physical units (alpha mm^2, beta mm^4): 2D alpha 2, beta 3 is the
+// per-vertex (umbrella) form's alpha 0.1, beta 0.01 at the circle's 4.3 mm edges.
 const char* kDefault = R"({
   "name": "default_circle_to_square",
   "description": "Built-in default: a 64-vertex circle template registered to a blurred 128x128 square by a classical snake (internal + gradient-field external force), then refined by arc-length resampling.",

@@ -40,7 +40,7 @@ ExperimentFile builtin_experiment(const std::string& name, const std::vector<std
 
 
 // Thresholds: distances and errors at most, dice at least. Without a "success" object in the
-// file, the defaults of the paper's robustness study apply (issue 8): mean surface distance <= 1,
+// file, the defaults of the paper's robustness study apply: mean surface distance <= 1,
 // HD95 <= 2, correspondence error max <= 2, Dice >= 0.9, no self-intersections, each only where
 // the ground truth gives the metric.
 struct SuccessCriteria {

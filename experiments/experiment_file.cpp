@@ -23,12 +23,12 @@ bool is_index(const std::string& key) {
 
 // Applies one "a.b[2].c=value" override to the document. The path is read strictly: keys are
 // non-empty, separated by single dots, and an index is 1 to 9 digits in brackets; anything else
-// is an InputError naming the --set path (issue 22: "energies[0.5]" was applied to energies[0]).
+// is an InputError naming the --set path (a lax reading would apply "energies[0.5]" to energies[0]).
 void apply_override(nlohmann::json& doc, const std::string& assignment, const std::string& file) {
   const auto eq = assignment.find('=');
   const std::string shown = assignment.substr(0, std::min<size_t>(eq, 200));
   if (eq == std::string::npos || eq == 0) throw InputError("", "--set " + shown, "expected key.path=value");
-  // JSON text is UTF-8; a byte that is not would make every later dump() throw (fuzzing, issue 22).
+  // JSON text is UTF-8; a byte that is not would make every later dump() throw (found by fuzzing).
   if (!is_valid_utf8(assignment)) throw InputError("", "--set " + shown, "is not valid UTF-8 text");
   const std::string path = assignment.substr(0, eq), text = assignment.substr(eq + 1);
   nlohmann::json value = nlohmann::json::accept(text, /*ignore_comments=*/true) ? parse_json_text(text, "--set " + shown)

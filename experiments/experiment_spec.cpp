@@ -196,7 +196,7 @@ void read_run_keys(JsonReader& top, ExperimentSpec<D>& spec) {
     g.finish();
   }
   if (top.has("global")) {
-    // The "global" object: Ceres' options and the external term's potential (issue 7), for a
+    // The "global" object: Ceres' options and the external term's potential, for a
     // global solve or for a snake run whose energies are reported with the same potential.
     JsonReader g = top.child("global");
     read_options(g, spec.global);

@@ -1,4 +1,4 @@
-// glibc malloc settings the dsnake executable makes at start-up (issue 21: whole-process cost).
+// glibc malloc settings the dsnake executable makes at start-up, for the whole process's cost.
 #pragma once
 
 #include <cstddef>
@@ -22,11 +22,12 @@ constexpr std::size_t kHeapTrimThreshold = std::size_t(32) << 20;
 //    huge pages (glibc.malloc.hugetlb=1, set by main); smaller blocks, such as a mesh's arrays,
 //    still come from the heap.
 //  - trim threshold: turning the dynamic thresholds off leaves glibc's 128 kB, so the heap's
-//    free top went back to the system whenever it passed that. A remeshed mesh's arrays of a few
-//    MB each are freed and allocated again at every remeshing, and each time the heap shrank and
-//    grew back its pages were faulted and cleared again (the real liver's recipe run, 27 000
-//    vertices: 157 000-161 000 minor faults -> 55 000-58 000, system time 2.5-3.1 -> 1.8-2.3 s, the
-//    same peak of 1.14 GB). At most 32 MB of free heap stays resident.
+//    free top would go back to the system whenever it passed that. A remeshed mesh's arrays of a
+//    few MB each are freed and allocated again at every remeshing, and each time the heap shrank
+//    and grew back its pages would be faulted and cleared again (the real liver's recipe run,
+//    27 000 vertices: 157 000-161 000 minor faults at 128 kB against 55 000-58 000 at 32 MB,
+//    system time 2.5-3.1 against 1.8-2.3 s, the same peak of 1.14 GB). At most 32 MB of free
+//    heap stays resident.
 void configure_heap(const char* tunables);
 
 }  // namespace dsnake

@@ -54,7 +54,7 @@ nlohmann::ordered_json recommended(const InitCommandOptions& o, const Grid<D>& g
   }
   j["template"] = tmpl;
   // Without the recipe's ground truth. Not ordered_json::erase: nlohmann 3.11.2's ordered_map
-  // erase leaks the erased value (LeakSanitizer, issue 22; fixed upstream in 3.11.3).
+  // erase leaks the erased value (found by LeakSanitizer; fixed upstream in 3.11.3).
   nlohmann::ordered_json kept = nlohmann::ordered_json::object();
   for (auto& [key, value] : j.items())
     if (key != "ground_truth") kept[key] = std::move(value);

@@ -290,8 +290,8 @@ int dispatch(const CommandLine& c) {
   return validate(c.validate_config, c.validate_overrides);
 }
 
-// OpenMP threads that wait without spinning, and large buffers on transparent huge pages
-// (issue 21). libgomp's threads spin for a while at every barrier before they sleep; when
+// OpenMP threads that wait without spinning, and large buffers on transparent huge pages.
+// libgomp's threads spin for a while at every barrier before they sleep; when
 // another process holds a core, a spinning thread takes the time its descheduled partner
 // needs, and two threads run slower than one. glibc's malloc puts its large (mmap'd) blocks on
 // huge pages with glibc.malloc.hugetlb=1 (madvise): a volume's first touch then takes one page

@@ -1,4 +1,4 @@
-// A run's output folder (issue 22, output safety): dsnake writes only into a folder it owns,
+// A run's output folder (output safety): dsnake writes only into a folder it owns,
 // replaces only the files it wrote, and cleans up what a killed run left.
 //
 // A folder is dsnake's when it is new, empty, or holds an earlier result: the manifest

@@ -1,6 +1,6 @@
 // result.json's "pose": where the run moved the template as a whole. A registration that is
-// right in shape but slid away is wrong; a start on the true surface must stay there (issue 20:
-// the fixed-point check). The centroid is the enclosed region's (framework/core/alignment.h),
+// right in shape but slid away is wrong; a start on the true surface must stay there (the
+// fixed-point check). The centroid is the enclosed region's (framework/core/alignment.h),
 // exact for the polygon or mesh, so remeshing does not move it.
 #pragma once
 

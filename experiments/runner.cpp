@@ -294,7 +294,7 @@ nlohmann::ordered_json guard_json(const MoveGuardReport& r) {
   return {{"shortened", r.shortened}, {"refused", r.refused}, {"checks", r.checks}};
 }
 
-// The numeric watchdog (issue 22): "watchdog.max_move" 0 is the image's diagonal in mm.
+// The numeric watchdog: "watchdog.max_move" 0 is the image's diagonal in mm.
 template <int D>
 Watchdog watchdog_of(const Experiment<D>& ex) {
   Watchdog w;
@@ -319,7 +319,7 @@ void evolve(Experiment<D>& ex, const RunOptions& options, RunRecord<D>& rec) {
   const bool whole = rec.field_region.num_voxels() == ex.image.num_voxels();
   Image<D> cropped = whole ? Image<D>() : crop(ex.image, rec.field_region);
   const Image<D>& field_image = whole ? ex.image : cropped;
-  // The cropped copy is the field's to release (issue 21: a volume less through the run) unless
+  // The cropped copy is the field's to release (a volume less through the run) unless
   // the global view's potential is also built from it; then it goes once that is built.
   const bool field_takes_crop = !whole && !ex.potential;
   try {
@@ -333,7 +333,7 @@ void evolve(Experiment<D>& ex, const RunOptions& options, RunRecord<D>& rec) {
       ex.field->compute(field_image);
   } catch (const InputError& e) {
     // A field's own checks on the image (a VFC radius larger than the image, an unstable explicit
-    // step) know the key, not the file: the line names the experiment file (issue 22).
+    // step) know the key, not the file: the line names the experiment file.
     if (!e.file().empty()) throw;
     throw InputError(ex.file.path, e.where(), e.message());
   }
@@ -350,8 +350,8 @@ void evolve(Experiment<D>& ex, const RunOptions& options, RunRecord<D>& rec) {
   }
   cropped = Image<D>();
   // The energies sample the whole image (the polarity rule's noise floor is a median over all
-  // of it; on the field's region alone it is another number, and the rat lung's recipe Dice fell
-  // from 0.9505 to 0.9488), and share its smoothed copies: one blur per sigma (issue 21).
+  // of it; on the field's region alone it is another number, and the rat lung's recipe Dice would
+  // be 0.9488 instead of 0.9505), and share its smoothed copies: one blur per sigma.
   SmoothedImageCache<D> smoothed_images;
   EnergyContext<D> context{&ex.tmpl, &ex.image, ex.field.get(), potential.get(),
                            ex.reference_image ? &*ex.reference_image : nullptr, &smoothed_images};

@@ -237,7 +237,7 @@ std::vector<MethodSpec> read_methods(JsonReader& top, const nlohmann::ordered_js
   return methods;
 }
 
-// The most runs a sweep file may expand to (issue 22: a grid of 10^9 points hung the expansion).
+// The most runs a sweep file may expand to (a grid of 10^9 points would hang the expansion).
 constexpr int64_t kMaxSweepRuns = 100000;
 
 // The top level of a sweep file, in the order its errors are reported; fills sweep.grid_keys.
@@ -617,7 +617,7 @@ void run_children(const Sweep& sweep, const SweepOptions& o, const fs::path& out
   }
 }
 
-// OpenMP threads for each of `jobs` concurrent runs (issue 21): the cores this process may use
+// OpenMP threads for each of `jobs` concurrent runs: the cores this process may use
 // (its CPU affinity, so taskset and cgroup cpusets count), shared evenly, at least one; 0 (the
 // OpenMP default, every core) for a single job.
 int threads_per_job(int jobs) {

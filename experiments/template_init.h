@@ -1,4 +1,4 @@
-// "template.init" (issue 20; the paper's §9 future work): a pre-alignment of the placed template
+// "template.init" (ours; the paper's §9 future work): a pre-alignment of the placed template
 // before the snake, applied after "template.transform" (so a rough placement can still be given,
 // and it settles the moments' axis ambiguity) and before anything runs. The map found is a
 // similarity (or a rigid motion) in world coordinates (LPS mm), applied to the placed template:
@@ -11,7 +11,7 @@
 //    near-isotropic axes keep the template's orientation (align_moments()).
 //  - "landmarks": the least-squares similarity taking the template's named landmarks
 //    (template.landmarks) onto "points" (world mm; 2D at least 2 pairs, 3D at least 3 not on one
-//    line: the fewest that determine a similarity; the issue asks for 3, the 2D minimum is 2).
+//    line: the fewest that determine a similarity).
 //  - "image": template.reference_image (the atlas in which the template's file positions lie on
 //    the object) registered onto the experiment's image within the template's bounding box plus
 //    "margin", by normalised cross-correlation over Gaussian "levels" (mm), starting from the

@@ -42,7 +42,7 @@ void DdgvfField<D>::compute_releasing(Image<D>&& image) {
   solve(compute_edge_map(std::move(image), options_.edge, true, "ddgvf"));
 }
 
-// Memory (issue 21): b is written over f (DDGVF does not use f); the image gradient is kept as
+// Memory: b is written over f (DDGVF does not use f); the image gradient is kept as
 // its signs (a byte per voxel); each multigrid solve starts from its masked source written
 // straight into its component (the solver reads a source only before its field changes) and
 // takes its masked weights by move, written into the previous solve's weights

@@ -64,7 +64,7 @@ class DdgvfField final : public ExternalField<D> {
   // The voxels force(x, normal) reads: per axis, those of the component chosen by the normal.
   void prefetch(const Point<D>& x, const Point<D>& normal) const override;
   // The polarity-blind field, sum of both signs per axis (for figures).
-  // Made on first use (issue 21: a run that only samples forces does not hold it).
+  // Made on first use (a run that only samples forces does not hold it).
   const VectorField<D>& vectors() const override;
   int64_t num_voxels() const override { return components_[0][0].num_voxels(); }
   // max |F| of vectors(), computed from the components without making them (the same value).

@@ -24,7 +24,7 @@ EdgeMap<D> edge_map(const Image<D>& image, Image<D>* owned, const EdgeMapOptions
   // The image's own scale, for the no-edge test below (read while the image is here).
   double i_max = 0.0;
   for (float v : image.data()) i_max = std::max(i_max, double(std::abs(v)));
-  // Double precision buffers, each allocated only while it is needed (issue 21: the peak of a
+  // Double precision buffers, each allocated only while it is needed (the peak of a
   // field's computation is here): the smoothed image u, then f, then the float outputs.
   std::vector<double> u(image.data().begin(), image.data().end());
   if (owned) std::vector<float>().swap(owned->data());

@@ -33,8 +33,8 @@ struct EdgeMap {
   std::vector<float> f;                          // the edge map, one value per voxel
   std::array<std::vector<float>, D> grad_f;      // d f / d x_a, 1/mm
   // Only if asked for (DDGVF's masks): per voxel, bit 2a set where d (G_sigma*I) / d x_a > 0 and
-  // bit 2a + 1 where it is < 0, both clear where it is 0, the derivative rounded to float as
-  // before (one byte per voxel instead of D floats: issue 21).
+  // bit 2a + 1 where it is < 0, both clear where it is 0, the derivative rounded to float
+  // first (one byte per voxel instead of D floats).
   std::vector<uint8_t> gradient_signs;
   double f_max = 0.0;                            // max f after normalisation (0: no edges)
 };

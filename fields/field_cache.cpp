@@ -98,8 +98,8 @@ std::string inflated(std::string bytes, uint64_t max_bytes) {
 }
 
 // The bytes of the file at `path` into `out`, read at once into a string of the file's size (a
-// stream copy grows its buffer by doubling: on a lung-sized entry of 150 MB that was a third
-// of the load). False if there is no such file; a file larger than `max_bytes` (more than any
+// stream copy grows its buffer by doubling: on a lung-sized entry of 150 MB that would be a
+// third of the load). False if there is no such file; a file larger than `max_bytes` (more than any
 // entry for this grid) is read as empty, so that it does not fit.
 bool read_entry(const std::string& path, uint64_t max_bytes, std::string& out) {
   std::FILE* f = std::fopen(path.c_str(), "rb");

@@ -9,7 +9,7 @@ namespace dsnake {
 template <int D>
 GvfField<D>::GvfField(const GvfFieldOptions& options) : options_(checked(options, kType)) {}
 
-// Memory (issue 21): the sources grad f are solved in place (they are the initial guess, and
+// Memory: the sources grad f are solved in place (they are the initial guess, and
 // both solvers read a source only before its field changes), f is released before the solve, b
 // is moved into the solver, and the stored vectors are allocated after it, so the peak is b, the
 // three components and one component's solver arrays (and the image, unless compute_releasing).

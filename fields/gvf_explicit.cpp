@@ -23,7 +23,7 @@
 // (PaddedSystem below): whole aligned vectors per row, with the x neighbours taken from
 // shuffles (one lane-crossing shuffle per vector): a vector of voxels costs 5 aligned loads in
 // 2D (7 in 3D), where the unpadded kernel made 9 (11), half of them split across cache lines
-// (README: the 2D figure).
+// (docs/methods.md: the 2D figure).
 #include "fields/gvf_grid.h"
 
 #include "framework/core/errors.h"
@@ -42,7 +42,7 @@ namespace dsnake::gvf_detail {
 
 namespace {
 
-// Wavefront shape, measured on 230 x 300 x 80 and 512^2 (see README): a block runs this many
+// Wavefront shape, measured on 230 x 300 x 80 and 512^2 (see docs/performance.md): a block runs this many
 // iterations (10 divides the residual-check interval, so tolerance runs keep full blocks); a 3D
 // tile is about this many rows (y) of the slices; a level computes this many planes per step.
 constexpr int kDepth3d = 10;

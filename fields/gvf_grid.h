@@ -84,7 +84,7 @@ Transfer transfer(const Level& F, const Level& C);
 // coarse = R fine (average = false: R = P^T / factor; true: R normalised to an average).
 void restrict_to(const Level& F, const Level& C, const Transfer& t, bool average, const float* fine, float* coarse);
 // coarse = R (F.rhs[k] - A F.v[k]) bit for bit as residual_rows then restrict_to(average = false),
-// without an array of F's size: the cycle's restriction (issue 21).
+// without an array of F's size: the cycle's restriction.
 void restrict_residual(const Level& F, const Coupling& c, const Level& C, const Transfer& t, int k, float* coarse);
 
 // The multigrid's grid transfers along a factor-2 x axis (gvf_solver.cpp), on one row. The

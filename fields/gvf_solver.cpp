@@ -27,7 +27,7 @@ using namespace gvf_detail;
 typedef float Vec8 __attribute__((vector_size(32), aligned(4)));
 using Vec8Index = int __attribute__((vector_size(32)));
 
-// 1 / A_ii of voxel i of a row, computed where it is used rather than stored (issue 21: 4 bytes
+// 1 / A_ii of voxel i of a row, computed where it is used rather than stored (4 bytes
 // per voxel): A_ii = b_i + the weights of the neighbours that exist (side: the y and z ones,
 // wl and wr: cx or 0 at the row's ends), summed in this order; 0 where A_ii is 0.
 [[gnu::always_inline]] inline float inverse_diagonal(float b, float side, float wl, float wr) {
@@ -394,7 +394,7 @@ void restrict_to(const Level& F, const Level& C, const Transfer& t, bool average
 }
 
 // coarse = R (rhs - A v) of field k, as residual_rows then restrict_to(average = false) would give
-// it bit for bit, but without a residual array of the fine level's size (issue 21: 4 bytes per
+// it bit for bit, but without a residual array of the fine level's size (4 bytes per
 // voxel at the finest level). The fine grid is cut into slabs along its outer axis (z planes; on
 // a single plane, rows). Each thread takes a run of coarse slabs in order; a coarse slab reads at
 // most four consecutive fine slabs (cell-centred: 2I - 1 .. 2I + 2), so the thread keeps the fine
@@ -569,11 +569,11 @@ class Multigrid {
   // rediscretised coarse grids see the image's sharp weights b (edges,
   // DDGVF's masks) only in average; with V-cycles PCG removed what they missed at about 0.4
   // per iteration (lung DDGVF: 7 iterations to 1e-4, 4 with W-cycles), and the extra visits
-  // cost 1/4 + 1/16 + ... of the finest level's pass (BM_DdgvfField3d 3.46 -> 2.89 s, 1
-  // thread). Where a level shrinks only 4 times (2D, semi-coarsening) they would cost as much
-  // as the finest level, on grids too small for two threads: 2D GVF went from 6 to 4 iterations
-  // but 36 -> 40 ms on 1 thread and 21 -> 31 ms on 2 (BM_GvfMultigridConverged2d), so those
-  // levels keep V-cycles.
+  // cost 1/4 + 1/16 + ... of the finest level's pass (BM_DdgvfField3d, 1 thread: 2.89 s with
+  // W-cycles, 3.46 s with V-cycles). Where a level shrinks only 4 times (2D, semi-coarsening)
+  // they would cost as much as the finest level, on grids too small for two threads: 2D GVF
+  // would take 4 iterations instead of 6 but 40 ms instead of 36 on 1 thread and 31 instead of
+  // 21 on 2 (BM_GvfMultigridConverged2d), so those levels keep V-cycles.
   void cycle(size_t l, bool zero_start = true) {
     Level& L = levels_[l];
     const Coupling c = coupling(L, mu_);
@@ -692,7 +692,7 @@ double update_and_norm(float* __restrict x, float* __restrict r, const float* __
 // exact coarsest solve). Cycles alone stall where the coarse grids see the image border
 // differently from the fine one (odd sizes, masked DDGVF weights); CG removes those few slow
 // modes. c may be x itself (GVF's initial guess is its source): c is read only before x changes.
-// The finest level holds three arrays besides x, b and 1 / A_ii (issue 21): r (lent to the
+// The finest level holds three arrays besides x, b and 1 / A_ii: r (lent to the
 // cycle as its right-hand side), p, and the level's v, which holds z = M r and then A p (z is
 // spent once p = z + beta p). b c lives in p's storage until the first residual is known. The
 // workspace keeps r and p for the next field. Returns the iterations and |r|^2, |b c|^2.
@@ -762,8 +762,8 @@ FieldSolve solve_one_field(Multigrid& mg, const std::vector<float>& c, std::vect
 }
 
 // The K fields one after another on one hierarchy (built for a single field), each with its own
-// stopping test |r_k| <= tolerance |b c_k|, so that the memory is that of one field (issue 21:
-// K fields sharing the cycles' passes held 5 K full-grid arrays). Every field meeting the test
+// stopping test |r_k| <= tolerance |b c_k|, so that the memory is that of one field (K
+// fields sharing the cycles' passes would hold 5 K full-grid arrays). Every field meeting the test
 // implies the joint one, |r| <= tolerance |b c|; the stats give the most iterations any field
 // took and the joint relative residual.
 GvfSolveStats solve_multigrid_pcg(Level shape, std::vector<float>&& b,

@@ -12,7 +12,7 @@
 // Both stop at a relative residual |b c - A v|_2 / |b c|_2 <= tolerance or after a number of
 // iterations (explicit steps or PCG iterations). The multigrid solver takes the K fields one after another, each to
 // |b c_k - A v_k| <= tolerance |b c_k| (which implies the joint test), so that its memory is
-// that of one field (issue 21). Float arrays (x fastest); OpenMP over z-slabs (2D: rows), and the
+// that of one field. Float arrays (x fastest); OpenMP over z-slabs (2D: rows), and the
 // explicit solver runs blocks of up to 10 iterations as a wavefront over tiles (each tile
 // recomputes its halo, so the arrays stream from memory once per block); the results do not
 // depend on the thread count (red-black updates are independent within a colour and
@@ -77,7 +77,7 @@ class GvfWorkspace {
   GvfWorkspace& operator=(const GvfWorkspace&) = delete;
   // The finest weights b of the last multigrid solve, handed back to the caller (empty if there
   // are none): DDGVF writes its next component's masked weights into them, so that each solve
-  // does not page in a fresh volume-sized buffer (issue 21). The hierarchy then needs new
+  // does not page in a fresh volume-sized buffer. The hierarchy then needs new
   // weights, which the next solve gives it.
   std::vector<float> take_weights();
   struct Impl;
@@ -88,9 +88,9 @@ class GvfWorkspace {
 };
 
 // Solves for v (in: initial guess; out: solution), given b and the sources c (same sizes as the
-// grid). b is taken by value: a caller that moves it in lets the solver keep it without a copy
-// (issue 21). Both solvers read c[k] only before v[k] changes (the explicit one copies b c into
-// its own arrays first), so v[k] may be c[k]. Throws InputError naming "field.time_step" if an
+// grid). b is taken by value: a caller that moves it in lets the solver keep it without a copy.
+// Both solvers read c[k] only before v[k] changes (the explicit one copies b c into its own
+// arrays first), so v[k] may be c[k]. Throws InputError naming "field.time_step" if an
 // explicit step is unstable. The multigrid solver reuses `workspace` if given.
 template <int D>
 GvfSolveStats solve_gvf(const Grid<D>& grid, std::vector<float> b,
@@ -100,7 +100,7 @@ GvfSolveStats solve_gvf(const Grid<D>& grid, std::vector<float> b,
 // Throws InputError naming "field.time_step" when an explicit step cannot be stable on `grid`,
 // whatever the image: dt >= 2 / (4 mu sum_a 1/h_a^2), the bound with b = 0 (solve_gvf's own
 // check adds the image's largest b and is tighter). Lets `dsnake validate` refuse such a step
-// before the image is read (issue 22); nothing to check for the multigrid solver or dt = 0.
+// before the image is read; nothing to check for the multigrid solver or dt = 0.
 template <int D>
 void check_explicit_step(const Grid<D>& grid, const GvfSolveOptions& options);
 

@@ -1,4 +1,4 @@
-// The region of interest a field is computed on (issue 20, "fields on a region of interest").
+// The region of interest a field is computed on.
 // By default a field is computed on the box of the voxels around the placed template, widened
 // by a margin, cut out of the image without resampling (whole voxels, the same spacing, origin
 // and direction): the edge map is then normalised by the strongest edge near the object rather
@@ -6,7 +6,7 @@
 // than the scan's. Outside the region a field's sample takes the value at the region's border
 // (framework/core/image.h), so a snake that leaves the region feels the border's force: the
 // margin must cover how far the snake may travel. `"region": {"extent": "whole"}` computes the
-// field on the whole image, as before issue 20.
+// field on the whole image.
 #pragma once
 
 #include "framework/core/image.h"

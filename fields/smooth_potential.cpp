@@ -1,5 +1,5 @@
-// Potentials for the global solve and their smooth interpolation; see potential.h (issue 7;
-// Levi & Gotsman, D-Snake §1-§2 for the fields these potentials stand in for).
+// Potentials for the global solve and their smooth interpolation; see potential.h (Levi &
+// Gotsman, D-Snake §1-§2 for the fields these potentials stand in for).
 #include "fields/smooth_potential.h"
 
 #include "fields/distance.h"

@@ -1,4 +1,4 @@
-// Potentials for the global (Ceres) solve (issue 7). The snake of Levi & Gotsman (D-Snake, §3.1,
+// Potentials for the global (Ceres) solve. The snake of Levi & Gotsman (D-Snake, §3.1,
 // §4) only needs forces, but a global least-squares solve needs an energy whose gradient is the
 // force: E_ext(x) = P(x) with F = -grad P. GVF, DDGVF and VFC (§2) are not gradients of any
 // potential, so three are offered:

@@ -1,7 +1,7 @@
 // The binary mask of one label of a label image, ready for surface extraction: label == N,
 // reduced to its largest component, its cavities (holes in 2D) filled, padded by one empty voxel
 // on every side so that an object touching the image border still gets a closed surface.
-// Connectivity (documented in README.md, "dsnake template"): the object is 6-connected in 3D
+// Connectivity (documented in docs/real-scans.md, "dsnake template"): the object is 6-connected in 3D
 // (4-connected in 2D), the background 26-connected (8-connected in 2D): two object voxels
 // touching only along an edge or at a corner are apart, two such background voxels joined. The
 // surface extraction (surface_extraction.h) makes the same choices, so the genus of the surface

@@ -60,7 +60,7 @@ class CollisionGuard final : public MoveGuard<D> {
   std::vector<std::array<int, 2>> pairs_;
   std::vector<uint8_t> moved_, changed_;
   std::vector<int> level_;
-  // The broad phase's pairs, kept across iterations (a Verlet list, issue 21): every pair of
+  // The broad phase's pairs, kept across iterations (a Verlet list): every pair of
   // facets whose swept boxes, widened by a margin on every side, overlapped when the list was
   // built. While every vertex of the same facets stays in its allowed box (its positions then,
   // widened by the margin), at q(t) and at q(t+1), each swept box lies in its widened box, so
@@ -79,8 +79,8 @@ class CollisionGuard final : public MoveGuard<D> {
     // smallest certificate of its pairs (infinity: none) and its certified pairs (CSR over
     // facets, each pair under both of its facets). While a facet's drift stays below its
     // smallest certificate, none of its certified pairs is due a test, so a step looks only at
-    // the certified pairs of the facets that have drifted that far (issue 21: the pairs a step
-    // filtered were three in five certified ones that stay untested).
+    // the certified pairs of the facets that have drifted that far (filtering
+    // every certified pair instead, three in five of the pairs filtered would stay untested).
     std::vector<int64_t> uncertified;
     std::vector<double> facet_radius;
     std::vector<int64_t> certified_start, certified_of;

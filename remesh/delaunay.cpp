@@ -86,7 +86,7 @@ const EditMesh::Corner* corner_to(const EditMesh& m, int b, int a) {
 
 // quad_at(m, a, b, q) for an edge a -> b known to be held by triangle f1 with c opposite (a
 // corner of a): the same quad, with one search (b's corners) instead of two searches and two
-// triangle reads (issue 21: the defect moves visit every edge around each tried move).
+// triangle reads (the defect moves visit every edge around each tried move).
 bool quad_with(const EditMesh& m, int a, int b, int f1, int c, Quad& q) {
   const EditMesh::Corner* back = corner_to(m, b, a);
   if (back == nullptr) return false;
@@ -185,7 +185,7 @@ bool checked_flip(EditMesh& m, const Quad& q, double cos_max_dihedral, double fl
   return r == FlipResult::kFlipped;
 }
 
-// The defect moves' memo (issue 21; EditMesh::regularization_memo): a move tried from an edge and
+// The defect moves' memo (EditMesh::regularization_memo): a move tried from an edge and
 // undone is tried again only once something near the edge has changed. A try reads the corner
 // lists (so valences and edges) and the positions of the vertices within two edges of the quad's
 // four vertices, and nothing else where try_flip looks at nothing but the quad (optimistic mode,
@@ -226,7 +226,7 @@ bool is_neutral_move(const EditMesh& m, const Quad& q) {
 // The flips undone leave the mesh as it was.
 bool move_defect(EditMesh& m, const Quad& q, double cos_max_dihedral, double floor_key, int& rejected) {
   // The first flip's angle test (checked_flip's first) before the search for a second flip:
-  // about half the candidates fail it (lung phantom, issue 21).
+  // about half the candidates fail it (lung phantom).
   if (!flip_keeps_angles(m, q.a, q.b, q.c, q.d, floor_key)) return false;
   int x = -1, w = -1;
   const bool second = best_second_flip(m, q, x, w) > 0;
@@ -311,7 +311,7 @@ int greedy_valence_flips(EditMesh& m, double cos_max_dihedral, double min_angle_
   // triangle it was listed with lives and none of its four vertices changed (corners or
   // position, EditMesh::changed_at) since: then its other triangle, and so its fourth vertex,
   // are the same. A refusal records the mesh's edit_clock() and the fourth vertex d: in the memo
-  // kept with the mesh through an optimistic run's stages (issue 21) when there is one, else
+  // kept with the mesh through an optimistic run's stages when there is one, else
   // for this call.
   std::vector<int64_t> own_refused;  // per listed edge 3 f + k: when, or 0
   std::vector<int> own_refused_d;

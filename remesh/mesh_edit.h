@@ -71,7 +71,7 @@ struct MeshCorner {
 // array of ints), more in a list of their own (the vertex "spills" and stays spilled). The
 // valence scans of the remeshers (every edge, its four vertices' valences and one vertex's
 // corners) read a dense array and one block instead of a list header and a block allocated
-// apart (issue 21). A span from of(v) lives until v's corners next change.
+// apart. A span from of(v) lives until v's corners next change.
 class CornerFans {
  public:
   static constexpr int kInline = 8;
@@ -169,7 +169,7 @@ class EditMesh {
   // Undoes flip r, which must be the mesh's last edit (later ones undone first): the two new
   // triangles (the last two slots) go and f1, f2 come back, their corners where they stood.
   // The mesh is then as before the flip bit for bit (slots, corner order, flags), so a flip that
-  // is tried and undone leaves no trace on what follows (issue 21: the defect moves of the
+  // is tried and undone leaves no trace on what follows (the defect moves of the
   // valence regularisation try about seventeen flips for each one they keep).
   void undo_flip(const FlipRecord& r);
 

@@ -18,7 +18,7 @@ namespace remesh_detail {
 
 // A stable LSD radix sort on the bits of len (a non-negative double's bits order as the double
 // does), 11 bits a pass, a pass skipped when all keys agree on its digit: linear, where the
-// comparison sort it replaced spent most of its time in mispredicted branches.
+// comparison sort would spend most of its time in mispredicted branches.
 void sort_by_length(std::vector<CollapseCandidate>& cand, std::vector<CollapseCandidate>& scratch) {
   constexpr int kBits = 11, kBuckets = 1 << kBits;
   scratch.resize(cand.size());

@@ -14,11 +14,9 @@
 // 6, each sweep followed by the delaunay stage's flips (simplify.cpp). With `relax` (ours too)
 // it ends with one sweep of the uniform stage's relaxation (§5.1), with that stage's checks: the
 // flips and collapses leave vertices off the centres of their new one-rings, and a pass that
-// ends relaxed lets the next one's flips find more regular connectivity. Measured on
-// tests/remesh/clean_mesh_test.cpp (before issue 21's exact undo of tried flips), it raised
-// valence 6 from 86.1 / 87.9 / 87.7% to 88.9 / 88.8 / 89.1% (ellipsoid, torus, genus 2; now
-// 87.0 / 87.5 / 89.2%, 88.2% on the ellipsoid unrelaxed); a relaxed mesh has fewer long edges for the refinement
-// (1582 / 4489 / 2354 vertices instead of 1926 / 5473 / 2952), and on the half-size lung of
+// ends relaxed lets the next one's flips find more regular connectivity. A relaxed mesh also has
+// fewer long edges for the refinement: 1566 vertices instead of 1942 on the ellipsoid of
+// tests/remesh/clean_mesh_test.cpp, and on the half-size lung of
 // tests/experiments/figures_reproduction_test.cpp 2524 vertices instead of 3199.
 #pragma once
 

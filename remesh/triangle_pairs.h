@@ -1,8 +1,8 @@
 // Internal to remesh/: the pair tests of the EditMesh's crossing checks (mesh_edit.h), shared by
 // the broad phase of single edits (broad_phase.cpp), the optimistic check of a stage's result
 // (optimistic_check.cpp) and the brute-force reference: float box filters rounded outwards, and
-// whether two triangles conflict given the vertices they share. Inline, as they were when they
-// lived in one file with their callers: they run once per candidate pair.
+// whether two triangles conflict given the vertices they share. Inline: they run once per
+// candidate pair.
 #pragma once
 
 #include "framework/metrics/metrics_geometry.h"
@@ -171,7 +171,7 @@ inline double shared_vertex_radius(const Triangle& ta, const std::array<Point<3>
 }
 
 // A certificate for triangles A and B (vertex ids ta, tb, positions pa, pb) that share exactly
-// one edge u-w, the pairs a guard tests most once the others have certificates (issue 21: 85%
+// one edge u-w, the pairs a guard tests most once the others have certificates (85%
 // of the lung's exact tests): a radius r such that, while each of their four vertices stays
 // within r of its position here, the pair cannot fold (pair_conflicts is false). 0: none.
 // Proof: with the edge vector e = w - u and the apexes a, b, the vectors n_a = e x (a - u) and

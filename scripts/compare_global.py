@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Snake versus global solve (issue 7): runs every experiment file given (default: the set in
+"""Snake versus global solve: runs every experiment file given (default: the set in
 experiments/ablation/global/) once with "solver": "snake" and once with "solver": "global", and
 prints a Markdown table of the final total energy and its terms (the same potential for both:
 the file's "global" object), the metrics against ground truth, the wall time and the iterations

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Fuzzes every libFuzzer target of tests/fuzz (issue 22) for SECONDS each (default 600), JOBS
+# Fuzzes every libFuzzer target of tests/fuzz for SECONDS each (default 600), JOBS
 # targets at a time (default 2), from a working copy of the committed seed corpus, and prints one
 # line per target: executions, executions per second, coverage (libFuzzer's "cov" edges and "ft"
 # features), corpus size and findings. Needs the sanitize preset's build:
@@ -24,7 +24,7 @@ run_one() {
   rm -rf "$dir"; mkdir -p "$dir/corpus" "$dir/findings"
   cp tests/fuzz/corpus/"$t"/* "$dir/corpus/"
   local start=$SECONDS
-  # -rss_limit_mb: an input that makes a reader allocate past 2 GB is a finding (issue 22: no
+  # -rss_limit_mb: an input that makes a reader allocate past 2 GB is a finding (no
   # allocation without bound); -timeout: one input taking over 20 s is a finding (a hang).
   ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     "$BIN/fuzz_$t" "$dir/corpus" -max_total_time="$SECONDS_PER_TARGET" -rss_limit_mb=2048 -timeout=20 \

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The sanitizer stage of CI (issue 22): builds the `sanitize` preset (clang 14, AddressSanitizer +
+# The sanitizer stage of CI: builds the `sanitize` preset (clang 14, AddressSanitizer +
 # UndefinedBehaviorSanitizer, every error fatal; the libFuzzer targets) and runs, under it, the
 # unit and end-to-end tests and a replay of the fuzz corpus (tests/fuzz/corpus). The long
 # reproductions (the paper's robustness and figure tests, the real-scan templates and recipes)

@@ -1,4 +1,4 @@
-// The deformation energies (issue 5): one 3D snake iteration at the paper's size (7000 vertices,
+// The deformation energies: one 3D snake iteration at the paper's size (7000 vertices,
 // approximate ASAP over 1 and 2 rings + internal + external sampling of a 230 x 300 x 80 field),
 // 1000 2D iterations of a 400-vertex D-Snake, and exact against approximate ASAP (cost per
 // iteration and the E_def reached after 50 ASAP-only iterations from a perturbed start).

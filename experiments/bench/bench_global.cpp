@@ -1,7 +1,7 @@
-// The global-solve baseline (issue 7) against the snake on the 3D star of Figs. 13-18: the
+// The global-solve baseline against the snake on the 3D star of Figs. 13-18: the
 // D-Snake energy (external kappa 0.1 on the integrated GVF potential, approximate ASAP eta 0.5
 // over 2-ring neighbourhoods) on the star template subdivided 0, 2, 3 and 4 times (26, 386,
-// 1538 and 6146 vertices; the issue's 2000 and 7000 are between subdivision levels), started a
+// 1538 and 6146 vertices; sizes of 2000 and 7000 fall between subdivision levels), started a
 // similarity away from the truth (experiments/ablation/global/star_clean.json).
 //  - BM_GlobalSolve: one Ceres solve (at most 100 iterations; linear solver 0 sparse normal
 //    Cholesky, 1 sparse Schur eliminating the per-vertex similarities, 2 CGNR); counters: Ceres iterations,

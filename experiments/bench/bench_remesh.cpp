@@ -133,8 +133,8 @@ const Snake<3>& cached_settled_torus(int vertices) {
 // The collision guard (remesh/collision_guard.h) on one snake step of the 7000-vertex torus:
 // every vertex moves across the surface (away from the tube's core circle) by 0.02 mean edges,
 // outward for 10 steps, then inward for 10 (a snake near convergence). kept:1 keeps one guard
-// across the steps, whose broad phase's pairs last while no vertex leaves its margin (issue 21);
-// kept:0 takes a new guard per step (a broad phase each time, as before). broad_phases counts
+// across the steps, whose broad phase's pairs last while no vertex leaves its margin;
+// kept:0 takes a new guard per step (a broad phase each time). broad_phases counts
 // the broad phases run.
 void BM_CollisionGuard(benchmark::State& state) {
   omp_set_num_threads(static_cast<int>(state.range(1)));

@@ -1,5 +1,5 @@
-// What this machine charges, at this moment, for memory a process touches for the first time
-// (issue 21: whole-process figures). Not a benchmark of dsnake: a probe that
+// What this machine charges, at this moment, for memory a process touches for the first time.
+// Not a benchmark of dsnake: a probe that
 // experiments/bench/whole_process.sh prints beside the whole-process figures, which it explains.
 //
 // A run's volumes are fresh mappings, and their first touch pays a page fault and the clearing

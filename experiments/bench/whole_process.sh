@@ -1,5 +1,5 @@
 #!/bin/bash
-# Whole-process figures (issue 21): each case runs REPEATS times (default 5) under /usr/bin/time -v
+# Whole-process figures: each case runs REPEATS times (default 5) under /usr/bin/time -v
 # and prints the median wall time (s) and the median peak resident memory (MB), with the
 # figure the in-process benchmark or result.json gives for the same work beside it.
 #

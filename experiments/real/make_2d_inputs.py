@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Makes the inputs of the 2D real experiments (issue 20) from ITK's example data
+"""Makes the inputs of the 2D real experiments from ITK's example data
 (data/scans/itk/, fetched by scripts/fetch_scans.sh) into data/real/<case>/ (not committed).
 
 Rat lung (RatLungSlice1/2.mha: 128 x 128 MR slices, 1 mm pixels, the left lung dark on brighter

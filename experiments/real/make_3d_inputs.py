@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Makes the inputs of the 3D real experiments (issue 20) from CGAL's package data
+"""Makes the inputs of the 3D real experiments from CGAL's package data
 (data/scans/cgal/, fetched by scripts/fetch_scans.sh) into data/real/<case>/ (not committed).
 Deterministic: fixed seeds, no other randomness.
 

@@ -1,5 +1,5 @@
 #!/bin/bash
-# Runs one real experiment of issue 20 and prints its table:
+# Runs one real-scan experiment (REPRODUCTION.md, Real scans) and prints its table:
 #   experiments/real/run.sh CASE        (CASE: a folder experiments/real/CASE/ holding sweep.json;
 #                                        anatomy/NAME: the anatomy development set's cases, inputs
 #                                        from experiments/real/anatomy/make_inputs.py)

@@ -26,7 +26,7 @@ void write_file_atomically(const std::string& path, const std::string& bytes);
 void write_file_atomically(const std::string& path, const std::vector<std::string_view>& parts);
 
 // The same for a file whose bytes `produce` makes a piece at a time, handing each to `put` (a
-// gzip stream as it is compressed: the file's bytes are never held whole, issue 21).
+// gzip stream as it is compressed: the file's bytes are never held whole).
 void write_stream_atomically(const std::string& path,
                              const std::function<void(const std::function<void(std::string_view)>& put)>& produce);
 

@@ -3,7 +3,7 @@
 namespace dsnake {
 
 // One part of an error line: line breaks become spaces, and a part longer than kMaxPart
-// characters (a 50 MB string value) is cut, saying how long it was (issue 22: one short line).
+// characters (a 50 MB string value) is cut, saying how long it was (an error is one short line).
 static std::string one_line(const std::string& part) {
   constexpr size_t kMaxPart = 300;
   std::string s = part.size() > kMaxPart ? part.substr(0, kMaxPart) + "... (" + std::to_string(part.size()) + " characters)" : part;

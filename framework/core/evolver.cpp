@@ -71,8 +71,8 @@ double SnakeStep<D>::step(PhaseDriver<D>& driver, Snake<D>& snake) {
   // The first vertex with the largest move (serial: the same vertex for any thread count).
   worst_vertex_ = n > 0 ? static_cast<int>(std::max_element(moves_.begin(), moves_.end()) - moves_.begin()) : -1;
   // The move guard sees only steps the watchdog passes: a diverged step (a move not finite, or
-  // past watchdog.max_move) is reported as it is, not shortened into a still snake (proposals a
-  // billion mm long were, every iteration, at the cost of testing every pair of facets).
+  // past watchdog.max_move) is reported as it is, not shortened into a still snake (shortening
+  // proposals a billion mm long, every iteration, would test every pair of facets).
   if (MoveGuard<D>* guard = driver.move_guard(); guard && !driver.check_move(max_move, worst_vertex_, 0)) {
     const MoveGuardReport r = guard->guard(snake, next_);
     guard_report_ += r;

@@ -21,10 +21,10 @@ class ExternalField {
   virtual void compute(const Image<D>& image) = 0;
   // compute(image) for a caller that has no further use for the image: a field may release it
   // as soon as it has read it, so that the image's 4 bytes per voxel are not held through the
-  // solve (issue 21; `dsnake field`). The result is the same bits. Default: compute(image).
+  // solve (`dsnake field`). The result is the same bits. Default: compute(image).
   virtual void compute_releasing(Image<D>&& image) { compute(image); }
-  // Checks the options against the grid the field will be computed on, before any work (issue
-  // 22: a VFC radius larger than the image); InputError naming the key. Default: nothing to check.
+  // Checks the options against the grid the field will be computed on, before any work (such
+  // as a VFC radius larger than the image); InputError naming the key. Default: nothing to check.
   virtual void check_grid(const Grid<D>& grid) const { (void)grid; }
 
   // The force at physical point x for a vertex with outward unit normal `normal` (only fields
@@ -47,7 +47,7 @@ class ExternalField {
   // The number of voxels the field is sampled on (by default those of vectors()).
   virtual int64_t num_voxels() const { return vectors().num_voxels(); }
   // The largest |F| over the voxels of vectors(), for a field that can tell it without making
-  // them (DDGVF makes its vectors on demand, issue 21); NaN: max_force_magnitude
+  // them (DDGVF makes its vectors on demand); NaN: max_force_magnitude
   // (force_strength.h) reads vectors().
   virtual double largest_vector_norm() const { return std::numeric_limits<double>::quiet_NaN(); }
 

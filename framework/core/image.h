@@ -77,7 +77,7 @@ class Image {
   // indices and weights computed once per axis instead of once per point (patch matching).
   void sample_lattice(const Point<D>& x, double h, int half, double* out) const;
   // Asks the CPU to fetch the voxels sample(x) will read (a hint: no effect on results), for
-  // loops that sample a volume larger than the caches a few points ahead (issue 21).
+  // loops that sample a volume larger than the caches a few points ahead.
   void prefetch(const Point<D>& x) const;
 
  private:
@@ -86,8 +86,8 @@ class Image {
 };
 
 // A mask on a grid, one byte per voxel (inside or not): a ground truth's mask, which a run holds
-// from start to end, in a quarter of an Image's memory (issue 21: 225 MB less on a
-// 512 x 512 x 300 volume). Made from an image, a voxel is inside where the image is non-zero.
+// from start to end, in a quarter of an Image's memory. Made from an image, a voxel is inside
+// where the image is non-zero.
 template <int D>
 class BinaryMask {
  public:
@@ -111,7 +111,7 @@ class BinaryMask {
 };
 
 // One D-vector per voxel, stored as D interleaved floats: 12 bytes a voxel in 3D instead of the
-// 24 of Point<D> (issue 21). Every field's solver works in float, and the vectors are what a run
+// 24 of Point<D>. Every field's solver works in float, and the vectors are what a run
 // keeps for its whole evolution. Sampling converts to double before interpolating, so a field
 // whose values are floats samples to the same bits it did when stored in double; a field computed
 // in double (distance, DDGVF's sum of its two halves) is rounded once, to float, when stored.

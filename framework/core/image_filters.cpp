@@ -19,9 +19,9 @@ int64_t axis_stride(const Grid<D>& grid, int axis) {
 // weights summing to 1, border replicated), in place. The support is ceil(3 sigma_voxels) less a
 // 1e-9 margin: a spacing a rounding error off a round value (1 - 2e-16 mm from a NRRD space
 // direction's norm, with sigma 1 mm) must not add a tap of relative weight e^-8 and change the
-// field by 1e-4. In place (issue 21): each thread copies the part of a line it is about to
+// field by 1e-4. In place: each thread copies the part of a line it is about to
 // overwrite (one padded x-row, or a block of columns across the axis) instead of the pass
-// writing a second volume, which cost a whole volume's first touch per blur.
+// writing a second volume, which would cost a whole volume's first touch per blur.
 template <int D>
 void blur_axis(const Grid<D>& grid, int axis, double sigma_voxels, std::vector<double>& u) {
   const int radius = std::max(1, static_cast<int>(std::ceil(3.0 * sigma_voxels - 1e-9)));

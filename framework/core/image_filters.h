@@ -70,7 +70,7 @@ VectorField<D> gradient(const Image<D>& image);
 
 // Gaussian-smoothed copies of images, shared by the energies of one run (EnergyContext): each
 // (image, sigma) is smoothed once however many energies sample it (the recipes' two profile
-// terms and the external polarity rule all smooth by 1 mm; issue 21). Keyed by the image's
+// terms and the external polarity rule all smooth by 1 mm). Keyed by the image's
 // address: valid only while the images it was given live and are not modified, as within a run.
 template <int D>
 class SmoothedImageCache {

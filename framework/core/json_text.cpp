@@ -32,7 +32,7 @@ Json parse_bounded(const std::string& text, const std::string& file) {
     return Json::parse(text, bounded, /*allow_exceptions=*/true, /*ignore_comments=*/true);
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError(file, "", "JSON syntax error: " + clean(e.what()));
-  } catch (const nlohmann::json::out_of_range& e) {  // "1e999": found by fuzzing (issue 22)
+  } catch (const nlohmann::json::out_of_range& e) {  // "1e999": found by fuzzing
     throw InputError(file, "", "JSON number out of range: " + clean(e.what()));
   }
 }

@@ -1,4 +1,4 @@
-// Reading JSON input files safely (issue 22): the file must be a regular file of bounded size
+// Reading JSON input files safely: the file must be a regular file of bounded size
 // (a folder, a FIFO or a device is refused at once rather than read or waited on), and its
 // nesting is bounded, since nlohmann's values are copied and compared recursively: 100 000
 // nested objects overflowed the stack. Every problem is one InputError naming the file.

@@ -1,4 +1,4 @@
-// The snake's windowed stop (issue 20, "a stable end point"). The displacement stop of a phase
+// The snake's windowed stop, for a stable end point. The displacement stop of a phase
 // (`tolerance`: the largest move of one iteration) never fires for a snake that keeps sliding at
 // a steady rate (ASAP leaves translation free, and under weak forces the snake drifts) or that
 // oscillates about an edge (a unit-normalised force). StallDetector compares the template

@@ -445,9 +445,8 @@ RawVolume volume_of_file(const std::string& path) {
 
 // A series of single-frame files as one 3D volume: checked, sorted along the normal, stacked.
 // The files are read and checked in the folder's order; each slice's voxels go straight to
-// their place in the volume, found by sorting the headers first (the order of the slices
-// before), so that a series needs its volume's memory and one slice's, not twice the volume's
-// (issue 21: a 300-slice CT held 315 MB of slices and their 315 MB copy at once).
+// their place in the volume, found by sorting the headers first (not the read slices), so that
+// a series needs its volume's memory and one slice's, not twice the volume's.
 RawVolume volume_of_series(const DicomSource& src) {
   const std::vector<SliceHeader> headers = select_series(src);
   if (headers.size() == 1) return volume_of_file(headers[0].path);

@@ -112,7 +112,7 @@ std::string read_bytes(const std::string& path, size_t max_bytes) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "", "cannot open file");
   // Sized from the file's length first, so that a volume is read into one buffer of its size
-  // (appending grew it by doubling: 60 MB of allocations and copies for a 22 MB file, issue 21);
+  // (appending would grow it by doubling, allocating and copying several times its size);
   // then read on in blocks, in case the file grew or its length was not known.
   std::string s;
   std::error_code ec;
@@ -154,7 +154,7 @@ void read_stored_values(const std::string& path, uint64_t offset, int64_t count,
 }
 
 // Runs f with stderr sent to /dev/null: libpng and libjpeg print their own line ("libpng error:
-// Read Error") before OpenCV returns an empty image, and the user must see only ours (issue 22).
+// Read Error") before OpenCV returns an empty image, and the user must see only ours.
 template <class F>
 auto silenced(F&& f) {
   std::fflush(stderr);
@@ -365,7 +365,7 @@ namespace fs = std::filesystem;
 
 // A 2D grey image through OpenCV; colour is converted to grey, 8/16-bit and float kept.
 // True if the file begins like PNG, JPEG, BMP or TIFF (BigTIFF too). OpenCV picks its decoder by
-// content, not by name, and some of its decoders (GDCM's for DICOM, found by fuzzing, issue 22)
+// content, not by name, and some of its decoders (GDCM's for DICOM, found by fuzzing)
 // abort the process on a malformed file: only these four formats are handed to it.
 bool has_raster_signature(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

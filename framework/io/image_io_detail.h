@@ -29,7 +29,7 @@ struct RawVolume {
   std::array<std::array<double, 3>, 3> axes{{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
   int channels = 1;                           // 1 for an image, D for a vector field
   bool label = false;                         // writers: store as uint8 (a label map), else float32
-  std::vector<float> values;                  // voxel-major (x fastest), channels interleaved (issue 21: float,
+  std::vector<float> values;                  // voxel-major (x fastest), channels interleaved (float,
                                               // the precision of Image; 4 bytes a value while a file is read)
   std::string dim_key = "dimension", spacing_key = "spacing", channel_key = "channels";
   // Writers: the values to store, when they are another object's (an Image's or a VectorField's
@@ -72,7 +72,7 @@ inline uint8_t label_byte(float value) { return uint8_t(std::lround(std::clamp(d
 std::string label_bytes(const std::vector<float>& values);
 
 // What writers store: for a label map its label_bytes (made in `converted`), else the values'
-// own float32 bytes as they are in memory (little-endian here), without a copy (issue 21). The
+// own float32 bytes as they are in memory (little-endian here), without a copy. The
 // view lives as long as `values` and `converted`.
 inline std::string_view stored_view(const std::vector<float>& values, bool label, std::string& converted) {
   if (!label) return {reinterpret_cast<const char*>(values.data()), values.size() * sizeof(float)};
@@ -80,7 +80,7 @@ inline std::string_view stored_view(const std::vector<float>& values, bool label
   return converted;
 }
 
-// Limits from headers (issue 22): what a header declares is checked before anything is allocated.
+// Limits from headers: what a header declares is checked before anything is allocated.
 // Deflate expands at most ~1032-fold, so compressed data cannot hold more than this many times its
 // size; and the values as float must fit in the memory limit: the machine's physical memory, or
 // the environment's DSNAKE_MAX_IMAGE_BYTES (bytes) when set.
@@ -105,7 +105,7 @@ void require_exists(const std::string& path);
 std::string read_bytes(const std::string& path, size_t max_bytes = std::string::npos);
 
 // A text header (MetaImage, NRRD) parsed from the first 64 kB of `path`, so that a volume's data
-// is not read for its header (issue 21), or from the whole file when it does not end within
+// is not read for its header, or from the whole file when it does not end within
 // them: parse(bytes) parses, ended(header, bytes) says whether the header ended within the bytes
 // read. A parse of the 64 kB that throws is made again on the whole file, which gives the answer
 // (or the error) a whole-file read gave.
@@ -123,7 +123,7 @@ auto parse_header_of(const std::string& path, Parse&& parse, Ended&& ended) {
 }
 
 // Reads `count` values of `type` stored from byte `offset` of `path` into `values` (cleared
-// first), a block of stored values at a time (issue 21: the file's bytes are never held whole;
+// first), a block of stored values at a time (the file's bytes are never held whole;
 // MetaImage and NRRD raw data). The caller checked the file holds them; a file that ends early
 // all the same (it changed meanwhile) gives an InputError naming it.
 void read_stored_values(const std::string& path, uint64_t offset, int64_t count, Scalar type, bool swap,
@@ -136,7 +136,7 @@ void read_stored_values(const std::string& path, uint64_t offset, int64_t count,
 std::string read_gz_bytes(const std::string& path, size_t max_bytes = std::string::npos, size_t expected_bytes = 0);
 
 // zlib- or gzip-wrapped deflate data `in` (the wrapper detected; MetaImage's CompressedData,
-// NRRD's gzip encoding) decoded as it is inflated (issue 21: the inflated bytes are never held
+// NRRD's gzip encoding) decoded as it is inflated (the inflated bytes are never held
 // whole): its first `skip` bytes dropped, then up to `count` values of `type` into `values`
 // (cleared first, grown block by block, so memory follows the real data, never what a header
 // claims). Stops at the end of the stream, after count values, or where the data ends early.
@@ -221,7 +221,7 @@ void write_nrrd(const RawVolume& v, const std::string& path, bool compress);
 // and .inr.gz), at zlib's fastest level.
 std::string gzip_bytes(const std::vector<std::string_view>& parts, const std::string& path);
 // The same stream handed to `put` a piece (up to 1 MB) at a time as it is made, for writers that
-// stream it to their file (the compressed bytes are never held whole, issue 21).
+// stream it to their file (the compressed bytes are never held whole).
 void gzip_into(const std::vector<std::string_view>& parts, const std::string& path,
                const std::function<void(std::string_view)>& put);
 

@@ -247,7 +247,7 @@ VtkPolyData read_vtk(const std::string& path) {
   return d;
 }
 
-// A PLY header, read strictly before OpenMesh sees the file (issue 22): every line is a format,
+// A PLY header, read strictly before OpenMesh sees the file: every line is a format,
 // comment, obj_info, element or property line of known types, and end_header comes within 10 000
 // lines (without it OpenMesh's reader never returned: found by fuzzing). Element counts are
 // checked against the file's size before OpenMesh allocates them (a header declaring 2e9 vertices
@@ -345,7 +345,7 @@ void check_ply_header(const std::string& path) {
       throw bad("not a PLY header line");
     }
   }
-  // OpenMesh's reader looks for end_header without end (issue 22: a hang found by fuzzing).
+  // OpenMesh's reader looks for end_header without end (a hang found by fuzzing).
   throw InputError(path, "header", "no 'end_header' line");
 }
 
@@ -411,7 +411,7 @@ int triangle_components(int num_vertices, const std::vector<Triangle>& triangles
 
 // Checks a read mesh (non-empty, finite, closed, manifold) and turns it outward. Each connected
 // component is turned outward by the sign of its own enclosed volume; a mesh of several
-// components and an inward mesh are accepted with a warning line (issue 22: both were silent),
+// components and an inward mesh are accepted with a warning line,
 // since either may be what the user meant (two lungs; a writer with the other convention).
 Template<3> mesh_template(const std::string& path, RawMesh m) {
   if (m.points.empty() || m.triangles.empty()) throw InputError(path, "", "empty template");

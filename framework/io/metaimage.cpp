@@ -178,7 +178,7 @@ RawVolume read_meta(const std::string& path) {
 
   // The data: after the header (LOCAL) or in a file beside the header, from byte `offset` of
   // `data_path`, which holds `length` bytes from there. Raw data is read from the file straight
-  // into the values, compressed data decoded as it is inflated (issue 21: the stored or inflated
+  // into the values, compressed data decoded as it is inflated (the stored or inflated
   // bytes are never held whole).
   const std::string& df = h.keys.at("ElementDataFile");
   std::string data_path = path;
@@ -192,7 +192,7 @@ RawVolume read_meta(const std::string& path) {
     if (df.rfind("LIST", 0) == 0 || df.find('%') != std::string::npos)
       throw InputError(path, "ElementDataFile", "file lists and patterns are not supported");
     data_path = (fs::path(path).parent_path() / df).string();
-    // (A name too long for the system is "not found", not a filesystem_error: fuzzing, issue 22.)
+    // (A name too long for the system is "not found", not a filesystem_error: found by fuzzing.)
     if (!fs::is_regular_file(data_path, ec))
       throw InputError(data_path, "", "data file not found (named by ElementDataFile in " + path + ")");
     const uintmax_t size = fs::file_size(data_path, ec);

@@ -250,9 +250,9 @@ constexpr int64_t kNiftiBlock = int64_t(1) << 16;
 
 // The m stored values at `data`, those of stored index start.. start + m - 1, into `values`:
 // rescaled in double when scl_slope is set and rounded once (as an unscaled value is); NIfTI keeps
-// components slowest (one volume per component), RawVolume interleaves them. A block at a time
-// (issue 21): a CT with scl_slope set, the usual case, decoded all at once in double took 8 bytes
-// a voxel more at the peak (600 MB for 512 x 512 x 300).
+// components slowest (one volume per component), RawVolume interleaves them. A block at a time:
+// a CT with scl_slope set, the usual case, decoded all at once in double would need 8 bytes a
+// voxel more at the peak.
 void decode_nifti_block(const NiftiData& d, const char* data, int64_t start, int64_t m, std::vector<float>& values) {
   if (!d.scaled && d.channels == 1) {  // the common case: the values themselves, in place
     decode_into(data, m, d.type, d.swap, values.data() + start);
@@ -408,7 +408,7 @@ RawVolume read_nifti(const std::string& path, NiftiTransform transform, std::str
     throw InputError(path, "vox_offset", "data offset " + exact(layout.offset) + " lies outside the file");
   // The values streamed from the file (through zlib's gz reader, which passes a plain .nii
   // through) a block at a time into the voxels: the file's bytes are never held whole, so that
-  // reading needs the volume's floats and one block (issue 21: a CT's int16 bytes as well, before).
+  // reading needs the volume's floats and one block, not the stored values as well.
   gzFile f = gzopen(path.c_str(), "rb");
   if (!f) throw InputError(path, "", "cannot open file");
   struct Close {

@@ -292,7 +292,7 @@ RawVolume nrrd_geometry(const NrrdHeader& h, const std::string& path) {
 
 // Where `path`'s data is: the file (`path` itself, after the header, or the `data file`), the
 // byte it starts at past `line skip` lines, and the bytes from there to the file's end. Lines are
-// counted a block at a time from the file (issue 21: the data is never read whole for this).
+// counted a block at a time from the file (the data is never read whole for this).
 struct NrrdDataSpan {
   std::string where;
   uint64_t offset = 0, length = 0;
@@ -338,7 +338,7 @@ NrrdDataSpan nrrd_data_span(const NrrdHeader& h, const std::string& path) {
 // The `count` values of `type` the data holds (decoded from the encoding, `byte skip` applied),
 // into `values`, or an InputError naming the field whose numbers the data does not hold. Raw
 // data is read from its file straight into the values, gzip data read from its file and decoded
-// as it is inflated (issue 21: the stored or inflated bytes are never held whole).
+// as it is inflated (the stored or inflated bytes are never held whole).
 void nrrd_values(const NrrdHeader& h, const std::string& path, int64_t count, Scalar type, bool swap,
                  std::vector<float>& values) {
   const double expected = double(count) * scalar_bytes(type);
@@ -377,7 +377,7 @@ void nrrd_values(const NrrdHeader& h, const std::string& path, int64_t count, Sc
 // every run (result_mask.nii.gz), and level 6 took 2.5 to 3 times as long for files a third of
 // the size (the lung phantom's 21 MB image: 0.078 s for 77 kB against 0.028 s for 188 kB). The
 // output leaves a piece at a time (to the file being written), so that the compressed bytes are
-// never held whole (issue 21).
+// never held whole.
 void gzip_into(const std::vector<std::string_view>& parts, const std::string& path,
                const std::function<void(std::string_view)>& put) {
   z_stream zs{};

@@ -61,7 +61,7 @@ void png_warning_handler(png_structp, png_const_charp) {}
 // An 8-bit grey or BGR, or 16-bit grey, image as PNG with libpng, as OpenCV's encoder writes it
 // by default (the "sub" filter, zlib level 1, run-length strategy; BGR stored as RGB, 16-bit
 // big-endian): the same pixels as cv::imwrite. libpng is small and linked; cv::imwrite would need
-// OpenCV's image codecs, whose 140 libraries take about 90 ms to load (issue 21: every run
+// OpenCV's image codecs, whose 140 libraries take about 90 ms to load (every run
 // writes its figures).
 // False if the file cannot be opened or written.
 bool write_png_with_libpng(const std::string& path, const cv::Mat& image) {

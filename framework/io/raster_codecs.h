@@ -2,7 +2,7 @@
 //
 // libopencv_imgcodecs pulls in about 140 shared libraries (GDAL, poppler, HDF5, ...) that cost
 // every process 40 MB of resident memory and their start-up, although only 2D raster input and
-// the figures need them (issue 21: `dsnake field` on a volume peaked 7 bytes per voxel higher).
+// the figures need them.
 // So dsnake does not link it: these two calls open it with dlopen the first time they are used
 // and call OpenCV's own cv::imread / cv::imwrite (the signatures are checked against OpenCV's
 // header at compile time). OpenCV's exceptions pass through unchanged.

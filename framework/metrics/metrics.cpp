@@ -292,7 +292,7 @@ std::vector<double> nearest_distances(const FacetGrid<D>& grid, const Samples<D>
 
 // One direction: each sample's distance to the other surface, with the sample's weight. The
 // sample points are dropped once measured, so that the two surfaces' points (up to a million
-// each) are not held while the pooled distances are sorted (issue 21).
+// each) are not held while the pooled distances are sorted.
 struct DirectedDistances {
   std::vector<double> weights, distances;
 };

@@ -79,7 +79,7 @@ CorrespondenceError correspondence_error(const Snake<D>& snake,
 template <int D>
 int count_self_intersections(SurfaceRef<D> s);
 
-// "metrics": how finely the surfaces are sampled for the surface distances (issue 21: a cost
+// "metrics": how finely the surfaces are sampled for the surface distances (a cost
 // bounded by a count, whatever the grid's size or the mesh's state). Each surface is sampled
 // every `sample_spacing` mm, or more coarsely where that would give it more than `max_samples`
 // samples: its spacing then grows to the smallest that fits. Dice is exact (the interior is

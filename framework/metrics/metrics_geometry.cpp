@@ -442,7 +442,7 @@ double FacetGrid<D>::distance(const Point<D>& p, Scratch& s) const {
   const GridIndex<D> c = cell_of(p);
   for (int r = 0;; ++r) {
     // A point more than a few rings from every facet (deep inside a large surface, or beside a
-    // collapsed one) would walk O(r^D) empty cells: the tree finishes the search (issue 21).
+    // collapsed one) would walk O(r^D) empty cells: the tree finishes the search.
     if (r > kWalkRings) {
       tree_distance(p, s, best);
       return best;

@@ -100,7 +100,7 @@ class FacetGrid {
 
   // A bounding-volume hierarchy over the same facets, for the queries the grid answers badly:
   // a point far from every facet (a collapsed or distant surface, or a point deep inside a
-  // large one), whose ring walk would visit O((distance / cell)^D) empty cells (issue 21). A
+  // large one), whose ring walk would visit O((distance / cell)^D) empty cells. A
   // leaf is a box over tree_facets_[first .. first + count); inner nodes split their facets at
   // the median of the facet centres along the centres' longest axis (depth <= log2(facets) + 1).
   struct TreeNode {

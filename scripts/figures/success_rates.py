@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Success-rate curves of a sweep (issue 8, Figs. 15-18 as curves): one panel per corruption
+"""Success-rate curves of a sweep (Figs. 15-18 as curves): one panel per corruption
 type, one line per method (and grid point), success rate over the seeds against the corruption
 magnitude, from DIR/breakdown.csv written by `dsnake sweep`. Dashed lines mark the 80% pass and
 20% fail levels; a cross marks each curve's breakdown level (success below 50%).

@@ -1,7 +1,7 @@
 // AsapMlsEnergy: similarity invariance (2D, 3D, every neighbourhood), reflection detection, the
 // exact 2D operator (coordinate minimiser, Gauss-Seidel monotonicity, Jacobi), the 3D variants'
 // fixed points, Fig. 7's ranking, degenerate templates, the configuration errors, and the removal
-// of the approximate proposal's net motion (issue 19).
+// of the approximate proposal's net motion.
 #include "energies/asap_mls.h"
 #include "energies/mls_weights.h"
 #include "energies/registry.h"
@@ -474,7 +474,7 @@ TEST(AsapMls, SameResultsForOneAndTwoThreads) {
   }
 }
 
-// The 3D sums run on vectors (issue 21: the value four vertices at a time, the approximate fit
+// The 3D sums run on vectors (the value four vertices at a time, the approximate fit
 // one entry per vector) with each lane doing the scalar arithmetic in the scalar order: the
 // per-vertex energies D_j and a Jacobi and a Gauss-Seidel proposal are the bits of the plain
 // Eigen loops below, on neighbourhoods of unequal sizes (rings: valences 5 and 6; a vertex
@@ -602,7 +602,7 @@ TEST(AsapMls, FreeVerticesGetNoProposal) {
   EXPECT_LT(e->value(s), 1e-18);
 }
 
-// The net motion of a proposal (issue 19): from a deformed, rotated copy of the template, the
+// The net motion of a proposal: from a deformed, rotated copy of the template, the
 // approximate variant's move q' - q has a net torque of its own (the drift that kept and grew a
 // start rotation) unless it is removed; "auto" removes its translation and rotation (zero net
 // force and angular momentum about the centroid), "remove_similarity" also its dilation, "keep"

@@ -1,4 +1,4 @@
-// The landmark energy (energies/landmarks.h, issue 20): its proposal, value, residuals and
+// The landmark energy (energies/landmarks.h): its proposal, value, residuals and
 // distances against hand-computed numbers, the vertices it governs (landmark vertices only,
 // found through their template ids after free vertices were inserted), the world-to-frame map
 // of its points on an oblique image, the averaged update of §3.1 (landmark vertices move to the

@@ -1,4 +1,4 @@
-// SimilarityEnergy (issue 19, pose capture): a similar copy of the template is a fixed point with
+// SimilarityEnergy (pose capture): a similar copy of the template is a fixed point with
 // zero energy; from any positions the proposal is a similar (rigid: congruent) copy of the
 // template, it is the closest one (no similarity nearby does better), and the rigid variant keeps
 // the template's size; free vertices get no proposal; 1 and 2 threads agree.

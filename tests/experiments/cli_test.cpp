@@ -82,7 +82,7 @@ class CliTest : public test_support::TempDirTest {
 
 // OpenCV's image codecs (and the 140 libraries they bring: 40 MB of resident memory in every
 // process) are not linked: dsnake opens them when it first reads or writes a raster file
-// (framework/io/raster_codecs.h, issue 21). The PNG round trips of the field command and the
+// (framework/io/raster_codecs.h). The PNG round trips of the field command and the
 // figures tests run through that path.
 TEST_F(CliTest, TheImageCodecsAreNotLinked) {
   const CommandResult r = [&] {
@@ -98,7 +98,7 @@ TEST_F(CliTest, TheImageCodecsAreNotLinked) {
 }
 
 // A run that writes its PNG figures does not open the image codecs either: PNG files are written
-// with libpng (framework/io/raster_codecs.h; opening the codecs took about 90 ms of every run).
+// with libpng (framework/io/raster_codecs.h; opening the codecs takes about 90 ms).
 // The dynamic loader's log (LD_DEBUG=files) names every library the process opens.
 TEST_F(CliTest, WritingTheFiguresDoesNotOpenTheImageCodecs) {
   const fs::path out = dir_ / "out";
@@ -301,7 +301,7 @@ TEST_F(CliTest, UnknownCommandLineOptionIsBadInput) {
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
 }
 
-// Hostile input files and --set paths (issue 22): each is one line naming the file or the --set
+// Hostile input files and --set paths: each is one line naming the file or the --set
 // path, exit code 2, and no output folder. Rows: the arguments after "run", what the line says.
 TEST_F(CliTest, HostileFilesAndSetPathsAreOneLineAndExitTwo) {
   std::string deep;
@@ -400,7 +400,7 @@ TEST_F(CliTest, HostileFilesAndSetPathsAreOneLineAndExitTwo) {
   EXPECT_NE(v.err.find("found a pipe"), std::string::npos) << v.err;
 }
 
-// A full disk (issue 22: `field` left a complete-looking output): simulated by a file size limit
+// A full disk (no output may look complete): simulated by a file size limit
 // (ulimit -f, with SIGXFSZ ignored, so a write fails as it does with ENOSPC). The command exits 1
 // with one line naming the output and the system's reason, and leaves no file, temporary or not.
 TEST_F(CliTest, AFullDiskLeavesNoOutputAndOneLine) {
@@ -448,7 +448,7 @@ TEST_F(CliTest, AFullDiskLeavesNoOutputAndOneLine) {
   }
 }
 
-// The numeric watchdog (issue 22): a run whose forces send the snake to infinity stops as
+// The numeric watchdog: a run whose forces send the snake to infinity stops as
 // diverged with exit code 3, writes the last finite state and its metrics, names the term, and
 // leaves no staging folder; the watchdog's bound and vertex cap are keys.
 TEST_F(CliTest, ADivergingRunStopsWithExitCodeThreeAndFiniteOutputs) {
@@ -477,7 +477,7 @@ TEST_F(CliTest, ADivergingRunStopsWithExitCodeThreeAndFiniteOutputs) {
   EXPECT_NE(bad.err.find("watchdog.max_vertices"), std::string::npos) << bad.err;
 }
 
-// Output safety (issue 22): dsnake writes only into a folder it owns and replaces only its own
+// Output safety: dsnake writes only into a folder it owns and replaces only its own
 // files. `run` of a 2-iteration built-in into `out`, with extra arguments.
 class OutputFolderTest : public CliTest {
  protected:

@@ -133,7 +133,7 @@ TEST_F(ConvertTest, BadInputExitsTwoWithOneLineAndNoOutput) {
   expect_refused(at("missing.nrrd"), at("out.mha"), {"missing.nrrd", "not found"});
 }
 
-// Limits from headers (issue 22): a header's sizes are checked against what the file can hold
+// Limits from headers: a header's sizes are checked against what the file can hold
 // and the memory limit before anything is allocated or inflated; library messages do not reach
 // stderr; each case is one line naming the file and the header key.
 TEST_F(ConvertTest, HeadersAreCheckedBeforeAnyAllocation) {

@@ -1,4 +1,4 @@
-// Issue 20's "fields on a region of interest", end to end: a dark disk of contrast 20 next to a
+// Fields on a region of interest (fields/region.h), end to end: a dark disk of contrast 20 next to a
 // bright square of contrast 155 (a head MRI's organ and its scalp). Computed on the whole image,
 // the edge map is normalised by the square's edges, so the disk's edge is weak and the tension
 // shrinks the contour; computed on the template's region (the default) the disk's own edge is

@@ -174,10 +174,8 @@ TEST_F(FiguresReproductionTest, Fig6TetrisDSnakeBeatsDdgvf) {
 // Fig. 9 at half size (116 x 150 x 40, lobe semi-axes 40 x 60 x 16, thinner bronchi, fewer
 // iterations, coarser refinement): D-Snake grows from 310 vertices by refinement and fits the
 // lobe despite the bronchi; its template vertices land nearer their targets than those of the
-// DDGVF snake started from the refined template (measured: 310 -> 2754 vertices, MSD 0.18, Dice
-// 0.990, correspondence mean 1.88 with alpha 0; DDGVF MSD 0.29, correspondence mean 4.17). With
-// the defect-moving valence flips and simplify's closing relaxation sweep (issue 19): 310 -> 2524
-// vertices, MSD 0.30, Dice 0.982, correspondence mean 2.00 (1.96 before them, 3013 vertices).
+// DDGVF snake started from the refined template (measured: 310 -> 2524 vertices, MSD 0.30, Dice
+// 0.982, correspondence mean 2.00; DDGVF MSD 0.29, correspondence mean 4.17).
 TEST_F(FiguresReproductionTest, Fig9LungDSnakeRefinesAndKeepsCorrespondence) {
   const std::vector<std::string> half = {
       "image.size=[116,150,40]", "image.semi_axes=[40,60,16]", "image.bronchus_radius=1.5",

@@ -1,4 +1,4 @@
-// "solver": "global" end to end (issue 7): the Ceres solve of an experiment file registers the
+// "solver": "global" end to end: the Ceres solve of an experiment file registers the
 // 2D puzzle, reports Ceres' summary and the energy with the file's potential, gives the same
 // numbers for any OpenMP thread count, and rejects energies without a least-squares form.
 #include "experiments/experiment.h"

@@ -63,7 +63,7 @@ TEST(HeapSettings, AFreedHeapTopBelowThirtyTwoMegabytesStaysResident) {
   const std::size_t bytes = 3u << 20;
   allocate_touch_and_free(3, bytes);
   EXPECT_GE(mallinfo2().keepcost, 3 * bytes) << "the heap's free top was trimmed";
-  // Above the threshold the top is trimmed as before: the resident free heap stays bounded.
+  // Above the threshold the top is still trimmed: the resident free heap stays bounded.
   allocate_touch_and_free(16, bytes);
   EXPECT_LE(mallinfo2().keepcost, kHeapTrimThreshold + (1u << 20)) << "more than the trim threshold kept";
 }

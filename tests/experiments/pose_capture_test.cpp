@@ -1,4 +1,4 @@
-// Pose capture (issue 19): the D-Snake of experiments/paper/star_dsnake.json on the project's
+// Pose capture: the D-Snake of experiments/paper/star_dsnake.json on the project's
 // 80^3 star, run through the dsnake executable.
 //  - With the pose phase of experiments/ablation/star/star_rotated_pose.json (the snake moves as
 //    one similar body first, energies/similarity.h), starts rotated by 10, 15 and 20 deg about z
@@ -6,8 +6,8 @@
 //    Without it (star_dsnake.json) a 20 deg start does not.
 //  - The approximate ASAP in Gauss-Seidel order adds no rotation (asap_mls "net_motion"): started
 //    on the truth the final rotation w.r.t. the truth stays below 1 deg, a 0.5 deg start shrinks,
-//    and a (3, -2, 2) deg start ends within 2 deg, where keeping the net motion (the former
-//    behaviour) turns it past 6 deg.
+//    and a (3, -2, 2) deg start ends within 2 deg, where keeping the net motion ("keep")
+//    turns it past 6 deg.
 //  - The 2D star phantom (experiments/ablation/star/star2d_rotated_pose.json) registers from the
 //    same rotations and scales.
 // The rotation is the Procrustes fit (Umeyama, with scale) of the final template vertices onto

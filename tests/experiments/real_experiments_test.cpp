@@ -1,4 +1,4 @@
-// The real experiments of issue 20 (experiments/real/, REPRODUCTION.md "Real scans"): every
+// The real-scan experiments (experiments/real/, REPRODUCTION.md "Real scans"): every
 // case runs the recipe's settings with only its inputs replaced, and the 2D cases (fast: about a
 // second each) run here end to end on ITK's example scans: the recipe ends better than it
 // starts, the rat lung reaches Dice 0.95, and started on the lung's true contour the recipe stays

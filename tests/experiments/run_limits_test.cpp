@@ -5,7 +5,7 @@
 // the iteration where its enclosed volume falls below watchdog.min_size of the placed
 // template's, with the last good state written (exit code 3, one line naming phase and
 // iteration). Each stops where it says (the iteration, the assembly), which is what bounds its
-// time; the wall times are measured as whole processes (README, the watchdog).
+// time; the wall times are measured as whole processes (docs/usage.md, the watchdog).
 #include "experiments/builtin.h"
 #include "framework/io/mesh_io.h"
 
@@ -94,9 +94,9 @@ TEST_F(RunLimitsTest, ARemeshingLengthPastTheVertexBudgetIsRefusedNamingItsKey) 
 }
 
 // A global solve whose external term outweighs the rest by 1e12 (tau and weight 1e12): its first
-// Levenberg-Marquardt step throws vertices hundreds of metres; before the watchdog applied to the
-// global solve, the next phase resampled that contour into 2.1 million vertices and ran past 60 s.
-// Now: diverged at that iteration, one line, the last good state (the start) written.
+// Levenberg-Marquardt step throws vertices hundreds of metres; without the watchdog on the global
+// solve, the next phase would resample that contour into 2.1 million vertices and run past 60 s.
+// Expected: diverged at that iteration, one line, the last good state (the start) written.
 TEST_F(RunLimitsTest, AGlobalSolveThatRunsAwayStopsAtOnce) {
   const fs::path out = dir_ / "global";
   const Outcome o = dsnake("run builtin:default --set solver=global --set 'energies[1].tau=1e12' "
@@ -113,9 +113,9 @@ TEST_F(RunLimitsTest, AGlobalSolveThatRunsAwayStopsAtOnce) {
 }
 
 // A snake step whose proposals run away under the collision guard (the external step 1e9 on the
-// sphere example): the watchdog sees the proposed moves, not the guard's shortened ones. Before,
-// the guard shortened every step to nothing, each iteration testing every pair of facets, and
-// the run went on for minutes with "max move 0".
+// sphere example): the watchdog sees the proposed moves, not the guard's shortened ones. Otherwise
+// the guard would shorten every step to nothing, each iteration testing every pair of facets, and
+// the run would go on for minutes with "max move 0".
 TEST_F(RunLimitsTest, AGuardedSnakeThatRunsAwayStopsAtOnce) {
   const fs::path out = dir_ / "guarded";
   const std::string file = std::string(DSNAKE_SOURCE_DIR) + "/experiments/examples/dsnake_sphere_to_ellipsoid.json";

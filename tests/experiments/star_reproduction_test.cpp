@@ -63,10 +63,10 @@ const char* kPerturb4 = R"([{"type":"perturb","radius":4}])";
 const char* kPerturb6 = R"([{"type":"perturb","radius":6}])";
 const char* kNoise40 = R"([{"type":"noise","sigma":40}])";
 
-// Fig. 14, clean star. D-Snake registers the star (10/10: Dice 0.994, correspondence max 0.30;
-// 0.990 and 0.40 before issue 19); the GVF snake with the paper's alpha 0.5, kappa 0.2 does not reach the arms (Dice
+// Fig. 14, clean star. D-Snake registers the star (10/10: Dice 0.994, correspondence max 0.30);
+// the GVF snake with the paper's alpha 0.5, kappa 0.2 does not reach the arms (Dice
 // 0.799, correspondence max 14.1 with the physical internal energy and the collision guard; 0.633 and 20.0 with the
-// per-vertex form before issue 19): the paper's "GVF passes the clean star" does not reproduce.
+// per-vertex form): the paper's "GVF passes the clean star" does not reproduce.
 TEST_F(StarReproductionTest, CleanStarDSnakeRegistersWhereGvfSnakeLosesTheArms) {
   const json ds = run("star_dsnake.json", kClean, 0);
   const json gvf = run("star_gvf_snake.json", kClean, 0);
@@ -106,8 +106,7 @@ TEST_F(StarReproductionTest, OnePercentOutliersDSnakePassesGvfSnakeFails) {
 
 // Figs. 17-18: noise sigma 30 and perturbation r 2. The GVF snake fails (mean Dice 0.054 and
 // 0.002 over 10 seeds with the per-vertex internal energy; seed 0 with the physical one and the
-// collision guard: 0.665 at noise 30); D-Snake keeps the star (mean Dice 0.983 and 0.970, 10/10 each; before
-// issue 19: 0.956 and 0.947, 7/10 each).
+// collision guard: 0.665 at noise 30); D-Snake keeps the star (mean Dice 0.983 and 0.970, 10/10 each).
 TEST_F(StarReproductionTest, NoiseThirtyAndPerturbTwoCollapseTheGvfSnakeNotDSnake) {
   for (const char* level : {kNoise30, kPerturb2}) {
     const json ds = run("star_dsnake.json", level, 0);
@@ -120,8 +119,7 @@ TEST_F(StarReproductionTest, NoiseThirtyAndPerturbTwoCollapseTheGvfSnakeNotDSnak
 }
 
 // The paper's D-Snake breakdown: it passes 3% outliers (10/10 here, where the paper reports a
-// failure) and perturbation r 4 (9/10; the paper: fails) and breaks down at r 6 (2/10). Before
-// the approximate ASAP's net rotation was removed (issue 19) it passed 3% in 8/10 and r 4 in 3/10.
+// failure) and perturbation r 4 (9/10; the paper: fails) and breaks down at r 6 (2/10).
 TEST_F(StarReproductionTest, DSnakePassesThreePercentOutliersAndPerturbFourBreaksDownAtPerturbSix) {
   const double clean_msd = metric(run("star_dsnake.json", kClean, 0), "mean_surface_distance");
   int outlier_successes = 0, perturb4_successes = 0, perturb6_successes = 0;
@@ -156,10 +154,10 @@ TEST_F(StarReproductionTest, EdgeMapSigmaTwoPassesWhereThePapersDSnakeFails) {
   EXPECT_LE(paper, 1);
 }
 
-// The start pose: from the template also rotated by (10, -8, 6) deg, the approximate ASAP as it
-// was (net_motion "keep": its proposals carry a net rotation, turned further by the Gauss-Seidel
+// The start pose: from the template also rotated by (10, -8, 6) deg, the approximate ASAP with
+// net_motion "keep" (its proposals carry a net rotation, turned further by the Gauss-Seidel
 // order) ends about 8 deg off on the clean star (correspondence max 5.5); with the net rotation
-// removed (the default, issue 19) it ends at 2.4, and the exact variant recovers (1.7). This is
+// removed (the default) it ends at 2.4, and the exact variant recovers (1.7). This is
 // why star_dsnake.json starts unrotated; star_rotated_pose.json captures such starts.
 TEST_F(StarReproductionTest, RotatedStartApproximateAsapStaysRotatedExactRecovers) {
   const std::string rotated = "template.transform.rotation_deg=[10,-8,6]";

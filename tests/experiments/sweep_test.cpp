@@ -213,7 +213,7 @@ TEST_F(SweepTest, BadSweepFilesNameTheFileAndTheJsonPath) {
                {"run snake-g1-c0-s4-", "exp.json", "energies[0].alpha", "must be"});
   expect_error([](json& j) { j["corruptions"][2] = json::parse(R"([{"type": "noize"}])"); }, {"corruptions[2]", "corruption[0].type", "noize"});
   expect_error([](json& j) { j["methods"]["stiff"]["base"] = "no_such.json"; }, {"methods.stiff", "no_such.json"});
-  // Issue 22: a grid of 10^10 points is refused before it is expanded (it hung), and so is a
+  // A grid of 10^10 points is refused before it is expanded (expanding it would hang), and so is a
   // product of methods, grid points, levels and seeds above 100 000 runs.
   expect_error([](json& j) {
     j["grid"] = json::object();

@@ -1,4 +1,4 @@
-// "template.init" and the landmark energy in experiments (issue 20): the landmark init maps a
+// "template.init" and the landmark energy in experiments: the landmark init maps a
 // rotated, scaled, shifted star template back onto the truth through its five tips; the moments
 // init recovers a known similarity from a thresholded 3D ellipsoid and from a 2D label mask;
 // result.json reports them; bad inputs are one-line InputErrors naming the JSON path (exit 2 in

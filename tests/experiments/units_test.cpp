@@ -1,4 +1,4 @@
-// Issue 19's acceptance for parameters with units: one experiment file gives the same result
+// Acceptance for parameters with units: one experiment file gives the same result
 //  - with templates of three resolutions (each ends as near its own floor, the score of that
 //    template placed exactly on the truth, as the others do; experiments/units/*.json);
 //  - on the same continuous image sampled at 1 mm and at 0.5 mm, and with its intensities x10.

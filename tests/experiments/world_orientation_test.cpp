@@ -1,4 +1,4 @@
-// Issue 18's acceptance: an image stored with flipped or permuted axes, or with a rotated
+// Acceptance for oriented images: an image stored with flipped or permuted axes, or with a rotated
 // direction matrix, gives the same world-space result as the same data stored axis-aligned, on
 // real scans, through `dsnake run`:
 //  3D: a piece of CGAL's liver label (box-averaged to ~3.7 mm voxels and cropped), its template
@@ -13,7 +13,7 @@
 //      90 degrees), and ITK's own BrainProtonDensitySliceBorder20DirectionPlus30.mhd (the same
 //      voxels with a +30 degree direction), and that file with y reversed (an oblique reflection, NRRD).
 // The GVF runs also guard the blur's support against a spacing a rounding error off 1 mm (NRRD's
-// spacing is |space direction|): before image_filters.cpp's margin, (d) in 2D differed by 2.6e-4 mm.
+// spacing is |space direction|): without image_filters.cpp's margin, (d) in 2D differs by 2.6e-4 mm.
 // Asserted: the metrics of every storage equal (a)'s to 1e-6; final and initial positions
 // (final.vtk, initial.vtk, world coordinates) equal (a)'s, or R (a)'s about the origin, to 1e-6;
 // result_mask.nii.gz has the voxels of (a)'s, and the oblique one has the direction R.

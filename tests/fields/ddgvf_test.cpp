@@ -61,7 +61,7 @@ TEST(DdgvfField, DisagreeingNormalIsBlindToTheEdge) {
   }
 }
 
-// The multigrid solves (which start from the masked source in place, issue 21) and the explicit
+// The multigrid solves (which start from the masked source in place) and the explicit
 // reference iteration (which keeps its own copy of the source) reach the same directional
 // components, for both normals of each axis.
 TEST(DdgvfField, MultigridReachesTheExplicitFixedPoint) {
@@ -184,7 +184,7 @@ TEST(DdgvfField, MasksAreTheSignsOfTheImageGradient) {
   EXPECT_TRUE(compute_edge_map(image, EdgeMapOptions{0.0, true}, false, "test").gradient_signs.empty());
 }
 
-// vectors() is made on first use (issue 21) as the float sum of each axis's two components, and
+// vectors() is made on first use as the float sum of each axis's two components, and
 // made anew after another compute(); the largest |F| the field tells without making them is the
 // one max_force_magnitude reads off vectors().
 TEST(DdgvfField, VectorsAreMadeOnDemandAsTheSumOfTheComponents) {

@@ -127,7 +127,7 @@ TEST(GvfSmoother, ZeroStartEqualsSweepsFromAZeroedIterate) {
   }
 }
 
-// The cycle's restriction of the residual without a fine residual array (issue 21) gives bit
+// The cycle's restriction of the residual without a fine residual array gives bit
 // for bit the residual rows followed by the restriction, on 1 and 2 threads, for every kind of
 // axis: even (cell-centred), odd (vertex-centred) and not coarsened, in 3D, on one plane and on
 // one row. The restriction itself is checked against P^T / 2 in the x-row tests below.

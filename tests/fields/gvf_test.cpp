@@ -259,7 +259,7 @@ TEST(GvfField, IndependentOfThreadCount) {
   }
 }
 
-// compute_releasing (issue 21: `dsnake field` frees the image once the edge map has read it)
+// compute_releasing (`dsnake field` frees the image once the edge map has read it)
 // gives the same bits as compute and leaves the image empty; so does DDGVF's, on every
 // directional component.
 TEST(GvfField, ComputeReleasingGivesTheSameBitsAndFreesTheImage) {

@@ -88,8 +88,8 @@ TEST(IntegrateField, RecoversQuadraticExactly2dAnisotropic) {
   auto g = [](const Point<2>& x) { return Point<2>(0.6 * x[0] - 0.2 * x[1] + 1, -0.2 * x[0] + 0.2 * x[1]); };
   double range;
   const double err = integration_error<2>(grid, p, g, &range);
-  // Exact up to the rounding of the stored vectors to float (issue 21): ~1e-8 of the range
-  // (1e-9 when they were stored in double).
+  // Exact up to the rounding of the stored vectors to float: ~1e-8 of the range (1e-9 with
+  // vectors stored in double).
   EXPECT_LT(err, 2e-8 * range) << range;
 }
 

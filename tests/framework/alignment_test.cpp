@@ -1,4 +1,4 @@
-// Pre-alignment geometry (framework/core/alignment.h, issue 20): the enclosed moments of a
+// Pre-alignment geometry (framework/core/alignment.h): the enclosed moments of a
 // polygon and a mesh and the voxel moments of a region against closed forms (a rectangle, a box,
 // an oblique grid), the moment alignment recovering a known similarity from a rotated, shifted
 // and scaled mask (2D ellipse, 3D ellipsoid), its documented ambiguity and isotropy rules, and

@@ -335,7 +335,7 @@ TEST(Evolver, NonFiniteProposalsStopWithDivergedStatus) {
   EXPECT_EQ(s.positions(), start);
 }
 
-// The watchdog (issue 22): a move larger than max_move stops the phase as diverged at the
+// The watchdog: a move larger than max_move stops the phase as diverged at the
 // last positions that passed; the vertex with the largest move and the term that moves it
 // farthest are named.
 TEST(Evolver, AMoveLargerThanTheWatchdogsBoundStopsTheRun) {

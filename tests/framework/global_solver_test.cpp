@@ -1,4 +1,4 @@
-// The global-solve baseline (issue 7): every residual's derivatives against Ceres' numeric ones
+// The global-solve baseline: every residual's derivatives against Ceres' numeric ones
 // (GradientChecker, with the rotation manifolds), ASAP alone reaching a similarity of the
 // template, and the global optimum at least as low as the snake's fixed point.
 #include "framework/core/evolver.h"

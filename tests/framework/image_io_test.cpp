@@ -177,9 +177,9 @@ TEST(ImageIo, ReadsForeignCompressedBigEndianMetaImage) {
 }
 
 // Raw MetaImage data is read from its file a block at a time, the header from the file's first
-// 64 kB (issue 21): a volume of several blocks, HeaderSize skips (a count, and -1: the data are
+// 64 kB: a volume of several blocks, HeaderSize skips (a count, and -1: the data are
 // the file's last bytes), a header longer than 64 kB, and data shorter than declared (named
-// with the bytes it holds) read as before.
+// with the bytes it holds) read right.
 TEST(ImageIo, MetaImageRawDataIsReadFromItsFileAtTheRightPlace) {
   const std::string dir = fresh_dir();
   const int nx = 61, ny = 47, nz = 50;  // 143 350 int16 values: two blocks of stored values
@@ -326,9 +326,9 @@ TEST(ImageIo, NiftiAppliesSlopeAndInterceptToUint8AndInt16) {
   }
 }
 
-// Issue 21: scaled values are decoded a block of 65536 at a time (not all at once in double);
-// a volume of several blocks, whose last one is partial, in .nii and .nii.gz, and a vector
-// field whose components cross the blocks' borders, read as before.
+// Scaled values are decoded a block of 65536 at a time (not all at once in double): a volume
+// of several blocks, whose last one is partial, in .nii and .nii.gz, and a vector field whose
+// components cross the blocks' borders, read right.
 TEST(ImageIo, NiftiDecodesScaledVolumesAndVectorFieldsOfSeveralBlocks) {
   const std::string dir = fresh_dir();
   const int16_t nx = 61, ny = 47, nz = 53;  // 151951 voxels: two blocks and a partial third
@@ -536,8 +536,8 @@ TEST(ImageIo, MissingFileIsReportedWithItsName) {
   fs::remove(dir + "/v.raw");
   const InputError e = expect_input_error([&] { read_image<3>(dir + "/v.mhd"); });
   EXPECT_EQ(e.file(), dir + "/v.raw");
-  // A data file name longer than the system allows (found by fuzzing, issue 22: a raw
-  // filesystem_error before), a folder and a pipe in place of the image.
+  // A data file name longer than the system allows (found by fuzzing: not a raw
+  // filesystem_error), a folder and a pipe in place of the image.
   write_file(dir + "/long.mha", "NDims = 2\nDimSize = 2 2\nElementType = MET_FLOAT\nElementDataFile = " +
                                     std::string(1000, 'x') + "\n");
   EXPECT_TRUE(contains(expect_input_error([&] { read_image<2>(dir + "/long.mha"); }).what(), "data file not found"));
@@ -575,7 +575,7 @@ TEST(ImageIo, TruncatedDataSaysHowManyBytes) {
   EXPECT_EQ(e.file(), dir + "/z.mha");
 }
 
-// The values are streamed from the file (issue 21): an offset past the file's end, however
+// The values are streamed from the file: an offset past the file's end, however
 // large (a float up to 3e38, found by fuzzing as undefined behaviour in the conversion to a byte
 // count), and data cut short in a .nii.gz are refused with the header field and the byte counts.
 TEST(ImageIo, NiftiOffsetPastTheEndAndShortGzipDataAreNamed) {

@@ -90,7 +90,7 @@ TEST(ImageOrientation, FlippedAndPermutedMetaImageAxesReadAsTheAlignedImage) {
   }
 }
 
-// The NIfTI sform of the issue, in NIfTI's RAS world (x_RAS = -x_LPS, y_RAS = -y_LPS): a y axis
+// A NIfTI sform in NIfTI's RAS world (x_RAS = -x_LPS, y_RAS = -y_LPS): a y axis
 // stored reversed (in LPS; srow_y = [0, 2, 0, -y0] in RAS), and the qform identity in RAS, which
 // is x and y reversed in LPS.
 TEST(ImageOrientation, NiftiSformAndQformFlipsReadAsTheAlignedImage) {

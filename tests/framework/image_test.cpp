@@ -145,7 +145,7 @@ TEST(ImageFilters, BlurKeepsConstantsAndMassAndIsThreadIndependent) {
 
 // The blur, written per voxel as its comment states (w0 u[i] + w1 (u[i-1] + u[i+1]) + ..., the
 // border replicated), against the line-wise implementation: the same bits on every axis, also
-// where the support is longer than the axis (issue 21 rewrote the loops, not the sums), and
+// where the support is longer than the axis (the loops are line-wise, the sums in the same order), and
 // where a y or z line is wider than the in-place pass's block of 128 columns (131 columns: a
 // block of 3 along y, 128 * 4 + 12 along z). Through all three entry points.
 TEST(ImageFilters, BlurEqualsThePerVoxelSumBitForBit) {

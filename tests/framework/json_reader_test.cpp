@@ -53,8 +53,8 @@ TEST(JsonReader, WrongTypesAndRangesNameThePath) {
   EXPECT_EQ(error_of([&] { JsonReader(arr, "f.json", "field"); }), "f.json: field: expected a JSON object");
 }
 
-// Found by fuzzing (issue 22): a number past double's range was nlohmann's out_of_range, not our
-// one-line error; text that is not UTF-8 is refused before nlohmann's dump() can throw on it.
+// Found by fuzzing: a number past double's range is our one-line error, not nlohmann's
+// out_of_range; text that is not UTF-8 is refused before nlohmann's dump() can throw on it.
 TEST(JsonText, NumberOverflowIsAnInputErrorAndUtf8IsChecked) {
   EXPECT_EQ(error_of([] { parse_json_text("{\"seed\": 5.5555E+555}", "exp.json"); }),
             "exp.json: JSON number out of range: number overflow parsing '5.5555E+555'");

@@ -155,7 +155,7 @@ TEST(MeshIo, InwardMeshIsFlippedKeepingIds) {
   EXPECT_EQ(t.connectivity.closed_manifold_problem(), "");
 }
 
-// Issue 22: an inward mesh and a mesh of two surfaces are read with one warning line each, and
+// An inward mesh and a mesh of two surfaces are read with one warning line each, and
 // every surface is turned outward on its own (a one-sign flip of the whole mesh would leave the
 // second surface inward).
 TEST(MeshIo, TwoSurfacesOneInwardAreEachTurnedOutwardWithWarnings) {

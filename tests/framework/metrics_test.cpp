@@ -383,8 +383,8 @@ TEST(Metrics, GridSearchAgreesWithBruteForce) {
 }
 
 // Points many cells away from every facet of a fine surface (deep inside it) and batches whose
-// candidate box would span most of the grid go to the facet tree (issue 21: a collapsed snake's
-// metrics walked O((distance / cell)^3) empty cells); the distances stay exact.
+// candidate box would span most of the grid go to the facet tree (a collapsed snake's
+// metrics would walk O((distance / cell)^3) empty cells); the distances stay exact.
 TEST(Metrics, TreeQueriesFarFromEveryFacetAgreeWithBruteForce) {
   const Shape3 fine = geodesic_sphere(24, 50, Point<3>(3, -2, 1));
   ASSERT_GT(fine.points.size(), 5000u);
@@ -447,7 +447,7 @@ TEST(Metrics, OffsetSpheresHaveBoundedDistances) {
 namespace dsnake {
 namespace {
 
-// Issue 21: Dice on the box of the two objects' voxels equals Dice on the whole grid, for a
+// Dice on the box of the two objects' voxels equals Dice on the whole grid, for a
 // shape inside, across the border of and outside the grid.
 TEST(MetricsBoundedCost, DiceOnTheObjectsBoxEqualsDiceOnTheWholeGrid) {
   const auto grid = make_grid<2>({60, 50}, {0.7, 1.3}, {-3, 2});

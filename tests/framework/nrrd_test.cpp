@@ -142,7 +142,7 @@ TEST(Nrrd, TypesAndByteOrdersDecode) {
       const detail::RawVolume v = detail::read_nrrd(dir + "/" + name);
       // Rounded once to float, as an Image holds them; 1e300 is beyond float's range.
       EXPECT_EQ(v.values, (std::vector<float>{0.1f, -2.5f, INFINITY, 7}));
-      // As an image it is refused, naming the voxel (it was silently infinite before issue 21).
+      // As an image it is refused, naming the voxel (not silently infinite).
       try {
         read_image<2>(dir + "/" + name);
         ADD_FAILURE() << "read a value beyond float's range";

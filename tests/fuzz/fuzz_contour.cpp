@@ -1,4 +1,4 @@
-// libFuzzer target (issue 22): the 2D contour readers (framework/io/mesh_io.cpp): JSON
+// libFuzzer target: the 2D contour readers (framework/io/mesh_io.cpp): JSON
 // ({"points", "landmarks"}) when the input begins with '{', a VTK polyline when it begins with
 // "# vtk", the text format otherwise.
 #include "framework/io/mesh_io.h"

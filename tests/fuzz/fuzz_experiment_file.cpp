@@ -1,4 +1,4 @@
-// libFuzzer target (issue 22): the experiment-file reader, as `dsnake validate` reads a file: the JSON
+// libFuzzer target: the experiment-file reader, as `dsnake validate` reads a file: the JSON
 // text, then every section (experiment_spec.cpp), in the dimension the file declares.
 #include "tests/fuzz/fuzz_support.h"
 

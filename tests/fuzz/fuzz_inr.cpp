@@ -1,4 +1,4 @@
-// libFuzzer target (issue 22): the INRIMAGE-4 reader (framework/io/inr.cpp); gzip input (magic 1f 8b) is
+// libFuzzer target: the INRIMAGE-4 reader (framework/io/inr.cpp); gzip input (magic 1f 8b) is
 // read as .inr.gz, anything else as .inr.
 #include "tests/fuzz/fuzz_image.h"
 

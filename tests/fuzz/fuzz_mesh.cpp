@@ -1,4 +1,4 @@
-// libFuzzer target (issue 22): the 3D mesh readers (OpenMesh for OFF, OBJ, PLY and STL; ours for
+// libFuzzer target: the 3D mesh readers (OpenMesh for OFF, OBJ, PLY and STL; ours for
 // legacy VTK; then the template checks: closed, manifold, one orientation). The extension follows
 // the content as a user's file would: "ply", "OFF", "# vtk" and "solid" name their formats, a
 // line starting "v ", "f ", "o " or "#" is OBJ, anything else binary STL.

@@ -1,4 +1,4 @@
-// libFuzzer target (issue 22): the MetaImage reader (.mha: the text header, then raw or zlib data
+// libFuzzer target: the MetaImage reader (.mha: the text header, then raw or zlib data
 // in the same file; framework/io/metaimage.cpp).
 #include "tests/fuzz/fuzz_image.h"
 

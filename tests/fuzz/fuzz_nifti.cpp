@@ -1,4 +1,4 @@
-// libFuzzer target (issue 22): the NIfTI-1 reader (framework/io/nifti.cpp); gzip input (magic 1f 8b)
+// libFuzzer target: the NIfTI-1 reader (framework/io/nifti.cpp); gzip input (magic 1f 8b)
 // is read as .nii.gz, anything else as .nii.
 #include "tests/fuzz/fuzz_image.h"
 

@@ -1,4 +1,4 @@
-// libFuzzer target (issue 22): the NRRD reader (framework/io/nrrd.cpp): the header's fields, raw or gzip
+// libFuzzer target: the NRRD reader (framework/io/nrrd.cpp): the header's fields, raw or gzip
 // data attached to the header.
 #include "tests/fuzz/fuzz_image.h"
 

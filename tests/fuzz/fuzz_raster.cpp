@@ -1,4 +1,4 @@
-// libFuzzer target (issue 22): 2D raster images through OpenCV (PNG, JPEG, BMP, TIFF), named by their
+// libFuzzer target: 2D raster images through OpenCV (PNG, JPEG, BMP, TIFF), named by their
 // magic bytes so that the extension matches the content as a user's file would.
 #include "tests/fuzz/fuzz_image.h"
 

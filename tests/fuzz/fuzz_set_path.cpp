@@ -1,4 +1,4 @@
-// libFuzzer target (issue 22): `--set key.path=value` overrides. The input is up to eight lines,
+// libFuzzer target: `--set key.path=value` overrides. The input is up to eight lines,
 // each one override, applied to the built-in 2D and 3D experiments; the result is read as an
 // experiment file (every section), in the dimension the overrides leave it.
 #include "tests/fuzz/fuzz_support.h"

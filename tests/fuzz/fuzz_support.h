@@ -1,4 +1,4 @@
-// Shared by the libFuzzer targets (issue 22). Each target writes the fuzzer's bytes to a file
+// Shared by the libFuzzer targets. Each target writes the fuzzer's bytes to a file
 // whose name gives the reader its format, runs the reader as `dsnake` would, and holds it to the
 // command line's contract: the only acceptable failure is an InputError, whose message is one
 // line of bounded length (main.cpp prints it and exits 2). Anything else (another exception, a

@@ -1,4 +1,4 @@
-// libFuzzer target (issue 22): the sweep-file reader ("base", "grid", "methods", levels and seeds) and
+// libFuzzer target: the sweep-file reader ("base", "grid", "methods", levels and seeds) and
 // its expansion into runs; building every run as an experiment (validate) is left to the
 // experiment-file target, which reads the same sections.
 #include "tests/fuzz/fuzz_support.h"

@@ -138,7 +138,7 @@ Image<3> voxelised_femur(double spacing) {
 }
 
 // CGAL's liver label (438 x 353 x 165 voxels of 0.62 x 0.62 x 1.33 mm; the liver is label 255):
-// far finer than 2000 vertices, so it is extracted on a coarser grid; the acceptance of issue 18
+// far finer than 2000 vertices, so it is extracted on a coarser grid; the acceptance
 // is Dice >= 0.95 at 2000 vertices (measured: 0.9887), genus that of the label (0, computed on
 // the voxels here), closed, manifold, no self-intersection, within 10% of the count.
 TEST(Template3d, CgalLiverLabelAt2000Vertices) {

@@ -1,4 +1,4 @@
-// Issue 19, "a mesh that stays clean through the evolution": the four §5 stages run every 10
+// A mesh that stays clean through the evolution: the four §5 stages run every 10
 // iterations while the snake moves onto a hidden surface (an ellipsoid, a torus, a genus-2
 // surface) and refines about ten-fold; the final mesh must be free of self-intersections and
 // almost regular. And the collision guard (remesh/collision_guard.h) on the snake iteration.
@@ -103,22 +103,15 @@ InLoopResult run_in_loop(const InLoopRun& run) {
   return r;
 }
 
-// Issue 19 asks for >= 85% valence-6 vertices on every shape. With the physical internal energy
-// (cotangent, no tangential motion; the default) the stages reach ellipsoid 87.0%, torus 87.5%,
+// The stages must keep >= 85% valence-6 vertices on every shape. With the physical internal
+// energy (cotangent, no tangential motion; the default) they reach ellipsoid 87.0%, torus 87.5%,
 // genus 2 89.2% (min angle >= 20: 100% on all three; smallest angles 29.2, 30.1, 30.4 degrees;
-// 1566, 4553, 2379 vertices). Until issue 21 the defect moves undid a tried flip by removing its
-// triangles and adding the old ones anew, which moved them to the end of the triangle slots and
-// of their vertices' corner lists, and the later searches and sweeps inherited that order:
-// 88.9%, 88.8%, 89.1% then (86.1% against 88.2% now unrelaxed); with best_second_flip's ties
-// going to the last candidate instead of the first, 89.4%, 88.6%, 89.2% then against 87.6%,
-// 87.8%, 88.8% now, so about one point of the difference is systematic. Before the defect
-// moves of the valence flips (remesh/delaunay.cpp: a flip that keeps the valences' deviation,
-// kept when one or two more then lower it) and simplify's closing relaxation sweep they
-// reached 81.0%, 83.5%, 80.9% (1831, 5277, 2875 vertices); the defect moves alone 86.1%,
-// 87.9%, 87.7% (UnrelaxedEllipsoidInsideTheEvolution; 85.5%, 84.6%, 85.7% with only one further
-// flip after the neutral one); the closing sweep alone 81.4%, 84.6%, 82.7%; the umbrella
-// internal energy, which also slid vertices tangentially, 84.7%, 91.5%, 81.0%. `valence6` is
-// asserted with a small margin.
+// 1566, 4553, 2379 vertices), helped by the defect moves of the valence flips
+// (remesh/delaunay.cpp: a flip that keeps the valences' deviation, kept when one or two more then
+// lower it) and simplify's closing relaxation sweep. The shares depend on the order in which the
+// searches and sweeps meet triangles and corners by about a point: with best_second_flip's ties
+// going to the last candidate instead of the first, 87.6%, 87.8%, 88.8%. `valence6` is asserted
+// with a small margin.
 void expect_clean(const InLoopResult& r, int chi, int start_vertices, double valence6) {
   EXPECT_EQ(r.quality.euler_characteristic, chi);
   EXPECT_TRUE(r.quality.closed);
@@ -134,8 +127,7 @@ TEST(CleanMesh, EllipsoidInsideTheEvolution) {
   expect_clean(r, 2, 162, 0.865);
 }
 
-// The same without simplify's closing relaxation sweep: 88.2% (1942 vertices; before issue 21's
-// exact undo, 86.1%, 1926 vertices, torus 87.9%, genus 2 87.7%).
+// The same without simplify's closing relaxation sweep: 88.2% (1942 vertices).
 TEST(CleanMesh, UnrelaxedEllipsoidInsideTheEvolution) {
   auto f = [](const Point<3>& x) { return (x.cwiseQuotient(Point<3>(24, 18, 14)).norm() - 1) * 14; };
   InLoopRun run{test::icosphere(2, 27.0), f, 2.5, 5.0};

@@ -175,7 +175,7 @@ TEST(CollisionGuard, KeptPairsGiveTheSameStepsAsABroadPhasePerIteration) {
 }
 
 // The certified pairs looked up by facet (only those of facets that drifted past their smallest
-// certificate, issue 21) are the ones filtering every kept pair finds due: the same positions
+// certificate) are the ones filtering every kept pair finds due: the same positions
 // and the same counts, exact tests included, at every step of the squeeze above, through
 // renewals of the certificates and rebuilds.
 TEST(CollisionGuard, CertificatesByFacetTestTheSamePairsAsFilteringAll) {

@@ -1,4 +1,4 @@
-// The guarantees of issue 6, on a sphere, a torus and a genus-2 surface, after every stage:
+// The remeshers' guarantees, on a sphere, a torus and a genus-2 surface, after every stage:
 // closed manifold, Euler characteristic unchanged, no self-intersection, deformation vertices
 // kept with their ids and exact positions.
 #include "framework/metrics/metrics.h"

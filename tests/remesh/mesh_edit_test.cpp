@@ -64,7 +64,7 @@ TEST(EditMesh, RingsAreCounterClockwiseAndFlipsKeepTheMeshClosed) {
   EXPECT_EQ(s.topology_version(), 1u);
 }
 
-// The flat corner store behind EditMesh (issue 21) against lists of corners: random pushes and
+// The flat corner store behind EditMesh against lists of corners: random pushes and
 // erases on a few vertices, some of them past the kInline corners a vertex holds in place (it
 // then spills to a list of its own), must keep each vertex's corners in the order they came.
 TEST(CornerFans, KeepTheCornersInTheOrderTheyCameAcrossSpills) {
@@ -121,7 +121,7 @@ TEST(CornerFans, KeepTheCornersInTheOrderTheyCameAcrossSpills) {
   EXPECT_EQ(most, size_t(3 * CornerFans::kInline));  // it spilled, grew and shrank there
 }
 
-// A flip undone leaves the mesh as it was, bit for bit (issue 21: the defect moves try flips and
+// A flip undone leaves the mesh as it was, bit for bit (the defect moves try flips and
 // undo most of them, and skip tries that failed before on that premise): triangle slots, every
 // vertex's corners in order, the change flags and the vertices' edit times, for flips nested up to
 // three deep and undone in reverse, on vertices whose corners spilled past CornerFans::kInline,
