@@ -13,17 +13,20 @@
 #   1. the template's mask in the moving space: result_mask.nii.gz of a 0-iteration dsnake run
 #      whose image is MOVING;
 #   2. elastix FIXED <- MOVING (affine, then B-spline), under /usr/bin/time (wall, peak memory);
-#   3. transformix warps the mask with nearest-neighbour interpolation (FinalBSplineInterpolationOrder 0);
+#   3. transformix warps the mask with linear interpolation (FinalBSplineInterpolationOrder 1, as
+#      float), thresholded at 0.5 (a nearest-neighbour warp would carry the mask's voxel staircase
+#      off the grid, where no surface follows it; experiments/real/anatomy/make_inputs.py);
 #   4. `dsnake template --mask` makes a surface (3D: VERTICES, default 3000) or contour (2D: VERTICES,
 #      default 128) of the warped mask;
 #   5. a 0-iteration dsnake run evaluates it against GROUND_TRUTH (Dice, mean surface distance,
 #      HD95, self-intersections: the metrics of dsnake's own runs);
-#   6. with CORRESPONDENCE (a ground_truth.correspondence file for TEMPLATE's vertices, 3D): the
-#      template's vertices carried into the fixed space by the inverse of elastix's transform
+#   6. (3D) the template's vertices carried into the fixed space by the inverse of elastix's transform
 #      (experiments/real/elastix_points.py: transformix maps fixed-space points to moving-space
 #      points, the template sits in the moving space, so T^-1 by a fixed-point iteration over
-#      transformix -def calls), then measured by a 0-iteration dsnake run with that
-#      correspondence (correspondence_error_mean, _max).
+#      transformix -def calls), then measured by a 0-iteration dsnake run: the same metrics, at the
+#      template's resolution, as dsnake's result has, and with CORRESPONDENCE (a
+#      ground_truth.correspondence file for TEMPLATE's vertices) their distances to their truth
+#      (correspondence_error_mean, _max).
 # Environment: DSNAKE (default build/release/experiments/dsnake), THREADS (elastix's and dsnake's
 # threads, default 2), VERTICES, CORRESPONDENCE.
 set -euo pipefail
@@ -73,29 +76,44 @@ zero_run moving_mask "$MOVING" "$TEMPLATE"
   elastix -f "$FIXED" -m "$MOVING" -p "$PAR/elastix_affine.txt" -p "$PAR/elastix_bspline.txt" \
   -out "$OUT/elastix" -threads "$THREADS" >"$OUT/elastix.log" 2>&1
 
-# 3. transformix: the mask, nearest neighbour, as unsigned char
+# 3. transformix: the mask, linearly interpolated as float, then thresholded at 0.5
 for k in 0 1; do
-  sed -e 's/^(FinalBSplineInterpolationOrder .*)/(FinalBSplineInterpolationOrder 0)/' \
-      -e 's/^(ResultImagePixelType .*)/(ResultImagePixelType "unsigned char")/' \
+  sed -e 's/^(FinalBSplineInterpolationOrder .*)/(FinalBSplineInterpolationOrder 1)/' \
+      -e 's/^(ResultImagePixelType .*)/(ResultImagePixelType "float")/' \
+      -e 's/^(ResultImageFormat .*)/(ResultImageFormat "nii.gz")/' \
       -e "s|^(InitialTransformParametersFileName .*)|(InitialTransformParametersFileName \"$( [ $k = 1 ] && echo "$OUT/transformix/TransformParameters.0.txt" || echo NoInitialTransform)\")|" \
       "$OUT/elastix/TransformParameters.$k.txt" >"$OUT/transformix/TransformParameters.$k.txt"
 done
 /usr/bin/time -f "%e %M" -o "$OUT/transformix_time.txt" \
   transformix -in "$OUT/moving_mask/result_mask.nii.gz" -tp "$OUT/transformix/TransformParameters.1.txt" \
   -out "$OUT/transformix" -threads "$THREADS" >"$OUT/transformix.log" 2>&1
+/usr/bin/python3 - "$OUT/transformix/result.nii.gz" "$OUT/transformix/result_mask.nii.gz" <<'EOF'
+import sys
+import nibabel as nib
+import numpy as np
+img = nib.load(sys.argv[1])
+mask = (np.asarray(img.dataobj) >= 0.5).astype(np.uint8)
+out = nib.Nifti1Image(mask, img.affine, img.header)
+out.set_data_dtype(np.uint8)
+out.header["scl_slope"], out.header["scl_inter"] = 1.0, 0.0
+nib.save(out, sys.argv[2])
+EOF
 
 # 4. a surface (contour) of the warped mask
-"$DSNAKE" template --mask "$OUT/transformix/result.mha" --label 1 --vertices "$VERTICES" \
+"$DSNAKE" template --mask "$OUT/transformix/result_mask.nii.gz" --label 1 --vertices "$VERTICES" \
   --out "$OUT/elastix_result.$EXT" -j "$THREADS" >"$OUT/template.log"
 
 # 5. measured as dsnake's runs are
 zero_run evaluate "$FIXED" "$OUT/elastix_result.$EXT" "$TRUTH"
 
 # 6. the template's vertices through the inverse transform, against their true positions
-if [ -n "${CORRESPONDENCE:-}" ]; then
+if [ $DIM = 3 ]; then
   /usr/bin/time -f "%e %M" -o "$OUT/points_time.txt" /usr/bin/python3 "$PAR/elastix_points.py" \
     "$OUT/transformix/TransformParameters.1.txt" "$TEMPLATE" "$OUT/elastix_points.off" "$THREADS" >"$OUT/points.log"
-  zero_run correspondence "$FIXED" "$OUT/elastix_points.off" "$TRUTH" "$(realpath "$CORRESPONDENCE")"
+  # (a failed registration can fold the template onto itself: dsnake refuses it, and the
+  # summary then has no carried_template_metrics)
+  zero_run correspondence "$FIXED" "$OUT/elastix_points.off" "$TRUTH" ${CORRESPONDENCE:+"$(realpath "$CORRESPONDENCE")"} ||
+    echo "elastix.sh: the template carried by elastix's transform was refused (above)" >&2
 fi
 
 /usr/bin/python3 - "$OUT" <<'EOF'
@@ -114,10 +132,13 @@ try:
     cm = json.load(open(f"{out}/correspondence/result.json"))["metrics"]
     pwall, pkb = open(f"{out}/points_time.txt").read().split()[-2:]
     print(open(f"{out}/points.log").read().strip())
-    print(f"template vertices through T^-1: correspondence error mean {cm['correspondence_error_mean']:.3f} mm, "
-          f"max {cm['correspondence_error_max']:.3f} mm ({float(pwall):.1f} s)")
-    summary.update(correspondence_error_mean=cm["correspondence_error_mean"],
-                   correspondence_error_max=cm["correspondence_error_max"], points_wall_s=float(pwall))
+    summary.update(carried_template_metrics=cm, points_wall_s=float(pwall))
+    print(f"template vertices through T^-1: Dice {cm['dice']:.4f} ({float(pwall):.1f} s)")
+    if "correspondence_error_mean" in cm:
+        print(f"  correspondence error mean {cm['correspondence_error_mean']:.3f} mm, "
+              f"max {cm['correspondence_error_max']:.3f} mm")
+        summary.update(correspondence_error_mean=cm["correspondence_error_mean"],
+                       correspondence_error_max=cm["correspondence_error_max"])
 except FileNotFoundError:
     pass
 json.dump(summary, open(f"{out}/summary.json", "w"), indent=1)

@@ -18,9 +18,10 @@ object, GROUND_TRUTH the true mask on FIXED's grid. Steps, into OUT:
        sampling; centres of mass, then translation, rigid, affine; level_iters [10000, 1000, 100],
        sigmas [3, 1, 0] voxels, factors [4, 2, 1]: dipy's documented example settings);
      - SyN with CCMetric(3, sigma_diff 2, radius 4), level_iters SYN_LEVELS (default 100,50,25);
-     - the moving mask warped onto FIXED's grid by the mapping, nearest neighbour (outside the box:
-       0);
-     - with --targets: the template's vertices carried into the fixed space. The mapping's
+     - the moving mask warped onto FIXED's grid by the mapping, linearly interpolated and
+       thresholded at 0.5 (outside the box: 0; a nearest-neighbour warp would carry the mask's voxel
+       staircase off the grid);
+     - the template's vertices carried into the fixed space. The mapping's
        transform_points takes fixed (static) world points to moving world points (the direction
        that resamples the moving image); the template's vertices need the inverse, found per vertex by
        the fixed-point iteration y <- y - A^-1 (F(y) - p) (A: the pre-alignment's linear part), 50
@@ -30,7 +31,9 @@ object, GROUND_TRUTH the true mask on FIXED's grid. Steps, into OUT:
      warped mask touches the image's border, a failed registration, with --allow-border: it is
      measured all the same, and summary.json says mask_touches_border);
   4. a 0-iteration dsnake run evaluates it against GROUND_TRUTH (Dice, mean surface distance, HD95,
-     self-intersections) and, with --targets, the carried vertices' distances to their targets.
+     self-intersections), and another the template with its vertices carried (the same metrics, at
+     the template's resolution, as dsnake's result has; with --targets also the carried vertices'
+     distances to their targets).
 Writes OUT/summary.json. Environment: DSNAKE (default build/release/experiments/dsnake),
 THREADS (dsnake's threads, default 2), VERTICES, MARGIN, SYN_LEVELS.
 """
@@ -101,10 +104,10 @@ def register(fixed, moving, moving_mask, out, template_points):
     sdr = SymmetricDiffeomorphicRegistration(CCMetric(3, sigma_diff=2.0, radius=4), level_iters=levels)
     mapping = sdr.optimize(fdat, mdat, faff, maff, start)
 
-    warped = mapping.transform(kdat.astype(np.float64), interpolation="nearest", image_world2grid=np.linalg.inv(kaff),
+    warped = mapping.transform(kdat.astype(np.float64), interpolation="linear", image_world2grid=np.linalg.inv(kaff),
                                out_shape=fdat.shape, out_grid2world=faff)
     full = np.zeros(fimg.shape[:3], np.uint8)
-    full[fa[0]:fb[0], fa[1]:fb[1], fa[2]:fb[2]] = (warped > 0.5).astype(np.uint8)
+    full[fa[0]:fb[0], fa[1]:fb[1], fa[2]:fb[2]] = (warped >= 0.5).astype(np.uint8)
     hdr = fimg.header.copy()
     hdr.set_data_dtype(np.uint8)
     img = nib.Nifti1Image(full, fimg.affine, hdr)
@@ -185,7 +188,7 @@ def main():
     with open(f"{out}/syn.log", "w") as log:
         subprocess.run(["/usr/bin/time", "-f", "%e %M", "-o", f"{out}/syn_time.txt", sys.executable,
                         os.path.abspath(__file__), "--register", fixed, moving, f"{out}/moving_mask/result_mask.nii.gz",
-                        out] + ([template] if targets else []), check=True, stdout=log, stderr=log,
+                        out, template], check=True, stdout=log, stderr=log,
                        env=dict(os.environ, OMP_NUM_THREADS=threads))
     cmd = [dsnake, "template", "--mask", f"{out}/syn_mask.nii.gz", "--label", "1", "--vertices", vertices,
            "--out", f"{out}/syn_result.off", "-j", threads]
@@ -203,11 +206,20 @@ def main():
     reg = json.load(open(f"{out}/registration.json"))
     summary = {"metrics": m, "syn_wall_s": float(wall), "syn_peak_mb": int(kb) / 1024, "registration": reg,
                "mask_touches_border": border}
-    if targets:
-        # the carried vertices against their targets, measured by dsnake (ground_truth.correspondence)
-        write_off(f"{out}/syn_points.off", np.load(f"{out}/syn_points_lps.npy"), template)
+    # the template's own vertices carried by the registration: the same mesh, at the template's
+    # resolution, as dsnake's result; measured by dsnake (Dice, ..., and with --targets the
+    # carried vertices against their targets, ground_truth.correspondence)
+    # (a failed registration can fold the template onto itself: dsnake refuses it as a template,
+    # and the summary says why instead)
+    write_off(f"{out}/syn_points.off", np.load(f"{out}/syn_points_lps.npy"), template)
+    try:
         zero_run(dsnake, out, "correspondence", fixed, f"{out}/syn_points.off", truth, targets, threads=threads)
         cm = json.load(open(f"{out}/correspondence/result.json"))["metrics"]
+    except subprocess.CalledProcessError:
+        cm = {}
+        summary["carried_template_refused"] = True
+    summary["carried_template_metrics"] = cm
+    if targets:
         summary["correspondence_error_mean"] = cm.get("correspondence_error_mean")
         summary["correspondence_error_max"] = cm.get("correspondence_error_max")
     json.dump(summary, open(f"{out}/summary.json", "w"), indent=1)

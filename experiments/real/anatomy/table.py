@@ -5,7 +5,10 @@ out/real/anatomy/ (experiments/real/anatomy/run_all.sh writes it):
   rows     start (the registrations' placed template: output.start_metrics of the recipe run),
            recipe without atlas (recipe_noref), recipe with atlas (recipe: template.reference_image),
            fixed point (start: the truth's own surface; then the run), elastix (affine + B-spline,
-           experiments/real/elastix.sh), SyN (dipy, experiments/real/syn.py)
+           experiments/real/elastix.sh), SyN (dipy, experiments/real/syn.py), each measured on the
+           surface of its warped mask (2000 vertices, the cerebellum 3000) and on the template's own
+           vertices carried by its transform ("template carried": the mesh dsnake returns, at the
+           template's resolution)
   columns  Dice, mean surface distance (mm), HD95 (mm), self-intersections, correspondence error
            mean / max (mm; the warp cases: the template's vertices against phi(p); for the peers,
            the vertices carried by the inverse of their transform), wall time (s) and peak memory
@@ -69,6 +72,18 @@ def peer(case, name):
     return m, s["syn_wall_s"], s["syn_peak_mb"]
 
 
+def carried(case, name):
+    """The template's own vertices carried by a peer's transform (its correspondence run): the same
+    mesh, at the template's resolution, as dsnake's result."""
+    path = f"{OUT}/{case}/{name}/correspondence/result.json"
+    if os.path.exists(path):
+        return json.load(open(path))["metrics"]
+    summary = f"{OUT}/{case}/{name}/summary.json"
+    if os.path.exists(summary) and json.load(open(summary)).get("carried_template_refused"):
+        return {"refused": True}  # the transform folded the template onto itself
+    return None
+
+
 def compact():
     cols = ["start", "recipe without atlas", "recipe with atlas", "fixed point", "elastix", "SyN"]
     table = {}
@@ -111,6 +126,16 @@ def compact():
                          f"{f(m['correspondence_error_mean'], 2)} / {f(m['correspondence_error_max'], 2)}")
         cells.append(f(truth["metrics"].get("dice")) if truth else "-")
         print(f"| {case} | " + " | ".join(cells) + " |")
+    print("\nAt the template's resolution: Dice / mean surface distance (mm) of the template's own vertices "
+          "(dsnake's result; the peers' transforms carrying them), beside the peers' masks' surfaces (2000, "
+          "cerebellum 3000 vertices)\n")
+    pc = ["recipe with atlas", "elastix, template carried", "SyN, template carried", "elastix, mask", "SyN, mask"]
+    print("| case | " + " | ".join(pc) + " |")
+    print("| --- |" + " --- |" * len(pc))
+    for case, t in table.items():
+        ms = [t["recipe with atlas"][0], carried(case, "elastix"), carried(case, "syn"), t["elastix"][0], t["SyN"][0]]
+        print(f"| {case} | " + " | ".join("-" if m is None else "self-intersecting" if m.get("refused") else
+                                          f"{f(m.get('dice'))} / {f(m.get('mean_surface_distance'), 2)}" for m in ms) + " |")
     tc = ["recipe without atlas", "recipe with atlas", "fixed point", "elastix", "SyN"]
     print("\nWall time (s) / peak memory (MB), one thread each\n")
     print("| case | " + " | ".join(tc) + " |")
@@ -151,6 +176,8 @@ def main():
                      correspondence_error_max=s.get("correspondence_error_max"))
             print(row("elastix", m, s["elastix_wall_s"] + s["transformix_wall_s"],
                       max(s["elastix_peak_mb"], s["transformix_peak_mb"])))
+            if carried(case, "elastix"):
+                print(row("elastix, template carried", carried(case, "elastix")))
         else:
             print(row("elastix", None))
         sy = f"{OUT}/{case}/syn/summary.json"
@@ -159,6 +186,10 @@ def main():
             m = dict(s["metrics"], correspondence_error_mean=s.get("correspondence_error_mean"),
                      correspondence_error_max=s.get("correspondence_error_max"))
             print(row("SyN", m, s["syn_wall_s"], s["syn_peak_mb"]))
+            if carried(case, "syn") and carried(case, "syn").get("refused"):
+                print("| SyN, template carried | self-intersecting | | | | | | |")
+            elif carried(case, "syn"):
+                print(row("SyN, template carried", carried(case, "syn")))
         else:
             print(row("SyN", None))
         print()
