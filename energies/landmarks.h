@@ -63,6 +63,9 @@ class LandmarksEnergy final : public Energy<D> {
 
   // |q_{v(l)} - y_l| per landmark name, mm (result.json's "landmarks"); after bind().
   std::map<std::string, double> distances(const Snake<D>& snake) const;
+  std::optional<std::map<std::string, double>> reported_distances(const Snake<D>& snake) const override {
+    return distances(snake);
+  }
 
  private:
   struct Data;

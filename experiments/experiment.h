@@ -16,6 +16,7 @@
 #include "framework/metrics/metrics.h"
 #include "framework/core/options.h"
 #include "remesh/collision_guard.h"
+#include "registration/registration.h"
 
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -35,7 +36,8 @@ struct ExperimentFile {
 // Parses an experiment file (syntax errors name the line and column) and applies overrides
 // "key.path=value" (value parsed as JSON, else taken as a string; "energies[1].alpha=0.3").
 ExperimentFile load_experiment_file(const std::string& path, const std::vector<std::string>& overrides = {});
-// The built-in experiments: "default" (2D circle -> blurred square) and "ellipsoid" (3D).
+// The built-in experiments: "default" (2D D-Snake, the paper's Fig. 4 lung slice), "classical" (2D
+// classical snake, circle -> blurred square) and "ellipsoid" (3D).
 ExperimentFile builtin_experiment(const std::string& name, const std::vector<std::string>& overrides = {});
 
 
@@ -128,20 +130,12 @@ struct WatchdogOptions {
   }
 };
 
-// How a phase moves the snake: the snake iteration of §3.1 or one global Ceres solve.
-enum class SolverKind { kSnake, kGlobal };
-template <>
-struct EnumNames<SolverKind> {
-  static constexpr std::array<std::pair<SolverKind, const char*>, 2> table{
-      {{SolverKind::kSnake, "snake"}, {SolverKind::kGlobal, "global"}}};
-};
-
 template <int D>
 struct Experiment {
   ExperimentFile file;
   std::string name;
   uint64_t seed = 0;
-  SolverKind solver = SolverKind::kSnake;
+  SolverKind solver = SolverKind::kSnake;    // "solver": how a phase moves the snake (registration/registration.h)
   CollisionGuardOptions collision_guard;    // "collision_guard": the snake iteration's check
   GlobalSolverOptions global;               // "global": Ceres' options
   std::optional<PotentialOptions> potential;  // the external term's potential (global view)

@@ -164,21 +164,27 @@ std::vector<LegendEntry> legend_entries(const std::vector<ShapeLayer<D>>& layers
   return entries;
 }
 
-// A legend row: for each entry a short line in its colour followed by the label. Returns the
-// height it needs (0 when there is no entry); draws only when canvas is given.
-int legend(const std::vector<LegendEntry>& entries, cv::Mat* canvas, int top) {
+// The legend: for each entry a short line in its colour followed by the label, in rows that wrap
+// within `width` pixels. Returns the height it needs (0 when there is no entry); draws only when
+// canvas is given.
+int legend(const std::vector<LegendEntry>& entries, cv::Mat* canvas, int top, int width) {
   if (entries.empty()) return 0;
-  if (canvas) {
-    int x = kMarginPx;
-    const int mid = top + text_height() / 2;
-    for (const auto& [rgb, label] : entries) {
-      cv::line(*canvas, {x, mid}, {x + 28, mid}, to_bgr(rgb), kLineWidthPx + 1, cv::LINE_AA);
-      x += 36;
-      put_text(*canvas, label, x, top);
-      x += text_width(label) + 24;
+  const int row_h = text_height() + kMarginPx / 2;
+  int x = kMarginPx, y = top;
+  for (const auto& [rgb, label] : entries) {
+    const int w = 36 + text_width(label);
+    if (x > kMarginPx && x + w > width - kMarginPx) {  // wrap to the next row
+      x = kMarginPx;
+      y += row_h;
     }
+    if (canvas) {
+      const int mid = y + text_height() / 2;
+      cv::line(*canvas, {x, mid}, {x + 28, mid}, to_bgr(rgb), kLineWidthPx + 1, cv::LINE_AA);
+      put_text(*canvas, label, x + 36, y);
+    }
+    x += w + 24;
   }
-  return text_height() + kMarginPx;
+  return y - top + text_height() + kMarginPx;
 }
 
 // The outline of the mask's inside on a panel: the mask sampled at the panel's voxel centres
@@ -220,7 +226,7 @@ std::vector<std::array<Eigen::Vector2d, 2>> mask_outline(const BinaryMask<D>& ma
 cv::Mat compose(const std::vector<Panel>& panels, const std::string& title, const std::vector<LegendEntry>& layers,
                 std::vector<cv::Rect>& rois) {
   const bool labels = std::any_of(panels.begin(), panels.end(), [](const Panel& p) { return !p.label.empty(); });
-  const bool framed = panels.size() > 1 || !title.empty() || legend(layers, nullptr, 0) > 0;
+  const bool framed = panels.size() > 1 || !title.empty() || !layers.empty();
   const int margin = framed ? kMarginPx : 0;
   const int title_h = title.empty() ? 0 : text_height() + kMarginPx;
   const int label_h = labels ? text_height() + kMarginPx / 2 : 0;
@@ -232,9 +238,9 @@ cv::Mat compose(const std::vector<Panel>& panels, const std::string& title, cons
     panel_h = std::max(panel_h, p.height_px);
   }
   const int panel_top = margin + title_h + label_h;
-  const int legend_h = legend(layers, nullptr, 0);
-  const int height = panel_top + panel_h + margin + legend_h;
   width = std::max(width, title.empty() ? 0 : text_width(title) + 2 * kMarginPx);
+  const int legend_h = legend(layers, nullptr, 0, width);
+  const int height = panel_top + panel_h + margin + legend_h;
   cv::Mat canvas(height, width, CV_8UC3, kWhite);
   if (!title.empty()) put_text(canvas, title, margin, margin);
   int x = margin;
@@ -246,7 +252,7 @@ cv::Mat compose(const std::vector<Panel>& panels, const std::string& title, cons
     if (!p.label.empty()) put_text(canvas, p.label, x, margin + title_h);
     x += slot(p) + margin;
   }
-  legend(layers, &canvas, panel_top + panel_h + margin);
+  legend(layers, &canvas, panel_top + panel_h + margin, width);
   return canvas;
 }
 
@@ -299,7 +305,8 @@ std::string tick_text(double v) {
 }  // namespace
 
 void write_overlay_figure(const Image<2>& image, const std::vector<ShapeLayer2>& layers,
-                          const std::string& png_path, const std::string& title, const std::vector<MaskLayer<2>>& masks) {
+                          const std::string& png_path, const std::string& title, const std::vector<MaskLayer<2>>& masks,
+                          const std::vector<std::array<Point<2>, 2>>& links) {
   DSNAKE_ASSERT(!image.empty(), "write_overlay_figure: empty image for " + png_path);
   for (const auto& l : layers) check_layer(l);
   const GreyWindow window = grey_window(image.data());
@@ -322,12 +329,17 @@ void write_overlay_figure(const Image<2>& image, const std::vector<ShapeLayer2>&
   }
 
   std::vector<cv::Rect> rois;
-  cv::Mat canvas = compose(std::vector<Panel>{panel}, title, legend_entries(layers, masks), rois);
+  std::vector<LegendEntry> entries = legend_entries(layers, masks);
+  if (!links.empty()) entries.insert(entries.begin() + static_cast<long>(masks.size()), {kLinkGreen, "correspondence"});
+  cv::Mat canvas = compose(std::vector<Panel>{panel}, title, entries, rois);
   cv::Mat roi = canvas(rois[0]);
   for (const auto& m : masks)
     draw_segments(roi, panel,
                   mask_outline(m.mask, panel, [&](int u, int v) { return Point<2>(image.grid().to_physical({u, v})); }),
                   m.rgb);
+  for (const auto& l : links)
+    cv::line(roi, fixed_point(panel.to_pixel(l[0])), fixed_point(panel.to_pixel(l[1])), to_bgr(kLinkGreen), 1,
+             cv::LINE_AA, kShiftBits);
   for (const auto& l : layers) {
     if (l.connectivity.is_polygon()) {
       // One closed polyline joins the corners cleanly (separate lines would leave notches).

@@ -30,6 +30,7 @@ inline constexpr Rgb kTemplateYellow{255, 220, 0};  // the template / initial sn
 inline constexpr Rgb kResultRed{230, 20, 20};       // the registration result
 inline constexpr Rgb kFeatureGreen{20, 200, 60};    // landmarks / feature points
 inline constexpr Rgb kTruthCyan{0, 190, 255};       // the ground truth
+inline constexpr Rgb kLinkGreen{60, 170, 90};       // correspondence: a template vertex to where it landed
 
 // One shape drawn over an image. Borrows the positions and the connectivity: they must outlive
 // the call that draws the layer.
@@ -60,10 +61,14 @@ struct MaskLayer {
 // per axis by spacing) with each layer's closed polygon drawn antialiased, 2 px wide, in layer
 // order (later layers on top). A legend is added below when a layer has a label, a title above
 // when `title` is not empty. Throws std::runtime_error naming png_path if it cannot be written.
-// Mask layers are drawn first, under the shapes.
+// Mask layers are drawn first, under the shapes. `links` (physical units) are drawn as thin
+// (1 px) segments in kLinkGreen between the masks and the shapes, with the legend entry
+// "correspondence" when there is one: each joins a template vertex to where it landed, the
+// registration the paper's D-Snake is about (§1: every template vertex finds its counterpart).
 void write_overlay_figure(const Image<2>& image, const std::vector<ShapeLayer2>& layers,
                           const std::string& png_path, const std::string& title = "",
-                          const std::vector<MaskLayer<2>>& masks = {});
+                          const std::vector<MaskLayer<2>>& masks = {},
+                          const std::vector<std::array<Point<2>, 2>>& links = {});
 
 // Three orthogonal slices through the voxel nearest to `centre` (physical units), side by side:
 // axial (z = const; x right, y down), coronal (y = const; x right, z down) and sagittal

@@ -159,7 +159,7 @@ ImageReadOptions read_options_of(const std::string& value, const std::string& fi
 void add_run_and_validate(CLI::App& app, CommandLine& c) {
   c.run_cmd = app.add_subcommand("run", "Run an experiment and write its output folder");
   c.run_cmd->add_option("config", c.config,
-                        "Experiment file (JSON), or builtin:NAME (default, ellipsoid); none runs builtin:default");
+                        "Experiment file (JSON), or builtin:NAME (default: D-Snake on the paper's Fig. 4 lung slice; classical: a classical snake, circle to square; ellipsoid: 3D); none runs builtin:default");
   c.run_cmd->add_option("--out,-o", c.run.out_dir, "Output folder (default: out/<experiment name>)");
   add_overrides(c.run_cmd, c.overrides, "Override a key of the experiment file: key.path=value (repeatable)");
   c.run_cmd->add_option("--threads,-j", c.threads, "OpenMP threads (default: all cores)")->check(CLI::Range(1, 1024));

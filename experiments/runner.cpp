@@ -4,19 +4,15 @@
 
 #include "framework/core/image_filters.h"
 
-#include "energies/landmarks.h"
 #include "experiments/figures.h"
 #include "experiments/pose_report.h"
 #include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
-#include "framework/core/evolver.h"
-#include "framework/core/force_strength.h"
 #include "framework/core/image_filters.h"
-#include "framework/global/global_solver.h"
-#include "framework/core/potential.h"
 #include "framework/io/image_io.h"
 #include "framework/io/mesh_io.h"
 #include "framework/metrics/metrics.h"
+#include "registration/registration.h"
 #include "remesh/quality.h"
 
 #include <chrono>
@@ -40,11 +36,18 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
+// What the progress lines and result.json need of each phase once the registration has taken
+// the phases over.
+struct PhaseOutline {
+  int iterations = 0;   // the iteration budget
+  bool windowed = false;  // the windowed stop is on (result.json's "centroid_rate")
+};
+
 // Progress lines on stderr: the first iteration, then at most twice a second, and each phase end.
 template <int D>
 class ProgressObserver : public EvolverObserver<D> {
  public:
-  ProgressObserver(const std::vector<Phase<D>>& phases, std::vector<std::string> names, bool global)
+  ProgressObserver(const std::vector<PhaseOutline>& phases, std::vector<std::string> names, bool global)
       : phases_(phases), names_(std::move(names)), global_(global) {}
   void on_iteration(const IterationInfo& info, const Snake<D>&) override {
     const bool last = !global_ && info.phase_iteration == phases_[info.phase].iterations;
@@ -69,7 +72,7 @@ class ProgressObserver : public EvolverObserver<D> {
                    info.phase + 1, phases_.size(), names_[info.phase].c_str(), info.phase_iteration,
                    phases_[info.phase].iterations, info.total_energy, info.max_displacement, info.vertices);
   }
-  const std::vector<Phase<D>>& phases_;
+  const std::vector<PhaseOutline>& phases_;
   std::vector<std::string> names_;
   bool global_ = false;
   Clock::time_point last_print_{};
@@ -138,19 +141,6 @@ std::string csv_number(double v) {
   return s.str();
 }
 
-// Unique column names for the energy terms: "internal", "external", "asap_mls_2", ...
-template <int D>
-std::vector<std::string> term_names(const std::vector<WeightedEnergy<D>>& energies) {
-  std::vector<std::string> names;
-  for (size_t i = 0; i < energies.size(); ++i) {
-    std::string n = energies[i].energy->type();
-    if (std::count_if(energies.begin(), energies.end(), [&](const auto& e) { return e.energy->type() == n; }) > 1)
-      n += "_" + std::to_string(i);
-    names.push_back(n);
-  }
-  return names;
-}
-
 template <int D>
 std::string trace_csv(const std::vector<IterationInfo>& trace, const std::vector<std::string>& names) {
   std::ostringstream s;
@@ -199,7 +189,8 @@ std::string correspondence_csv(const Experiment<D>& ex, const Snake<D>& snake, c
 
 // result.json's "global": the solver options and Ceres' summary of every solve, per phase.
 template <int D>
-nlohmann::ordered_json global_json(const Experiment<D>& ex, const std::vector<std::vector<GlobalSolveSummary>>& solves) {
+nlohmann::ordered_json global_json(const Experiment<D>& ex, size_t phase_count,
+                                   const std::vector<std::vector<GlobalSolveSummary>>& solves) {
   const GlobalSolverOptions& g = ex.global;
   nlohmann::ordered_json j = {{"linear_solver", enum_name(g.linear_solver)}, {"max_iterations", g.max_iterations},
                               {"initial_trust_region_radius", g.initial_trust_region_radius},
@@ -211,7 +202,7 @@ nlohmann::ordered_json global_json(const Experiment<D>& ex, const std::vector<st
   int iterations = 0, residual_evaluations = 0, jacobian_evaluations = 0;
   nlohmann::ordered_json phases = nlohmann::ordered_json::array();
   std::vector<std::vector<GlobalSolveSummary>> per_phase = solves;
-  per_phase.resize(std::max(per_phase.size(), ex.phases.size()));  // phases after a divergence: no solve
+  per_phase.resize(std::max(per_phase.size(), phase_count));  // phases after a divergence: no solve
   for (const auto& phase : per_phase) {
     nlohmann::ordered_json list = nlohmann::ordered_json::array();
     for (const auto& s : phase) {
@@ -246,40 +237,29 @@ template <int D>
 struct RunRecord {
   RunRecord(const fs::path& staging, int snapshot_every, const Grid<D>& frame)
       : recorder((staging / "snapshots").string(), snapshot_every, frame) {}
-  Snake<D> snake;
-  int initial_vertices = 0;
+  // The snake, its summary, the energy terms' column names, the field's region and strength,
+  // the global solves and the timings of the field, the potential and the phases.
+  RegistrationResult<D> registration;
+  std::vector<PhaseOutline> phases;  // the experiment's, as they were handed to the registration
   RecordingObserver<D> recorder;
-  std::vector<std::string> names;  // the energy terms' column names
-  EvolveSummary summary;
-  nlohmann::ordered_json global_report;
   Metrics metrics;
   std::optional<Metrics> start_metrics;  // output.start_metrics: the placed template's
   std::map<int, Metrics> phase_metrics;  // output.start_metrics: each phase's end (phases_json)
   nlohmann::ordered_json pose;           // result.json's "pose" (experiments/pose_report.h)
   CorrespondenceError correspondence;
   bool finite = false;  // a diverged snake (non-finite positions) has no meaningful metrics
-  double field_s = 0, potential_s = 0, evolve_s = 0, metrics_s = 0;
-  // |F| of the field: its largest over the grid, and the median at the vertices at the start
-  // and the end of the run (result.json's "external_force").
-  double force_max = 0, force_median_start = 0, force_median_end = 0;
-  VoxelBox<D> field_region;  // the voxels the field was computed on
-  nlohmann::ordered_json landmarks;  // result.json's "landmarks" (landmark energies only)
+  double metrics_s = 0;
 };
 
-// result.json's "landmarks": per landmark energy, each landmark's distance to its point (mm) at
-// the start and at the end. Null when no energy is a landmark energy.
-template <int D>
-nlohmann::ordered_json landmarks_json(const std::vector<WeightedEnergy<D>>& energies, const Snake<D>& start,
-                                      const Snake<D>& end) {
+// result.json's "landmarks" (landmark energies only): per landmark energy, each landmark's
+// distance to its point (mm) at the start and at the end.
+nlohmann::ordered_json landmarks_json(const std::vector<ReportedDistances>& energies) {
   nlohmann::ordered_json list;
-  for (size_t e = 0; e < energies.size(); ++e) {
-    const auto* spring = dynamic_cast<const LandmarksEnergy<D>*>(energies[e].energy.get());
-    if (!spring) continue;
-    const auto final_distance = spring->distances(end);
+  for (const auto& d : energies) {
     double largest = 0.0;
-    for (const auto& [name, d] : final_distance) largest = std::max(largest, d);
-    list.push_back({{"energy", "energies[" + std::to_string(e) + "]"}, {"initial_distance_mm", spring->distances(start)},
-                    {"final_distance_mm", final_distance}, {"final_max_mm", largest}});
+    for (const auto& [name, mm] : d.final_mm) largest = std::max(largest, mm);
+    list.push_back({{"energy", "energies[" + std::to_string(d.energy) + "]"}, {"initial_distance_mm", d.initial_mm},
+                    {"final_distance_mm", d.final_mm}, {"final_max_mm", largest}});
   }
   return list;
 }
@@ -308,84 +288,50 @@ Watchdog watchdog_of(const Experiment<D>& ex) {
   return w;
 }
 
-// Computes the field (and the potential of the global view, when the file asks for one), then
-// runs the phases with one phase driver whose minimizer the file's "solver" picks.
+// The experiment as a registration problem (registration/registration.h); its field, energies
+// and phases are handed over.
+template <int D>
+RegistrationProblem<D> registration_problem(Experiment<D>& ex) {
+  RegistrationProblem<D> problem;
+  problem.tmpl = &ex.tmpl;
+  problem.initial = ex.initial;
+  problem.image = &ex.image;
+  problem.reference_image = ex.reference_image ? &*ex.reference_image : nullptr;
+  problem.field = std::move(ex.field);
+  problem.field_region = ex.field_region;
+  problem.potential = ex.potential;
+  problem.energies = std::move(ex.energies);
+  problem.phases = std::move(ex.phases);
+  problem.solver = ex.solver;
+  problem.global = ex.global;
+  problem.collision_guard = ex.collision_guard;
+  problem.watchdog = watchdog_of(ex);
+  problem.source = ex.file.path;
+  return problem;
+}
+
+// Runs the experiment's registration with the recorder and, unless quiet, progress lines.
 template <int D>
 void evolve(Experiment<D>& ex, const RunOptions& options, RunRecord<D>& rec) {
-  auto t = Clock::now();
-  // The field on the region around the placed template (fields/region.h); the potential of the
-  // global view is computed on the same voxels, as it is built from the field or its image.
-  rec.field_region = region_of_interest(ex.image.grid(), ex.initial, ex.field_region);
-  const bool whole = rec.field_region.num_voxels() == ex.image.num_voxels();
-  Image<D> cropped = whole ? Image<D>() : crop(ex.image, rec.field_region);
-  const Image<D>& field_image = whole ? ex.image : cropped;
-  // The cropped copy is the field's to release (a volume less through the run) unless
-  // the global view's potential is also built from it; then it goes once that is built.
-  const bool field_takes_crop = !whole && !ex.potential;
-  try {
-    ex.field->check_grid(field_image.grid());
-    if (!options.quiet)
-      std::fprintf(stderr, "dsnake: %s: computing the %s field on %s\n", ex.name.c_str(), ex.field->type().c_str(),
-                   D == 2 ? "the image" : "the volume");
-    if (field_takes_crop)
-      ex.field->compute_releasing(std::move(cropped));
-    else
-      ex.field->compute(field_image);
-  } catch (const InputError& e) {
-    // A field's own checks on the image (a VFC radius larger than the image, an unstable explicit
-    // step) know the key, not the file: the line names the experiment file.
-    if (!e.file().empty()) throw;
-    throw InputError(ex.file.path, e.where(), e.message());
-  }
-  rec.field_s = seconds_since(t);
-  rec.snake = Snake<D>::from_template(ex.tmpl, ex.initial);
-  rec.initial_vertices = rec.snake.num_vertices();
-  rec.force_max = max_force_magnitude(*ex.field);
-  rec.force_median_start = median_force_magnitude(*ex.field, rec.snake);
-  std::unique_ptr<SmoothPotential<D>> potential;
-  if (ex.potential) {
-    t = Clock::now();
-    potential = make_potential<D>(*ex.potential, field_image, ex.field.get());
-    rec.potential_s = seconds_since(t);
-  }
-  cropped = Image<D>();
-  // The energies sample the whole image (the polarity rule's noise floor is a median over all
-  // of it; on the field's region alone it is another number, and the rat lung's recipe Dice would
-  // be 0.9488 instead of 0.9505), and share its smoothed copies: one blur per sigma.
-  SmoothedImageCache<D> smoothed_images;
-  EnergyContext<D> context{&ex.tmpl, &ex.image, ex.field.get(), potential.get(),
-                           ex.reference_image ? &*ex.reference_image : nullptr, &smoothed_images};
-  ProgressObserver<D> progress(ex.phases, ex.phase_names, ex.solver == SolverKind::kGlobal);
-  t = Clock::now();
-  std::unique_ptr<Minimizer<D>> minimizer;
-  GlobalSolve<D>* global = nullptr;
-  if (ex.solver == SolverKind::kGlobal) {
-    auto g = std::make_unique<GlobalSolve<D>>(ex.global);
-    global = g.get();
-    minimizer = std::move(g);
-  } else {
-    minimizer = std::make_unique<SnakeStep<D>>();
-  }
-  PhaseDriver<D> driver(context, std::move(ex.energies), std::move(minimizer));
-  if (guarded(ex)) driver.set_move_guard(std::make_unique<CollisionGuard<D>>(ex.collision_guard));
-  driver.set_watchdog(watchdog_of(ex));
-  rec.names = term_names(driver.energies());
+  for (const auto& phase : ex.phases) rec.phases.push_back({phase.iterations, phase.window > 0});
+  ProgressObserver<D> progress(rec.phases, ex.phase_names, ex.solver == SolverKind::kGlobal);
   rec.recorder.keep_phase_ends = ex.output.start_metrics;
-  driver.add_observer(&rec.recorder);
-  if (!options.quiet) driver.add_observer(&progress);
-  rec.summary = driver.run(rec.snake, ex.phases);
-  rec.force_median_end = median_force_magnitude(*ex.field, rec.snake);
-  rec.landmarks = landmarks_json(driver.energies(), Snake<D>::from_template(ex.tmpl, ex.initial), rec.snake);
-  if (global) rec.global_report = global_json(ex, global->solves());
-  rec.evolve_s = seconds_since(t);
+  std::vector<EvolverObserver<D>*> observers{&rec.recorder};
+  RegistrationProgress say;
+  if (!options.quiet) {
+    observers.push_back(&progress);
+    say = [&ex](const std::string& message) { std::fprintf(stderr, "dsnake: %s: %s\n", ex.name.c_str(), message.c_str()); };
+  }
+  rec.registration = register_template(registration_problem(ex), observers, say);
 }
 
 template <int D>
 void measure(const Experiment<D>& ex, RunRecord<D>& rec) {
   const auto t = Clock::now();
-  const auto& q = rec.snake.positions();
+  const Snake<D>& end = rec.registration.snake;
+  const auto& q = end.positions();
   rec.finite = std::all_of(q.begin(), q.end(), [](const Point<D>& p) { return p.allFinite(); });
-  rec.metrics = rec.finite ? compute_metrics(rec.snake, ex.truth, ex.metrics) : Metrics{};
+  rec.metrics = rec.finite ? compute_metrics(end, ex.truth, ex.metrics) : Metrics{};
   const Snake<D> start = Snake<D>::from_template(ex.tmpl, ex.initial);
   if (ex.output.start_metrics) rec.start_metrics = compute_metrics(start, ex.truth, ex.metrics);
   for (const auto& [phase, snake] : rec.recorder.phase_ends) {
@@ -394,8 +340,8 @@ void measure(const Experiment<D>& ex, RunRecord<D>& rec) {
     if (finite) rec.phase_metrics[phase] = compute_metrics(snake, ex.truth, ex.metrics);
   }
   rec.metrics_s = seconds_since(t);
-  if (rec.finite) rec.pose = pose_json(start, rec.snake, ex.image.grid());
-  rec.correspondence = correspondence_error(rec.snake, ex.truth.targets);
+  if (rec.finite) rec.pose = pose_json(start, end, ex.image.grid());
+  rec.correspondence = correspondence_error(end, ex.truth.targets);
 }
 
 // final.vtk's per-vertex arrays (docs/experiment-file.md, "Outputs"): template_id (-1 for a
@@ -452,7 +398,8 @@ void write_result_mask(const Experiment<D>& ex, const Snake<D>& snake, const fs:
 // is), and the figures (drawn in the image's frame: world orientation unless the scan is oblique).
 template <int D>
 void write_outputs(const Experiment<D>& ex, const RunRecord<D>& rec, const fs::path& staging) {
-  const Snake<D>& snake = rec.snake;
+  const Snake<D>& snake = rec.registration.snake;
+  const std::vector<std::string>& names = rec.registration.term_names;
   const Grid<D>& frame = ex.image.grid();
   const std::string mesh_ext = D == 2 ? ".txt" : ".ply";
   const PointList<D> final_world = world_positions(frame, snake.positions());
@@ -463,10 +410,10 @@ void write_outputs(const Experiment<D>& ex, const RunRecord<D>& rec, const fs::p
   write_shape<D>(initial_world, ex.tmpl.connectivity, (staging / "initial.vtk").string());
   write_shape<D>(initial_world, ex.tmpl.connectivity, (staging / ("initial" + mesh_ext)).string());
   write_file_atomically((staging / "correspondence.csv").string(), correspondence_csv(ex, snake, rec.correspondence));
-  write_file_atomically((staging / "energy_trace.csv").string(), trace_csv<D>(rec.recorder.trace, rec.names));
+  write_file_atomically((staging / "energy_trace.csv").string(), trace_csv<D>(rec.recorder.trace, names));
   if (rec.finite && ex.output.result_mask) write_result_mask(ex, snake, staging);
   if (writes_image(ex)) write_from_image<D>(ex, ex.image, (staging / "image.nii.gz").string(), ImageWriteOptions{.compress = true});
-  if (ex.output.figures && rec.finite) write_figures(ex, snake, staging, rec.recorder.trace, rec.names);
+  if (ex.output.figures && rec.finite) write_figures(ex, snake, staging, rec.recorder.trace, names);
 }
 
 nlohmann::ordered_json metrics_json(const Metrics& m, bool finite) {
@@ -496,12 +443,13 @@ nlohmann::ordered_json divergence_json(const Divergence& d) {
 template <int D>
 nlohmann::ordered_json phases_json(const Experiment<D>& ex, const RunRecord<D>& rec) {
   nlohmann::ordered_json phases = nlohmann::ordered_json::array();
-  for (size_t p = 0; p < rec.summary.phases.size(); ++p) {
-    const auto& ps = rec.summary.phases[p];
+  const EvolveSummary& summary = rec.registration.summary;
+  for (size_t p = 0; p < summary.phases.size(); ++p) {
+    const auto& ps = summary.phases[p];
     nlohmann::ordered_json j = {{"name", ex.phase_names[p]}, {"iterations", ps.iterations},
                                 {"status", to_string(ps.status)}, {"last_displacement", ps.last_displacement}};
     if (!ps.converged_on.empty()) j["converged_on"] = ps.converged_on;
-    if (ex.phases[p].window > 0) j["centroid_rate"] = ps.centroid_rate;
+    if (rec.phases[p].windowed) j["centroid_rate"] = ps.centroid_rate;
     for (const auto& r : ps.remesh_reports)
       j["remesh"].push_back({{"stage", r.stage}, {"vertices_before", r.vertices_before},
                              {"vertices_after", r.vertices_after}, {"rejected_edits", r.rejected_edits}});
@@ -518,22 +466,20 @@ nlohmann::ordered_json phases_json(const Experiment<D>& ex, const RunRecord<D>& 
 
 // result.json's "external_force": how strong the field is at the template (docs/experiment-file.md):
 // |F| in the field's units (1/mm for the edge-map fields), and relative to the field's largest.
-template <int D>
-nlohmann::ordered_json external_force_json(const RunRecord<D>& rec) {
-  auto relative = [&](double m) { return optional_number(rec.force_max > 0 && std::isfinite(m) ? std::optional<double>(m / rec.force_max) : std::nullopt); };
+nlohmann::ordered_json external_force_json(const ForceMagnitudes& force) {
+  auto relative = [&](double m) { return optional_number(force.max > 0 && std::isfinite(m) ? std::optional<double>(m / force.max) : std::nullopt); };
   auto finite = [](double m) { return optional_number(std::isfinite(m) ? std::optional<double>(m) : std::nullopt); };
-  return {{"max", rec.force_max},
-          {"median_start", finite(rec.force_median_start)},
-          {"median_end", finite(rec.force_median_end)},
-          {"median_start_relative", relative(rec.force_median_start)},
-          {"median_end_relative", relative(rec.force_median_end)}};
+  return {{"max", force.max},
+          {"median_start", finite(force.median_start)},
+          {"median_end", finite(force.median_end)},
+          {"median_start_relative", relative(force.median_start)},
+          {"median_end_relative", relative(force.median_end)}};
 }
 
 // result.json's "field_region": the voxels the field was computed on (fields/region.h), as the
 // first voxel's index, the voxels per axis and their share of the image.
 template <int D>
-nlohmann::ordered_json field_region_json(const Experiment<D>& ex, const RunRecord<D>& rec) {
-  const VoxelBox<D>& b = rec.field_region;
+nlohmann::ordered_json field_region_json(const Experiment<D>& ex, const VoxelBox<D>& b) {
   return {{"extent", enum_name(ex.field_region.extent)},
           {"first_voxel", std::vector<int>(b.lo.data(), b.lo.data() + D)},
           {"size", std::vector<int>(b.size.data(), b.size.data() + D)},
@@ -544,16 +490,16 @@ nlohmann::ordered_json field_region_json(const Experiment<D>& ex, const RunRecor
 // thresholds not met with their values, and how each phase ended (converged on what, or at its
 // iteration budget), e.g. "dice 0.812 < 0.9; phase fit: iteration_budget after 300 iterations".
 template <int D>
-std::string failure_summary(const Experiment<D>& ex, const RunRecord<D>& rec,
+std::string failure_summary(const Experiment<D>& ex, const EvolveSummary& summary,
                             const std::vector<SuccessCriteria::Failure>& failed) {
   std::vector<std::string> parts;
-  for (size_t p = 0; p < rec.summary.phases.size(); ++p)
-    if (const auto& d = rec.summary.phases[p].divergence)
+  for (size_t p = 0; p < summary.phases.size(); ++p)
+    if (const auto& d = summary.phases[p].divergence)
       parts.push_back("diverged in phase " + ex.phase_names[p] + " at iteration " +
                       std::to_string(d->phase_iteration) + ": " + d->reason);
   for (const auto& f : failed) parts.push_back(f.describe());
-  for (size_t p = 0; p < rec.summary.phases.size(); ++p) {
-    const auto& ps = rec.summary.phases[p];
+  for (size_t p = 0; p < summary.phases.size(); ++p) {
+    const auto& ps = summary.phases[p];
     if (ps.divergence) continue;
     std::string end = "phase " + ex.phase_names[p] + ": " + to_string(ps.status);
     if (!ps.converged_on.empty()) end += " on " + ps.converged_on;
@@ -566,14 +512,15 @@ std::string failure_summary(const Experiment<D>& ex, const RunRecord<D>& rec,
 
 template <int D>
 nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& rec, Clock::time_point start) {
+  const RegistrationResult<D>& reg = rec.registration;
   nlohmann::ordered_json result;
   result["name"] = ex.name;
   result["metrics"] = metrics_json(rec.metrics, rec.finite);
   if (rec.start_metrics) result["start"] = {{"metrics", metrics_json(*rec.start_metrics, true)}};
   if (!rec.pose.is_null()) result["pose"] = rec.pose;
   const std::vector<SuccessCriteria::Failure> failed = ex.success.failures(rec.metrics);
-  result["success"] = rec.summary.status != EvolveStatus::kDiverged && failed.empty();
-  result["status"] = to_string(rec.summary.status);
+  result["success"] = reg.summary.status != EvolveStatus::kDiverged && failed.empty();
+  result["status"] = to_string(reg.summary.status);
   // Why success is false: each threshold not met, with the metric's value, and one line that
   // says it together with a divergence and how each phase ended.
   nlohmann::ordered_json thresholds = nlohmann::ordered_json::array();
@@ -582,21 +529,21 @@ nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& 
                           {"threshold", f.threshold}});
   result["failed_thresholds"] = thresholds;
   result["failure"] = result["success"].get<bool>() ? nlohmann::ordered_json(nullptr)
-                                                    : nlohmann::ordered_json(failure_summary(ex, rec, failed));
-  for (size_t p = 0; p < rec.summary.phases.size(); ++p)
-    if (const auto& d = rec.summary.phases[p].divergence) {
+                                                    : nlohmann::ordered_json(failure_summary(ex, reg.summary, failed));
+  for (size_t p = 0; p < reg.summary.phases.size(); ++p)
+    if (const auto& d = reg.summary.phases[p].divergence) {
       result["divergence"] = divergence_json(*d);
       result["divergence"]["phase"] = ex.phase_names[p];
     }
-  result["iterations"] = rec.summary.iterations;
-  result["vertices"] = {{"initial", rec.initial_vertices}, {"final", rec.snake.num_vertices()},
-                        {"deformation", rec.snake.num_deformation_vertices()}};
+  result["iterations"] = reg.summary.iterations;
+  result["vertices"] = {{"initial", reg.initial_vertices}, {"final", reg.snake.num_vertices()},
+                        {"deformation", reg.snake.num_deformation_vertices()}};
   result["phases"] = phases_json(ex, rec);
   if (ex.init) result["init"] = init_report_json(*ex.init);
-  if (!rec.landmarks.is_null()) result["landmarks"] = rec.landmarks;
+  if (!reg.landmarks.empty()) result["landmarks"] = landmarks_json(reg.landmarks);
   if (guarded(ex)) {
     MoveGuardReport total;
-    for (const auto& ps : rec.summary.phases) total += ps.move_guard;
+    for (const auto& ps : reg.summary.phases) total += ps.move_guard;
     result["collision_guard"] = guard_json(total);
   }
   const auto& recorder = rec.recorder;
@@ -604,18 +551,19 @@ nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& 
   if (!recorder.trace.empty()) {
     const auto& last = recorder.trace.back();
     nlohmann::ordered_json terms;
-    for (size_t i = 0; i < rec.names.size(); ++i)
-      terms[rec.names[i]] = optional_number(last.energy_terms.empty() ? std::optional<double>()
-                                                                      : std::optional<double>(last.energy_terms[i]));
+    for (size_t i = 0; i < reg.term_names.size(); ++i)
+      terms[reg.term_names[i]] = optional_number(last.energy_terms.empty() ? std::optional<double>()
+                                                                           : std::optional<double>(last.energy_terms[i]));
     result["energy"] = {{"terms", terms}, {"total", last.total_energy}};
   }
-  result["external_force"] = external_force_json(rec);
-  result["field_region"] = field_region_json(ex, rec);
+  result["external_force"] = external_force_json(reg.force);
+  result["field_region"] = field_region_json(ex, reg.field_region);
   if (ex.potential)
     result["potential"] = {{"type", enum_name(ex.potential->type)}, {"interpolation", enum_name(ex.potential->interpolation)}};
-  if (!rec.global_report.is_null()) result["global"] = rec.global_report;
-  result["timings"] = {{"field_s", rec.field_s}, {"potential_s", rec.potential_s}, {"evolve_s", rec.evolve_s},
-                       {"metrics_s", rec.metrics_s}, {"total_s", seconds_since(start)}};
+  if (ex.solver == SolverKind::kGlobal)
+    result["global"] = global_json(ex, rec.phases.size(), reg.global_solves);
+  result["timings"] = {{"field_s", reg.timings.field_s}, {"potential_s", reg.timings.potential_s},
+                       {"evolve_s", reg.timings.evolve_s}, {"metrics_s", rec.metrics_s}, {"total_s", seconds_since(start)}};
   result["seed"] = ex.seed;
   result["config"] = ex.file.document;
   result["version"] = dsnake_version();
@@ -680,7 +628,15 @@ void write_figures(const Experiment<D>& ex, const Snake<D>& snake, const fs::pat
   layers.push_back(result);
   const std::string title = ex.name;
   if constexpr (D == 2) {
-    write_overlay_figure(ex.image, layers, (dir / "overlay.png").string(), title, masks);
+    // Correspondence: each template vertex joined to where it landed, at most kMaxLinks of them
+    // evenly spaced along the template so that a fine contour stays readable.
+    constexpr int kMaxLinks = 64;
+    const int n = static_cast<int>(ex.initial.size());
+    const int stride = std::max(1, (n + kMaxLinks - 1) / kMaxLinks);
+    std::vector<std::array<Point<2>, 2>> links;
+    for (int id = 0; id < n; id += stride)
+      if (const int v = snake.vertex_of_template_id(id); v >= 0) links.push_back({ex.initial[id], snake.positions()[v]});
+    write_overlay_figure(ex.image, layers, (dir / "overlay.png").string(), title, masks, links);
   } else {
     Point<3> centre = Point<3>::Zero();
     for (const auto& p : snake.positions()) centre += p;

@@ -11,7 +11,7 @@ import pathlib
 import re
 import sys
 
-FOLDERS = ["framework", "energies", "fields", "remesh", "experiments", "docs/examples"]
+FOLDERS = ["framework", "energies", "fields", "remesh", "registration", "experiments", "docs/examples"]
 
 
 def strip(text):

@@ -10,6 +10,8 @@
 #include "framework/core/shape.h"
 
 #include <cstdint>
+#include <map>
+#include <optional>
 #include <span>
 #include <string>
 
@@ -85,6 +87,13 @@ class Energy {
   }
   // Whether add_residuals() can succeed (the global solver checks this when it reads the file).
   virtual bool has_least_squares_form() const { return false; }
+
+  // Distances this term measures on a snake, by name, mm, which a registration reports at its
+  // start and its end (the landmark springs: each landmark's distance to its point, result.json's
+  // "landmarks"). nullopt (the default): the term reports none. After bind().
+  virtual std::optional<std::map<std::string, double>> reported_distances(const Snake<D>& snake) const {
+    return std::nullopt;
+  }
 };
 
 }  // namespace dsnake

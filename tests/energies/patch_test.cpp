@@ -142,7 +142,9 @@ TEST(PatchEnergy, ExpectedPatchesAreTheAtlasAtTheRestPositions) {
   const Image<2> smoothed = gaussian_blur(atlas, 1.0);  // the same blur, same bits
   for (int v : {0, 6, 7}) {  // template vertex 0, the free vertex (index 6), template vertex 6
     const Point<2> p = v == 6 ? rest_positions(t, snake).positions[6] : t.positions[v == 7 ? 6 : 0];
-    if (v == 6) EXPECT_NEAR(p.norm(), 10.0, 0.01);  // on the template's circle, not its chord
+    if (v == 6) {
+      EXPECT_NEAR(p.norm(), 10.0, 0.01);  // on the template's circle, not its chord
+    }
     // Each vertex's local map is the copy's linear part, within 2e-3 where its neighbourhood holds
     // the free vertex, whose rest position lies on the circle, off the copied chord.
     EXPECT_LT((energy.patch_map(v) - l).norm(), 2e-3);

@@ -371,7 +371,7 @@ TEST_F(CliTest, HostileFilesAndSetPathsAreOneLineAndExitTwo) {
       {"builtin:default --set watchdog.bogus=1", "watchdog.bogus: unknown key"},
       {"builtin:default --set 'template.transform.translation=[1e300, 0]'", "outside the image"},
       // a ground truth far from the image: a phantom's object, a surface file, a target
-      {"builtin:default --set image.half_width=1e300", "default: image: the phantom's object (its true surface) lies outside"},
+      {"builtin:classical --set image.half_width=1e300", "classical: image: the phantom's object (its true surface) lies outside"},
       {"builtin:default --set 'ground_truth={\"surface\": \"" +
            write("far.txt", "1e9 0\n1e9 10\n-5 10\n").string() + "\"}'",
        "far.txt: vertex 0: the ground-truth surface lies outside the image"},

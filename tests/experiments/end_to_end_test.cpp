@@ -27,9 +27,36 @@ nlohmann::ordered_json run_builtin(const std::string& name, const fs::path& out,
   return run_experiment(ex, RunOptions{out.string(), true});
 }
 
+// The built-in default is D-Snake on the paper's Fig. 4: the template's vertices land on their
+// counterparts (the slice's points at the same arc length from the corner), the corner on the
+// corner, and the figure joins each template vertex to where it landed.
+TEST(EndToEnd, DefaultRegistersTheLungSliceTemplateVertexByVertex) {
+  const fs::path out = fresh_dir("default");
+  const auto r = run_builtin<2>("default", out);
+  const auto& m = r["metrics"];
+  EXPECT_GT(m["dice"].get<double>(), 0.99);
+  EXPECT_LT(m["mean_surface_distance"].get<double>(), 0.3);
+  EXPECT_LT(m["correspondence_error_mean"].get<double>(), 0.3);  // placed 8.8 mm off on average
+  EXPECT_LT(m["correspondence_error_max"].get<double>(), 1.0);
+  EXPECT_EQ(m["self_intersections"].get<int>(), 0);
+  EXPECT_TRUE(r["success"].get<bool>());
+  EXPECT_EQ(r["vertices"]["initial"].get<int>(), 32);
+  EXPECT_GT(r["vertices"]["final"].get<int>(), 32);  // the resampling phase refined it
+  // The corner (template vertex 0, landmark "corner") on the slice's corner.
+  std::ifstream csv(out / "correspondence.csv");
+  std::string header, corner;
+  std::getline(csv, header);
+  std::getline(csv, corner);
+  EXPECT_EQ(corner.rfind("0,corner,", 0), 0u) << corner;
+  const double corner_error = std::stod(corner.substr(corner.rfind(',') + 1));
+  EXPECT_LT(corner_error, 1.5) << corner;  // placed 9.8 mm from it
+  EXPECT_TRUE(fs::exists(out / "overlay.png"));
+  fs::remove_all(out);
+}
+
 TEST(EndToEnd, CircleTemplateRegistersToABlurredSquare2d) {
   const fs::path out = fresh_dir("square");
-  const auto r = run_builtin<2>("default", out);
+  const auto r = run_builtin<2>("classical", out);
   const auto& m = r["metrics"];
   EXPECT_LT(m["mean_surface_distance"].get<double>(), 1.0);
   EXPECT_GT(m["dice"].get<double>(), 0.9);

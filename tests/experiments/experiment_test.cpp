@@ -131,7 +131,7 @@ TEST(ExperimentFile, OverridesReachNestedKeysAndAreValidated) {
   EXPECT_THROW(builtin_experiment("default", {"energies[9].alpha=1"}), InputError);
   EXPECT_THROW(builtin_experiment("default", {"noequals"}), InputError);
   EXPECT_THROW(builtin_experiment("nope"), InputError);
-  const auto ex = make_experiment<2>(builtin_experiment("default", {"template.transform.scale=0.5"}));
+  const auto ex = make_experiment<2>(builtin_experiment("classical", {"template.transform.scale=0.5"}));
   // Scaled about the centroid, then translated by (1.5, -1).
   EXPECT_NEAR((ex.initial[0] - (Point<2>(63.5 + 22 + 1.5, 63.5 - 1.0))).norm(), 0, 1e-9);
   EXPECT_EQ(ex.truth.targets.size(), 64u);

@@ -163,6 +163,34 @@ TEST(Figures, OverlayOutlinesAMaskLayerAtItsBoundary) {
   }
 }
 
+bool is_link_green(const cv::Vec3b& p) { return p[1] > 120 && p[1] - p[2] > 50 && p[1] - p[0] > 35; }  // kLinkGreen, BGR
+
+// The correspondence links: a segment from each template vertex to where it landed, and nothing
+// between them; the legend names them.
+TEST(Figures, OverlayJoinsEachTemplateVertexToWhereItLanded) {
+  const Image<2> img = blob_image<2>({100, 100}, {1.0, 1.0});
+  const Point<2> centre(49.5, 49.5);
+  const PointList<2> inner = circle(8, centre, 10.0), outer = circle(8, centre, 25.0);
+  const Connectivity c = Connectivity::polygon(8);
+  std::vector<std::array<Point<2>, 2>> links;
+  for (int i = 0; i < 8; ++i) links.push_back({inner[i], outer[i]});
+  const fs::path png = output_folder("overlay_links") / "overlay.png";
+  write_overlay_figure(img, {{inner, c, kTemplateYellow}, {outer, c, kResultRed}}, png.string(), "", {}, links);
+  const cv::Mat out = cv::imread(png.string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(out.empty());
+  const Eigen::Vector2d c_px(12 + 299.5, 12 + 299.5);  // framed by the legend: 600 x 600 at the margin
+  for (int i = 0; i < 8; ++i) {
+    const Eigen::Vector2d d = (outer[i] - centre).normalized();
+    const double t = std::atan2(d.y(), d.x());
+    EXPECT_TRUE(colour_on_ray(out, c_px, 17.5 * 6, t, 1.0, is_link_green)) << "link " << i;
+    EXPECT_FALSE(colour_on_ray(out, c_px, 17.5 * 6, t + std::numbers::pi / 8, 20.0, is_link_green)) << "between " << i;
+  }
+  int legend_green = 0;
+  for (int y = 12 + 600; y < out.rows; ++y)
+    for (int x = 0; x < 60; ++x) legend_green += is_link_green(out.at<cv::Vec3b>(y, x));
+  EXPECT_GT(legend_green, 10);
+}
+
 TEST(Figures, OverlayKeepsPhysicalAspectForAnisotropicSpacing) {
   const Image<2> img = blob_image<2>({100, 100}, {1.0, 2.0});  // 100 x 200 physical units
   const Point<2> centre(49.5, 99.0);

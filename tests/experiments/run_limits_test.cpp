@@ -65,15 +65,15 @@ double enclosed_volume(const fs::path& vtk) {
 // the budget for the placed template is refused at assembly, naming the stage's key; lengths
 // that never add vertices (a stage's min_edge, simplify's max_edge) are not.
 TEST_F(RunLimitsTest, ARemeshingLengthPastTheVertexBudgetIsRefusedNamingItsKey) {
-  // 2D resample (the built-in default's refine phase): 2e-6 mm on a 276 mm circle, 1.4e8 vertices.
-  expect_refused("builtin:default --set 'phases[1].remesh[0].max_edge=2e-6' --set 'phases[1].remesh[0].min_edge=1e-6'",
-                 "builtin:default: phases[1].remesh[0].max_edge: 2e-06 mm would need about 1.4e+08 vertices",
+  // 2D resample (the built-in classical snake's refine phase): 2e-6 mm on a 276 mm circle, 1.4e8 vertices.
+  expect_refused("builtin:classical --set 'phases[1].remesh[0].max_edge=2e-6' --set 'phases[1].remesh[0].min_edge=1e-6'",
+                 "builtin:classical: phases[1].remesh[0].max_edge: 2e-06 mm would need about 1.4e+08 vertices",
                  {"watchdog.max_vertices 1000000", "use at least 0.000276 mm"});
   // A length past double's reach (the estimate is infinite) is refused the same way.
-  expect_refused("builtin:default --set 'phases[1].remesh[0].max_edge=1e-320' --set 'phases[1].remesh[0].min_edge=4e-321'",
+  expect_refused("builtin:classical --set 'phases[1].remesh[0].max_edge=1e-320' --set 'phases[1].remesh[0].min_edge=4e-321'",
                  "phases[1].remesh[0].max_edge");
-  // The budget is the watchdog's: the default's own 2 mm needs 138 vertices, more than 100.
-  expect_refused("builtin:default --set watchdog.max_vertices=100", "phases[1].remesh[0].max_edge",
+  // The budget is the watchdog's: the classical snake's own 2 mm needs 138 vertices, more than 100.
+  expect_refused("builtin:classical --set watchdog.max_vertices=100", "phases[1].remesh[0].max_edge",
                  {"watchdog.max_vertices 100)"});
   // 3D refine on the ellipsoid's sphere (area 9117 mm^2): 1e-3 mm needs 9117 / (sqrt(3) / 2 * 1e-6) = 1.05e10;
   // with a schedule the final max_edge is the one that counts.
@@ -83,13 +83,13 @@ TEST_F(RunLimitsTest, ARemeshingLengthPastTheVertexBudgetIsRefusedNamingItsKey) 
   expect_refused("builtin:ellipsoid --set 'phases[0].remesh=[{\"type\": \"refine\", \"max_edge\": 0.01, \"start_max_edge\": 5}]'",
                  "phases[0].remesh[0].max_edge");
   // Lengths that only remove or keep vertices: accepted however small.
-  for (const std::string& stages :
+  for (const std::string stages :
        {"[{\"type\": \"simplify\", \"min_edge\": 1e-300, \"max_edge\": 1e-299}, {\"type\": \"refine\", \"max_edge\": 3}]",
         "[{\"type\": \"uniform\"}, {\"type\": \"delaunay\"}]"}) {
     const Outcome o = dsnake("validate builtin:ellipsoid --set 'phases[0].remesh=" + stages + "'");
     EXPECT_EQ(o.exit_code, 0) << stages << ": " << o.err;
   }
-  const Outcome tiny_min = dsnake("validate builtin:default --set 'phases[1].remesh[0].min_edge=1e-300'");
+  const Outcome tiny_min = dsnake("validate builtin:classical --set 'phases[1].remesh[0].min_edge=1e-300'");
   EXPECT_EQ(tiny_min.exit_code, 0) << tiny_min.err;
 }
 
@@ -99,7 +99,7 @@ TEST_F(RunLimitsTest, ARemeshingLengthPastTheVertexBudgetIsRefusedNamingItsKey) 
 // Expected: diverged at that iteration, one line, the last good state (the start) written.
 TEST_F(RunLimitsTest, AGlobalSolveThatRunsAwayStopsAtOnce) {
   const fs::path out = dir_ / "global";
-  const Outcome o = dsnake("run builtin:default --set solver=global --set 'energies[1].tau=1e12' "
+  const Outcome o = dsnake("run builtin:classical --set solver=global --set 'energies[1].tau=1e12' "
                            "--set 'energies[1].weight=1e12' --quiet --out " + out.string());
   EXPECT_EQ(o.exit_code, 3) << o.err;
   EXPECT_EQ(o.lines(), 1) << o.err;
@@ -201,9 +201,9 @@ TEST_F(RunLimitsTest, ACollapseIsReportedAtTheIterationItHappensWithTheLastGoodS
 
 // The new keys' bad values: one line naming the file and the key, exit code 2, nothing written.
 TEST_F(RunLimitsTest, BadValuesOfTheNewKeysNameTheKey) {
-  for (const std::string& v : {"-0.1", "1", "2", "\\\"x\\\"", "true"})
+  for (const std::string v : {"-0.1", "1", "2", "\\\"x\\\"", "true"})
     expect_refused("builtin:ellipsoid --set watchdog.min_size=" + v, "builtin:ellipsoid: watchdog.min_size");
-  for (const std::string& v : {"0", "-5", "1e8", "\\\"x\\\""})
+  for (const std::string v : {"0", "-5", "1e8", "\\\"x\\\""})
     expect_refused("builtin:default --set solver=global --set global.max_time_s=" + v, "builtin:default: global.max_time_s");
   auto j = nlohmann::json::parse(builtin_experiment_text("default"));
   j["watchdog"] = {{"min_size", -1}};
