@@ -7,7 +7,7 @@
 
 namespace dsnake {
 
-RegistrationResult<2> register_circle(const Template<2>& circle, const PointList<2>& placed, const Image<2>& image) {
+RegistrationProblem<2> circle_problem(const Template<2>& circle, const PointList<2>& placed, const Image<2>& image) {
   RegistrationProblem<2> problem;
   problem.tmpl = &circle;
   problem.initial = placed;
@@ -20,7 +20,11 @@ RegistrationResult<2> register_circle(const Template<2>& circle, const PointList
   Phase<2>& fit = problem.phases.emplace_back();
   fit.iterations = 400;
   fit.tolerance = 1e-2;  // mm: stop when no vertex moves farther in one iteration
-  return register_template(std::move(problem));
+  return problem;
+}
+
+RegistrationResult<2> register_circle(const Template<2>& circle, const PointList<2>& placed, const Image<2>& image) {
+  return register_template(circle_problem(circle, placed, image));
 }
 
 }  // namespace dsnake

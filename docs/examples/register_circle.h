@@ -9,7 +9,10 @@
 namespace dsnake {
 
 // circle: the template (its rest shape, mm); placed: where it starts on `image`, one position
-// per template vertex (the image's frame, mm).
+// per template vertex (the image's frame, mm). The problem: internal + external (GVF) + ASAP-MLS,
+// one phase of at most 400 iterations.
+RegistrationProblem<2> circle_problem(const Template<2>& circle, const PointList<2>& placed, const Image<2>& image);
+// register_template(circle_problem(circle, placed, image)).
 RegistrationResult<2> register_circle(const Template<2>& circle, const PointList<2>& placed, const Image<2>& image);
 
 }  // namespace dsnake

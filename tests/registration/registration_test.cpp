@@ -52,21 +52,10 @@ PointList<2> placed(const Template<2>& t) {
   return q;
 }
 
-// Internal + external (GVF) + ASAP-MLS, one phase; the caller adds phases or changes the solver.
+// Internal + external (GVF) + ASAP-MLS, one phase (docs/examples/register_circle.cpp); the caller
+// adds phases or changes the solver.
 RegistrationProblem<2> disk_problem(const Template<2>& t, const Image<2>& image) {
-  RegistrationProblem<2> problem;
-  problem.tmpl = &t;
-  problem.initial = placed(t);
-  problem.image = &image;
-  problem.field = std::make_unique<GvfField<2>>();
-  problem.energies.push_back({1.0, std::make_unique<InternalEnergy<2>>(InternalOptions{.alpha = 0.5})});
-  problem.energies.push_back(
-      {1.0, std::make_unique<ExternalEnergy<2>>(ExternalOptions{.tau = 1.0, .normalize = ForceNormalization::kMax})});
-  problem.energies.push_back({0.5, std::make_unique<AsapMlsEnergy<2>>()});
-  Phase<2>& fit = problem.phases.emplace_back();
-  fit.iterations = 400;
-  fit.tolerance = 1e-2;  // mm: stop when no vertex moves farther in one iteration
-  return problem;
+  return circle_problem(t, placed(t), image);
 }
 
 // Every vertex lies on the disk's edge within `tolerance` mm.
