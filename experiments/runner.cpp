@@ -264,12 +264,6 @@ nlohmann::ordered_json landmarks_json(const std::vector<ReportedDistances>& ener
   return list;
 }
 
-// Whether the run's snake iteration is checked by the collision guard ("collision_guard").
-template <int D>
-bool guarded(const Experiment<D>& ex) {
-  return ex.solver == SolverKind::kSnake && ex.collision_guard.enabled;
-}
-
 nlohmann::ordered_json guard_json(const MoveGuardReport& r) {
   return {{"shortened", r.shortened}, {"refused", r.refused}, {"checks", r.checks}};
 }
@@ -455,7 +449,7 @@ nlohmann::ordered_json phases_json(const Experiment<D>& ex, const RunRecord<D>& 
                              {"vertices_after", r.vertices_after}, {"rejected_edits", r.rejected_edits}});
     const auto quality = rec.recorder.mesh_quality.find(int(p));
     if (quality != rec.recorder.mesh_quality.end()) j["mesh_quality"] = quality->second;
-    if (guarded(ex)) j["collision_guard"] = guard_json(ps.move_guard);
+    if (rec.registration.guarded) j["collision_guard"] = guard_json(ps.move_guard);
     if (ps.divergence) j["divergence"] = divergence_json(*ps.divergence);
     const auto measured = rec.phase_metrics.find(int(p));
     if (measured != rec.phase_metrics.end()) j["metrics"] = metrics_json(measured->second, true);
@@ -541,7 +535,7 @@ nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& 
   result["phases"] = phases_json(ex, rec);
   if (ex.init) result["init"] = init_report_json(*ex.init);
   if (!reg.landmarks.empty()) result["landmarks"] = landmarks_json(reg.landmarks);
-  if (guarded(ex)) {
+  if (reg.guarded) {
     MoveGuardReport total;
     for (const auto& ps : reg.summary.phases) total += ps.move_guard;
     result["collision_guard"] = guard_json(total);

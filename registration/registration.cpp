@@ -31,17 +31,20 @@ std::vector<std::string> term_names(const std::vector<WeightedEnergy<D>>& energi
 
 // The distances each energy reports (Energy::reported_distances: the landmark springs'), at the
 // placed template and at the end.
+// The placed template's snake is made only when an energy reports distances.
 template <int D>
-std::vector<ReportedDistances> reported_distances(const std::vector<WeightedEnergy<D>>& energies, const Snake<D>& start,
-                                                  const Snake<D>& end) {
+std::vector<ReportedDistances> reported_distances(const std::vector<WeightedEnergy<D>>& energies,
+                                                  const RegistrationProblem<D>& problem, const Snake<D>& end) {
   std::vector<ReportedDistances> list;
+  std::optional<Snake<D>> start;
   for (size_t e = 0; e < energies.size(); ++e) {
     auto final_mm = energies[e].energy->reported_distances(end);
     if (!final_mm) continue;
+    if (!start) start = Snake<D>::from_template(*problem.tmpl, problem.initial);
     ReportedDistances d;
     d.energy = static_cast<int>(e);
     d.final_mm = std::move(*final_mm);
-    d.initial_mm = *energies[e].energy->reported_distances(start);
+    d.initial_mm = *energies[e].energy->reported_distances(*start);
     list.push_back(std::move(d));
   }
   return list;
@@ -117,15 +120,14 @@ RegistrationResult<D> register_template(RegistrationProblem<D> problem, const st
   }
   PhaseDriver<D> driver(context, std::move(problem.energies), std::move(minimizer));
   // The collision guard checks the snake iteration's moves; the global solve does not use one.
-  if (problem.solver == SolverKind::kSnake && problem.collision_guard.enabled)
-    driver.set_move_guard(std::make_unique<CollisionGuard<D>>(problem.collision_guard));
+  result.guarded = problem.solver == SolverKind::kSnake && problem.collision_guard.enabled;
+  if (result.guarded) driver.set_move_guard(std::make_unique<CollisionGuard<D>>(problem.collision_guard));
   driver.set_watchdog(problem.watchdog);
   result.term_names = term_names(driver.energies());
   for (EvolverObserver<D>* observer : observers) driver.add_observer(observer);
   result.summary = driver.run(result.snake, problem.phases);
   result.force.median_end = median_force_magnitude(*problem.field, result.snake);
-  result.landmarks = reported_distances(driver.energies(), Snake<D>::from_template(*problem.tmpl, problem.initial),
-                                        result.snake);
+  result.landmarks = reported_distances(driver.energies(), problem, result.snake);
   if (global) result.global_solves = global->solves();
   result.timings.evolve_s = seconds_since(t);
   return result;

@@ -98,6 +98,7 @@ struct RegistrationResult {
   std::vector<std::string> term_names;
   VoxelBox<D> field_region;  // the voxels the field (and the potential) was computed on
   ForceMagnitudes force;
+  bool guarded = false;  // the collision guard checked the snake iteration's moves (solver kSnake, enabled)
   // Solver kGlobal: per phase run, Ceres' summary of each solve (empty for the snake iteration).
   std::vector<std::vector<GlobalSolveSummary>> global_solves;
   std::vector<ReportedDistances> landmarks;  // one per energy that reports distances (the landmark springs), in order

@@ -93,6 +93,7 @@ TEST(RegisterTemplate, TheCircleLandsOnTheDiskAndTheResultSaysHow) {
   EXPECT_GT(r.force.median_start, 0.0);
   EXPECT_TRUE(r.global_solves.empty());
   EXPECT_TRUE(r.landmarks.empty());
+  EXPECT_TRUE(r.guarded);  // the snake iteration, the collision guard on by default
   EXPECT_GE(r.timings.field_s, 0.0);
   EXPECT_GE(r.timings.evolve_s, 0.0);
   EXPECT_EQ(r.timings.potential_s, 0.0);
@@ -165,6 +166,7 @@ TEST(RegisterTemplate, TheGlobalSolveReportsEverySolve) {
   problem.potential = PotentialOptions{};  // the least-squares integral of the GVF field
   const RegistrationResult<2> r = register_template(std::move(problem));
   ASSERT_EQ(r.global_solves.size(), 1u);
+  EXPECT_FALSE(r.guarded);  // the global solve has no move to guard
   ASSERT_FALSE(r.global_solves[0].empty());
   for (const GlobalSolveSummary& s : r.global_solves[0]) {
     EXPECT_GT(s.iterations, 0);
