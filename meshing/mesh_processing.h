@@ -41,7 +41,7 @@ DecimatedMesh decimate_mesh(const PointList<3>& p, const Connectivity& c, int ta
                             const DecimationLimits& limits);
 
 // Quadric-error half-edge collapses with no limit but ModNormalFlipping (60°) down to about
-// `target_vertices`: the simplification of the bunny phantom (experiments/bunny.h), whose
+// `target_vertices`: the simplification of the bunny phantom (experiments/phantoms/bunny.h), whose
 // template vertices must stay on the true surface (a subset of p, exact positions, old order).
 DecimatedMesh simplify_quadric(const PointList<3>& p, const Connectivity& c, int target_vertices);
 

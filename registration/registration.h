@@ -4,7 +4,7 @@
 // field on the region around the placed template (fields/region.h) and the smooth potential of
 // the global view when one is asked for, binds the energies, guards the snake iteration against
 // self-intersection (remesh/collision_guard.h), watches for divergence, runs the phases and
-// reports what happened. No files and no JSON: the experiment runner (experiments/runner.h)
+// reports what happened. No files and no JSON: the experiment runner (experiments/output/runner.h)
 // builds a RegistrationProblem from an experiment file and writes files from the result, as
 // MIRTK's deform-mesh configures its DeformableSurfaceModel.
 #pragma once

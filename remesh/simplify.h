@@ -17,7 +17,7 @@
 // ends relaxed lets the next one's flips find more regular connectivity. A relaxed mesh also has
 // fewer long edges for the refinement: 1566 vertices instead of 1942 on the ellipsoid of
 // tests/remesh/clean_mesh_test.cpp, and on the half-size lung of
-// tests/experiments/figures_reproduction_test.cpp 2524 vertices instead of 3199.
+// tests/experiments/end_to_end/figures_reproduction_test.cpp 2524 vertices instead of 3199.
 #pragma once
 
 #include "framework/core/options.h"

@@ -398,6 +398,10 @@ def compare(args):
         if eo["state"] != "ok" or en["state"] != "ok":
             if eo["state"] == en["state"] and eo["state"] in ("sweep", "skipped"):
                 print("skipped   %-28s %s" % (name, eo.get("reason", eo["state"])))
+            elif eo["state"] == en["state"] == "failed" and eo.get("reason") == en.get("reason"):
+                # a run that fails on purpose (the classical snake collapsing under the watchdog)
+                # must fail the same way
+                print("same      %-28s both failed alike (%s)" % (name, eo.get("reason", "")))
             else:
                 n_diff += 1
                 print("DIFFERENT %-28s old %s, new %s (%s)"

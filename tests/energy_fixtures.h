@@ -3,7 +3,7 @@
 #pragma once
 
 #include "energies/registry.h"
-#include "experiments/phantoms.h"
+#include "experiments/phantoms/phantoms.h"
 #include "framework/core/errors.h"
 #include "framework/core/json_reader.h"
 

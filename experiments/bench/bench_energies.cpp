@@ -7,7 +7,7 @@
 #include "energies/asap_mls.h"
 #include "energies/patch.h"
 #include "energies/registry.h"
-#include "experiments/phantoms.h"
+#include "experiments/phantoms/phantoms.h"
 #include "fields/gradient.h"
 #include "framework/core/evolver.h"
 #include "framework/core/image_filters.h"

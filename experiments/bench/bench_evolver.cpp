@@ -3,7 +3,7 @@
 // Run: build/release/experiments/bench/bench_evolver --benchmark_repetitions=5
 //        --benchmark_report_aggregates_only=true
 #include "energies/registry.h"
-#include "experiments/phantoms.h"
+#include "experiments/phantoms/phantoms.h"
 #include "fields/registry.h"
 #include "framework/core/evolver.h"
 #include "framework/core/image_filters.h"

@@ -10,7 +10,7 @@
 //    iterations); counters: iterations and msd.
 // Run: build/release/experiments/bench/bench_global --benchmark_repetitions=3
 //        --benchmark_report_aggregates_only=true
-#include "experiments/experiment.h"
+#include "experiments/spec/experiment.h"
 #include "fields/smooth_potential.h"
 #include "framework/core/evolver.h"
 #include "framework/global/global_solver.h"

@@ -2,7 +2,7 @@
 // self-intersection count, at 2562 and 10242 vertices (the paper's lung ends near 7000).
 // Run: build/release/experiments/bench/bench_metrics --benchmark_repetitions=5
 //        --benchmark_report_aggregates_only=true
-#include "experiments/phantoms.h"
+#include "experiments/phantoms/phantoms.h"
 #include "framework/metrics/metrics.h"
 
 #include <benchmark/benchmark.h>

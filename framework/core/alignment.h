@@ -1,7 +1,7 @@
 // Pre-alignment of a template (ours; the paper's §9 names landmarks as future work): the
 // moments of the solid a contour or closed mesh encloses and of a region of voxels, and the
 // closed-form similarities that match one set of moments to another or one set of points to
-// another. Pure geometry: experiments/template_init.h reads the experiment keys and applies them.
+// another. Pure geometry: experiments/spec/template_init.h reads the experiment keys and applies them.
 #pragma once
 
 #include "framework/core/image.h"

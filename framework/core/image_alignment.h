@@ -9,7 +9,7 @@
 // Lucas-Kanade image alignment (Baker & Matthews, IJCV 2004), with the analytic Jacobian from
 // the gradient of the smoothed moving image, coarse to fine over Gaussian smoothing levels (mm).
 // Serial or blocked sums in a fixed order: the same bits for any thread count. Pure images and
-// maps: experiments/template_init.h reads the experiment keys and applies the result.
+// maps: experiments/spec/template_init.h reads the experiment keys and applies the result.
 #pragma once
 
 #include "framework/core/image.h"

@@ -3,7 +3,7 @@
 // under ASAP, unlike the classical snake).
 #include "energies/asap_mls.h"
 #include "energies/registry.h"
-#include "experiments/phantoms.h"
+#include "experiments/phantoms/phantoms.h"
 #include "framework/core/evolver.h"
 #include "framework/core/external_field.h"
 

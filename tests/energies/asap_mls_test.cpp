@@ -5,7 +5,7 @@
 #include "energies/asap_mls.h"
 #include "energies/mls_weights.h"
 #include "energies/registry.h"
-#include "experiments/phantoms.h"
+#include "experiments/phantoms/phantoms.h"
 #include "framework/core/errors.h"
 
 #include <Eigen/Geometry>

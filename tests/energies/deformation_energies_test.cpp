@@ -6,7 +6,7 @@
 #include "energies/balloon.h"
 #include "energies/laplacian.h"
 #include "energies/registry.h"
-#include "experiments/phantoms.h"
+#include "experiments/phantoms/phantoms.h"
 #include "framework/core/errors.h"
 #include "framework/global/global_problem.h"
 

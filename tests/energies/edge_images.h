@@ -3,7 +3,7 @@
 // circles / spheres to start from.
 #pragma once
 
-#include "experiments/phantoms.h"
+#include "experiments/phantoms/phantoms.h"
 #include "framework/core/energy.h"
 #include "framework/core/image_filters.h"
 #include "framework/core/shape.h"

@@ -4,7 +4,7 @@
 // the scaling law, the value against hand-computed numbers and its residuals, degenerate elements
 // and thread independence; the umbrella form's resolution dependence for contrast.
 #include "energies/internal.h"
-#include "experiments/phantoms.h"
+#include "experiments/phantoms/phantoms.h"
 #include "framework/global/global_problem.h"
 #include "tests/energy_fixtures.h"
 

@@ -3,7 +3,7 @@
 // energy registry's error messages.
 #include "energies/internal.h"
 #include "energies/registry.h"
-#include "experiments/phantoms.h"
+#include "experiments/phantoms/phantoms.h"
 #include "framework/core/errors.h"
 
 #include <Eigen/Dense>

@@ -5,7 +5,7 @@
 // the point-pair fit exact on exact pairs, least squares on noisy ones, proper on mirrored ones.
 #include "framework/core/alignment.h"
 
-#include "experiments/phantoms.h"
+#include "experiments/phantoms/phantoms.h"
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>

@@ -3,7 +3,7 @@
 #include "framework/global/global_problem.h"
 
 #include "energies/internal.h"
-#include "experiments/phantoms.h"
+#include "experiments/phantoms/phantoms.h"
 
 #include <ceres/ceres.h>
 #include <gtest/gtest.h>

@@ -5,7 +5,7 @@
 #include "framework/global/global_solver.h"
 
 #include "energies/registry.h"
-#include "experiments/phantoms.h"
+#include "experiments/phantoms/phantoms.h"
 #include "framework/core/external_field.h"
 #include "framework/core/potential.h"
 

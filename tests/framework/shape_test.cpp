@@ -1,6 +1,6 @@
 #include "framework/core/shape.h"
 
-#include "experiments/phantoms.h"
+#include "experiments/phantoms/phantoms.h"
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>

@@ -2,8 +2,8 @@
 // text, then every section (experiment_spec.cpp), in the dimension the file declares.
 #include "tests/fuzz/fuzz_support.h"
 
-#include "experiments/experiment.h"
-#include "experiments/experiment_spec.h"
+#include "experiments/spec/experiment.h"
+#include "experiments/spec/experiment_spec.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace dsnake;

@@ -3,8 +3,8 @@
 // experiment file (every section), in the dimension the overrides leave it.
 #include "tests/fuzz/fuzz_support.h"
 
-#include "experiments/experiment.h"
-#include "experiments/experiment_spec.h"
+#include "experiments/spec/experiment.h"
+#include "experiments/spec/experiment_spec.h"
 
 #include <algorithm>
 #include <vector>

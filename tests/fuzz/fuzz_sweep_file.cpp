@@ -3,7 +3,7 @@
 // experiment-file target, which reads the same sections.
 #include "tests/fuzz/fuzz_support.h"
 
-#include "experiments/sweep.h"
+#include "experiments/sweep/sweep.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace dsnake;
