@@ -32,7 +32,7 @@ namespace dsnake {
 // kSharedEuclidean: Euclidean, shared by residuals of many vertices (not eliminated first).
 enum class AuxiliaryKind { kEuclidean, kQuaternion, kQuaternionAndScale, kSharedEuclidean };
 
-// Ceres solver options (the experiment file's "global" object; see experiments/experiment.cpp).
+// Ceres solver options (the experiment file's "global" object; see experiments/spec/experiment_spec.cpp).
 // Ceres' linear solver: sparse_normal_cholesky; sparse_schur (eliminates the auxiliary blocks);
 // the matrix-free cgnr and iterative_schur (conjugate gradients); dense_qr (tiny problems).
 enum class LinearSolver { kSparseNormalCholesky, kSparseSchur, kIterativeSchur, kCgnr, kDenseQr };
