@@ -357,6 +357,45 @@ void write_overlay_figure(const Image<2>& image, const std::vector<ShapeLayer2>&
   write_png(canvas, png_path);
 }
 
+namespace {
+
+// (normal axis, horizontal axis, vertical axis, name, v upwards, orientation) of axial, coronal
+// and sagittal views in the radiological convention of LPS world coordinates (image.h): axial
+// with the patient's left (+x) on the right and posterior (+y) down, coronal and sagittal with
+// superior (+z) up. The frame of an oblique scan is shown as if it were the world's.
+struct SliceView { int normal, u, v; const char* name; bool v_up; const char* orientation; };
+constexpr std::array<SliceView, 3> kSliceViews{{{2, 0, 1, "axial", false, "x right = L, y down = P"},
+                                        {1, 0, 2, "coronal", true, "x right = L, z up = S"},
+                                        {0, 1, 2, "sagittal", true, "y right = P, z up = S"}}};
+
+// The panel of one view: the slice's voxels through the grey window, at the figure's scale.
+Panel slice_panel(const Image<3>& volume, const GreyWindow& window, const GridIndex<3>& slice, const SliceView& view,
+                  double finest, int factor) {
+  static const char* kAxis = "xyz";
+  const Grid<3>& grid = volume.grid();
+  Panel p;
+  p.nu = grid.size[view.u];
+  p.nv = grid.size[view.v];
+  p.origin = {grid.origin[view.u], grid.origin[view.v]};
+  p.spacing = {grid.spacing[view.u], grid.spacing[view.v]};
+  p.width_px = axis_pixels(p.nu, p.spacing[0], finest, factor);
+  p.height_px = axis_pixels(p.nv, p.spacing[1], finest, factor);
+  p.grey.resize(static_cast<size_t>(p.nu) * p.nv);
+  GridIndex<3> idx = slice;
+  for (int j = 0; j < p.nv; ++j)
+    for (int i = 0; i < p.nu; ++i) {
+      idx[view.u] = i;
+      idx[view.v] = j;
+      p.grey[static_cast<size_t>(j) * p.nu + i] = window.map(volume.at(idx));
+    }
+  const double level = grid.origin[view.normal] + slice[view.normal] * grid.spacing[view.normal];
+  p.v_up = view.v_up;
+  p.label = std::string(view.name) + "  " + kAxis[view.normal] + " = " + tick_text(level) + " mm  (" + view.orientation + ")";
+  return p;
+}
+
+}  // namespace
+
 void write_slice_figure(const Image<3>& volume, const std::vector<ShapeLayer3>& layers, const Point<3>& centre,
                         const std::string& png_path, const std::string& title, const std::vector<MaskLayer<3>>& masks) {
   DSNAKE_ASSERT(!volume.empty(), "write_slice_figure: empty volume for " + png_path);
@@ -376,43 +415,14 @@ void write_slice_figure(const Image<3>& volume, const std::vector<ShapeLayer3>& 
   GridIndex<3> slice;
   for (int a = 0; a < 3; ++a) slice[a] = std::clamp(static_cast<int>(std::lround(c[a])), 0, grid.size[a] - 1);
 
-  // (normal axis, horizontal axis, vertical axis, name, v upwards, orientation) of axial, coronal
-  // and sagittal views in the radiological convention of LPS world coordinates (image.h): axial
-  // with the patient's left (+x) on the right and posterior (+y) down, coronal and sagittal with
-  // superior (+z) up. The frame of an oblique scan is shown as if it were the world's.
-  struct View { int normal, u, v; const char* name; bool v_up; const char* orientation; };
-  const std::array<View, 3> views{{{2, 0, 1, "axial", false, "x right = L, y down = P"},
-                                   {1, 0, 2, "coronal", true, "x right = L, z up = S"},
-                                   {0, 1, 2, "sagittal", true, "y right = P, z up = S"}}};
-  static const char* kAxis = "xyz";
+  const auto& views = kSliceViews;
   std::vector<Panel> panels;
-  for (const auto& view : views) {
-    Panel p;
-    p.nu = grid.size[view.u];
-    p.nv = grid.size[view.v];
-    p.origin = {grid.origin[view.u], grid.origin[view.v]};
-    p.spacing = {grid.spacing[view.u], grid.spacing[view.v]};
-    p.width_px = axis_pixels(p.nu, p.spacing[0], finest, factor);
-    p.height_px = axis_pixels(p.nv, p.spacing[1], finest, factor);
-    p.grey.resize(static_cast<size_t>(p.nu) * p.nv);
-    GridIndex<3> idx = slice;
-    for (int j = 0; j < p.nv; ++j)
-      for (int i = 0; i < p.nu; ++i) {
-        idx[view.u] = i;
-        idx[view.v] = j;
-        p.grey[static_cast<size_t>(j) * p.nu + i] = window.map(volume.at(idx));
-      }
-    const double level = grid.origin[view.normal] + slice[view.normal] * grid.spacing[view.normal];
-    p.v_up = view.v_up;
-    p.label = std::string(view.name) + "  " + kAxis[view.normal] + " = " + tick_text(level) + " mm  (" + view.orientation +
-              ")";
-    panels.push_back(std::move(p));
-  }
+  for (const auto& view : views) panels.push_back(slice_panel(volume, window, slice, view, finest, factor));
 
   std::vector<cv::Rect> rois;
   cv::Mat canvas = compose(panels, title, legend_entries(layers, masks), rois);
   for (size_t k = 0; k < views.size(); ++k) {
-    const View& view = views[k];
+    const SliceView& view = views[k];
     const Panel& panel = panels[k];
     cv::Mat roi = canvas(rois[k]);
     const double level = grid.origin[view.normal] + slice[view.normal] * grid.spacing[view.normal];

@@ -270,6 +270,43 @@ bool make_level(const Image<D>& fixed, const Image<D>& moving, const WorldBox<D>
   return true;
 }
 
+// Levenberg-Marquardt on one level from T (whose fit is `fit`): the pose block damped by lambda
+// times its diagonal (Marquardt 1963); a step is taken only when it raises the score, keeps
+// min_overlap of the start's overlap and keeps the orientation. T and fit end at the last step
+// taken; returns the number of steps taken.
+template <int D>
+int levenberg_marquardt(const Level<D>& lv, const Point<D>& c, AlignmentModel model, const WorldBox<D>& box,
+                        const ImageAlignmentOptions& options, double start_overlap, AffineMap<D>& T, Fit& fit) {
+  const int np = parameter_count<D>(model);
+  int iterations = 0;
+  double lambda = 1e-3;
+  Eigen::MatrixXd H;
+  Eigen::VectorXd g;
+  bool fresh = false;
+  for (int it = 0; it < options.iterations && fit.finite && fit.score() > 0; ++it) {
+    if (!fresh) normal_equations<D>(lv, T, c, model, fit, H, g), fresh = true;
+    Eigen::MatrixXd Hd = H;
+    for (int j = 0; j < np; ++j) Hd(j, j) += lambda * std::max(H(j, j), 1e-12);
+    const Eigen::VectorXd step = Hd.ldlt().solve(g);
+    const Eigen::VectorXd p = step.head(np);
+    if (!p.allFinite()) break;
+    const AffineMap<D> candidate = compose<D>(T, model, p, c);
+    const Fit next = evaluate<D>(lv, candidate, c);
+    const double moved = corner_distance<D>(candidate, T, box);
+    if (next.finite && next.score() > fit.score() && next.overlap >= options.min_overlap * start_overlap &&
+        candidate.matrix.determinant() > 0) {
+      T = candidate, fit = next, fresh = false;
+      ++iterations;
+      lambda = std::max(lambda * 0.1, 1e-9);
+      if (moved < options.tolerance) break;
+    } else {
+      lambda *= 10.0;
+      if (lambda > 1e8 || moved < options.tolerance) break;
+    }
+  }
+  return iterations;
+}
+
 }  // namespace
 
 template <int D>
@@ -287,7 +324,6 @@ ImageAlignmentResult<D> align_images(const Image<D>& fixed, const Image<D>& movi
   box.lo.array() -= options.margin, box.hi.array() += options.margin;
   const Point<D> c = 0.5 * (box.lo + box.hi);
   const AlignmentModel model = options.model;
-  const int np = parameter_count<D>(model);
 
   AffineMap<D> T = initial;
   double start_overlap = -1;
@@ -314,32 +350,7 @@ ImageAlignmentResult<D> align_images(const Image<D>& fixed, const Image<D>& movi
       }
     }
     info.ncc_start = fit.ncc;
-    double lambda = 1e-3;
-    Eigen::MatrixXd H;
-    Eigen::VectorXd g;
-    bool fresh = false;
-    for (int it = 0; it < options.iterations && fit.finite && fit.score() > 0; ++it) {
-      if (!fresh) normal_equations<D>(lv, T, c, model, fit, H, g), fresh = true;
-      // Levenberg-Marquardt: the pose block damped by lambda times its diagonal (Marquardt 1963)
-      Eigen::MatrixXd Hd = H;
-      for (int j = 0; j < np; ++j) Hd(j, j) += lambda * std::max(H(j, j), 1e-12);
-      const Eigen::VectorXd step = Hd.ldlt().solve(g);
-      const Eigen::VectorXd p = step.head(np);
-      if (!p.allFinite()) break;
-      const AffineMap<D> candidate = compose<D>(T, model, p, c);
-      const Fit next = evaluate<D>(lv, candidate, c);
-      const double moved = corner_distance<D>(candidate, T, box);
-      if (next.finite && next.score() > fit.score() && next.overlap >= options.min_overlap * start_overlap &&
-          candidate.matrix.determinant() > 0) {
-        T = candidate, fit = next, fresh = false;
-        ++info.iterations;
-        lambda = std::max(lambda * 0.1, 1e-9);
-        if (moved < options.tolerance) break;
-      } else {
-        lambda *= 10.0;
-        if (lambda > 1e8 || moved < options.tolerance) break;
-      }
-    }
+    info.iterations = levenberg_marquardt<D>(lv, c, model, box, options, start_overlap, T, fit);
     info.ncc_end = fit.ncc;
     result.iterations += info.iterations;
     result.levels.push_back(info);

@@ -247,6 +247,47 @@ VtkPolyData read_vtk(const std::string& path) {
   return d;
 }
 
+// An element of a PLY header: its name, its count and, per property, whether it is a list (a
+// count, then items) or one value.
+struct PlyElement {
+  std::string name;
+  int64_t count = 0;
+  std::vector<bool> list;
+};
+
+// An ASCII PLY body, line by line against the header (OpenMesh's ASCII reader looped without end
+// on a face line of the wrong length: found by fuzzing). Counts are bounded by the file size.
+// `line_no` is the number of the header's last line.
+void check_ply_ascii_body(std::istream& in, const std::string& path, const std::vector<PlyElement>& elements,
+                          int64_t line_no) {
+  for (const PlyElement& e : elements)
+    for (int64_t i = 0; i < e.count; ++i) {
+      std::string body;
+      do {
+        if (!std::getline(in, body))
+          throw InputError(path, "element " + e.name, "the file ends after " + std::to_string(i) + " of its " +
+                                                          std::to_string(e.count) + " lines");
+        ++line_no;
+      } while (body.find_first_not_of(" \t\r\n\v\f") == std::string::npos);
+      const auto w = split_words(body);
+      size_t k = 0;
+      bool ok = true;
+      double v = 0;
+      for (size_t p = 0; ok && p < e.list.size(); ++p) {
+        if (!e.list[p]) {
+          ok = k < w.size() && parse_number(w[k++], v);
+          continue;
+        }
+        ok = k < w.size() && parse_number(w[k++], v) && v >= 0 && v == std::floor(v) && v <= double(w.size() - k);
+        const int64_t items = ok ? int64_t(v) : 0;  // bounded by the words left on the line
+        for (int64_t j = 0; ok && j < items; ++j) ok = parse_number(w[k++], v);
+      }
+      if (!ok || k != w.size())
+        throw InputError(path, "line " + std::to_string(line_no),
+                         "does not match the header's '" + e.name + "' properties: '" + body.substr(0, 80) + "'");
+    }
+}
+
 // A PLY header, read strictly before OpenMesh sees the file: every line is a format,
 // comment, obj_info, element or property line of known types, and end_header comes within 10 000
 // lines (without it OpenMesh's reader never returned: found by fuzzing). Element counts are
@@ -261,12 +302,7 @@ void check_ply_header(const std::string& path) {
   const double size = double(fs::file_size(path, ec));
   double need = 0;
   bool in_element = false, format = false, ascii = false;
-  struct Element {
-    std::string name;
-    int64_t count = 0;
-    std::vector<bool> list;  // per property: a list (count, then items) or one value
-  };
-  std::vector<Element> elements;
+  std::vector<PlyElement> elements;
   static const std::set<std::string> kTypes = {"char",  "uchar",  "short",  "ushort", "int",    "uint",
                                                "float", "double", "int8",   "uint8",  "int16",  "uint16",
                                                "int32", "uint32", "float32", "float64"};
@@ -281,40 +317,11 @@ void check_ply_header(const std::string& path) {
       if (!format) throw bad("no 'format' line before the end of the header");
       // OpenMesh's header reader also looped on a version that is not a number and on a header
       // without elements (fuzzing): a vertex element and a property on every element are required.
-      if (std::none_of(elements.begin(), elements.end(), [](const Element& e) { return e.name == "vertex"; }))
+      if (std::none_of(elements.begin(), elements.end(), [](const PlyElement& e) { return e.name == "vertex"; }))
         throw bad("no 'element vertex' line before the end of the header");
-      for (const Element& e : elements)
+      for (const PlyElement& e : elements)
         if (e.list.empty()) throw InputError(path, "element " + e.name, "has no property lines");
-      if (!ascii) return;
-      // An ASCII body, line by line against the header (OpenMesh's ASCII reader looped without end
-      // on a face line of the wrong length: found by fuzzing). Counts are bounded by the file size.
-      int64_t line_no = n;
-      for (const Element& e : elements)
-        for (int64_t i = 0; i < e.count; ++i) {
-          std::string body;
-          do {
-            if (!std::getline(in, body))
-              throw InputError(path, "element " + e.name, "the file ends after " + std::to_string(i) + " of its " +
-                                                              std::to_string(e.count) + " lines");
-            ++line_no;
-          } while (body.find_first_not_of(" \t\r\n\v\f") == std::string::npos);
-          const auto w = split_words(body);
-          size_t k = 0;
-          bool ok = true;
-          double v = 0;
-          for (size_t p = 0; ok && p < e.list.size(); ++p) {
-            if (!e.list[p]) {
-              ok = k < w.size() && parse_number(w[k++], v);
-              continue;
-            }
-            ok = k < w.size() && parse_number(w[k++], v) && v >= 0 && v == std::floor(v) && v <= double(w.size() - k);
-            const int64_t items = ok ? int64_t(v) : 0;  // bounded by the words left on the line
-            for (int64_t j = 0; ok && j < items; ++j) ok = parse_number(w[k++], v);
-          }
-          if (!ok || k != w.size())
-            throw InputError(path, "line " + std::to_string(line_no),
-                             "does not match the header's '" + e.name + "' properties: '" + body.substr(0, 80) + "'");
-        }
+      if (ascii) check_ply_ascii_body(in, path, elements, n);
       return;
     }
     if (keyword == "comment" || keyword == "obj_info" || keyword.empty()) continue;
