@@ -69,7 +69,8 @@ void ExternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   const double tau = options_.tau * force_scale_;
   const PointList<D>& normals = normals_;
   // only a field larger than the caches gains from prefetching; a small one pays for the hint
-  const bool prefetch = field.num_voxels() * int64_t(sizeof(Point<D>)) > kPrefetchMinBytes;
+  const bool prefetch = field_voxels(field) * int64_t(sizeof(Point<D>)) > kPrefetchMinBytes;
+  const LargeField<D>* large = as_large(field);
   const bool unit = options_.normalize == ForceNormalization::kUnit;
   const double floor = unit_floor_;
   const Image<D>& smoothed = smoothed_.image();
@@ -77,7 +78,7 @@ void ExternalEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
 #pragma omp parallel for schedule(static) if (n >= 256)
   for (int v = 0; v < n; ++v) {
     if (prefetch && v + kPrefetchAhead < n)
-      field.prefetch(q[v + kPrefetchAhead], with_normals ? normals[v + kPrefetchAhead] : Point<D>::Zero());
+      prefetch_force(field, large, q[v + kPrefetchAhead], with_normals ? normals[v + kPrefetchAhead] : Point<D>::Zero());
     const Point<D> normal = with_normals ? normals[v] : Point<D>::Zero();
     Point<D> f = field.force(q[v], normal);
     if (polarised) f *= polarity_factor(smoothed, probe, q[v], normals[v], f);

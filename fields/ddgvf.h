@@ -41,7 +41,7 @@ struct DdgvfFieldOptions {
 };
 
 template <int D>
-class DdgvfField final : public ExternalField<D> {
+class DdgvfField final : public ExternalField<D>, public CacheableField<D>, public LargeField<D> {
  public:
   using Options = DdgvfFieldOptions;
   static constexpr const char* kType = "ddgvf";

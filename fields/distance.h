@@ -27,7 +27,7 @@ struct DistanceFieldOptions {
 };
 
 template <int D>
-class DistanceField final : public ExternalField<D> {
+class DistanceField final : public ExternalField<D>, public CacheableField<D> {
  public:
   using Options = DistanceFieldOptions;
   static constexpr const char* kType = "distance";

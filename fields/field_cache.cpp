@@ -139,7 +139,20 @@ std::string field_cache_key(const Image<D>& image, const std::string& type, cons
 template <int D>
 CachedField<D>::CachedField(std::unique_ptr<ExternalField<D>> field, std::string dir, std::string parameters,
                             bool compressed)
-    : field_(std::move(field)), dir_(std::move(dir)), parameters_(std::move(parameters)), compressed_(compressed) {}
+    : field_(std::move(field)), large_(as_large(*field_)), dir_(std::move(dir)), parameters_(std::move(parameters)),
+      compressed_(compressed) {}
+
+template <int D>
+std::string CachedField<D>::save_state() const {
+  const CacheableField<D>* cacheable = as_cacheable(*field_);
+  return cacheable != nullptr ? cacheable->save_state() : std::string();
+}
+
+template <int D>
+bool CachedField<D>::load_state(const Grid<D>& grid, const std::string& bytes) {
+  CacheableField<D>* cacheable = as_cacheable(*field_);
+  return cacheable != nullptr && cacheable->load_state(grid, bytes);
+}
 
 // The entry for this image and these parameters (path_), loaded into the field if it is there
 // and fits.
@@ -153,7 +166,7 @@ bool CachedField<D>::load_entry(const Image<D>& image) {
   const uint64_t max_bytes = uint64_t(image.num_voxels()) * 64 + (uint64_t(1) << 20);
   std::string bytes;
   if (!read_entry(path_, max_bytes, bytes)) return false;
-  if (field_->load_state(image.grid(), inflated(std::move(bytes), max_bytes))) return loaded_ = true;
+  if (load_state(image.grid(), inflated(std::move(bytes), max_bytes))) return loaded_ = true;
   std::fprintf(stderr, "warning: field cache entry %s does not fit; recomputing\n", path_.c_str());
   return false;
 }
@@ -161,7 +174,7 @@ bool CachedField<D>::load_entry(const Image<D>& image) {
 // The computed field into the entry at path_ (a field that cannot be cached stores nothing).
 template <int D>
 void CachedField<D>::store_entry() const {
-  const std::string state = field_->save_state();
+  const std::string state = save_state();
   if (state.empty()) return;
   try {
     std::filesystem::create_directories(dir_);
@@ -183,7 +196,7 @@ void CachedField<D>::compute(const Image<D>& image) {
 template <int D>
 void CachedField<D>::compute_releasing(Image<D>&& image) {
   if (load_entry(image)) return;
-  field_->compute_releasing(std::move(image));
+  dsnake::compute_releasing(*field_, std::move(image));
   store_entry();
 }
 

@@ -2,7 +2,7 @@
 // line; read by read_field_spec, built by build_field in fields/registry.h) stores the computed
 // field in DIR, keyed by a hash of the image (voxels and grid) and of the field's type and
 // options (their canonical JSON, every key with its value), so that a sweep over snake settings
-// computes each field once. CachedField<D> wraps any field that implements save_state()/load_state(): compute()
+// computes each field once. CachedField<D> wraps any field that is a CacheableField: compute()
 // loads DIR/<type>-<key>.field when it exists and fits, and otherwise computes and stores it
 // (atomically: a killed run never leaves a half-written entry). Entries hold single-precision
 // arrays of the region the field was computed on (fields/region.h); `"cache_compression":
@@ -19,7 +19,7 @@
 namespace dsnake {
 
 template <int D>
-class CachedField final : public ExternalField<D> {
+class CachedField final : public ExternalField<D>, public CacheableField<D>, public LargeField<D> {
  public:
   // `parameters`: a canonical text of the field's options (build_field: options_json(...).dump(),
   // every key, defaults made explicit).
@@ -32,15 +32,16 @@ class CachedField final : public ExternalField<D> {
   void compute_releasing(Image<D>&& image) override;
   void check_grid(const Grid<D>& grid) const override { field_->check_grid(grid); }
   Point<D> force(const Point<D>& x, const Point<D>& normal) const override { return field_->force(x, normal); }
-  void prefetch(const Point<D>& x, const Point<D>& normal) const override { field_->prefetch(x, normal); }
   bool uses_normal() const override { return field_->uses_normal(); }
   bool has_potential() const override { return field_->has_potential(); }
   double potential(const Point<D>& x) const override { return field_->potential(x); }
   const VectorField<D>& vectors() const override { return field_->vectors(); }
-  int64_t num_voxels() const override { return field_->num_voxels(); }
-  double largest_vector_norm() const override { return field_->largest_vector_norm(); }
-  std::string save_state() const override { return field_->save_state(); }
-  bool load_state(const Grid<D>& grid, const std::string& bytes) override { return field_->load_state(grid, bytes); }
+  // The wrapped field's optional interfaces, or what a plain field answers.
+  void prefetch(const Point<D>& x, const Point<D>& normal) const override { prefetch_force(*field_, large_, x, normal); }
+  int64_t num_voxels() const override { return field_voxels(*field_); }
+  double largest_vector_norm() const override { return told_largest_vector_norm(*field_); }
+  std::string save_state() const override;
+  bool load_state(const Grid<D>& grid, const std::string& bytes) override;
 
   // After compute(): whether the field came from the cache, and the entry's path.
   bool loaded_from_cache() const { return loaded_; }
@@ -52,6 +53,7 @@ class CachedField final : public ExternalField<D> {
   void store_entry() const;
 
   std::unique_ptr<ExternalField<D>> field_;
+  const LargeField<D>* large_ = nullptr;  // as_large(*field_)
   std::string dir_, parameters_, path_;
   bool loaded_ = false;
   bool compressed_ = false;

@@ -27,7 +27,7 @@ struct GvfFieldOptions {
 };
 
 template <int D>
-class GvfField final : public ExternalField<D> {
+class GvfField final : public ExternalField<D>, public CacheableField<D>, public LargeField<D> {
  public:
   using Options = GvfFieldOptions;
   static constexpr const char* kType = "gvf";
@@ -46,6 +46,9 @@ class GvfField final : public ExternalField<D> {
   // v at x, linearly interpolated (the normal is not used).
   Point<D> force(const Point<D>& x, const Point<D>& normal) const override;
   const VectorField<D>& vectors() const override { return vectors_; }
+  void prefetch(const Point<D>& x, const Point<D>& normal) const override { (void)normal, vectors_.prefetch(x); }
+  int64_t num_voxels() const override { return vectors_.num_voxels(); }
+  double largest_vector_norm() const override { return std::numeric_limits<double>::quiet_NaN(); }
   const GvfSolveStats& stats() const { return stats_; }
 
   std::string save_state() const override;

@@ -54,7 +54,7 @@ struct VfcTimings {
 };
 
 template <int D>
-class VfcField final : public ExternalField<D> {
+class VfcField final : public ExternalField<D>, public CacheableField<D> {
  public:
   using Options = VfcFieldOptions;
   static constexpr const char* kType = "vfc";

@@ -68,7 +68,7 @@ std::unique_ptr<SmoothPotential<D>> compute_field_and_potential(RegistrationProb
     if (progress)
       progress("computing the " + problem.field->type() + " field on " + (D == 2 ? "the image" : "the volume"));
     if (field_takes_crop)
-      problem.field->compute_releasing(std::move(cropped));
+      compute_releasing(*problem.field, std::move(cropped));
     else
       problem.field->compute(field_image);
   } catch (const InputError& e) {

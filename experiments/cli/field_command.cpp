@@ -105,7 +105,7 @@ int run(const FieldCommandOptions& o) {
   if (figure) {
     field->compute(image);
   } else {
-    field->compute_releasing(std::move(image));  // the image is not needed again
+    compute_releasing(*field, std::move(image));  // the image is not needed again
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   write_vector_field(field->vectors(), o.out, layout);  // on the image file's grid

@@ -9,7 +9,7 @@ namespace dsnake {
 
 template <int D>
 double max_force_magnitude(const ExternalField<D>& field) {
-  if (const double told = field.largest_vector_norm(); !std::isnan(told)) return told;
+  if (const double told = told_largest_vector_norm(field); !std::isnan(told)) return told;
   const VectorField<D>& v = field.vectors();
   const int64_t n = v.num_voxels();
   double m2 = 0.0;  // max of squares: exact in any reduction order

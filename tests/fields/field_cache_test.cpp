@@ -7,7 +7,9 @@
 #include "fields/registry.h"
 #include "framework/core/errors.h"
 
+#include <cmath>
 #include <filesystem>
+#include <set>
 #include <fstream>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -89,7 +91,7 @@ TEST(FieldCache, ComputeReleasingReleasesTheImageOnAMissAndLoadsOnAHit) {
     auto* cached = dynamic_cast<CachedField<2>*>(field.get());
     ASSERT_NE(cached, nullptr);
     Image<2> image = disk(1.0f);
-    field->compute_releasing(std::move(image));
+    compute_releasing(*field, std::move(image));
     EXPECT_EQ(cached->loaded_from_cache(), pass == 1);
     if (pass == 0) {
       EXPECT_TRUE(image.data().empty()) << "the image is released on a miss";
@@ -142,6 +144,41 @@ TEST(FieldCache, EveryCacheableTypeRoundTrips3d) {
       EXPECT_EQ(a->potential(x), b->potential(x)) << type;
     }
   }
+  std::filesystem::remove_all(dir);
+}
+
+// The optional interfaces: exactly the fields with a stored state are cacheable, the diffused
+// fields are large; a cache around a field that is not cacheable stores no entry and computes
+// every time, and forwards a large field's hints (DDGVF's told largest |F| without its vectors).
+TEST(FieldCache, OptionalInterfacesAreWhatTheFieldImplements) {
+  const std::set<std::string> cacheable{"gvf", "ddgvf", "vfc", "distance"}, large{"gvf", "ddgvf"};
+  for (const std::string& type : field_registry<2>().names()) {
+    if (!field_registry<2>().entry(type).make_default) continue;  // a refusal
+    auto field = field_registry<2>().entry(type).make_default();
+    EXPECT_EQ(as_cacheable(*field) != nullptr, cacheable.count(type) == 1) << type;
+    EXPECT_EQ(as_large(*field) != nullptr, large.count(type) == 1) << type;
+  }
+
+  const std::string dir = fresh_dir("plain");
+  const Image<2> image = disk(1.0f);
+  auto plain = make<2>(R"({"type": "gradient", "cache": ")" + dir + R"("})");
+  auto* cached = dynamic_cast<CachedField<2>*>(plain.get());
+  ASSERT_NE(cached, nullptr);
+  ASSERT_EQ(as_cacheable(cached->field()), nullptr);
+  plain->compute(image);
+  EXPECT_FALSE(cached->loaded_from_cache());
+  EXPECT_EQ(cached->save_state(), "");
+  EXPECT_FALSE(std::filesystem::exists(cached->entry_path()));
+  EXPECT_EQ(field_voxels(*plain), image.num_voxels());
+  EXPECT_TRUE(std::isnan(cached->largest_vector_norm()));
+
+  auto ddgvf = make<2>(R"({"type": "ddgvf", "cache": ")" + dir + R"("})");
+  ddgvf->compute(image);
+  const auto* inner = as_large(dynamic_cast<CachedField<2>&>(*ddgvf).field());
+  ASSERT_NE(inner, nullptr);
+  EXPECT_FALSE(std::isnan(inner->largest_vector_norm()));
+  EXPECT_EQ(told_largest_vector_norm(*ddgvf), inner->largest_vector_norm());
+  EXPECT_EQ(field_voxels(*ddgvf), inner->num_voxels());
   std::filesystem::remove_all(dir);
 }
 
