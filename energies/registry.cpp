@@ -13,6 +13,7 @@
 #include "energies/profile.h"
 #include "energies/region_term.h"
 #include "energies/similarity.h"
+#include "framework/core/program_plugins.h"
 
 namespace dsnake {
 
@@ -31,6 +32,7 @@ const Registry<Energy<D>>& energy_registry() {
     r.template add<PatchEnergy<D>>();
     r.template add<RegionTermEnergy<D>>();
     r.template add<LandmarksEnergy<D>>();
+    ProgramPlugins<Energy<D>>::instance().add_to(r);  // framework/core/program_plugins.h
     return r;
   }();
   return registry;

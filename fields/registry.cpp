@@ -11,6 +11,7 @@
 #include "fields/gvf.h"
 #include "fields/vfc.h"
 #include "framework/core/options_schema.h"
+#include "framework/core/program_plugins.h"
 
 namespace dsnake {
 
@@ -23,6 +24,7 @@ const Registry<ExternalField<D>>& field_registry() {
     r.template add<DdgvfField<D>>();
     r.template add<VfcField<D>>();
     r.template add<DistanceField<D>>();
+    ProgramPlugins<ExternalField<D>>::instance().add_to(r);  // framework/core/program_plugins.h
     return r;
   }();
   return registry;

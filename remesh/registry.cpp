@@ -8,6 +8,7 @@
 #include "remesh/resample.h"
 #include "remesh/simplify.h"
 #include "remesh/uniform.h"
+#include "framework/core/program_plugins.h"
 
 #include <string>
 
@@ -29,6 +30,7 @@ const Registry<Remesher<2>>& remesher_registry<2>() {
     Registry<Remesher<2>> r;
     r.add<ResampleRemesher>();
     for (const char* s : {"uniform", "delaunay", "refine", "simplify"}) r.add_refusal(s, wrong_dimension(s, 3, 2));
+    ProgramPlugins<Remesher<2>>::instance().add_to(r);  // framework/core/program_plugins.h
     return r;
   }();
   return registry;
@@ -43,6 +45,7 @@ const Registry<Remesher<3>>& remesher_registry<3>() {
     r.add<RefineRemesher>();    // §5.3
     r.add<SimplifyRemesher>();  // §5.4
     r.add_refusal("resample", wrong_dimension("resample", 2, 3));
+    ProgramPlugins<Remesher<3>>::instance().add_to(r);  // framework/core/program_plugins.h
     return r;
   }();
   return registry;
