@@ -1,5 +1,5 @@
 #!/bin/bash
-# The peer of issue 20's real experiments: atlas registration with elastix (affine, then B-spline;
+# The peer of the real-scan experiments (REPRODUCTION.md): atlas registration with elastix (affine, then B-spline;
 # experiments/real/elastix_affine.txt and elastix_bspline.txt), its result measured exactly as
 # dsnake's results are.
 #
