@@ -7,14 +7,15 @@
 // - min_angle (one atan2, at the corner opposite the shortest edge) is the smallest of the three;
 // - apply_pass (one EditMesh for all stages, one write-back) gives the very same snake and
 //   vertex counts as applying the stages one by one, and the same with 1 and 2 threads.
-#include "framework/metrics/metrics_geometry.h"
+#include "framework/geometry/predicates.h"
 #include "remesh/delaunay.h"
-#include "remesh/mesh_edit.h"
+#include "framework/mesh/edit_mesh.h"
+#include "framework/geometry/triangle_measures.h"
 #include "remesh/pass.h"
 #include "remesh/refine.h"
 #include "remesh/simplify.h"
 #include "remesh/uniform.h"
-#include "tests/remesh/test_meshes.h"
+#include "tests/test_meshes.h"
 
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
@@ -27,7 +28,6 @@
 namespace dsnake {
 namespace {
 
-using remesh_detail::EditMesh;
 
 // A closed mesh (a coarse sphere) plus `extra` random small triangles in and around it, on
 // their own vertices: a soup whose triangles cross each other and the sphere here and there.
@@ -94,7 +94,7 @@ TEST(IntersectionGrid, SameAnswerAsBruteForceOnRandomSoups) {
         if (!m.tri_alive(f)) continue;
         const auto& t = m.tri(f);
         const Point<3> c = (m.pos(t[0]) + m.pos(t[1]) + m.pos(t[2])) / 3;
-        const Point<3> n = remesh_detail::triangle_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]));
+        const Point<3> n = triangle_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]));
         const Point<3> side = 0.02 * (m.pos(t[1]) - m.pos(t[0])).normalized();
         const Triangle q = {m.add_vertex(c + 0.05 * n), m.add_vertex(c - 0.05 * n), m.add_vertex(c - 0.05 * n + side)};
         const bool expected = m.intersects_any_brute_force(std::span<const Triangle>(&q, 1), {});
@@ -151,7 +151,7 @@ TEST(IntersectionGrid, PlaneRejectionNeverHidesACrossing) {
     const Triangle ta = {m.add_vertex(a[0]), m.add_vertex(a[1]), m.add_vertex(a[2])};
     const Triangle tb = {m.add_vertex(b[0]), m.add_vertex(b[1]), m.add_vertex(b[2])};
     m.add_triangle(tb);
-    const bool exact = detail::triangles_intersect(a, b);
+    const bool exact = triangles_intersect(a, b);
     ASSERT_EQ(m.intersects(ta, {}), exact) << i;
     crossings += exact;
   }
@@ -196,12 +196,11 @@ TEST(MinAngle, IsTheSmallestOfTheThreeAngles) {
   std::uniform_real_distribution<double> u(-1, 1);
   for (int i = 0; i < 1000; ++i) {
     const Point<3> a(u(rng), u(rng), u(rng)), b(u(rng), u(rng), u(rng)), c(u(rng), u(rng), u(rng));
-    using remesh_detail::angle_at;
     const double expected = std::min({angle_at(a, b, c), angle_at(b, c, a), angle_at(c, a, b)});
-    EXPECT_NEAR(remesh_detail::min_angle(a, b, c), expected, 1e-14);
+    EXPECT_NEAR(min_angle(a, b, c), expected, 1e-14);
   }
   // Hand-computed: a 30-60-90 triangle.
-  EXPECT_NEAR(remesh_detail::min_angle({0, 0, 0}, {std::sqrt(3.0), 0, 0}, {0, 1, 0}), std::numbers::pi / 6, 1e-15);
+  EXPECT_NEAR(min_angle({0, 0, 0}, {std::sqrt(3.0), 0, 0}, {0, 1, 0}), std::numbers::pi / 6, 1e-15);
 }
 
 TEST(MinAngle, KeyIsMinusTheCosineOfTheSmallestAngle) {
@@ -209,14 +208,14 @@ TEST(MinAngle, KeyIsMinusTheCosineOfTheSmallestAngle) {
   std::uniform_real_distribution<double> u(-1, 1);
   for (int i = 0; i < 1000; ++i) {
     const Point<3> a(u(rng), u(rng), u(rng)), b(u(rng), u(rng), u(rng)), c(u(rng), u(rng), u(rng));
-    EXPECT_NEAR(remesh_detail::min_angle_key(a, b, c), -std::cos(remesh_detail::min_angle(a, b, c)), 1e-12);
-    EXPECT_NEAR(remesh_detail::min_angle_key(c, a, b), remesh_detail::min_angle_key(a, b, c), 1e-15);
+    EXPECT_NEAR(min_angle_key(a, b, c), -std::cos(min_angle(a, b, c)), 1e-12);
+    EXPECT_NEAR(min_angle_key(c, a, b), min_angle_key(a, b, c), 1e-15);
   }
   // Hand-computed: a 30-60-90 triangle; the threshold keys order as the angles do.
-  EXPECT_NEAR(remesh_detail::min_angle_key({0, 0, 0}, {std::sqrt(3.0), 0, 0}, {0, 1, 0}), -std::sqrt(3.0) / 2, 1e-15);
-  EXPECT_LT(remesh_detail::angle_key(0.2), remesh_detail::angle_key(0.3));
+  EXPECT_NEAR(min_angle_key({0, 0, 0}, {std::sqrt(3.0), 0, 0}, {0, 1, 0}), -std::sqrt(3.0) / 2, 1e-15);
+  EXPECT_LT(angle_key(0.2), angle_key(0.3));
   // Degenerate: a repeated corner is the key of a zero angle.
-  EXPECT_EQ(remesh_detail::min_angle_key({1, 2, 3}, {1, 2, 3}, {0, 1, 0}), -1.0);
+  EXPECT_EQ(min_angle_key({1, 2, 3}, {1, 2, 3}, {0, 1, 0}), -1.0);
 }
 
 // The bench's jittered torus in small: a mid-evolution snake with every 4th vertex a template one.
