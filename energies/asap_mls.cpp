@@ -93,7 +93,7 @@ namespace {
 // compiler fuses no multiply and add: -ffp-contract=off), so every sum has the same bits; a lane
 // past its neighbourhood's end keeps its sums (a select, not an added zero).
 typedef double Lanes __attribute__((vector_size(32)));
-typedef double UnalignedLanes __attribute__((vector_size(32), aligned(8)));  // (typedef: see gvf_solver.cpp's Vec8)
+typedef double UnalignedLanes __attribute__((vector_size(32), aligned(8)));  // (typedef: see grid_diffusion_solver.cpp's Vec8)
 typedef int64_t LaneMask __attribute__((vector_size(32)));
 constexpr int kLanes = 4;
 

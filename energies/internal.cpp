@@ -5,6 +5,7 @@
 
 #include "framework/core/errors.h"
 #include "framework/global/global_problem.h"
+#include "framework/operators/mesh_operators.h"
 
 #include <Eigen/Geometry>
 #include <Eigen/OrderingMethods>
@@ -38,13 +39,6 @@ SparseMatrix polygon_system(int n, const InternalOptions& o) {
   return m;
 }
 
-// Number of one-ring neighbours used to normalise the umbrella operator (1 for an isolated
-// vertex, whose Laplacian row is zero).
-double ring_weight(const Connectivity& c, int v) {
-  const auto ring = c.neighbors(v);
-  return ring.empty() ? 1.0 : static_cast<double>(ring.size());
-}
-
 // 3D: gamma I + alpha L + beta L^2 with the umbrella L = W^{-1} Lc (W = diag(valence), Lc = W - adjacency
 // the combinatorial Laplacian) is not symmetric, but W times it is symmetric positive definite:
 //   W (gamma I + alpha L + beta L^2) = gamma W + alpha Lc + beta Lc W^{-1} Lc,
@@ -53,15 +47,8 @@ double ring_weight(const Connectivity& c, int v) {
 SparseMatrix mesh_system(const Connectivity& c, const InternalOptions& o, Eigen::VectorXd& weights) {
   const int n = c.num_vertices();
   weights.resize(n);
-  std::vector<Eigen::Triplet<double>> entries;
-  for (int v = 0; v < n; ++v) {
-    const auto ring = c.neighbors(v);
-    weights[v] = ring_weight(c, v);
-    entries.emplace_back(v, v, static_cast<double>(ring.size()));
-    for (int w : ring) entries.emplace_back(v, w, -1.0);
-  }
-  SparseMatrix lc(n, n);
-  lc.setFromTriplets(entries.begin(), entries.end());
+  for (int v = 0; v < n; ++v) weights[v] = umbrella_weight(c, v);
+  const SparseMatrix lc = combinatorial_laplacian(c);
   const Eigen::VectorXd inverse_weights = weights.cwiseInverse();
   SparseMatrix wm(n, n);
   wm.setIdentity();
@@ -73,116 +60,6 @@ SparseMatrix mesh_system(const Connectivity& c, const InternalOptions& o, Eigen:
   DSNAKE_ASSERT((m - mt).norm() <= 1e-12 * (1.0 + m.norm()),
                 "the mesh adjacency is symmetric (every edge is in both one-rings)");
   return m;
-}
-
-// --- physical discretisation (internal.h) ---------------------------------------------------
-
-// Floors of degenerate elements, relative to the mean edge length l (lengths) and l^2 (areas).
-constexpr double kRelativeFloor = 1e-3;
-
-// The elements of the piecewise-linear discretisation, D vertices each: 2D the polygon's edges
-// (v, v + 1 mod n), 3D the triangles.
-template <int D>
-std::vector<int> element_vertices(const Connectivity& c) {
-  std::vector<int> vertices;
-  if constexpr (D == 2) {
-    const int n = c.num_vertices();
-    for (int v = 0; v < n; ++v) vertices.insert(vertices.end(), {v, (v + 1) % n});
-  } else {
-    for (const Triangle& t : c.triangles()) vertices.insert(vertices.end(), {t[0], t[1], t[2]});
-  }
-  return vertices;
-}
-
-// The floor of an element's measure (2D length, 3D area): kRelativeFloor times the mean edge
-// length (squared in 3D), or 1 when every edge has zero length.
-template <int D>
-double measure_floor(const PointList<D>& q, const std::vector<int>& elements) {
-  double sum = 0;
-  const size_t count = elements.size();
-  for (size_t e = 0; e < count; e += D)
-    for (int a = 0; a < D; ++a) sum += (q[elements[e + (a + 1) % D]] - q[elements[e + a]]).norm();
-  const double mean = count > 0 ? sum / double(count) : 0.0;
-  const double floor = D == 2 ? kRelativeFloor * mean : kRelativeFloor * mean * mean;
-  return floor > 0 && std::isfinite(floor) ? floor : 1.0;
-}
-
-// Triangle (a, b, c): e[i] the edge opposite vertex i (e0 = c - b, e1 = a - c, e2 = b - a) and
-// the area, floored.
-void triangle_edges(const PointList<3>& q, const int* t, double floor, Point<3> (&e)[3], double& area) {
-  e[0] = q[t[2]] - q[t[1]];
-  e[1] = q[t[0]] - q[t[2]];
-  e[2] = q[t[1]] - q[t[0]];
-  area = std::max(0.5 * e[1].cross(e[2]).norm(), floor);
-}
-
-// The mixed Voronoi area of each vertex of triangle t (Meyer, Desbrun, Schroeder, Barr, "Discrete
-// differential-geometry operators for triangulated 2-manifolds", 2003, fig. 4): the Voronoi
-// region's part 1/8 (|e_l|^2 cot(angle l) + |e_j|^2 cot(angle j)) in a non-obtuse triangle,
-// area / 2 at an obtuse angle and area / 4 at the other two. `area` floored; the parts sum to
-// the area (of a non-degenerate triangle).
-void mixed_voronoi(const Point<3> (&e)[3], double area, double (&part)[3]) {
-  // dot[i] = (q_j - q_i) . (q_l - q_i), twice the area times cot(angle i)
-  const double dot[3] = {-e[1].dot(e[2]), -e[2].dot(e[0]), -e[0].dot(e[1])};
-  const bool obtuse = dot[0] < 0 || dot[1] < 0 || dot[2] < 0;
-  for (int i = 0; i < 3; ++i) {
-    const int j = (i + 1) % 3, l = (i + 2) % 3;
-    if (obtuse)
-      part[i] = dot[i] < 0 ? 0.5 * area : 0.25 * area;
-    else
-      part[i] = (e[l].squaredNorm() * dot[l] + e[j].squaredNorm() * dot[j]) / (16.0 * area);
-  }
-}
-
-// Each element's local stiffness (D x D, row-major; 2D (1 / l) [1 -1; -1 1], 3D e_i . e_j / (4 A))
-// and the lumped mass (2D l / 2 to each end, 3D the mixed Voronoi areas), lengths and areas
-// floored, and every vertex mass at least the floor. `local` and `mass` are resized (no
-// allocation once they have their size).
-template <int D>
-void element_operators(const PointList<D>& q, const std::vector<int>& elements, std::vector<double>& local,
-                       std::vector<double>& mass, bool with_mass = true) {
-  const double floor = measure_floor<D>(q, elements);
-  const size_t count = elements.size() / D;
-  local.resize(count * D * D);
-  mass.assign(with_mass ? q.size() : 0, 0.0);
-  for (size_t e = 0; e < count; ++e) {
-    const int* v = elements.data() + e * D;
-    double* k = local.data() + e * D * D;
-    if constexpr (D == 2) {
-      const double length = std::max((q[v[1]] - q[v[0]]).norm(), floor), w = 1.0 / length;
-      k[0] = k[3] = w;
-      k[1] = k[2] = -w;
-      if (with_mass) mass[v[0]] += 0.5 * length, mass[v[1]] += 0.5 * length;
-    } else {
-      Point<3> edge[3];
-      double area = 0, part[3];
-      triangle_edges(q, v, floor, edge, area);
-      if (with_mass) {
-        mixed_voronoi(edge, area, part);
-        for (int i = 0; i < 3; ++i) mass[v[i]] += part[i];
-      }
-      const double scale = 1.0 / (4.0 * area);
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) k[3 * i + j] = scale * edge[i].dot(edge[j]);
-    }
-  }
-  for (double& m : mass) m = std::max(m, floor);  // NaN-free M^-1, also for a vertex in no element
-}
-
-// K (n x n, symmetric) and M of the current positions, for the residuals.
-template <int D>
-SparseMatrix stiffness_matrix(const Snake<D>& snake, const std::vector<int>& elements, std::vector<double>& mass) {
-  std::vector<double> local;
-  element_operators<D>(snake.positions(), elements, local, mass);
-  std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(local.size());
-  for (size_t e = 0; e < elements.size() / D; ++e)
-    for (int i = 0; i < D; ++i)
-      for (int j = 0; j < D; ++j) entries.emplace_back(elements[e * D + i], elements[e * D + j], local[e * D * D + D * i + j]);
-  const int n = snake.num_vertices();
-  SparseMatrix k(n, n);
-  k.setFromTriplets(entries.begin(), entries.end());
-  return k;
 }
 
 // Index of entry (row, col) in a compressed column-major matrix's value array (asserted present).
@@ -295,7 +172,7 @@ void InternalEnergy<D>::bind_umbrella(const Snake<D>& snake) {
   s.hi = options_.gamma + (polygon ? 4 * a + 16 * b : 2 * a + 4 * b);
   double weight_sum = 0, weight_min = 1e300;
   for (int v = 0; v < n; ++v) {
-    const double w = polygon ? 1.0 : ring_weight(c, v);
+    const double w = polygon ? 1.0 : umbrella_weight(c, v);
     weight_sum += w;
     weight_min = std::min(weight_min, w);
   }
@@ -310,7 +187,7 @@ void InternalEnergy<D>::bind_umbrella(const Snake<D>& snake) {
       const auto ring = c.neighbors(v);
       s.ring.insert(s.ring.end(), ring.begin(), ring.end());
       s.ring_offsets.push_back(static_cast<int>(s.ring.size()));
-      s.inverse_valence[v] = 1.0 / ring_weight(c, v);
+      s.inverse_valence[v] = 1.0 / umbrella_weight(c, v);
     }
     for (PointList<D>* p : {&s.x, &s.r, &s.d, &s.d_next, &s.ld}) p->assign(n, Point<D>::Zero());
     return;
@@ -540,7 +417,7 @@ void InternalEnergy<D>::propose_physical(const Snake<D>& snake, PointList<D>& ou
     std::copy(snake.positions().begin(), snake.positions().end(), out.begin());
     return;
   }
-  element_operators<D>(snake.positions(), s.elements, s.local, s.mass);
+  element_stiffness_and_mass<D>(snake.positions(), s.elements, s.local, s.mass);
   std::fill(s.k_values.begin(), s.k_values.end(), 0.0);
   for (size_t k = 0; k < s.local.size(); ++k) s.k_values[s.element_slots[k]] += s.local[k];
   if (beta == 0 && options_.solver != InternalSolver::kDirect) {
@@ -659,12 +536,9 @@ double InternalEnergy<D>::value(const Snake<D>& snake) const {
   }
   for (int v = 0; v < n; ++v) {
     const auto ring = c.neighbors(v);
-    Point<D> mean = Point<D>::Zero();
-    for (int w : ring) {
+    for (int w : ring)
       if (w > v) e += 0.5 * alpha * (q[v] - q[w]).squaredNorm();  // each edge once
-      mean += q[w];
-    }
-    if (!ring.empty()) e += 0.5 * beta * (q[v] - mean / double(ring.size())).squaredNorm();
+    if (!ring.empty()) e += 0.5 * beta * umbrella_laplacian<D>(c, q, v).squaredNorm();
   }
   return e;
 }
@@ -715,7 +589,7 @@ double InternalEnergy<D>::physical_value(const Snake<D>& snake) const {
   // M and K q only for the rigidity (the energy trace of a tension-only run, beta = 0,
   // evaluates this at every iteration).
   const bool rigid = options_.beta > 0;
-  element_operators<D>(q, elements, local, mass, rigid);
+  element_stiffness_and_mass<D>(q, elements, local, mass, rigid);
   PointList<D> kq(rigid ? q.size() : 0, Point<D>::Zero());
   double tension = 0;
   for (size_t e = 0; e < elements.size() / D; ++e) {
@@ -745,7 +619,7 @@ void InternalEnergy<D>::add_physical_residuals(const Snake<D>& snake, double wei
   const std::vector<int> elements = element_vertices<D>(snake.connectivity());
   const double alpha = weight * options_.alpha, beta = weight * options_.beta;
   if (alpha > 0) {
-    const double floor = measure_floor<D>(q, elements);
+    const double floor = element_measure_floor<D>(q, elements);
     for (size_t e = 0; e < elements.size(); e += D) {
       const std::span<const int> v(elements.data() + e, D);
       if constexpr (D == 2) {

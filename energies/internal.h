@@ -7,7 +7,8 @@
 //    resolution. The step is that of implicit fairing (Desbrun, Meyer, Schroeder and Barr,
 //    "Implicit fairing of irregular meshes using diffusion and curvature flow", SIGGRAPH 1999):
 //      (gamma M + alpha K + beta K M^-1 K) x = gamma M q,
-//    M the lumped mass and K the stiffness of piecewise-linear elements at the current positions:
+//    M the lumped mass and K the stiffness of piecewise-linear elements at the current positions
+//    (framework/operators/mesh_operators.h):
 //      2D: M_i = half the two adjacent edge lengths, K_ij = -1 / l_ij for the edges, K_ii = sum_j 1 / l_ij;
 //      3D: M_i = the mixed Voronoi area of i (Meyer, Desbrun, Schroeder and Barr 2003: Voronoi
 //          parts in non-obtuse triangles, A/2 at an obtuse angle and A/4 at the others; on

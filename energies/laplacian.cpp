@@ -9,6 +9,7 @@
 #include "energies/mls_weights.h"
 #include "energies/residual_blocks.h"
 #include "framework/core/errors.h"
+#include "framework/operators/mesh_operators.h"
 
 #include <Eigen/Dense>
 #include <cmath>
@@ -82,9 +83,7 @@ void LaplacianEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& s
       s.push_back(i);
       s.insert(s.end(), ring.begin(), ring.end());
       const int m = int(s.size());
-      Point<D> mean = Point<D>::Zero();
-      for (int r : ring) mean += p[r];
-      const Point<D> delta = ring.empty() ? Point<D>::Zero() : Point<D>(p[i] - mean / double(ring.size()));
+      const Point<D> delta = umbrella_laplacian<D>(c, p, i);  // the template's delta-coordinate
       constexpr int K = kParams<D>;
       Eigen::Matrix<double, Eigen::Dynamic, K> a(D * m, K);
       for (int k = 0; k < m; ++k) a.middleRows(D * k, D) = similarity_rows<D>(p[s[k]], true);

@@ -15,7 +15,7 @@
 // So "a vertex is attracted to edges consistent with its own normal ... blind to edges for
 // which none of their normal components agrees with its own" (§2.1); it still moves in any
 // direction (this is not a balloon force). We solve the 2D scalar problems with the GVF solver
-// (fields/gvf_solver.h), so the solver choice and tolerance are the same as for "gvf".
+// (framework/numerics/grid_diffusion_solver.h), so the solver choice and tolerance are the same as for "gvf".
 #include "fields/ddgvf.h"
 
 #include "fields/field_state.h"

@@ -6,7 +6,7 @@
 #pragma once
 
 #include "fields/edge_map.h"
-#include "fields/gvf_solver.h"
+#include "framework/numerics/grid_diffusion_solver.h"
 #include "framework/core/external_field.h"
 
 #include <array>

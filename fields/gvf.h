@@ -2,12 +2,12 @@
 // diffused edge force that D-Snake builds on (Levi & Gotsman, §2): the fixed point v of
 //     mu Lap v - |grad f|^2 (v - grad f) = 0
 // for the edge map f = |grad(G_sigma*I)|^2 (fields/edge_map.h). The linear system and its two
-// solvers (explicit reference, multigrid default) are in fields/gvf_solver.h. Physical units:
+// solvers (explicit reference, multigrid default) are in framework/numerics/grid_diffusion_solver.h. Physical units:
 // an anisotropic image gives the field of the same object sampled isotropically.
 #pragma once
 
 #include "fields/edge_map.h"
-#include "fields/gvf_solver.h"
+#include "framework/numerics/grid_diffusion_solver.h"
 #include "framework/core/external_field.h"
 
 #include <string>

@@ -2,6 +2,7 @@
 #include "meshing/mesh_processing.h"
 
 #include "framework/core/errors.h"
+#include "framework/operators/mesh_operators.h"
 
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 #include <OpenMesh/Tools/Decimater/DecimaterT.hh>
@@ -19,17 +20,13 @@ namespace {
 
 using OMesh = OpenMesh::TriMesh_ArrayKernelT<>;
 
-// One umbrella step with factor f: p += f * (mean of the neighbours - p).
+// One umbrella step with factor f: p -= f L p (L the umbrella Laplacian, framework/operators).
 template <int D>
 void umbrella_step(PointList<D>& p, PointList<D>& scratch, const Connectivity& c, double f) {
   scratch = p;
   for (int v = 0; v < int(p.size()); ++v) {
-    const auto ring = c.neighbors(v);
-    if (ring.empty()) continue;
-    Point<D> mean = Point<D>::Zero();
-    for (int w : ring) mean += scratch[w];
-    mean /= double(ring.size());
-    p[v] = scratch[v] + f * (mean - scratch[v]);
+    if (c.neighbors(v).empty()) continue;
+    p[v] = scratch[v] + f * (one_ring_mean<D>(c, scratch, v) - scratch[v]);
   }
 }
 

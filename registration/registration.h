@@ -3,7 +3,7 @@
 // snake iteration of §3.1 or by global Ceres solves. register_template() computes the external
 // field on the region around the placed template (fields/region.h) and the smooth potential of
 // the global view when one is asked for, binds the energies, guards the snake iteration against
-// self-intersection (remesh/collision_guard.h), watches for divergence, runs the phases and
+// self-intersection (framework/guard/collision_guard.h), watches for divergence, runs the phases and
 // reports what happened. No files and no JSON: the experiment runner (experiments/output/runner.h)
 // builds a RegistrationProblem from an experiment file and writes files from the result, as
 // MIRTK's deform-mesh configures its DeformableSurfaceModel.
@@ -15,7 +15,7 @@
 #include "framework/core/options.h"
 #include "framework/core/phase_driver.h"
 #include "framework/global/global_problem.h"
-#include "remesh/collision_guard.h"
+#include "framework/guard/collision_guard.h"
 
 #include <functional>
 #include <map>

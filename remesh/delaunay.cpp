@@ -1,6 +1,8 @@
 #include "remesh/delaunay.h"
 
-#include "remesh/mesh_edit.h"
+#include "framework/mesh/edit_mesh.h"
+#include "framework/geometry/triangle_measures.h"
+#include "remesh/stage_steps.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -13,8 +15,6 @@ namespace dsnake {
 
 namespace {
 
-using remesh_detail::EditMesh;
-using remesh_detail::FlipResult;
 
 // An edge a -> b as listed: with the triangle that held it then (triangles never change, so
 // while that one lives it still holds a -> b).
@@ -49,8 +49,8 @@ bool is_delaunay_violation(const EditMesh& m, int a, int b, int c, int d) {
   const double sine = sc * cd + cc * sd, scale = std::sqrt((sc * sc + cc * cc) * (sd * sd + cd * cd));
   if (sine > 1e-6 * scale) return false;
   if (sine < -1e-6 * scale) return true;
-  const double sum = remesh_detail::angle_at(m.pos(c), m.pos(a), m.pos(b)) +
-                     remesh_detail::angle_at(m.pos(d), m.pos(a), m.pos(b));
+  const double sum = angle_at(m.pos(c), m.pos(a), m.pos(b)) +
+                     angle_at(m.pos(d), m.pos(a), m.pos(b));
   return sum > std::numbers::pi + 1e-9;
 }
 
@@ -59,7 +59,6 @@ int valence_dev(int v) { return (v - 6) * (v - 6); }
 // The flip of a-b to c-d keeps the smaller minimum angle of its two triangles above the floor
 // (a key of angle_key), or does not lower it.
 bool flip_keeps_angles(const EditMesh& m, int a, int b, int c, int d, double floor_key) {
-  using remesh_detail::min_angle_key;
   const double old_min = std::min(min_angle_key(m.pos(a), m.pos(b), m.pos(c)), min_angle_key(m.pos(b), m.pos(a), m.pos(d)));
   const double new_min = std::min(min_angle_key(m.pos(a), m.pos(d), m.pos(c)), min_angle_key(m.pos(d), m.pos(b), m.pos(c)));
   return new_min >= std::min(old_min, floor_key);
@@ -158,7 +157,7 @@ int delaunay_by_flips(EditMesh& m, double cos_max_dihedral) {
     if (!listed_quad(m, e, q)) continue;
     const int a = q.a, b = q.b, c = q.c, d = q.d, f1 = q.f1, f2 = q.f2;
     if (!is_delaunay_violation(m, a, b, c, d)) continue;
-    const FlipResult r = remesh_detail::try_flip(m, a, b, f1, f2, c, d, cos_max_dihedral);
+    const FlipResult r = try_flip(m, a, b, f1, f2, c, d, cos_max_dihedral);
     if (r == FlipResult::kRejected) ++rejected;
     if (r != FlipResult::kFlipped) continue;
     // The new triangles (a, d, c) and (d, b, c) are the last two.
@@ -305,7 +304,7 @@ int defect_moves(EditMesh& m, double cos_max_dihedral, double floor_key, std::ve
 int greedy_valence_flips(EditMesh& m, double cos_max_dihedral, double min_angle_rad, bool reuse_refusals,
                          EditMesh::RegularizationMemo* memo) {
   int rejected = 0;
-  const double min_floor = remesh_detail::angle_key(min_angle_rad);
+  const double min_floor = angle_key(min_angle_rad);
   // An edge turned down on local grounds (valences, angles, topology: not by try_flip's
   // geometric checks, which may see the rest of the mesh) is turned down again while the
   // triangle it was listed with lives and none of its four vertices changed (corners or
@@ -370,7 +369,7 @@ int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_r
   EditMesh::RegularizationMemo* memo = nullptr;
   if (reuse_refusals && m.optimistic()) {
     memo = &m.regularization_memo();
-    const double floor_key = remesh_detail::angle_key(min_angle_rad);
+    const double floor_key = angle_key(min_angle_rad);
     if (memo->cos_max_dihedral != cos_max_dihedral || memo->floor_key != floor_key)
       *memo = {cos_max_dihedral, floor_key, {}, {}, {}, {}, {}, {}};
   }
@@ -379,7 +378,7 @@ int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_r
   // tests/remesh/clean_mesh_test.cpp: the first round makes most of the gain).
   std::vector<ListedEdge> edges;
   for (int round = 0; round < 3; ++round) {
-    if (defect_moves(m, cos_max_dihedral, remesh_detail::angle_key(min_angle_rad), edges, rejected, memo) == 0) break;
+    if (defect_moves(m, cos_max_dihedral, angle_key(min_angle_rad), edges, rejected, memo) == 0) break;
     rejected += greedy_valence_flips(m, cos_max_dihedral, min_angle_rad, reuse_refusals, memo);
   }
   return rejected;

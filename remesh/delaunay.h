@@ -55,7 +55,7 @@ class DelaunayRemesher final : public EditStage {
 
   explicit DelaunayRemesher(const DelaunayOptions& options = {}) : options_(checked(options, kType)) {}
   std::string type() const override { return kType; }
-  RemeshReport run(remesh_detail::EditMesh& m, const RemeshContext<3>& context) override;
+  RemeshReport run(EditMesh& m, const RemeshContext<3>& context) override;
   // false: every edge evaluated in every regularisation sweep (the reference for tests; the
   // default reuses a refusal while nothing around the edge changed, with the same result).
   void set_reuse_refusals(bool reuse) { reuse_refusals_ = reuse; }

@@ -1,7 +1,9 @@
 // The "planar" method of §5.2: disc patches by recursive BFS halving, mean-value
 // parameterisation with the boundary on a circle [Floater 2003], planar Delaunay triangulation
 // of the parameter points (OpenCV Subdiv2D), connectivity adopted patch by patch in 3D.
-#include "remesh/mesh_edit.h"
+#include "framework/mesh/edit_mesh.h"
+#include "framework/geometry/triangle_measures.h"
+#include "remesh/stage_steps.h"
 
 #include <Eigen/Geometry>
 #include <Eigen/Sparse>

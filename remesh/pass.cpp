@@ -1,14 +1,14 @@
 #include "remesh/pass.h"
 
 #include "framework/core/errors.h"
-#include "remesh/mesh_edit.h"
+#include "framework/mesh/edit_mesh.h"
 
 #include <vector>
 
 namespace dsnake {
 
 RemeshReport EditStage::apply(Snake<3>& snake, const RemeshContext<3>& context) {
-  remesh_detail::EditMesh m(snake);
+  EditMesh m(snake);
   const int before = m.num_live_vertices();
   RemeshReport report = run_checked(m, context);
   report.vertices_before = before;
@@ -21,9 +21,9 @@ namespace {
 // edits() on m optimistically, then the check; on a conflict m is restored and edits() runs
 // again with every edit checked. (The copy is taken without the grid, which the check rebuilds.)
 template <class Edits>
-auto run_optimistically(remesh_detail::EditMesh& m, Edits edits) {
+auto run_optimistically(EditMesh& m, Edits edits) {
   m.drop_grid();
-  remesh_detail::EditMesh before = m;
+  EditMesh before = m;
   m.begin_optimistic();
   auto result = edits();
   if (m.end_optimistic(true)) return result;
@@ -33,7 +33,7 @@ auto run_optimistically(remesh_detail::EditMesh& m, Edits edits) {
 
 }  // namespace
 
-RemeshReport EditStage::run_checked(remesh_detail::EditMesh& m, const RemeshContext<3>& context) {
+RemeshReport EditStage::run_checked(EditMesh& m, const RemeshContext<3>& context) {
   if (checking_ == EditChecking::kEveryEdit) return run(m, context);
   if (!edits_can_cross() || checking_ == EditChecking::kUnchecked) {
     m.begin_optimistic();  // (also drops the grid, which nothing here asks)
@@ -49,7 +49,7 @@ namespace {
 // A run of EditStages on one mesh, committed at the end (see apply_pass).
 void apply_edit_stages(std::span<EditStage* const> stages, Snake<3>& snake, const RemeshContext<3>& context,
                        std::vector<RemeshReport>& reports) {
-  remesh_detail::EditMesh m(snake);
+  EditMesh m(snake);
   // Each stage from the mean edge of the mesh it receives (as a fresh EditMesh of the committed
   // snake would have it); `checked`: through the stage's own checking, else its bare edits.
   auto run_all = [&](bool checked) {

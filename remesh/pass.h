@@ -1,5 +1,5 @@
 // One remeshing pass of the 3D stages of §5 on one editable mesh. Each stage is made of checked
-// local edits on an EditMesh (mesh_edit.h); run one by one through Remesher::apply, every stage
+// local edits on an EditMesh (framework/mesh/edit_mesh.h); run one by one through Remesher::apply, every stage
 // copies the snake into an EditMesh and writes it back (rebuilding the connectivity with its
 // ordered one-rings), which costs about as much as the edits of a settled pass. apply_pass
 // shares one EditMesh (and its intersection grid) across consecutive stages and writes back
@@ -9,16 +9,13 @@
 #pragma once
 
 #include "framework/core/remesher.h"
+#include "framework/mesh/edit_mesh.h"
 
 #include <memory>
 #include <span>
 #include <vector>
 
 namespace dsnake {
-
-namespace remesh_detail {
-class EditMesh;
-}  // namespace remesh_detail
 
 // How a stage keeps its edits from crossing the surface.
 // kOptimistic (the default): the edits run with their local checks only; then every triangle
@@ -39,10 +36,10 @@ class EditStage : public Remesher<3> {
   // did).
   RemeshReport apply(Snake<3>& snake, const RemeshContext<3>& context) final;
   // run() under the stage's EditChecking.
-  RemeshReport run_checked(remesh_detail::EditMesh& m, const RemeshContext<3>& context);
+  RemeshReport run_checked(EditMesh& m, const RemeshContext<3>& context);
   // The stage's edits on m. Fills the report's stage name and rejected edits; the caller fills
   // the vertex counts.
-  virtual RemeshReport run(remesh_detail::EditMesh& m, const RemeshContext<3>& context) = 0;
+  virtual RemeshReport run(EditMesh& m, const RemeshContext<3>& context) = 0;
   // false for a stage whose edits cannot cross the surface (refine: its new triangles tile the
   // old ones), which then runs without any test.
   virtual bool edits_can_cross() const { return true; }

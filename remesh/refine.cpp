@@ -1,6 +1,7 @@
 #include "remesh/refine.h"
 
-#include "remesh/mesh_edit.h"
+#include "framework/mesh/edit_mesh.h"
+#include "framework/geometry/triangle_measures.h"
 
 #include <algorithm>
 #include <cmath>
@@ -23,12 +24,12 @@ double refine_threshold(const RefineOptions& o, int phase_iteration, int phase_i
 // Delaunay stage may not flip), the longest edge is split at its midpoint instead (2 -> 4),
 // which also tiles the two old triangles exactly. Without it, repeated passes split the same
 // thin triangles again and again, towards degenerate ones.
-RemeshReport RefineRemesher::run(remesh_detail::EditMesh& m, const RemeshContext<3>& context) {
+RemeshReport RefineRemesher::run(EditMesh& m, const RemeshContext<3>& context) {
   constexpr double kSliverDeg = 15;
   RemeshReport report{"refine", 0, 0, 0};
   const double threshold = refine_threshold(options_, context.phase_iteration, context.phase_iterations);
   const double t2 = threshold * threshold;
-  const double sliver = remesh_detail::angle_key(kSliverDeg * std::numbers::pi / 180);
+  const double sliver = angle_key(kSliverDeg * std::numbers::pi / 180);
   const int slots = m.num_triangle_slots();
   for (int f = 0; f < slots; ++f) {
     if (!m.tri_alive(f)) continue;  // split with a neighbour's edge earlier in this pass
@@ -47,7 +48,7 @@ RemeshReport RefineRemesher::run(remesh_detail::EditMesh& m, const RemeshContext
     const Point<3> c = (m.pos(t[0]) + m.pos(t[1]) + m.pos(t[2])) / 3.0;
     double sub_min = 1;  // the key of the largest angle
     for (int k = 0; k < 3; ++k)
-      sub_min = std::min(sub_min, remesh_detail::min_angle_key(m.pos(t[k]), m.pos(t[(k + 1) % 3]), c));
+      sub_min = std::min(sub_min, min_angle_key(m.pos(t[k]), m.pos(t[(k + 1) % 3]), c));
     if (sub_min >= sliver) {
       const int v = m.add_vertex(c);
       m.remove_triangle(f);

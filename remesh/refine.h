@@ -44,7 +44,7 @@ class RefineRemesher final : public EditStage {
   explicit RefineRemesher(const RefineOptions& options = {}) : options_(checked(options, kType)) {}
   std::string type() const override { return kType; }
   bool edits_can_cross() const override { return false; }  // the new triangles tile the old ones
-  RemeshReport run(remesh_detail::EditMesh& m, const RemeshContext<3>& context) override;
+  RemeshReport run(EditMesh& m, const RemeshContext<3>& context) override;
   // The final threshold (a schedule's start is at least as long).
   std::optional<RefinementLength> refinement_length() const override {
     return RefinementLength{"max_edge", options_.max_edge};

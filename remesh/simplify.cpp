@@ -1,7 +1,9 @@
 #include "remesh/simplify.h"
 
 #include "framework/core/image.h"
-#include "remesh/mesh_edit.h"
+#include "framework/mesh/edit_mesh.h"
+#include "framework/geometry/triangle_measures.h"
+#include "remesh/stage_steps.h"
 
 #include <algorithm>
 #include <bit>
@@ -38,7 +40,6 @@ void sort_by_length(std::vector<CollapseCandidate>& cand, std::vector<CollapseCa
 
 namespace {
 
-using remesh_detail::EditMesh;
 
 // Distance from point p to triangle (a, b, c) (closest point by region, Ericson's method).
 double point_triangle_distance(const Point<3>& p, const Point<3>& a, const Point<3>& b, const Point<3>& c) {
@@ -106,22 +107,22 @@ Collapse try_collapse(EditMesh& m, int a, int b, bool short_edge, const Simplify
     if (fan[i] == f1 || fan[i] == f2) continue;
     const Triangle& t = m.tri(fan[i]);
     const Triangle& u = fresh[k++];
-    const Point<3> old_n = remesh_detail::area_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]));
-    const Point<3> n = remesh_detail::area_normal(m.pos(u[0]), m.pos(u[1]), m.pos(u[2]));
-    if (n.squaredNorm() == 0 || remesh_detail::cos_between(n, old_n) < cos_max) return Collapse::kRejected;
+    const Point<3> old_n = area_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]));
+    const Point<3> n = area_normal(m.pos(u[0]), m.pos(u[1]), m.pos(u[2]));
+    if (n.squaredNorm() == 0 || cos_between(n, old_n) < cos_max) return Collapse::kRejected;
   }
   // The collapse may lower the fans' smallest angle only while it stays above 15 degrees.
   // (The fans' old angles are needed only when a new one is below 15 degrees.)
-  static const double floor_key = remesh_detail::angle_key(15 * std::numbers::pi / 180);
+  static const double floor_key = angle_key(15 * std::numbers::pi / 180);
   double fresh_min = 1;
   for (const auto& t : fresh)
-    fresh_min = std::min(fresh_min, remesh_detail::min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
+    fresh_min = std::min(fresh_min, min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
   if (fresh_min < floor_key) {
     double old_min = floor_key;
     for (int g : {a, b})
       for (const EditMesh::Corner& corner : m.corners(g)) {
         const auto& t = m.tri(corner.f);
-        old_min = std::min(old_min, remesh_detail::min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
+        old_min = std::min(old_min, min_angle_key(m.pos(t[0]), m.pos(t[1]), m.pos(t[2])));
       }
     if (fresh_min < old_min) return Collapse::kRejected;
   }

@@ -66,13 +66,13 @@ class SimplifyRemesher final : public EditStage {
 
   explicit SimplifyRemesher(const SimplifyOptions& options = {}) : options_(checked(options, kType)) {}
   std::string type() const override { return kType; }
-  RemeshReport run(remesh_detail::EditMesh& m, const RemeshContext<3>& context) override;
+  RemeshReport run(EditMesh& m, const RemeshContext<3>& context) override;
   // false: every candidate evaluated in every sweep (the reference for tests; the default
   // reuses a refusal while nothing around the candidate changed, with the same result).
   void set_reuse_refusals(bool reuse) { reuse_refusals_ = reuse; }
 
  private:
-  int regularize(remesh_detail::EditMesh& m, double mean_edge, double cos_max, std::vector<int>& fan,
+  int regularize(EditMesh& m, double mean_edge, double cos_max, std::vector<int>& fan,
                  std::vector<Triangle>& fresh) const;
 
   SimplifyOptions options_;

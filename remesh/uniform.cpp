@@ -1,6 +1,8 @@
 #include "remesh/uniform.h"
 
-#include "remesh/mesh_edit.h"
+#include "framework/mesh/edit_mesh.h"
+#include "framework/geometry/triangle_measures.h"
+#include "remesh/stage_steps.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -13,7 +15,6 @@ namespace dsnake {
 
 namespace {
 
-using remesh_detail::EditMesh;
 
 // A move may lower the smallest angle of its fan only while it stays above 15 degrees (so that
 // relaxation never creates slivers on strongly curved parts, where the surface map distorts).
@@ -90,20 +91,19 @@ std::optional<Point<3>> relaxed_position(const EditMesh& m, int v, const std::ve
 // makes the fan cross the surface. `fan`, `fan_tris`: scratch.
 bool commit_move(EditMesh& m, int v, const Point<3>& to, double cos_max, std::vector<int>& fan,
                  std::vector<Triangle>& fan_tris) {
-  static const double floor_key = remesh_detail::angle_key(kMinAngleFloor);
+  static const double floor_key = angle_key(kMinAngleFloor);
   m.triangles_of(v, fan);
   if (fan.size() > 32) return true;  // valence > 32: beyond the batched check, left alone
   // The move may turn no triangle by more than the limit, and may lower the fan's smallest
   // angle only while it stays above the floor (the old angles are needed only below it).
   auto at = [&](int x) -> const Point<3>& { return x == v ? to : m.pos(x); };
-  using remesh_detail::area_normal, remesh_detail::min_angle_key;
   bool ok = true;
   double new_min = 1;  // the key of the largest angle
   for (size_t i = 0; i < fan.size() && ok; ++i) {
     const auto& t = m.tri(fan[i]);
     const Point<3> nn = area_normal(at(t[0]), at(t[1]), at(t[2]));
     ok = nn.squaredNorm() > 0 &&
-         remesh_detail::cos_between(nn, area_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]))) >= cos_max;
+         cos_between(nn, area_normal(m.pos(t[0]), m.pos(t[1]), m.pos(t[2]))) >= cos_max;
     new_min = std::min(new_min, min_angle_key(at(t[0]), at(t[1]), at(t[2])));
   }
   if (ok && new_min < floor_key) {

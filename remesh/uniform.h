@@ -35,7 +35,7 @@ class UniformRemesher final : public EditStage {
 
   explicit UniformRemesher(const UniformOptions& options = {}) : options_(checked(options, kType)) {}
   std::string type() const override { return kType; }
-  RemeshReport run(remesh_detail::EditMesh& m, const RemeshContext<3>& context) override;
+  RemeshReport run(EditMesh& m, const RemeshContext<3>& context) override;
 
  private:
   UniformOptions options_;

@@ -1,16 +1,15 @@
 #include "docs/examples/umbrella_energy.h"
 
+#include "framework/operators/mesh_operators.h"
+
 namespace dsnake {
 
 template <int D>
 void UmbrellaEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   const auto& q = snake.positions();
   for (int v = 0; v < snake.num_vertices(); ++v) {
-    const auto ring = snake.connectivity().neighbors(v);
-    Point<D> mean = Point<D>::Zero();
-    for (int u : ring) mean += q[u];
-    mean /= static_cast<double>(ring.size());
-    out[v] = q[v] + options_.lambda * (mean - q[v]);
+    // q_v - lambda (L q)_v, with the framework's umbrella Laplacian
+    out[v] = q[v] - options_.lambda * umbrella_laplacian<D>(snake.connectivity(), q, v);
   }
 }
 

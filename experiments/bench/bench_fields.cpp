@@ -8,8 +8,8 @@
 #include "fields/distance.h"
 #include "fields/edge_map.h"
 #include "fields/gvf.h"
-#include "fields/gvf_grid.h"
-#include "fields/gvf_solver.h"
+#include "framework/numerics/diffusion_grid.h"
+#include "framework/numerics/grid_diffusion_solver.h"
 #include "fields/vfc.h"
 
 #include "experiments/bench/bench_images.h"

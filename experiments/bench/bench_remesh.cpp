@@ -6,7 +6,7 @@
 // (seeded), with every 4th vertex a deformation vertex: the state of a snake mid-evolution.
 // Run: build/release/experiments/bench/bench_remesh --benchmark_repetitions=5
 //        --benchmark_report_aggregates_only=true
-#include "remesh/collision_guard.h"
+#include "framework/guard/collision_guard.h"
 #include "remesh/delaunay.h"
 #include "remesh/pass.h"
 #include "remesh/quality.h"
@@ -130,7 +130,7 @@ const Snake<3>& cached_settled_torus(int vertices) {
   return it->second;
 }
 
-// The collision guard (remesh/collision_guard.h) on one snake step of the 7000-vertex torus:
+// The collision guard (framework/guard/collision_guard.h) on one snake step of the 7000-vertex torus:
 // every vertex moves across the surface (away from the tube's core circle) by 0.02 mean edges,
 // outward for 10 steps, then inward for 10 (a snake near convergence). kept:1 keeps one guard
 // across the steps, whose broad phase's pairs last while no vertex leaves its margin;

@@ -15,7 +15,7 @@
 #include "framework/global/global_problem.h"
 #include "framework/metrics/metrics.h"
 #include "framework/core/options.h"
-#include "remesh/collision_guard.h"
+#include "framework/guard/collision_guard.h"
 #include "registration/registration.h"
 
 #include <memory>

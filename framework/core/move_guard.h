@@ -1,5 +1,5 @@
 // MoveGuard<D>: a check on the snake iteration's moves (§3.1) before they are made, such as a
-// non-self-intersection constraint (remesh/collision_guard.h; after MIRTK's deformable surface
+// non-self-intersection constraint (framework/guard/collision_guard.h; after MIRTK's deformable surface
 // model, whose constraint shortens or cancels a node's move that would make the surface cross
 // itself). The phase driver owns at most one; SnakeStep calls it once per iteration, with the
 // snake still at q(t) and the averaged positions q(t+1), before the positions are replaced.

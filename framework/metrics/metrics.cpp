@@ -1,10 +1,12 @@
 // Registration metrics (see metrics.h). Surfaces are sampled densely, each sample weighted by
 // its share of length (2D) or area (3D), and the exact distance from every sample to the other
-// surface is found with a uniform grid over that surface's facets (metrics_geometry.h).
+// surface is found with a uniform grid over that surface's facets
+// (framework/geometry/facet_grid.h).
 #include "framework/metrics/metrics.h"
 
 #include "framework/core/errors.h"
-#include "framework/metrics/metrics_geometry.h"
+#include "framework/geometry/predicates.h"
+#include "framework/geometry/facet_grid.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -17,9 +19,6 @@ namespace dsnake {
 
 namespace {
 
-using detail::Facet;
-using detail::FacetGrid;
-using detail::FacetSurface;
 
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -700,9 +699,9 @@ int count_self_intersections(SurfaceRef<D> s) {
         const auto& q = grid.corners(j);
         bool hit;
         if constexpr (D == 2) {
-          hit = detail::segments_intersect(p[0], p[1], q[0], q[1]);
+          hit = segments_intersect(p[0], p[1], q[0], q[1]);
         } else {
-          hit = detail::triangles_intersect(p, q);
+          hit = triangles_intersect(p, q);
         }
         count += hit;
       }

@@ -3,7 +3,7 @@
 // the polarity option flips the roles; the field is thread-count independent and cacheable.
 #include "fields/ddgvf.h"
 #include "fields/edge_map.h"
-#include "fields/gvf_solver.h"
+#include "framework/numerics/grid_diffusion_solver.h"
 #include "fields/registry.h"
 #include "framework/core/errors.h"
 #include "framework/core/force_strength.h"

@@ -3,7 +3,7 @@
 // independent; a constant image gives a zero field; mu <= 0 is a configuration error.
 #include "fields/ddgvf.h"
 #include "fields/gvf.h"
-#include "fields/gvf_solver.h"
+#include "framework/numerics/grid_diffusion_solver.h"
 #include "fields/registry.h"
 #include "framework/core/errors.h"
 
@@ -82,7 +82,7 @@ TEST(GvfField, MultigridReachesTheExplicitFixedPoint) {
 // The multigrid-preconditioned solver stays a fast solver on even (cell-centred coarsening)
 // and odd (vertex-centred) grids in 2D and 3D, with anisotropic spacing: 1e-6 in at most 6
 // iterations in 3D (5 or 6 measured with W-cycles; V-cycles took 7) and 10 in 2D (V-cycles: 7
-// measured). The transfers themselves are tested in gvf_smoother_test.
+// measured). The transfers themselves are tested in multigrid_smoother_test.
 TEST(GvfField, MultigridConvergesInAFewCyclesOnEvenAndOddGrids) {
   GvfFieldOptions o;
   o.solve.mu = 0.2;

@@ -4,12 +4,12 @@
 // brute-force pair tests do.
 #include "framework/metrics/metrics.h"
 #include "remesh/delaunay.h"
-#include "remesh/mesh_edit.h"
+#include "framework/mesh/edit_mesh.h"
 #include "remesh/pass.h"
 #include "remesh/refine.h"
 #include "remesh/simplify.h"
 #include "remesh/uniform.h"
-#include "tests/remesh/test_meshes.h"
+#include "tests/test_meshes.h"
 
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -23,7 +23,6 @@
 namespace dsnake {
 namespace {
 
-using remesh_detail::EditMesh;
 
 std::vector<std::unique_ptr<Remesher<3>>> pipeline(double edge, EditChecking checking) {
   std::vector<std::unique_ptr<Remesher<3>>> p;
@@ -186,7 +185,7 @@ TEST(OptimisticChecking, TheCheckAfterTheStageAgreesWithBruteForce) {
       m.ring(moved[0], r);
       return r;
     }();
-    remesh_detail::try_flip(m, moved[0], ring[0], -1.0);
+    try_flip(m, moved[0], ring[0], -1.0);
     const bool verified = m.end_optimistic(true);
     bool brute = false;
     for (int f = 0; f < m.num_triangle_slots() && !brute; ++f) {

@@ -1,18 +1,18 @@
 // A mesh that stays clean through the evolution: the four §5 stages run every 10
 // iterations while the snake moves onto a hidden surface (an ellipsoid, a torus, a genus-2
 // surface) and refines about ten-fold; the final mesh must be free of self-intersections and
-// almost regular. And the collision guard (remesh/collision_guard.h) on the snake iteration.
+// almost regular. And the collision guard (framework/guard/collision_guard.h) on the snake iteration.
 #include "energies/internal.h"
 #include "framework/core/evolver.h"
 #include "framework/metrics/metrics.h"
-#include "remesh/collision_guard.h"
+#include "framework/guard/collision_guard.h"
 #include "remesh/delaunay.h"
 #include "remesh/pipeline.h"
 #include "remesh/quality.h"
 #include "remesh/refine.h"
 #include "remesh/simplify.h"
 #include "remesh/uniform.h"
-#include "tests/remesh/test_meshes.h"
+#include "tests/test_meshes.h"
 
 #include <gtest/gtest.h>
 #include <omp.h>

@@ -6,7 +6,7 @@
 #include "remesh/registry.h"
 
 #include "framework/core/errors.h"
-#include "tests/remesh/test_meshes.h"
+#include "tests/test_meshes.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>

@@ -9,7 +9,7 @@
 #include "remesh/refine.h"
 #include "remesh/simplify.h"
 #include "remesh/uniform.h"
-#include "tests/remesh/test_meshes.h"
+#include "tests/test_meshes.h"
 
 #include <gtest/gtest.h>
 

@@ -10,7 +10,7 @@
 #include "remesh/resample.h"
 #include "remesh/simplify.h"
 #include "remesh/uniform.h"
-#include "tests/remesh/test_meshes.h"
+#include "tests/test_meshes.h"
 
 #include <gtest/gtest.h>
 

@@ -7,7 +7,7 @@
 // Built only when ITK is found (libinsighttoolkit5-dev); nothing else depends on it.
 // Run: build/release/experiments/bench/bench_itk_gvf --benchmark_repetitions=1
 #include "fields/edge_map.h"
-#include "fields/gvf_solver.h"
+#include "framework/numerics/grid_diffusion_solver.h"
 
 #include "experiments/bench/bench_images.h"
 

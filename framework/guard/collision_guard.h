@@ -1,10 +1,12 @@
 // CollisionGuard<D>: the non-self-intersection constraint on the snake iteration (a MoveGuard,
 // framework/core/move_guard.h), in the manner of MIRTK's deformable surface model: a vertex move
 // that would make the surface cross itself is halved, up to `halvings` times, and then refused
-// (the vertex stays where it was). Facets: the polygon's segments (2D) or the mesh's triangles
-// (3D). A pair of facets "conflicts" at some positions as the remeshing stages' checks say
-// (remesh/triangle_pairs.h): facets sharing no vertex must not touch; in 3D, triangles sharing a
-// vertex must not pierce each other and triangles sharing an edge must not fold onto each other.
+// (the vertex stays where it was). The registration (registration/registration.h) gives one to
+// the phase driver for snake runs (§3.1). Facets: the polygon's segments (2D) or the mesh's
+// triangles (3D). A pair of facets "conflicts" at some positions as the remeshing stages' checks
+// say (framework/geometry/triangle_pairs.h): facets sharing no vertex must not touch; in 3D,
+// triangles sharing a vertex must not pierce each other and triangles sharing an edge must not
+// fold onto each other.
 // A move is blamed only for conflicts it creates: a pair that conflicts at q(t) already is left
 // to the forces. Every vertex of a newly conflicting pair that moved takes the next step back
 // (half its move, then a quarter, ...; refused after `halvings`), and the pairs around the
@@ -16,7 +18,7 @@
 // pairs around the vertices that stepped back. In 3D, a pair of triangles that share one vertex
 // or one edge (the adjacent pairs, which every step would test) carries a certificate: a
 // radius within which its vertices may move from where the certificate was made without the
-// pair being able to conflict (remesh_detail::shared_vertex_radius and shared_edge_radius, with
+// pair being able to conflict (shared_vertex_radius and shared_edge_radius of triangle_pairs.h, with
 // their proofs); it is not tested while they stay within it. Certificates are made with the broad phase and made again
 // once the tests of those that ran out have cost as much as making them. The exact tests are
 // skipped only where they could not find a conflict, so the steps are the same as with every

@@ -1,9 +1,10 @@
-// Internal to the GVF solvers (gvf_solver.cpp, gvf_explicit.cpp): the grid as the solvers see
-// it. Every grid is 3D inside (a 2D grid has nz = 1 and no z neighbours), float arrays with x
+// The grid as the diffusion solvers see it (grid_diffusion_solver.cpp, explicit_diffusion.cpp),
+// with their row kernels, which the solvers' tests and the field benchmarks call directly.
+// Every grid is 3D inside (a 2D grid has nz = 1 and no z neighbours), float arrays with x
 // fastest, and loops run row by row with the neighbour rows resolved once per row.
 #pragma once
 
-#include "fields/gvf_solver.h"
+#include "framework/numerics/grid_diffusion_solver.h"
 #include "framework/core/vector_clones.h"
 
 #include <cstdint>
@@ -60,7 +61,7 @@ inline Level level_of(const Grid<D>& grid) {
   return L;
 }
 
-// The multigrid smoother (gvf_solver.cpp): `sweeps` red-black Gauss-Seidel sweeps on L.v with
+// The multigrid smoother (grid_diffusion_solver.cpp): `sweeps` red-black Gauss-Seidel sweeps on L.v with
 // right-hand side L.rhs, colour `first` first, in one pass over memory; the same result as the
 // half-sweeps one after the other. 1 / A_ii is computed from L.b where it is used (no array).
 // zero_start: L.v is taken as 0 on entry (not read).
@@ -68,7 +69,7 @@ void smooth_sweeps(Level& L, const Coupling& c, int first, int sweeps, bool zero
 // L.res = rhs - A v, row by row (L.res sized by the caller).
 void residual_rows(Level& L, const Coupling& c);
 
-// Grid transfer along one axis between a level and the next coarser one (gvf_solver.cpp):
+// Grid transfer along one axis between a level and the next coarser one (grid_diffusion_solver.cpp):
 // factor 2 coarsens cell-centred (even size) or vertex-centred (odd size), factor 1 is the identity.
 struct AxisTransfer {
   std::vector<std::vector<std::pair<int, float>>> transpose, average;  // R = P^T / factor and R normalised, per coarse index
@@ -87,7 +88,7 @@ void restrict_to(const Level& F, const Level& C, const Transfer& t, bool average
 // without an array of F's size: the cycle's restriction.
 void restrict_residual(const Level& F, const Coupling& c, const Level& C, const Transfer& t, int k, float* coarse);
 
-// The multigrid's grid transfers along a factor-2 x axis (gvf_solver.cpp), on one row. The
+// The multigrid's grid transfers along a factor-2 x axis (grid_diffusion_solver.cpp), on one row. The
 // coarse row (prolongation) or fine row (restriction) comes extended by one value at each end
 // (ext[i + 1] = row[i]); see the functions for what the ends hold. Prolongation P is linear
 // interpolation (cell-centred when n_fine is even, vertex-centred when odd); restriction is
@@ -101,7 +102,7 @@ void restrict_row_x2(float* out, const float* ext, int n_fine, int n_coarse);
 // double-buffered loop) over tiles of tile_rows rows (3D: y-ranges of the slices; 2D: ranges of
 // rows; 0: the tuned size), each level computing per_step planes (2D: rows) per wavefront step
 // (0: the tuned count); the result depends on none of them.
-// Throws InputError naming "field.time_step" for an unstable step (gvf_explicit.cpp).
+// Throws InputError naming "field.time_step" for an unstable step (explicit_diffusion.cpp).
 GvfSolveStats solve_explicit(const Level& shape, const std::vector<float>& b,
                              const std::vector<const std::vector<float>*>& c,
                              const std::vector<std::vector<float>*>& v, const GvfSolveOptions& o, double rhs_norm2,

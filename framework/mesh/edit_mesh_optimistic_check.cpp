@@ -1,18 +1,18 @@
-// The optimistic check of the EditMesh (mesh_edit.h, remesh/pass.h): edits made without a
+// The optimistic check of the EditMesh (edit_mesh.h, remesh/pass.h): edits made without a
 // crossing test mark the triangles they create or move; end_optimistic() then tests each marked
 // triangle once against the final mesh, the pairs that share a vertex fan by fan and those that
 // share none through a grid of its own over the final mesh.
-#include "remesh/mesh_edit.h"
+#include "framework/mesh/edit_mesh.h"
 
 #include "framework/core/errors.h"
 #include "framework/core/vector_clones.h"
-#include "remesh/triangle_pairs.h"
+#include "framework/geometry/triangle_pairs.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-namespace dsnake::remesh_detail {
+namespace dsnake {
 
 void EditMesh::begin_optimistic() {
   drop_grid();
@@ -95,7 +95,7 @@ struct VerifyColumns {
 
 // Whether entry i and one of the entries [j0, j1) make a pair to test: between them their
 // ranges start here on every axis (the cell of their overlap's low corner), one is marked,
-// they share no vertex and their boxes overlap (the negation of apart(), by columns). No
+// they share no vertex and their boxes overlap (the negation of boxes_apart(), by columns). No
 // branch: most entries of a cell pass some filters and fail others, which a branch per filter
 // would mispredict.
 DSNAKE_VECTOR_CLONES bool any_pair_to_test(const VerifyColumns& g, int i, int j0, int j1) {
@@ -223,7 +223,7 @@ void list_boxes(const EditMesh& m, const std::vector<uint8_t>& dirty, const Veri
     auto& r = range[i];
     VerifyEntry& e = proto[i];
     for (int k = 0; k < 3; ++k) r[k] = grid.cell_of(lo[k], k), r[k + 3] = grid.cell_of(hi[k], k);
-    e.box = outward(lo, hi);
+    e.box = outward_box(lo, hi);
     e.t = m.tri(live[i]), e.id = live[i], e.marked = dirty[live[i]];
     for (int z = r[2]; z <= r[5]; ++z)
       for (int y = r[1]; y <= r[4]; ++y)
@@ -294,4 +294,4 @@ bool EditMesh::end_optimistic(bool verify) {
   return !shared_vertex_conflict(*this, dirty) && !apart_pair_conflict(*this, dirty);
 }
 
-}  // namespace dsnake::remesh_detail
+}  // namespace dsnake

@@ -1,19 +1,26 @@
-// Internal to remesh/: the pair tests of the EditMesh's crossing checks (mesh_edit.h), shared by
-// the broad phase of single edits (broad_phase.cpp), the optimistic check of a stage's result
-// (optimistic_check.cpp) and the brute-force reference: float box filters rounded outwards, and
-// whether two triangles conflict given the vertices they share. Inline: they run once per
-// candidate pair.
+// The pair tests of the surface's crossing checks, shared by the mesh-edit kernel's broad phase
+// and its optimistic check (framework/mesh/edit_mesh.h) and by the collision guard
+// (framework/guard/collision_guard.h): float box filters rounded outwards, and whether two
+// triangles conflict given the vertices they share (§5: an edit, or a snake step, must not make
+// the surface cross itself), with certificates of the radius within which a pair that shares a
+// vertex or an edge cannot come to conflict. Inline: they run once per candidate pair.
 #pragma once
 
-#include "framework/metrics/metrics_geometry.h"
-#include "remesh/mesh_edit.h"
+#include "framework/core/types.h"
+#include "framework/geometry/predicates.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
 #include <cmath>
 
-namespace dsnake::remesh_detail {
+namespace dsnake {
+
+// A box in floats rounded outwards from a box in doubles: a filter only (boxes apart in floats
+// are apart), half the memory of the doubles.
+struct FloatBox {
+  float lo[3], hi[3];
+};
 
 // x as a float at most / at least x (box filters that never reject a real overlap): moved
 // outwards by 2^-20 relative (plus a tiny absolute term) before the conversion, whose
@@ -22,14 +29,14 @@ inline float float_down(double x) { return static_cast<float>(x - (std::abs(x) *
 inline float float_up(double x) { return static_cast<float>(x + (std::abs(x) * 0x1p-20 + 1e-30)); }
 
 // [lo, hi] as a FloatBox that contains it.
-inline FloatBox outward(const Point<3>& lo, const Point<3>& hi) {
+inline FloatBox outward_box(const Point<3>& lo, const Point<3>& hi) {
   FloatBox b;
   for (int k = 0; k < 3; ++k) b.lo[k] = float_down(lo[k]), b.hi[k] = float_up(hi[k]);
   return b;
 }
 
 // Boxes entirely apart along some axis (without branches, which mispredict on such data).
-inline bool apart(const FloatBox& a, const FloatBox& b) {
+inline bool boxes_apart(const FloatBox& a, const FloatBox& b) {
   return (a.lo[0] > b.hi[0]) | (a.lo[1] > b.hi[1]) | (a.lo[2] > b.hi[2]) | (b.lo[0] > a.hi[0]) |
          (b.lo[1] > a.hi[1]) | (b.lo[2] > a.hi[2]);
 }
@@ -101,7 +108,7 @@ inline bool pair_conflicts(const Triangle& ta, const std::array<Point<3>, 3>& pa
       if (ta[i] == tb[j]) { ++shared; sa[i] = 1; sb[j] = 1; ia = i; ib = j; }
   if (shared == 0) {
     if (strictly_one_side(pa, pb) || strictly_one_side(pb, pa)) return false;
-    return detail::triangles_intersect(pa, pb);
+    return triangles_intersect(pa, pb);
   }
   if (shared == 3) return true;  // a duplicate triangle
   if (shared == 1) {
@@ -207,4 +214,4 @@ inline double shared_edge_radius(const Triangle& ta, const std::array<Point<3>, 
   return std::isfinite(r) && r > 0 ? r : 0;
 }
 
-}  // namespace dsnake::remesh_detail
+}  // namespace dsnake

@@ -1,9 +1,9 @@
-// The explicit GVF solver's temporal blocking (fields/gvf_explicit.cpp): every wavefront depth
+// The explicit GVF solver's temporal blocking (framework/numerics/explicit_diffusion.cpp): every wavefront depth
 // gives bit-for-bit the plain double-buffered iteration (depth 1), with and without tolerance
 // stopping, for 1 and 2 threads, on odd and degenerate grids with anisotropic spacing; and the
 // plain iteration matches an independent double-precision loop written here.
 #include "fields/ddgvf.h"
-#include "fields/gvf_grid.h"
+#include "framework/numerics/diffusion_grid.h"
 #include "framework/core/errors.h"
 
 #include <cmath>
@@ -146,7 +146,7 @@ TEST(GvfExplicitWavefront, OneAndTwoThreadsAgreeBitForBit) {
   }
 }
 
-// The explicit step as the solver defines it (gvf_explicit.cpp), restated voxel by voxel on
+// The explicit step as the solver defines it (explicit_diffusion.cpp), restated voxel by voxel on
 // unpadded rows: d = s - (dd + g) u + dcx (u[x-1] + u[x+1]) + y terms (+ z terms), u[-1] = u[0]
 // and u[nx] = u[nx-1], out = u + d, with g = dt b, s = g c, weights times dt, and with
 // `measure` acc = the sum of d^2 in 8 partial sums by x mod 8. Same vector clones as the

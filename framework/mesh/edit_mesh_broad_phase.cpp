@@ -1,17 +1,17 @@
-// The broad phase of the EditMesh's crossing checks (mesh_edit.h): a flat uniform grid over
+// The broad phase of the EditMesh's crossing checks (edit_mesh.h): a flat uniform grid over
 // the live triangles' boxes, each triangle listed exactly in the cells its box covers, kept up to
 // date as triangles come, go and move, and the queries of single edits through it; and the
 // brute-force reference for tests.
-#include "remesh/mesh_edit.h"
+#include "framework/mesh/edit_mesh.h"
 
 #include "framework/core/errors.h"
-#include "remesh/triangle_pairs.h"
+#include "framework/geometry/triangle_pairs.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-namespace dsnake::remesh_detail {
+namespace dsnake {
 
 // Cells of two mean edges, grown if the mesh's box would need more than ~4 cells per triangle
 // (a long thin mesh); the grid covers the box of the live vertices at build time.
@@ -69,7 +69,7 @@ void EditMesh::grid_insert(int f) const {
 }
 
 void EditMesh::set_box(int f, const Point<3>& lo, const Point<3>& hi) const {
-  gbox_[f].box = outward(lo, hi);
+  gbox_[f].box = outward_box(lo, hi);
 }
 
 void EditMesh::grid_erase(int f) const {
@@ -128,12 +128,12 @@ bool EditMesh::intersects_any(std::span<const Triangle> ts, std::span<const int>
     p[i] = {pos_[ts[i][0]], pos_[ts[i][1]], pos_[ts[i][2]]};
     lo[i] = p[i][0].cwiseMin(p[i][1]).cwiseMin(p[i][2]);
     hi[i] = p[i][0].cwiseMax(p[i][1]).cwiseMax(p[i][2]);
-    box[i] = outward(lo[i].array() - pad, hi[i].array() + pad);
+    box[i] = outward_box(lo[i].array() - pad, hi[i].array() + pad);
     all_lo = all_lo.cwiseMin(lo[i]);
     all_hi = all_hi.cwiseMax(hi[i]);
   }
   const Point<3> all_lo_pad = all_lo.array() - pad, all_hi_pad = all_hi.array() + pad;
-  const FloatBox all = outward(all_lo_pad, all_hi_pad);
+  const FloatBox all = outward_box(all_lo_pad, all_hi_pad);
   const auto r = cell_range(all_lo_pad, all_hi_pad);
   std::array<Point<3>, 3> q;
   // First the candidates near the common box, in one pass without branches on the data (the
@@ -149,7 +149,7 @@ bool EditMesh::intersects_any(std::span<const Triangle> ts, std::span<const int>
         int* out = candidates_.data();
         for (int f : cell) {
           GridBox& b = gbox_[f];
-          const bool skip = (b.stamp == query) | apart(b.box, all);
+          const bool skip = (b.stamp == query) | boxes_apart(b.box, all);
           b.stamp = query;
           out[m] = f;
           m += !skip;
@@ -162,7 +162,7 @@ bool EditMesh::intersects_any(std::span<const Triangle> ts, std::span<const int>
     bool loaded = false;  // f's corners and box, fetched for the first query triangle near it
     Point<3> qlo, qhi;
     for (int i = 0; i < n; ++i) {
-      if (apart(b.box, box[i])) continue;
+      if (boxes_apart(b.box, box[i])) continue;
       if (!loaded) {
         q = {pos_[s[0]], pos_[s[1]], pos_[s[2]]};
         qlo = q[0].cwiseMin(q[1]).cwiseMin(q[2]);
@@ -197,4 +197,4 @@ bool EditMesh::intersects_any_brute_force(std::span<const Triangle> ts, std::spa
   return false;
 }
 
-}  // namespace dsnake::remesh_detail
+}  // namespace dsnake

@@ -1,13 +1,13 @@
-// The collision guard (remesh/collision_guard.h) on the snake iteration: two sheets of one
+// The collision guard (framework/guard/collision_guard.h) on the snake iteration: two sheets of one
 // closed surface pushed through each other cross without it and not with it; its counts are
 // reported per phase; the same bits with 1 and 2 threads; no change at all when nothing collides;
 // its kept broad-phase pairs give the same steps as a broad phase per iteration; the
 // certificates of pairs that share one vertex are sound, and spare the exact tests of small moves.
 #include "framework/core/evolver.h"
 #include "framework/metrics/metrics.h"
-#include "remesh/collision_guard.h"
-#include "remesh/triangle_pairs.h"
-#include "tests/remesh/test_meshes.h"
+#include "framework/guard/collision_guard.h"
+#include "framework/geometry/triangle_pairs.h"
+#include "tests/test_meshes.h"
 
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -210,7 +210,6 @@ TEST(CollisionGuard, SharedVertexCertificateOnARegularFanIsAsComputedByHand) {
     return Point<3>(std::cos(t), std::sin(t), 0.0);
   };
   const Point<3> v(0, 0, 0);
-  using remesh_detail::shared_vertex_radius;
   const Triangle a{0, 1, 2};  // v = vertex 0, corner k = vertex k + 1
   const std::array<Point<3>, 3> pa{v, corner(0), corner(1)};
   EXPECT_NEAR(shared_vertex_radius(a, pa, Triangle{0, 4, 5}, {v, corner(3), corner(4)}), 0.5 * std::sqrt(3.0) / 2 - 0.05,
@@ -242,7 +241,7 @@ CertificateCheck check_certificate(std::mt19937& rng, const Triangle& ta, const 
     const std::array<Point<3>, 3> pa{y[ta[0]], y[ta[1]], y[ta[2]]}, pb{y[tb[0]], y[tb[1]], y[tb[2]]};
     const Point<3> loa = pa[0].cwiseMin(pa[1]).cwiseMin(pa[2]), hia = pa[0].cwiseMax(pa[1]).cwiseMax(pa[2]);
     const Point<3> lob = pb[0].cwiseMin(pb[1]).cwiseMin(pb[2]), hib = pb[0].cwiseMax(pb[1]).cwiseMax(pb[2]);
-    return remesh_detail::pair_conflicts(ta, pa, loa, hia, tb, pb, lob, hib);
+    return pair_conflicts(ta, pa, loa, hia, tb, pb, lob, hib);
   };
   CertificateCheck c;
   for (int k = 0; k < 50; ++k) c.conflicts_within += conflicts_when_moved_by(r * (k < 25 ? 0.999 : 1.0 - 1e-9));
@@ -268,7 +267,7 @@ TEST(CollisionGuard, SharedVertexCertificatesAreSound) {
     const Point<3> o(unit(rng) * 100, unit(rng) * 100, unit(rng) * 100);
     std::array<Point<3>, 5> x{o, o + len(rng) * direction(flat), o + len(rng) * direction(flat),
                               o + len(rng) * direction(flat), o + len(rng) * direction(flat)};
-    const double r = remesh_detail::shared_vertex_radius(ta, {x[0], x[1], x[2]}, tb, {x[0], x[3], x[4]});
+    const double r = shared_vertex_radius(ta, {x[0], x[1], x[2]}, tb, {x[0], x[3], x[4]});
     if (r <= 0) continue;
     ++certified;
     const CertificateCheck c = check_certificate(rng, ta, tb, x, r);
@@ -287,7 +286,6 @@ TEST(CollisionGuard, SharedVertexCertificatesAreSound) {
 // +y and +z (90 degrees), s = sin 40.5 degrees; apexes 5 degrees apart fold (none), and pairs that
 // share one vertex or none have none.
 TEST(CollisionGuard, SharedEdgeCertificateIsAsComputedByHand) {
-  using remesh_detail::shared_edge_radius;
   const Point<3> u(0, 0, 0), w(1, 0, 0);
   const Triangle a{0, 1, 2}, b{1, 0, 3};
   const std::array<Point<3>, 3> pa{u, w, Point<3>(0, 1, 0)};
@@ -321,7 +319,7 @@ TEST(CollisionGuard, SharedEdgeCertificatesAreSound) {
     const double ha = trial % 7 == 0 ? 0.05 : len(rng), hb = len(rng);
     std::array<Point<3>, 4> x{o, o + edge * e, o + unit(rng) * edge * e + ha * n1,
                               o + unit(rng) * edge * e + hb * (std::cos(theta) * n1 + std::sin(theta) * n2)};
-    const double r = remesh_detail::shared_edge_radius(ta, {x[ta[0]], x[ta[1]], x[ta[2]]}, tb, {x[tb[0]], x[tb[1]], x[tb[2]]});
+    const double r = shared_edge_radius(ta, {x[ta[0]], x[ta[1]], x[ta[2]]}, tb, {x[tb[0]], x[tb[1]], x[tb[2]]});
     if (r <= 0) continue;
     ++certified;
     const CertificateCheck c = check_certificate(rng, ta, tb, x, r);

@@ -1,33 +1,17 @@
-// Internal geometry behind framework/metrics/metrics.cpp (not part of the public API): exact
-// point-to-facet distances, facet intersection tests, and a uniform grid over the facets of a
-// boundary for exact nearest-distance queries and broad-phase pair search.
-// A facet is a segment (D = 2) or a triangle (D = 3): D vertex indices.
+// A uniform grid (with a bounding-volume tree for far queries) over the facets of a boundary:
+// exact point-to-facet distances (the surface distances and HD95 of framework/metrics/metrics.h)
+// and the broad-phase search of facet pairs whose boxes overlap (the self-intersection count).
 #pragma once
 
 #include "framework/core/types.h"
+#include "framework/geometry/predicates.h"
 
 #include <array>
 #include <cstdint>
 #include <utility>
 #include <vector>
 
-namespace dsnake::detail {
-
-template <int D>
-using Facet = std::array<int, D>;
-
-// A boundary: vertices (physical units) and the facets over them.
-template <int D>
-struct FacetSurface {
-  PointList<D> vertices;
-  std::vector<Facet<D>> facets;
-};
-
-// true if the closed segments [a, b] and [c, d] share a point (proper crossing or touching).
-bool segments_intersect(const Point<2>& a, const Point<2>& b, const Point<2>& c, const Point<2>& d);
-
-// true if the closed triangles p and q share a point (crossing, touching or coplanar overlap).
-bool triangles_intersect(const std::array<Point<3>, 3>& p, const std::array<Point<3>, 3>& q);
+namespace dsnake {
 
 // A facet with what its exact distance test needs, precomputed: its corners v, edge vectors
 // e[k] = v[k+1] - v[k] with their inverse squared lengths, and for a triangle its normal n,
@@ -116,4 +100,4 @@ class FacetGrid {
   std::vector<int> tree_facets_;
 };
 
-}  // namespace dsnake::detail
+}  // namespace dsnake

@@ -1,4 +1,6 @@
-// The GVF linear system shared by GVF and DDGVF (Xu & Prince 1998; D-Snake §2):
+// The grid diffusion solver: the linear system of gradient vector flow (Xu & Prince 1998; D-Snake
+// §2), a framework engine shared by the GVF and DDGVF fields (fields/gvf.h, fields/ddgvf.h) and
+// open to any plug-in that diffuses values over an image grid:
 // for K fields v_k that share the weight b = |grad f|^2, find the fixed point of
 //     mu Lap(v_k) - b (v_k - c_k) = 0,
 // discretised on the image grid with the 2D+1-point Laplacian in physical units

@@ -1,15 +1,17 @@
-// Internal to remesh/ (not part of the public API): an editable triangle mesh for the local
-// edits of §5 (vertex moves, edge flips, 1->3 splits, half-edge collapses) with the checks
-// that keep every edit safe: the mesh stays closed and manifold, and an edit whose new
-// triangles would cross the rest of the surface is rejected (a flat uniform grid over triangle
-// boxes, each triangle listed exactly in the cells its box covers, updated as triangles come,
-// go and move). One EditMesh may serve all the stages of a pass (remesh/pass.h).
-// Implementation: mesh_edit.cpp (the mesh, its edits and write-back, try_flip), broad_phase.cpp
-// (the grid and the queries of single edits), optimistic_check.cpp (begin/end_optimistic and
-// the check of a stage's result); the pair tests they share in triangle_pairs.h.
+// EditMesh: an editable closed triangle mesh for the local edits of the remeshing stages (§5:
+// vertex moves, edge flips, 1->3 splits, half-edge collapses), with the checks that keep every
+// edit safe: the mesh stays closed and manifold, and an edit whose new triangles would cross
+// the rest of the surface is rejected (a flat uniform grid over triangle boxes, each triangle
+// listed exactly in the cells its box covers, updated as triangles come, go and move; the pair
+// tests of framework/geometry/triangle_pairs.h). Built from a Snake<3> and written back into it
+// (commit); one EditMesh may serve all the stages of a remeshing pass (remesh/pass.h).
+// Implementation: edit_mesh.cpp (the mesh, its edits and write-back, try_flip),
+// edit_mesh_broad_phase.cpp (the grid and the queries of single edits),
+// edit_mesh_optimistic_check.cpp (begin/end_optimistic and the check of a stage's result).
 #pragma once
 
 #include "framework/core/shape.h"
+#include "framework/geometry/triangle_pairs.h"
 
 #include <Eigen/Geometry>
 
@@ -20,44 +22,7 @@
 #include <utility>
 #include <vector>
 
-namespace dsnake::remesh_detail {
-
-// Cosine of the angle between two vectors given unnormalised (0 if one is zero): one square
-// root, for comparisons of triangle normals taken as raw cross products.
-inline double cos_between(const Point<3>& u, const Point<3>& v) {
-  const double lengths2 = u.squaredNorm() * v.squaredNorm();
-  return lengths2 > 0 ? u.dot(v) / std::sqrt(lengths2) : 0.0;
-}
-// (b - a) x (c - a): the triangle's normal times its doubled area.
-inline Point<3> area_normal(const Point<3>& a, const Point<3>& b, const Point<3>& c) { return (b - a).cross(c - a); }
-// Unit normal of triangle (a, b, c) (zero if degenerate) and its doubled area.
-Point<3> triangle_normal(const Point<3>& a, const Point<3>& b, const Point<3>& c);
-double triangle_area(const Point<3>& a, const Point<3>& b, const Point<3>& c);
-// Smallest interior angle of a triangle, radians (0 if degenerate).
-double min_angle(const Point<3>& a, const Point<3>& b, const Point<3>& c);
-// A key that increases with the smallest interior angle, for comparisons only: -cos of it
-// (-1 if degenerate), with no trigonometry; compare it with angle_key(threshold in radians).
-// (Inline, with the vertex opposite the shortest edge chosen by selects rather than if/else: it
-// runs once per triangle of every candidate edit, on data whose shortest edge is unpredictable.)
-inline double min_angle_key(const Point<3>& a, const Point<3>& b, const Point<3>& c) {
-  const Point<3> ab = b - a, bc = c - b, ca = a - c;
-  const double lab = ab.squaredNorm(), lbc = bc.squaredNorm(), lca = ca.squaredNorm();
-  // At a (opposite bc), at b (opposite ca), at c (opposite ab).
-  const double dot_a = -ab.dot(ca), dot_b = -bc.dot(ab), dot_c = -ca.dot(bc);
-  const bool at_a = lbc <= lab && lbc <= lca, at_b = !at_a && lca <= lab;
-  const double dot = at_a ? dot_a : (at_b ? dot_b : dot_c);
-  const double lengths2 = at_a ? lab * lca : (at_b ? lbc * lab : lca * lbc);
-  return lengths2 > 0 ? -dot / std::sqrt(lengths2) : -1.0;
-}
-inline double angle_key(double radians) { return -std::cos(radians); }
-// Interior angle at vertex a of triangle (a, b, c), radians.
-double angle_at(const Point<3>& a, const Point<3>& b, const Point<3>& c);
-
-// A box in floats rounded outwards from a box in doubles: a filter only (boxes apart in floats
-// are apart), half the memory of the doubles.
-struct FloatBox {
-  float lo[3], hi[3];
-};
+namespace dsnake {
 
 // A live triangle f at vertex v, with the corners that follow v in it: (v, next, prev) in
 // counter-clockwise order. A vertex's corners answer face_with_edge() and ring() without
@@ -205,7 +170,7 @@ class EditMesh {
   // (edit_clock(), the latest). undo_flip puts back the times of the vertices the flip changed.
   int64_t changed_at(int v) const { return changed_at_[v]; }
   int64_t edit_clock() const { return clock_; }
-  // The valence regularisation's memo (delaunay.cpp, regularize_valences), kept with the mesh
+  // The valence regularisation's memo (remesh/delaunay.cpp, regularize_valences), kept with the mesh
   // through the stages of an optimistic run (emptied when one begins or ends), for the floors it
   // was made with: per listed edge 3 f + k, the edit_clock() of its last failed defect move (0:
   // none) and the flips try_flip rejected in it; when it was last found not neutral; and the
@@ -282,24 +247,4 @@ FlipResult try_flip(EditMesh& m, int a, int b, double cos_max_dihedral);
 FlipResult try_flip(EditMesh& m, int a, int b, int f1, int f2, int c, int d, double cos_max_dihedral,
                     EditMesh::FlipRecord* record = nullptr);
 
-// The flips of the "delaunay" stage (delaunay.cpp), also run by "simplify" after its collapses.
-// delaunay_by_flips: flips until every edge is locally Delaunay (intrinsic: the opposite angles
-// sum to at most pi); regularize_valences: flips that lower sum (valence - 6)^2 over the four
-// vertices without pushing the smaller minimum angle below min_angle_rad (or lower than it
-// was), then moves of defects (a flip that leaves the sum as it was, kept only when one or two
-// further flips at its vertices then lower it) with the same floor. Both through try_flip;
-// they return the number of flips it rejected.
-int delaunay_by_flips(EditMesh& m, double cos_max_dihedral);
-int regularize_valences(EditMesh& m, double cos_max_dihedral, double min_angle_rad, bool reuse_refusals);
-
-// One sweep of the "uniform" stage's relaxation (uniform.cpp, §5.1): every free vertex towards
-// the centre of its parameterised one-ring, each move checked (normals turning beyond
-// acos(cos_max_normal), the fan's smallest angle below min(its old value, 15 degrees), a
-// crossing). Also run by "simplify" after its flips. Returns the number of rejected moves.
-int relax_sweep(EditMesh& m, double cos_max_normal);
-
-// The "planar" method of §5.2 (delaunay_planar.cpp): disc patches, mean-value parameterisation,
-// planar Delaunay, adopted patch by patch. Returns the number of patches left as they were.
-int planar_delaunay(EditMesh& m, double cos_max_dihedral);
-
-}  // namespace dsnake::remesh_detail
+}  // namespace dsnake

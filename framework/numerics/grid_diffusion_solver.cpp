@@ -1,8 +1,8 @@
-// The multigrid-preconditioned GVF solver and the entry point; see gvf_solver.h. The explicit
-// reference iteration is in gvf_explicit.cpp, the shared grid view in gvf_grid.h.
-#include "fields/gvf_solver.h"
+// The multigrid-preconditioned GVF solver and the entry point; see grid_diffusion_solver.h. The explicit
+// reference iteration is in explicit_diffusion.cpp, the shared grid view in diffusion_grid.h.
+#include "framework/numerics/grid_diffusion_solver.h"
 
-#include "fields/gvf_grid.h"
+#include "framework/numerics/diffusion_grid.h"
 
 #include "framework/core/errors.h"
 

@@ -1,41 +1,18 @@
-// EditMesh (mesh_edit.h): construction from a snake, the local edits, the one-rings and the
-// write-back; and the triangle measures and edge flip the stages share. The crossing checks
-// live in broad_phase.cpp (the grid for single edits) and optimistic_check.cpp (one check of a
-// stage's result).
-#include "remesh/mesh_edit.h"
+// EditMesh (edit_mesh.h): construction from a snake, the local edits, the one-rings and the
+// write-back; and the edge flip the stages share. The crossing checks live in
+// edit_mesh_broad_phase.cpp (the grid for single edits) and edit_mesh_optimistic_check.cpp (one
+// check of a stage's result).
+#include "framework/mesh/edit_mesh.h"
 
 #include "framework/core/errors.h"
+#include "framework/geometry/triangle_measures.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <utility>
 
-namespace dsnake::remesh_detail {
-
-Point<3> triangle_normal(const Point<3>& a, const Point<3>& b, const Point<3>& c) {
-  const Point<3> n = (b - a).cross(c - a);
-  const double len = n.norm();
-  return len > 0 ? Point<3>(n / len) : Point<3>(Point<3>::Zero());
-}
-
-double triangle_area(const Point<3>& a, const Point<3>& b, const Point<3>& c) {
-  return 0.5 * (b - a).cross(c - a).norm();
-}
-
-double angle_at(const Point<3>& a, const Point<3>& b, const Point<3>& c) {
-  const Point<3> u = b - a, v = c - a;
-  return std::atan2(u.cross(v).norm(), u.dot(v));
-}
-
-// The smallest angle is the one opposite the shortest edge (law of sines): one atan2, not three
-// (the same value as the smallest of the three, up to ties within rounding).
-double min_angle(const Point<3>& a, const Point<3>& b, const Point<3>& c) {
-  const double ab = (b - a).squaredNorm(), bc = (c - b).squaredNorm(), ca = (a - c).squaredNorm();
-  if (bc <= ab && bc <= ca) return angle_at(a, b, c);
-  if (ca <= ab) return angle_at(b, c, a);
-  return angle_at(c, a, b);
-}
+namespace dsnake {
 
 void CornerFans::push(int v, const MeshCorner& corner) {
   const int c = count_[v];
@@ -294,4 +271,4 @@ FlipResult try_flip(EditMesh& m, int a, int b, int f1, int f2, int c, int d, dou
   return FlipResult::kFlipped;
 }
 
-}  // namespace dsnake::remesh_detail
+}  // namespace dsnake

@@ -1,4 +1,4 @@
-// Xu & Prince's explicit GVF iteration (1998), the reference solver; see gvf_solver.h.
+// Xu & Prince's explicit GVF iteration (1998), the reference solver; see grid_diffusion_solver.h.
 //
 // Temporal blocking: one sweep of v_new = v + dt (mu Lap v - b (v - c)) reads and writes every
 // array once, so a plain double-buffered loop is bound by memory bandwidth. Here T consecutive
@@ -24,7 +24,7 @@
 // shuffles (one lane-crossing shuffle per vector): a vector of voxels costs 5 aligned loads in
 // 2D (7 in 3D), where the unpadded kernel made 9 (11), half of them split across cache lines
 // (docs/methods.md: the 2D figure).
-#include "fields/gvf_grid.h"
+#include "framework/numerics/diffusion_grid.h"
 
 #include "framework/core/errors.h"
 
@@ -363,17 +363,9 @@ class Wavefront {
   std::vector<AlignedFloats> rings_;
 };
 
-}  // namespace
-
-// Xu & Prince's iteration v_new = v + dt (mu Lap v - b (v - c)), in wavefront blocks of up to
-// max_depth iterations (0: chosen here; 1: the plain double-buffered loop) over tiles of
-// tile_rows rows (0: chosen here), on a padded copy of the system. A block ends at every
-// iteration whose residual is measured, so tolerance stopping sees the same iterates.
-GvfSolveStats solve_explicit(const Level& L, const std::vector<float>& b,
-                             const std::vector<const std::vector<float>*>& c,
-                             const std::vector<std::vector<float>*>& v, const GvfSolveOptions& o, double rhs_norm2,
-                             int max_depth, int tile_rows, int per_step) {
-  const Coupling cp = coupling(L, o.mu);
+// The explicit step dt: the one asked for, or 0.9 x the stability bound 2 / (b_max + 4 mu sum
+// 1/h^2); throws InputError naming "field.time_step" for a step at or past the bound.
+double stable_time_step(const Level& L, const std::vector<float>& b, const Coupling& cp, const GvfSolveOptions& o) {
   const double lap_max = 4.0 * (cp.cx + cp.cy + cp.cz);
   float lane_max[kLanes] = {};  // in kLanes partial maxima, which vectorises
   const int64_t n = L.size();
@@ -383,22 +375,19 @@ GvfSolveStats solve_explicit(const Level& L, const std::vector<float>& b,
   for (int64_t l = n / kLanes * kLanes; l < n; ++l) b_max = b[l] > b_max ? b[l] : b_max;
   for (float m : lane_max) b_max = m > b_max ? m : b_max;
   const double bound = 2.0 / (lap_max + b_max);
-  GvfSolveStats st;
-  st.time_step = o.time_step > 0 ? o.time_step : 0.9 * bound;
-  if (st.time_step >= bound)
+  const double time_step = o.time_step > 0 ? o.time_step : 0.9 * bound;
+  if (time_step >= bound)
     throw InputError("", "field.time_step",
                      "explicit GVF step " + std::to_string(o.time_step) + " is unstable: it must be < " +
                          std::to_string(bound) + " (2 / (b_max + 4 mu sum 1/h^2))");
+  return time_step;
+}
+
+// The padded copy: g = dt b, s_k = g c_k, v_k (copied back into v by copy_back).
+PaddedSystem padded_system(const Level& L, const std::vector<float>& b, const std::vector<const std::vector<float>*>& c,
+                           const std::vector<std::vector<float>*>& v, float dt, bool parallel) {
   const int K = int(v.size());
   const int64_t rows = int64_t(L.ny) * L.nz;
-  const int max_it = o.iterations > 0 ? o.iterations : 100000;
-  const float dt = float(st.time_step);
-  const StepWeights w{dt * cp.cx, dt * cp.cy, dt * cp.cz};
-  const int depth = max_depth > 0 ? max_depth : (L.nz > 1 ? kDepth3d : kDepth2d);
-  const bool parallel = L.size() >= kParallelMin;
-  const int threads = parallel ? omp_get_max_threads() : 1;
-
-  // The padded copy: g = dt b, s_k = g c_k, v_k; copied back into v at the end.
   PaddedSystem sys;
   sys.nx = L.nx, sys.stride = ((L.nx + kLanes - 1) / kLanes + 2) * kLanes, sys.rows = rows;
   const size_t padded = size_t(rows) * sys.stride;
@@ -424,6 +413,63 @@ GvfSolveStats solve_explicit(const Level& L, const std::vector<float>& b,
       vk[-1] = vk[0], vk[L.nx] = vk[L.nx - 1];  // the zero-flux ghosts
     }
   }
+  return sys;
+}
+
+// The iterates of the padded system back into v.
+void copy_back(const Level& L, PaddedSystem& sys, const std::vector<std::vector<float>*>& v, bool parallel) {
+  const int K = int(v.size());
+#pragma omp parallel for schedule(static) if(parallel)
+  for (int64_t yz = 0; yz < sys.rows; ++yz) {
+    for (int k = 0; k < K; ++k) std::copy_n(sys.row(sys.v[k], yz), L.nx, v[k]->data() + yz * L.nx);
+  }
+}
+
+// Tiles: 3D: ranges of rows_per_tile rows (y) over all slices; 2D: ranges of rows_per_tile rows.
+std::vector<Tile> make_tiles(const Level& L, int rows_per_tile) {
+  const bool three_d = L.nz > 1;
+  std::vector<Tile> tiles;
+  for (int q = 0; q < L.ny; q += rows_per_tile) {
+    const int end = std::min(L.ny, q + rows_per_tile);
+    tiles.push_back(three_d ? Tile{0, L.nz, q, end} : Tile{q, end, 0, 1});
+  }
+  return tiles;
+}
+
+// |d|^2 / dt^2 of the last measured iteration (d the update), summed per row over the fields
+// in order, then over the rows in order (thread-count independent).
+double measured_residual2(const std::vector<float>& row_acc, int K, int64_t rows, float dt) {
+  double sum = 0;
+  for (int64_t yz = 0; yz < rows; ++yz) {  // per row, the fields in order
+    double s2 = 0;
+    for (int k = 0; k < K; ++k) s2 += row_acc[k * rows + yz];
+    sum += s2;
+  }
+  return sum / (double(dt) * double(dt));
+}
+
+}  // namespace
+
+// Xu & Prince's iteration v_new = v + dt (mu Lap v - b (v - c)), in wavefront blocks of up to
+// max_depth iterations (0: chosen here; 1: the plain double-buffered loop) over tiles of
+// tile_rows rows (0: chosen here), on a padded copy of the system. A block ends at every
+// iteration whose residual is measured, so tolerance stopping sees the same iterates.
+GvfSolveStats solve_explicit(const Level& L, const std::vector<float>& b,
+                             const std::vector<const std::vector<float>*>& c,
+                             const std::vector<std::vector<float>*>& v, const GvfSolveOptions& o, double rhs_norm2,
+                             int max_depth, int tile_rows, int per_step) {
+  const Coupling cp = coupling(L, o.mu);
+  GvfSolveStats st;
+  st.time_step = stable_time_step(L, b, cp, o);
+  const int K = int(v.size());
+  const int64_t rows = int64_t(L.ny) * L.nz;
+  const int max_it = o.iterations > 0 ? o.iterations : 100000;
+  const float dt = float(st.time_step);
+  const StepWeights w{dt * cp.cx, dt * cp.cy, dt * cp.cz};
+  const int depth = max_depth > 0 ? max_depth : (L.nz > 1 ? kDepth3d : kDepth2d);
+  const bool parallel = L.size() >= kParallelMin;
+  const int threads = parallel ? omp_get_max_threads() : 1;
+  PaddedSystem sys = padded_system(L, b, c, v, dt, parallel);
 
   // Tiles: 3D: ranges of ~kTileRows3d rows (y) over all slices; 2D: one range of rows per
   // thread (more tiles measured slower: each adds halo rows).
@@ -432,14 +478,9 @@ GvfSolveStats solve_explicit(const Level& L, const std::vector<float>& b,
   const int rows_per_tile = tile_rows > 0 ? tile_rows : (L.ny + n_split - 1) / n_split;
   const int planes_per_step = per_step > 0 ? per_step : (three_d ? kPlanesPerStep3d : kPlanesPerStep2d);
   Wavefront wave(L, sys.stride, depth, three_d ? rows_per_tile : 1, planes_per_step, threads);
-  std::vector<Tile> tiles;
-  for (int q = 0; q < L.ny; q += rows_per_tile) {
-    const int end = std::min(L.ny, q + rows_per_tile);
-    tiles.push_back(three_d ? Tile{0, L.nz, q, end} : Tile{q, end, 0, 1});
-  }
-  const int n_tiles = int(tiles.size());
+  const std::vector<Tile> tiles = make_tiles(L, rows_per_tile);
   std::vector<float> row_acc(size_t(K) * rows);
-  const int n_items = n_tiles * K;
+  const int n_items = int(tiles.size()) * K;
   // The residual e = d / dt is measured every kCheckEvery iterations and at the last one.
   constexpr int kCheckEvery = 10;
   for (int it = 0; it < max_it;) {
@@ -455,20 +496,11 @@ GvfSolveStats solve_explicit(const Level& L, const std::vector<float>& b,
     it += T;
     st.iterations = it;
     if (!measure) continue;
-    double sum = 0;
-    for (int64_t yz = 0; yz < rows; ++yz) {  // per row, the fields in order
-      double s2 = 0;
-      for (int k = 0; k < K; ++k) s2 += row_acc[k * rows + yz];
-      sum += s2;
-    }
-    sum /= double(dt) * double(dt);
+    const double sum = measured_residual2(row_acc, K, rows, dt);
     st.relative_residual = rhs_norm2 > 0 ? std::sqrt(sum / rhs_norm2) : (sum > 0 ? 1.0 : 0.0);
     if (o.tolerance > 0 && st.relative_residual <= o.tolerance) break;
   }
-#pragma omp parallel for schedule(static) if(parallel)
-  for (int64_t yz = 0; yz < rows; ++yz) {
-    for (int k = 0; k < K; ++k) std::copy_n(sys.row(sys.v[k], yz), L.nx, v[k]->data() + yz * L.nx);
-  }
+  copy_back(L, sys, v, parallel);
   return st;
 }
 

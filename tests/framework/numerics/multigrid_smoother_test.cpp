@@ -1,10 +1,10 @@
-// The multigrid's smoother and grid transfers (fields/gvf_solver.cpp): several red-black
+// The multigrid's smoother and grid transfers (framework/numerics/grid_diffusion_solver.cpp): several red-black
 // Gauss-Seidel sweeps fused into one pass over memory give bit for bit the sweeps run one at a
 // time, on 1 and 2 threads, and they are Gauss-Seidel: they match a voxel-by-voxel
 // double-precision statement of red-black Gauss-Seidel for A v = rhs (A = diag(b) - mu
 // Laplacian, zero flux). The x-row transfers equal linear interpolation P and P^T / 2 written
 // out as dense matrices.
-#include "fields/gvf_grid.h"
+#include "framework/numerics/diffusion_grid.h"
 
 #include <cmath>
 #include <cstring>

@@ -1,8 +1,8 @@
 // The safety checks behind every 3D stage: EditMesh::intersects (crossing, piercing at a
 // shared vertex, folding at a shared edge) and the closed-manifold guard.
-#include "remesh/mesh_edit.h"
+#include "framework/mesh/edit_mesh.h"
 
-#include "tests/remesh/test_meshes.h"
+#include "tests/test_meshes.h"
 
 #include <gtest/gtest.h>
 
@@ -12,7 +12,6 @@
 namespace dsnake {
 namespace {
 
-using remesh_detail::EditMesh;
 
 TEST(EditMesh, DetectsTrianglesThatCrossOrFoldOntoTheSurface) {
   EditMesh m(test::icosphere(1, 1.0));
@@ -53,10 +52,10 @@ TEST(EditMesh, RingsAreCounterClockwiseAndFlipsKeepTheMeshClosed) {
   // Flipping an edge of the (convex) sphere makes a dent whose new edge bends by 42.6 degrees
   // (the old one by 22.5): refused under a 40-degree limit, done under 60, and the result
   // stays closed with the same Euler characteristic.
-  EXPECT_EQ(remesh_detail::try_flip(m, 0, ring[0], std::cos(40 * std::numbers::pi / 180)),
-            remesh_detail::FlipResult::kRejected);
-  const auto r = remesh_detail::try_flip(m, 0, ring[0], std::cos(60 * std::numbers::pi / 180));
-  EXPECT_EQ(r, remesh_detail::FlipResult::kFlipped);
+  EXPECT_EQ(try_flip(m, 0, ring[0], std::cos(40 * std::numbers::pi / 180)),
+            FlipResult::kRejected);
+  const auto r = try_flip(m, 0, ring[0], std::cos(60 * std::numbers::pi / 180));
+  EXPECT_EQ(r, FlipResult::kFlipped);
   EXPECT_FALSE(m.has_edge(0, ring[0]));
   m.commit(s);
   EXPECT_EQ(s.connectivity().closed_manifold_problem(), "");
@@ -68,8 +67,6 @@ TEST(EditMesh, RingsAreCounterClockwiseAndFlipsKeepTheMeshClosed) {
 // erases on a few vertices, some of them past the kInline corners a vertex holds in place (it
 // then spills to a list of its own), must keep each vertex's corners in the order they came.
 TEST(CornerFans, KeepTheCornersInTheOrderTheyCameAcrossSpills) {
-  using remesh_detail::CornerFans;
-  using remesh_detail::MeshCorner;
   constexpr int kVertices = 5;
   CornerFans fans(kVertices - 1);
   fans.add_vertex();
@@ -164,8 +161,8 @@ TEST(EditMesh, AnUndoneFlipLeavesNoTrace) {
         if (!m.tri_alive(f)) continue;
         const int k = int(next(3)), a = m.tri(f)[k], b = m.tri(f)[(k + 1) % 3];
         const int g = m.face_with_edge(b, a);
-        if (remesh_detail::try_flip(m, a, b, f, g, m.opposite(f, a, b), m.opposite(g, b, a), -1.0, &r) ==
-            remesh_detail::FlipResult::kFlipped)
+        if (try_flip(m, a, b, f, g, m.opposite(f, a, b), m.opposite(g, b, a), -1.0, &r) ==
+            FlipResult::kFlipped)
           return true;
       }
       return false;
@@ -194,7 +191,7 @@ TEST(EditMesh, AnUndoneFlipLeavesNoTrace) {
         ASSERT_TRUE(state_of(m) == before.back()) << "round " << round << ", undo at depth " << records.size();
         records.pop_back(), before.pop_back();
       }
-      for (int v = 0; v < m.num_vertices(); ++v) spilled += m.valence(v) > remesh_detail::CornerFans::kInline;
+      for (int v = 0; v < m.num_vertices(); ++v) spilled += m.valence(v) > CornerFans::kInline;
       if (!optimistic && round % 10 == 0) {
         // Every live triangle is in the grid: a copy of it folds onto it (a missing one would not).
         for (int f = 0; f < m.num_triangle_slots(); ++f) {

@@ -1,8 +1,8 @@
-#include "remesh/collision_guard.h"
+#include "framework/guard/collision_guard.h"
 
 #include "framework/core/errors.h"
-#include "framework/metrics/metrics_geometry.h"
-#include "remesh/triangle_pairs.h"
+#include "framework/geometry/predicates.h"
+#include "framework/geometry/triangle_pairs.h"
 
 #include <omp.h>
 
@@ -15,9 +15,6 @@
 namespace dsnake {
 
 namespace {
-
-template <int D>
-using Facet = std::array<int, D>;
 
 template <int D>
 struct Box {
@@ -40,7 +37,7 @@ Corners3 corners(const PointList<3>& x, const Facet<3>& f) {
 
 // Whether facets a and b (corners ca, cb) conflict: the remeshing stages' pair tests, in 3D.
 bool facets_conflict(const Facet<3>& a, const Corners3& ca, const Facet<3>& b, const Corners3& cb) {
-  return remesh_detail::pair_conflicts(a, ca.x, ca.lo, ca.hi, b, cb.x, cb.lo, cb.hi);
+  return pair_conflicts(a, ca.x, ca.lo, ca.hi, b, cb.x, cb.lo, cb.hi);
 }
 bool facets_conflict(const PointList<3>& x, const Facet<3>& a, const Facet<3>& b) {
   return facets_conflict(a, corners(x, a), b, corners(x, b));
@@ -49,7 +46,7 @@ bool facets_conflict(const PointList<3>& x, const Facet<3>& a, const Facet<3>& b
 // 2D: segments that share no vertex must not touch (neighbours along the polygon are free).
 bool facets_conflict(const PointList<2>& x, const Facet<2>& a, const Facet<2>& b) {
   if (a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1]) return false;
-  return detail::segments_intersect(x[a[0]], x[a[1]], x[b[0]], x[b[1]]);
+  return segments_intersect(x[a[0]], x[a[1]], x[b[0]], x[b[1]]);
 }
 
 template <int D>
@@ -222,7 +219,7 @@ bool covers(const Cache& cache, const std::vector<Facet<D>>& facets, const Point
   return true;
 }
 
-// 3D: the certificates of the kept pairs that share one vertex (remesh_detail::
+// 3D: the certificates of the kept pairs that share one vertex (triangle_pairs.h,
 // shared_vertex_radius) or one edge (shared_edge_radius; cache.radius is sized by the build), at
 // positions x, which become the reference that the vertices' drift is measured from.
 template <int D, class Cache>
@@ -237,8 +234,8 @@ void certify(Cache& cache, const PointList<D>& x) {
       const auto& fa = cache.facets[cache.pairs[i][0]];
       const auto& fb = cache.facets[cache.pairs[i][1]];
       const std::array<Point<3>, 3> pa = {x[fa[0]], x[fa[1]], x[fa[2]]}, pb = {x[fb[0]], x[fb[1]], x[fb[2]]};
-      cache.radius[i] = remesh_detail::shared_corners(fa, fb) == 1 ? remesh_detail::shared_vertex_radius(fa, pa, fb, pb)
-                                                                   : remesh_detail::shared_edge_radius(fa, pa, fb, pb);
+      cache.radius[i] = shared_corners(fa, fb) == 1 ? shared_vertex_radius(fa, pa, fb, pb)
+                                                                   : shared_edge_radius(fa, pa, fb, pb);
     }
     for (int64_t k = 0; k < m; ++k) cache.certified += cache.radius[cache.adjacent[k]] > 0;
     // The index of the certificates by facet (PairCache).
@@ -312,7 +309,7 @@ void rebuild(Cache& cache, const std::vector<Facet<D>>& facets, const PointList<
   cache.radius.assign(D == 3 ? cache.pairs.size() : 0, 0.0);
   if constexpr (D == 3) {
     for (size_t i = 0; i < cache.pairs.size(); ++i) {
-      const int shared = remesh_detail::shared_corners(facets[cache.pairs[i][0]], facets[cache.pairs[i][1]]);
+      const int shared = shared_corners(facets[cache.pairs[i][0]], facets[cache.pairs[i][1]]);
       if (shared == 1 || shared == 2) cache.adjacent.push_back(static_cast<int64_t>(i));
     }
   }
@@ -326,9 +323,155 @@ CollisionGuard<D>::CollisionGuard(const CollisionGuardOptions& options) : option
   DSNAKE_ASSERT(options.halvings >= 0, "halvings >= 0");
 }
 
+namespace {
+
+// 3D: how far each vertex is from the certificates' reference, at q(t) and at q(t+1) (the later
+// rounds' positions lie between the two, so no farther), and per facet the farthest of its
+// vertices.
+template <int D, class Cache>
+void measure_drift(const Cache& cache, const std::vector<std::array<int, D>>& facets, const PointList<D>& q,
+                   const PointList<D>& p, std::vector<double>& vertex_drift, std::vector<double>& drift) {
+  const int n = static_cast<int>(q.size()), nf = static_cast<int>(facets.size());
+  vertex_drift.resize(n);
+  drift.resize(nf);
+#pragma omp parallel if (nf >= 8192)
+  {
+#pragma omp for schedule(static)
+    for (int v = 0; v < n; ++v)
+      vertex_drift[v] = std::sqrt(
+          std::max((q[v] - cache.reference[v]).squaredNorm(), (p[v] - cache.reference[v]).squaredNorm()));
+#pragma omp for schedule(static)
+    for (int f = 0; f < nf; ++f) {
+      double d = 0;
+      for (int v : facets[f]) d = std::max(d, vertex_drift[v]);
+      drift[f] = d;
+    }
+  }
+}
+
+// The kept pairs to test, into `pairs`: filtered in contiguous chunks (one per thread), joined in
+// chunk order. A pair is due a test if one of its facets changed, it has no certificate or its
+// facets drifted past it, and its swept boxes overlap. 3D with certificates (`certified`): the
+// uncertified pairs, then the certified pairs of the facets whose drift reached their smallest
+// certificate (a pair whose facets both stay below theirs stays below its own), each pair
+// once (under the first such facet); the same pairs as filtering every kept one
+// (`certificate_index` false), in another order, which changes nothing (every hit is collected
+// and the vertices to step back sorted). Returns how many certified pairs were due a test.
+template <int D, class Cache>
+int64_t due_pairs(const Cache& cache, const std::vector<uint8_t>& changed, const std::vector<double>& drift,
+                  const std::vector<Box<D>>& boxes, bool certified, bool certificate_index,
+                  std::vector<std::array<int, 2>>& pairs) {
+  const int nf = static_cast<int>(boxes.size());
+  const int64_t kept = static_cast<int64_t>(cache.pairs.size());
+  const int chunks = kept >= 32768 ? omp_get_max_threads() : 1;
+  std::vector<std::vector<std::array<int, 2>>> chunk_pairs(chunks);
+  int64_t expired = 0;
+  auto filter = [&](int64_t i, std::vector<std::array<int, 2>>& out, int64_t& expired_here) {
+    const auto& pair = cache.pairs[i];
+    if (!(changed[pair[0]] | changed[pair[1]])) return;
+    if (certified && cache.radius[i] > 0) {
+      if (std::max(drift[pair[0]], drift[pair[1]]) < cache.radius[i]) return;
+      ++expired_here;
+    }
+    if (overlap(boxes[pair[0]], boxes[pair[1]])) out.push_back(pair);
+  };
+  if (certified && certificate_index) {
+    const int64_t plain = static_cast<int64_t>(cache.uncertified.size());
+    auto hot = [&](int f) { return !(drift[f] < cache.facet_radius[f]); };
+#pragma omp parallel for schedule(static) num_threads(chunks) reduction(+ : expired) if (chunks > 1)
+    for (int c = 0; c < chunks; ++c) {
+      std::vector<std::array<int, 2>>& out = chunk_pairs[c];
+      for (int64_t k = plain * c / chunks, end = plain * (c + 1) / chunks; k < end; ++k)
+        filter(cache.uncertified[k], out, expired);
+      for (int f = int(int64_t(nf) * c / chunks), f_end = int(int64_t(nf) * (c + 1) / chunks); f < f_end; ++f) {
+        if (!hot(f)) continue;
+        for (int64_t k = cache.certified_start[f]; k < cache.certified_start[f + 1]; ++k) {
+          const int64_t i = cache.certified_of[k];
+          const int other = cache.pairs[i][0] == f ? cache.pairs[i][1] : cache.pairs[i][0];
+          if (other < f && hot(other)) continue;  // taken under `other`
+          filter(i, out, expired);
+        }
+      }
+    }
+  } else {
+#pragma omp parallel for schedule(static) num_threads(chunks) reduction(+ : expired) if (chunks > 1)
+    for (int c = 0; c < chunks; ++c)
+      for (int64_t i = kept * c / chunks, end = kept * (c + 1) / chunks; i < end; ++i) filter(i, chunk_pairs[c], expired);
+  }
+  pairs.clear();
+  for (const auto& c : chunk_pairs) pairs.insert(pairs.end(), c.begin(), c.end());
+  return expired;
+}
+
 // Rounds: test the pairs with a facet changed since the last round (first: with a moved
-// corner), at the proposed positions; every vertex of a newly conflicting pair that moved and
-// can still step back does so (level k: 2^-k of its move; past `halvings`: none of it).
+// corner), at the proposed positions p; every vertex of a newly conflicting pair that moved and
+// can still step back does so (level k: 2^-k of its move; past `halvings`: none of it), until
+// no new conflict is left. `changed` (per facet) and `moved` (per vertex) as the guard set them;
+// level[v]: the steps back of v. Returns the exact tests made.
+template <int D>
+int64_t step_back_rounds(const PointList<D>& q, PointList<D>& p, const std::vector<std::array<int, D>>& facets,
+                         const std::vector<std::array<int, 2>>& pairs, std::vector<uint8_t>& changed,
+                         std::vector<uint8_t>& moved, std::vector<int>& level, int halvings) {
+  const int n = static_cast<int>(q.size()), nf = static_cast<int>(facets.size());
+  const PointList<D> wanted = p;  // the proposed positions before any step back
+  level.assign(n, 0);
+  std::vector<uint8_t> hit(pairs.size());
+  std::vector<int> step_back;
+  // 3D: the facets' corners at p, all of them before the first round, then those with a corner
+  // stepped back (the others' corners have not moved since).
+  std::vector<std::conditional_t<D == 3, Corners3, char>> at_p(D == 3 ? nf : 0);
+  bool first_round = true;
+  int64_t checks = 0;
+  while (true) {
+    const int64_t m = static_cast<int64_t>(pairs.size());
+    int64_t tests = 0;
+    if constexpr (D == 3) {
+#pragma omp parallel for schedule(static) if (nf >= 8192)
+      for (int f = 0; f < nf; ++f)
+        if (first_round || changed[f]) at_p[f] = corners(p, facets[f]);
+    }
+    first_round = false;
+#pragma omp parallel for schedule(static) reduction(+ : tests) if (m >= 4096)
+    for (int64_t i = 0; i < m; ++i) {
+      const auto [a, b] = pairs[i];
+      hit[i] = 0;
+      if (!(changed[a] | changed[b])) continue;
+      ++tests;
+      if constexpr (D == 3) {
+        hit[i] = facets_conflict(facets[a], at_p[a], facets[b], at_p[b]) && !facets_conflict(q, facets[a], facets[b]);
+      } else {
+        hit[i] = facets_conflict(p, facets[a], facets[b]) && !facets_conflict(q, facets[a], facets[b]);
+      }
+    }
+    checks += tests;
+    step_back.clear();
+    for (int64_t i = 0; i < m; ++i) {
+      if (!hit[i]) continue;
+      for (int f : pairs[i])
+        for (int v : facets[f])
+          if (moved[v] && level[v] <= halvings) step_back.push_back(v);
+    }
+    if (step_back.empty()) break;
+    std::sort(step_back.begin(), step_back.end());
+    step_back.erase(std::unique(step_back.begin(), step_back.end()), step_back.end());
+    for (int v : step_back) {
+      const int k = ++level[v];
+      p[v] = k > halvings ? q[v] : Point<D>(q[v] + std::ldexp(1.0, -k) * (wanted[v] - q[v]));
+      moved[v] = 2;  // stepped back in this round
+    }
+    for (int f = 0; f < nf; ++f) {
+      changed[f] = 0;
+      for (int v : facets[f]) changed[f] |= moved[v] == 2;
+    }
+    for (int v : step_back) moved[v] = p[v] != q[v];
+  }
+  return checks;
+}
+
+}  // namespace
+
+// The swept boxes of the facets, the kept pairs (rebuilt or re-certified when due), the drift
+// against the certificates, the pairs due a test, then the rounds of steps back.
 template <int D>
 MoveGuardReport CollisionGuard<D>::guard(const Snake<D>& snake, PointList<D>& p) {
   MoveGuardReport report;
@@ -355,124 +498,12 @@ MoveGuardReport CollisionGuard<D>::guard(const Snake<D>& snake, PointList<D>& p)
     // certificates were made, about as much as making them again: renew them (rent or buy).
     certify<D>(cache_, q);
   }
-  // 3D: how far each facet's vertices are from the reference, at q(t) and at q(t+1) (the later
-  // rounds' positions lie between the two, so no farther); a pair with a certificate larger
-  // than both of its facets' drifts cannot conflict and is not tested.
+  // 3D: a pair with a certificate larger than both of its facets' drifts cannot conflict and is
+  // not tested.
   const bool certified = D == 3 && cache_.certified > 0;
-  if (certified) {
-    vertex_drift_.resize(n);
-    drift_.resize(nf);
-#pragma omp parallel if (nf >= 8192)
-    {
-#pragma omp for schedule(static)
-      for (int v = 0; v < n; ++v)
-        vertex_drift_[v] = std::sqrt(
-            std::max((q[v] - cache_.reference[v]).squaredNorm(), (p[v] - cache_.reference[v]).squaredNorm()));
-#pragma omp for schedule(static)
-      for (int f = 0; f < nf; ++f) {
-        double d = 0;
-        for (int v : facets_[f]) d = std::max(d, vertex_drift_[v]);
-        drift_[f] = d;
-      }
-    }
-  }
-  // The kept pairs to test: filtered in contiguous chunks (one per thread), joined in chunk
-  // order. A pair is due a test if one of its facets changed, it has no certificate or its
-  // facets drifted past it, and its swept boxes overlap. 3D with certificates: the uncertified
-  // pairs, then the certified pairs of the facets whose drift reached their smallest
-  // certificate (a pair whose facets both stay below theirs stays below its own), each pair
-  // once (under the first such facet); the same pairs as filtering every kept one, in another
-  // order, which changes nothing (every hit is collected and the vertices to step back sorted).
-  const int64_t kept = static_cast<int64_t>(cache_.pairs.size());
-  const int chunks = kept >= 32768 ? omp_get_max_threads() : 1;
-  std::vector<std::vector<std::array<int, 2>>> chunk_pairs(chunks);
-  int64_t expired = 0;
-  auto filter = [&](int64_t i, std::vector<std::array<int, 2>>& out, int64_t& expired_here) {
-    const auto& pair = cache_.pairs[i];
-    if (!(changed_[pair[0]] | changed_[pair[1]])) return;
-    if (certified && cache_.radius[i] > 0) {
-      if (std::max(drift_[pair[0]], drift_[pair[1]]) < cache_.radius[i]) return;
-      ++expired_here;
-    }
-    if (overlap(boxes[pair[0]], boxes[pair[1]])) out.push_back(pair);
-  };
-  if (certified && certificate_index_) {
-    const int64_t plain = static_cast<int64_t>(cache_.uncertified.size());
-    auto hot = [&](int f) { return !(drift_[f] < cache_.facet_radius[f]); };
-#pragma omp parallel for schedule(static) num_threads(chunks) reduction(+ : expired) if (chunks > 1)
-    for (int c = 0; c < chunks; ++c) {
-      std::vector<std::array<int, 2>>& out = chunk_pairs[c];
-      for (int64_t k = plain * c / chunks, end = plain * (c + 1) / chunks; k < end; ++k)
-        filter(cache_.uncertified[k], out, expired);
-      for (int f = int(int64_t(nf) * c / chunks), f_end = int(int64_t(nf) * (c + 1) / chunks); f < f_end; ++f) {
-        if (!hot(f)) continue;
-        for (int64_t k = cache_.certified_start[f]; k < cache_.certified_start[f + 1]; ++k) {
-          const int64_t i = cache_.certified_of[k];
-          const int other = cache_.pairs[i][0] == f ? cache_.pairs[i][1] : cache_.pairs[i][0];
-          if (other < f && hot(other)) continue;  // taken under `other`
-          filter(i, out, expired);
-        }
-      }
-    }
-  } else {
-#pragma omp parallel for schedule(static) num_threads(chunks) reduction(+ : expired) if (chunks > 1)
-    for (int c = 0; c < chunks; ++c)
-      for (int64_t i = kept * c / chunks, end = kept * (c + 1) / chunks; i < end; ++i) filter(i, chunk_pairs[c], expired);
-  }
-  cache_.expired += expired;
-  pairs_.clear();
-  for (const auto& c : chunk_pairs) pairs_.insert(pairs_.end(), c.begin(), c.end());
-  const PointList<D> wanted = p;  // the proposed positions before any step back
-  level_.assign(n, 0);
-  std::vector<uint8_t> hit(pairs_.size());
-  std::vector<int> step_back;
-  // 3D: the facets' corners at p, all of them before the first round, then those with a corner
-  // stepped back (the others' corners have not moved since).
-  std::vector<std::conditional_t<D == 3, Corners3, char>> at_p(D == 3 ? nf : 0);
-  bool first_round = true;
-  while (true) {
-    const int64_t m = static_cast<int64_t>(pairs_.size());
-    int64_t tests = 0;
-    if constexpr (D == 3) {
-#pragma omp parallel for schedule(static) if (nf >= 8192)
-      for (int f = 0; f < nf; ++f)
-        if (first_round || changed_[f]) at_p[f] = corners(p, facets_[f]);
-    }
-    first_round = false;
-#pragma omp parallel for schedule(static) reduction(+ : tests) if (m >= 4096)
-    for (int64_t i = 0; i < m; ++i) {
-      const auto [a, b] = pairs_[i];
-      hit[i] = 0;
-      if (!(changed_[a] | changed_[b])) continue;
-      ++tests;
-      if constexpr (D == 3) {
-        hit[i] = facets_conflict(facets_[a], at_p[a], facets_[b], at_p[b]) && !facets_conflict(q, facets_[a], facets_[b]);
-      } else {
-        hit[i] = facets_conflict(p, facets_[a], facets_[b]) && !facets_conflict(q, facets_[a], facets_[b]);
-      }
-    }
-    report.checks += tests;
-    step_back.clear();
-    for (int64_t i = 0; i < m; ++i) {
-      if (!hit[i]) continue;
-      for (int f : pairs_[i])
-        for (int v : facets_[f])
-          if (moved_[v] && level_[v] <= options_.halvings) step_back.push_back(v);
-    }
-    if (step_back.empty()) break;
-    std::sort(step_back.begin(), step_back.end());
-    step_back.erase(std::unique(step_back.begin(), step_back.end()), step_back.end());
-    for (int v : step_back) {
-      const int k = ++level_[v];
-      p[v] = k > options_.halvings ? q[v] : Point<D>(q[v] + std::ldexp(1.0, -k) * (wanted[v] - q[v]));
-      moved_[v] = 2;  // stepped back in this round
-    }
-    for (int f = 0; f < nf; ++f) {
-      changed_[f] = 0;
-      for (int v : facets_[f]) changed_[f] |= moved_[v] == 2;
-    }
-    for (int v : step_back) moved_[v] = p[v] != q[v];
-  }
+  if (certified) measure_drift<D>(cache_, facets_, q, p, vertex_drift_, drift_);
+  cache_.expired += due_pairs<D>(cache_, changed_, drift_, boxes, certified, certificate_index_, pairs_);
+  report.checks += step_back_rounds<D>(q, p, facets_, pairs_, changed_, moved_, level_, options_.halvings);
   for (int v = 0; v < n; ++v) {
     if (level_[v] > options_.halvings) ++report.refused;
     else if (level_[v] > 0) ++report.shortened;
