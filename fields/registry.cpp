@@ -33,16 +33,7 @@ const Registry<ExternalField<D>>& field_registry() {
 template <int D>
 FieldSpec<D> read_field_spec(JsonReader& reader) {
   FieldSpec<D> spec;
-  if (reader.has("cache")) {
-    reader.read("cache", spec.cache_dir);
-    reader.expect(!spec.cache_dir.empty(), "cache", "must be a non-empty folder name");
-  }
-  if (reader.has("cache_compression")) {
-    std::string c;
-    reader.read("cache_compression", c);
-    reader.expect(c == "none" || c == "zlib", "cache_compression", "must be \"none\" or \"zlib\"");
-    spec.cache_compressed = c == "zlib";
-  }
+  read_options(reader, spec.cache);
   if (reader.has("region")) {
     JsonReader region = reader.child("region");
     read_options(region, spec.region);
@@ -55,25 +46,15 @@ FieldSpec<D> read_field_spec(JsonReader& reader) {
 template <int D>
 std::unique_ptr<ExternalField<D>> build_field(const FieldSpec<D>& spec) {
   auto field = spec.field.build();
-  if (spec.cache_dir.empty()) return field;
+  if (!spec.cache.cache) return field;
   // The type is part of the key (field_cache_key hashes field->type()); the options text is the
   // canonical JSON of every option, in visit() order.
-  return std::make_unique<CachedField<D>>(std::move(field), spec.cache_dir, spec.field.options.dump(),
-                                          spec.cache_compressed);
+  return std::make_unique<CachedField<D>>(std::move(field), *spec.cache.cache, spec.field.options.dump(),
+                                          spec.cache.cache_compression == CacheCompression::kZlib);
 }
 
 nlohmann::ordered_json field_common_schema_properties() {
-  nlohmann::ordered_json p = nlohmann::ordered_json::object();
-  p["cache"] = {{"type", "string"},
-                {"description",
-                 "folder of the field cache: the computed field is stored there, keyed by the image and the "
-                 "field's type and options, and loaded by later runs (fields/field_cache.h)"}};
-  p["cache_compression"] = {{"type", "string"},
-                            {"enum", {"none", "zlib"}},
-                            {"default", "none"},
-                            {"description",
-                             "how new field cache entries are stored: raw single-precision arrays (none) or deflated "
-                             "with zlib (smaller, slower to write and read); entries of either kind are read"}};
+  nlohmann::ordered_json p = options_schema<FieldCacheOptions>();
   p["region"] = {{"type", "object"},
                  {"description",
                   "where the field is computed: the placed template's bounding box widened by a margin (default), "

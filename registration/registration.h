@@ -58,7 +58,7 @@ struct RegistrationProblem {
   SolverKind solver = SolverKind::kSnake;
   GlobalSolverOptions global;             // solver kGlobal: Ceres' options
   CollisionGuardOptions collision_guard;  // solver kSnake: the check on every move
-  Watchdog watchdog;                      // when a run stops as diverged
+  Watchdog watchdog = Watchdog::off();    // when a run stops as diverged
   // The file the problem was read from ("": none): a field's own checks on the image throw an
   // InputError that knows the key but not the file; it is rethrown naming this one.
   std::string source;

@@ -271,10 +271,7 @@ nlohmann::ordered_json guard_json(const MoveGuardReport& r) {
 // The numeric watchdog: "watchdog.max_move" 0 is the image's diagonal in mm.
 template <int D>
 Watchdog watchdog_of(const Experiment<D>& ex) {
-  Watchdog w;
-  w.max_vertices = ex.watchdog.max_vertices;
-  w.max_move = ex.watchdog.max_move;
-  w.min_size = ex.watchdog.min_size;
+  Watchdog w = ex.watchdog;
   if (!(w.max_move > 0)) {
     const Grid<D>& g = ex.image.grid();
     w.max_move = (g.size.template cast<double>().cwiseProduct(g.spacing)).norm();

@@ -19,48 +19,10 @@ namespace fs = std::filesystem;
 constexpr double kPi = 3.14159265358979323846;
 constexpr int kUp = 1;  // the Stanford bunny's up axis (y)
 
-// A relative "mesh" path is relative to the experiment file's folder (as image and template
-// files are, experiments/experiment.cpp); a missing file names the key and the fetch script.
-std::string read_mesh_path(JsonReader& r) {
-  std::string p;
-  r.require("mesh", p);
-  r.expect(!p.empty(), "mesh", "must be a mesh file path");
-  const std::string& file = r.file();
-  if (fs::path(p).is_relative() && !file.empty() && file.rfind("builtin:", 0) != 0)
-    p = (fs::path(file).parent_path() / p).string();
-  r.expect(fs::exists(p), "mesh",
-           "no such mesh file \"" + p + "\" (the bunny comes from scripts/fetch_bunny.sh, run by scripts/setup.sh)");
-  return p;
-}
-
-double read_fit(JsonReader& r) {
-  double fit = 64;
-  r.read("fit", fit);
-  r.expect(fit > 0 && fit <= 4096, "fit", "must be in (0, 4096]");
-  return fit;
-}
-
 // Default centre of a "mesh" image of this fit (its default size fit + 16, cubic), shared by the
 // "bunny" template so that both default to the same place.
 Point<3> default_mesh_center(double fit) {
   return Point<3>::Constant(0.5 * (std::ceil(fit) + 16 - 1));
-}
-
-Point<3> read_center(JsonReader& r, double fit) {
-  Point<3> center = default_mesh_center(fit);
-  r.read<3>("center", center);
-  return center;
-}
-
-BunnyDeformation read_deformation(JsonReader& r) {
-  BunnyDeformation d;
-  r.read<3>("stretch", d.stretch);
-  r.expect(d.stretch.minCoeff() > 0, "stretch", "must be > 0 on every axis");
-  r.read("ear_twist_deg", d.ear_twist_deg);
-  r.expect(std::abs(d.ear_twist_deg) <= 180, "ear_twist_deg", "must be in [-180, 180]");
-  r.read("ear_base", d.ear_base);
-  r.expect(d.ear_base >= 0 && d.ear_base < 1, "ear_base", "must be in [0, 1)");
-  return d;
 }
 
 // Heights of the template's lowest and highest vertex and of the ears' base (fraction ear_base).
@@ -106,31 +68,32 @@ Template<3> load_fitted_mesh(const std::string& path, double fit, const Point<3>
   return t;
 }
 
-GridIndex<3> mesh_image_size(JsonReader& r, const std::string& kind) {
-  if (kind == "mesh") return GridIndex<3>::Constant(int(std::ceil(read_fit(r))) + 16);
-  if (kind == "points") return GridIndex<3>::Constant(64);
-  return GridIndex<3>::Zero();
+// A relative "mesh" path is relative to the experiment file's folder (as image and template
+// files are); a missing file names the key and the fetch script.
+void MeshPathKey::resolve(std::optional<std::string>& path, const JsonReader& r) {
+  if (!path) r.fail("mesh", "is required");
+  std::string& p = *path;
+  r.expect(!p.empty(), "mesh", "must be a mesh file path");
+  const std::string& file = r.file();
+  if (fs::path(p).is_relative() && !file.empty() && file.rfind("builtin:", 0) != 0)
+    p = (fs::path(file).parent_path() / p).string();
+  r.expect(fs::exists(p), "mesh",
+           "no such mesh file \"" + p + "\" (the bunny comes from scripts/fetch_bunny.sh, run by scripts/setup.sh)");
 }
 
-std::optional<Template<3>> make_mesh_image_surface(JsonReader& r, const std::string& kind, const Point<3>& center) {
-  if (kind == "mesh") return load_fitted_mesh(read_mesh_path(r), read_fit(r), center);
-  if (kind != "points") return std::nullopt;
-  // Fig. 1: small solid balls, one closed icosphere each, in one (disconnected) surface.
-  double radius = 3;
-  r.read("radius", radius);
-  r.expect(radius > 0, "radius", "must be > 0");
-  r.expect(r.has("centers"), "centers", "is required: [[x, y, z], ...]");
-  const nlohmann::json& list = r.raw("centers");
-  r.expect(list.is_array() && !list.empty(), "centers", "expected a non-empty array of [x, y, z]");
+void PointsImageOptions::check() const {
+  canvas.check();
+  if (!centers) throw OptionError{"centers", "is required: [[x, y, z], ...]"};
+}
+
+// Fig. 1: small solid balls, one closed icosphere each, in one (disconnected) surface.
+Template<3> points_surface(const PointsImageOptions& o) {
   const Template<3> ball = make_icosphere(2);
   Template<3> out;
   std::vector<Triangle> tris;
-  for (const auto& c : list) {
-    if (!c.is_array() || c.size() != 3 || !c[0].is_number() || !c[1].is_number() || !c[2].is_number())
-      r.fail("centers", "expected an array of [x, y, z] points");
-    const Point<3> x(c[0].get<double>(), c[1].get<double>(), c[2].get<double>());
+  for (const Point<3>& x : *o.centers) {
     const int offset = out.num_vertices();
-    for (const auto& p : ball.positions) out.positions.push_back(x + radius * p);
+    for (const auto& p : ball.positions) out.positions.push_back(x + o.radius * p);
     for (Triangle t : ball.connectivity.triangles()) {
       for (int& v : t) v += offset;
       tris.push_back(t);
@@ -139,6 +102,8 @@ std::optional<Template<3>> make_mesh_image_surface(JsonReader& r, const std::str
   out.connectivity = Connectivity::mesh(out.num_vertices(), std::move(tris));
   return out;
 }
+
+Point<3> BunnyTemplateOptions::center_point() const { return center ? *center : default_mesh_center(fit); }
 
 Template<3> simplify_mesh_quadric(const Template<3>& t, int vertices) {
   DecimatedMesh m = simplify_quadric(t.positions, t.connectivity, vertices);
@@ -182,24 +147,16 @@ PointList<3> undeform_bunny(const Template<3>& t, const Point<3>& center, const 
   return out;
 }
 
-std::optional<Template<3>> make_bunny_template(JsonReader& r, const std::string& kind) {
-  if (kind != "bunny") return std::nullopt;
-  const double fit = read_fit(r);
-  const Point<3> center = read_center(r, fit);
-  int vertices = 358;
-  r.read("vertices", vertices);
-  r.expect(vertices >= 8 && vertices <= 1000000, "vertices", "must be in [8, 1000000]");
-  const BunnyDeformation d = read_deformation(r);
-  const std::string path = read_mesh_path(r);  // last: the parameters are checked first
-  Template<3> t = simplify_mesh_quadric(load_fitted_mesh(path, fit, center), vertices);
-  deform_bunny(t, center, d);
+Template<3> make_bunny_template(const BunnyTemplateOptions& o) {
+  const Point<3> center = o.center_point();
+  Template<3> t = simplify_mesh_quadric(load_fitted_mesh(*o.mesh, o.fit, center), o.vertices);
+  deform_bunny(t, center, o.deformation);
   return t;
 }
 
-std::vector<std::optional<Point<3>>> bunny_targets(JsonReader& r, const Template<3>& t) {
-  const Point<3> center = read_center(r, read_fit(r));
+std::vector<std::optional<Point<3>>> bunny_targets(const BunnyTemplateOptions& o, const Template<3>& t) {
   std::vector<std::optional<Point<3>>> targets;
-  for (const auto& p : undeform_bunny(t, center, read_deformation(r))) targets.emplace_back(p);
+  for (const auto& p : undeform_bunny(t, o.center_point(), o.deformation)) targets.emplace_back(p);
   return targets;
 }
 

@@ -27,7 +27,7 @@
 //    The correspondence target of template vertex k is its position before the deformation.
 #pragma once
 
-#include "framework/core/json_reader.h"
+#include "experiments/phantoms/phantoms.h"
 #include "framework/core/shape.h"
 
 #include <optional>
@@ -40,17 +40,77 @@ namespace dsnake {
 // its bounding-box centre at `center`.
 Template<3> load_fitted_mesh(const std::string& path, double fit, const Point<3>& center);
 
-// Default image size of the extra image phantoms ("mesh": reads "fit"; "points"); zero if
-// `kind` is not one of them.
-GridIndex<3> mesh_image_size(JsonReader& r, const std::string& kind);
+// A mesh file path: required, relative paths resolved against the experiment file's folder
+// (the folder of reader.file()), the file must exist. Shared by "mesh" and "bunny".
+struct MeshPathKey {
+  static void resolve(std::optional<std::string>& path, const JsonReader& reader);
+};
 
-// The true surface of the extra image phantom `kind` about `center` (its keys read from r), or
-// nullopt if `kind` is not "mesh" or "points".
-std::optional<Template<3>> make_mesh_image_surface(JsonReader& r, const std::string& kind, const Point<3>& center);
+// Image phantom "mesh": a closed mesh scaled to `fit`; its default size is fit + 16 per axis.
+struct MeshImageOptions {
+  CanvasOptions<3> canvas = [] {
+    CanvasOptions<3> c;
+    c.blur = 0;
+    c.size_from_fit = true;
+    return c;
+  }();
+  std::optional<std::string> mesh;
+  double fit = 64;
+  template <class V>
+  void visit(V& v) {
+    canvas.visit(v);
+    v(mesh, Key{"mesh", "", "the closed mesh file (OFF/OBJ/PLY/STL), relative to the experiment file's folder (required)"});
+    v(fit, Key{"fit", "mm", "the longest side of the scaled mesh's bounding box (default size: fit + 16 voxels per axis)",
+               Range::open_closed(0, 4096)});
+  }
+  void check() const { canvas.check(); }
+  void resolve(const JsonReader& reader) { MeshPathKey::resolve(mesh, reader); }  // after the parameters' checks
+};
+
+// Image phantom "points": solid balls of `radius` at `centers` (Fig. 1's attracting points).
+struct PointsImageOptions {
+  CanvasOptions<3> canvas = CanvasOptions<3>::with(GridIndex<3>(64, 64, 64), 0.0);
+  double radius = 3;
+  std::optional<PointList<3>> centers;
+  template <class V>
+  void visit(V& v) {
+    canvas.visit(v);
+    v(radius, Key{"radius", "mm", "radius of every ball", Range::greater_than(0)});
+    v(centers, Key{"centers", "mm", "the balls' centres (required)"});
+  }
+  void check() const;
+};
+// The balls' surface: one closed icosphere of 162 vertices per centre, in one surface.
+Template<3> points_surface(const PointsImageOptions& options);
 
 struct BunnyDeformation {
   Point<3> stretch = Point<3>(1.1, 0.95, 1.0);
   double ear_twist_deg = 20, ear_base = 0.7;
+  template <class V>
+  void visit(V& v) {
+    v(stretch, Key{"stretch", "1", "scaling per axis about the centre", Range::greater_than(0)});
+    v(ear_twist_deg, Key{"ear_twist_deg", "degrees", "the ears' twist at the top about the vertical axis", Range::closed(-180, 180)});
+    v(ear_base, Key{"ear_base", "1", "height of the ears' base as a share of the template's height", Range::closed_open(0, 1)});
+  }
+};
+
+// Template phantom "bunny".
+struct BunnyTemplateOptions {
+  std::optional<std::string> mesh;
+  double fit = 64;
+  std::optional<Point<3>> center;  // default: the "mesh" image's centre for this fit
+  int vertices = 358;
+  BunnyDeformation deformation;
+  template <class V>
+  void visit(V& v) {
+    v(mesh, Key{"mesh", "", "the closed mesh file, as the \"mesh\" image's (required)"});
+    v(fit, Key{"fit", "mm", "the longest side of the scaled mesh's bounding box", Range::open_closed(0, 4096)});
+    v(center, Key{"center", "mm", "the mesh's bounding-box centre (default: the \"mesh\" image's centre for this fit)"});
+    v(vertices, Key{"vertices", "vertices", "about this many vertices after the quadric simplification", Range::closed(8, 1000000)});
+    deformation.visit(v);
+  }
+  void resolve(const JsonReader& reader) { MeshPathKey::resolve(mesh, reader); }
+  Point<3> center_point() const;
 };
 
 // Applies the deformation to `t` (scaling about `center`, then the ear twist; sets landmark
@@ -62,8 +122,8 @@ PointList<3> undeform_bunny(const Template<3>& t, const Point<3>& center, const 
 // collapses; the result's vertices are a subset of t's (same positions), in their old order.
 Template<3> simplify_mesh_quadric(const Template<3>& t, int vertices);
 
-// The template phantom "bunny" (nullopt for other kinds) and its correspondence targets.
-std::optional<Template<3>> make_bunny_template(JsonReader& r, const std::string& kind);
-std::vector<std::optional<Point<3>>> bunny_targets(JsonReader& r, const Template<3>& t);
+// The template phantom "bunny" and its correspondence targets.
+Template<3> make_bunny_template(const BunnyTemplateOptions& options);
+std::vector<std::optional<Point<3>>> bunny_targets(const BunnyTemplateOptions& options, const Template<3>& t);
 
 }  // namespace dsnake

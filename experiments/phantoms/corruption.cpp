@@ -6,12 +6,30 @@
 
 namespace dsnake {
 
+namespace {
+
+template <class O>
+CorruptionKind kind_of(CorruptionType type, const char* summary) {
+  return {enum_name(type), summary, options_schema<O>(), options_rows<O>()};
+}
+
+}  // namespace
+
+const std::vector<CorruptionKind>& corruption_kinds() {
+  static const std::vector<CorruptionKind> kinds = {
+      kind_of<OutliersOptions>(CorruptionType::kOutliers, "each voxel flips to the other grey level with probability `fraction`"),
+      kind_of<NoiseOptions>(CorruptionType::kNoise, "additive white Gaussian noise, clamped to [0, 255]"),
+      kind_of<PerturbOptions>(CorruptionType::kPerturb,
+                              "every foreground voxel moves a random distance <= `radius` in a random direction")};
+  return kinds;
+}
+
 CorruptionSpec read_corruption(JsonReader& r) {
   CorruptionSpec c;
   std::string type;
   r.require("type", type);
   const auto t = enum_from_name<CorruptionType>(type);
-  if (!t) r.fail("type", "unknown corruption \"" + type + "\" (known: outliers, noise, perturb)");
+  if (!t) r.fail("type", "unknown corruption \"" + type + "\" (known: " + enum_choices<CorruptionType>() + ")");
   c.type = *t;
   switch (c.type) {
     case CorruptionType::kOutliers: read_options(r, c.outliers); break;

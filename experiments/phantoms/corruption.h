@@ -10,8 +10,11 @@
 #include "framework/core/image.h"
 #include "framework/core/json_reader.h"
 #include "framework/core/options.h"
+#include "framework/core/options_schema.h"
 
 #include <cstdint>
+#include <string>
+#include <vector>
 
 namespace dsnake {
 
@@ -53,6 +56,15 @@ struct CorruptionSpec {
   NoiseOptions noise;
   PerturbOptions perturb;
 };
+
+// The corruption types as declared: name, summary and the keys of its options (from visit()),
+// in the order of EnumNames<CorruptionType>; for the schema and the documentation.
+struct CorruptionKind {
+  std::string name, summary;
+  nlohmann::ordered_json schema_properties;
+  std::vector<KeyRow> rows;
+};
+const std::vector<CorruptionKind>& corruption_kinds();
 
 // Reads one corruption object ({"type": ..., options}); unknown keys throw.
 CorruptionSpec read_corruption(JsonReader& reader);

@@ -50,15 +50,6 @@ Template<2> polygon_template(PointList<2> p) {
 
 // ---- 3D star ------------------------------------------------------------------------------
 
-Star3dShape read_star3d(JsonReader& r) {
-  Star3dShape s;
-  r.read("outer_radius", s.outer);
-  r.read("inner_radius", s.inner);
-  r.expect(s.outer > 0, "outer_radius", "must be > 0");
-  r.expect(s.inner > 0 && s.inner < s.outer, "inner_radius", "must be in (0, outer_radius)");
-  return s;
-}
-
 // The 26 neighbourhood directions in id order: face centres (+x, -x, +y, -y, +z, -z), the 12
 // edge midpoints (axis pairs xy, xz, yz; signs ++, +-, -+, --), the 8 corners (x slowest).
 std::vector<Eigen::Vector3i> star_directions() {
@@ -149,21 +140,6 @@ Template<3> make_tetris(const Point<3>& center, double cell) {
 namespace {
 
 // ---- 2D puzzle piece ------------------------------------------------------------------------
-
-PuzzleShape read_puzzle(JsonReader& r) {
-  PuzzleShape p;
-  r.read("half_width", p.half_width);
-  r.read("knob_radius", p.knob_radius);
-  r.read("knob_offset", p.knob_offset);
-  r.expect(p.half_width > 0, "half_width", "must be > 0");
-  r.expect(p.knob_radius > 0, "knob_radius", "must be > 0");
-  r.expect(p.knob_offset >= 0 && p.knob_offset < p.knob_radius, "knob_offset", "must be in [0, knob_radius)");
-  r.expect(p.knob_radius + p.knob_offset < p.half_width, "knob_radius",
-           "knob_radius + knob_offset must be < half_width (a hole would cut through the piece)");
-  r.expect(std::sqrt(2.0) * (p.half_width - p.knob_offset) > 2 * p.knob_radius, "knob_radius",
-           "too large: the two holes would overlap");
-  return p;
-}
 
 // The point at arc-length fraction u in [0, 1] along side `side` (0 bottom, 1 right, 2 top,
 // 3 left; counter-clockwise): straight to the neck, the circle arc of the knob (sigma = +1,
@@ -272,20 +248,6 @@ namespace {
 
 // ---- 2D lung-like slice ---------------------------------------------------------------------
 
-LungSliceShape read_lung_slice(JsonReader& r) {
-  LungSliceShape s;
-  r.read("radius", s.radius);
-  r.read("elongation", s.elongation);
-  r.read("corner_height", s.corner_height);
-  r.read("corner_width_deg", s.corner_width_deg);
-  r.read("corner_deg", s.corner_deg);
-  r.expect(s.radius > 0, "radius", "must be > 0");
-  r.expect(s.elongation >= 0 && s.elongation <= 0.5, "elongation", "must be in [0, 0.5]");
-  r.expect(s.corner_height >= 0 && s.corner_height <= 2, "corner_height", "must be in [0, 2]");
-  r.expect(s.corner_width_deg > 0 && s.corner_width_deg <= 180, "corner_width_deg", "must be in (0, 180]");
-  return s;
-}
-
 // The lobe's radius at polar angle t (radians), in units of R.
 double lung_radius(const LungSliceShape& s, double t) {
   const double tc = s.corner_deg * kPi / 180.0, w = s.corner_width_deg * kPi / 180.0;
@@ -343,53 +305,6 @@ constexpr NormalisedTube kBronchi[] = {
     {{0.05, 0.45, 0.55}, {-0.20, 0.75, 0.30}, 2},    {{0.05, -0.45, 0.55}, {-0.30, -0.55, 0.60}, 2},
     {{0.05, -0.45, 0.55}, {-0.20, -0.75, 0.30}, 2},  {{0.05, 0.35, -0.35}, {-0.25, 0.50, -0.45}, 2},
     {{0.10, -0.40, -0.30}, {-0.25, -0.55, -0.40}, 2}};
-
-LungShape read_lung(JsonReader& r) {
-  LungShape s;
-  r.read<3>("semi_axes", s.semi_axes);
-  r.read("notch_depth", s.notch_depth);
-  r.read("base_flattening", s.base_flattening);
-  r.expect(s.semi_axes.minCoeff() > 0, "semi_axes", "must be > 0");
-  r.expect(s.notch_depth >= 0 && s.notch_depth <= 0.6, "notch_depth", "must be in [0, 0.6]");
-  r.expect(s.base_flattening >= 0 && s.base_flattening <= 0.6, "base_flattening", "must be in [0, 0.6]");
-  return s;
-}
-
-// The true lung surface and its bronchi (image keys bronchi, bronchus_radius, bronchus_level).
-PaperImageShape<3> make_lung_image(JsonReader& r, const Point<3>& center) {
-  PaperImageShape<3> out;
-  const LungShape shape = read_lung(r);
-  bool bronchi = true;
-  double radius = 2.5;
-  r.read("bronchi", bronchi);
-  r.read("bronchus_radius", radius);
-  r.read("bronchus_level", out.tube_level);
-  r.expect(radius > 0 && radius <= 10, "bronchus_radius", "must be in (0, 10]");
-  out.surface = make_lung(center, shape, make_icosphere(5));
-  const double scale[3] = {1.0, 0.75, 0.55};
-  if (bronchi)
-    for (const auto& t : kBronchi)
-      out.tubes.push_back({center + shape.semi_axes.cwiseProduct(Point<3>(t.a[0], t.a[1], t.a[2])),
-                           center + shape.semi_axes.cwiseProduct(Point<3>(t.b[0], t.b[1], t.b[2])),
-                           radius * scale[t.generation]});
-  return out;
-}
-
-BoneShape read_bone(JsonReader& r) {
-  BoneShape b;
-  r.read("cell", b.cell);
-  r.read("thickness", b.thickness);
-  r.expect(b.cell > 0, "cell", "must be > 0");
-  r.expect(b.thickness > 0, "thickness", "must be > 0");
-  return b;
-}
-
-int read_subdivisions(JsonReader& r) {
-  int subdivisions = 0;
-  r.read("subdivisions", subdivisions);
-  r.expect(subdivisions >= 0 && subdivisions <= 5, "subdivisions", "must be in [0, 5]");
-  return subdivisions;
-}
 
 }  // namespace
 
@@ -462,164 +377,39 @@ Template<3> make_bone(const Point<3>& center, const BoneShape& bone, int subdivi
   return mesh_template(std::move(v), std::move(f));
 }
 
-// ---- dispatch -------------------------------------------------------------------------------
+// ---- the options' cross-key rules and the image shapes -----------------------------------------
 
-namespace {
+void PuzzleShape::check() const {
+  if (!(knob_offset < knob_radius)) throw OptionError{"knob_offset", "must be in [0, knob_radius)"};
+  if (!(knob_radius + knob_offset < half_width))
+    throw OptionError{"knob_radius", "knob_radius + knob_offset must be < half_width (a hole would cut through the piece)"};
+  if (!(std::sqrt(2.0) * (half_width - knob_offset) > 2 * knob_radius))
+    throw OptionError{"knob_radius", "too large: the two holes would overlap"};
+}
 
-// A paper image phantom that is its boundary alone (no inner tubes).
-template <int D>
-PaperImageShape<D> boundary_only(Template<D> surface) {
-  PaperImageShape<D> s;
-  s.surface = std::move(surface);
+void CShapeTemplateOptions::check() const {
+  if (!(bend_deg == 0 || bar.length / (bend_deg * kPi / 180.0) > 0.5 * bar.width))
+    throw OptionError{"bend_deg", "too large for the bar: the inner side would fold (need length / bend > width / 2)"};
+}
+
+PaperImageShape<2> puzzle_image_shape(const Point<2>& center, const PuzzleShape& shape) {
+  PaperImageShape<2> s;
+  s.surface = polygon_template(puzzle_outline(center, shape, 0.05));
   return s;
 }
 
-int read_vertices(JsonReader& r, int fallback, int min) {
-  int n = fallback;
-  r.read("vertices", n);
-  r.expect(n >= min && n <= 100000, "vertices", "must be in [" + std::to_string(min) + ", 100000]");
-  return n;
-}
-
-BarShape read_bar(JsonReader& r) {
-  BarShape b;
-  r.read("length", b.length);
-  r.read("width", b.width);
-  r.read("rings", b.rings);
-  r.expect(b.length > 0, "length", "must be > 0");
-  r.expect(b.width > 0, "width", "must be > 0");
-  r.expect(b.rings >= 2 && b.rings <= 10000, "rings", "must be in [2, 10000]");
-  return b;
-}
-
-double read_cell(JsonReader& r) {
-  double cell = 10;
-  r.read("cell", cell);
-  r.expect(cell > 0, "cell", "must be > 0");
-  return cell;
-}
-
-}  // namespace
-
-template <>
-GridIndex<2> paper_image_size<2>(const std::string& kind) {
-  return GridIndex<2>::Constant(kind == "puzzle" || kind == "lung_slice" ? 128 : 0);
-}
-template <>
-GridIndex<3> paper_image_size<3>(const std::string& kind) {
-  if (kind == "lung") return GridIndex<3>(230, 300, 80);
-  return GridIndex<3>::Constant(kind == "star" ? 80 : kind == "tetris" || kind == "bone" ? 64 : 0);
-}
-
-template <>
-std::string paper_image_kinds<2>() { return "puzzle, lung_slice"; }
-template <>
-std::string paper_image_kinds<3>() { return "star, tetris, lung, bone"; }
-template <>
-std::string paper_template_kinds<2>() { return "puzzle, lung_slice"; }
-template <>
-std::string paper_template_kinds<3>() { return "star, tetris, bar, c_shape, lung, bone"; }
-
-template <>
-std::optional<PaperImageShape<2>> make_paper_image<2>(JsonReader& r, const std::string& kind, const Point<2>& center) {
-  if (kind == "puzzle") return boundary_only<2>(polygon_template(puzzle_outline(center, read_puzzle(r), 0.05)));
-  if (kind == "lung_slice")  // the corner is vertex 0
-    return boundary_only<2>(make_lung_slice(center, read_lung_slice(r), 4096));
-  return std::nullopt;
-}
-
-template <>
-std::optional<PaperImageShape<3>> make_paper_image<3>(JsonReader& r, const std::string& kind, const Point<3>& center) {
-  if (kind == "star") return boundary_only<3>(make_star3d(center, read_star3d(r), 0));
-  if (kind == "tetris") return boundary_only<3>(make_tetris(center, read_cell(r)));
-  if (kind == "lung") return make_lung_image(r, center);
-  if (kind == "bone") return boundary_only<3>(make_bone(center, read_bone(r), 0));
-  return std::nullopt;
-}
-
-template <>
-std::optional<Template<2>> make_paper_template<2>(JsonReader& r, const std::string& kind, const Point<2>& center) {
-  if (kind == "puzzle") {
-    const PuzzleShape shape = read_puzzle(r);
-    return make_puzzle(center, shape, read_vertices(r, 64, 8));
-  }
-  if (kind == "lung_slice") {
-    const LungSliceShape shape = read_lung_slice(r);
-    return make_lung_slice(center, shape, read_vertices(r, 32, 3));
-  }
-  return std::nullopt;
-}
-
-template <>
-std::optional<Template<3>> make_paper_template<3>(JsonReader& r, const std::string& kind, const Point<3>& center) {
-  if (kind == "star") {
-    const Star3dShape star = read_star3d(r);
-    return make_star3d(center, star, read_subdivisions(r));
-  }
-  if (kind == "tetris") return make_tetris(center, read_cell(r));
-  if (kind == "bone") {
-    const BoneShape bone = read_bone(r);
-    return make_bone(center, bone, read_subdivisions(r));
-  }
-  if (kind == "lung") {
-    const LungShape shape = read_lung(r);
-    int rings = 11, segments = 28;
-    r.read("rings", rings);
-    r.read("segments", segments);
-    r.expect(rings >= 1 && rings <= 1000, "rings", "must be in [1, 1000]");
-    r.expect(segments >= 3 && segments <= 1000, "segments", "must be in [3, 1000]");
-    return make_lung(center, shape, make_latlong_sphere(rings, segments));
-  }
-  if (kind == "bar" || kind == "c_shape") {
-    const BarShape bar = read_bar(r);
-    double bend_deg = 0;
-    if (kind == "c_shape") {
-      bend_deg = 180;
-      r.read("bend_deg", bend_deg);
-      r.expect(bend_deg >= 0 && bend_deg <= 300, "bend_deg", "must be in [0, 300]");
-      r.expect(bend_deg == 0 || bar.length / (bend_deg * kPi / 180.0) > 0.5 * bar.width, "bend_deg",
-               "too large for the bar: the inner side would fold (need length / bend > width / 2)");
-    }
-    return make_bar(center, bar, bend_deg);
-  }
-  return std::nullopt;
-}
-
-template <>
-std::optional<std::vector<std::optional<Point<2>>>> paper_targets<2>(
-    JsonReader& image, const std::string& image_kind, const Point<2>& image_center, JsonReader& tmpl,
-    const std::string& template_kind, const Template<2>& t) {
-  PointList<2> p;
-  if (image_kind == "puzzle" && template_kind == "puzzle")
-    p = make_puzzle(image_center, read_puzzle(image), t.num_vertices()).positions;
-  else if (image_kind == "lung_slice" && template_kind == "lung_slice")
-    p = make_lung_slice(image_center, read_lung_slice(image), t.num_vertices()).positions;
-  else
-    return std::nullopt;
-  return std::vector<std::optional<Point<2>>>(p.begin(), p.end());
-}
-
-template <>
-std::optional<std::vector<std::optional<Point<3>>>> paper_targets<3>(
-    JsonReader& image, const std::string& image_kind, const Point<3>& image_center, JsonReader& tmpl,
-    const std::string& template_kind, const Template<3>& t) {
-  PointList<3> p;
-  if (image_kind == "star" && template_kind == "star") {
-    p = make_star3d(image_center, read_star3d(image), read_subdivisions(tmpl)).positions;
-  } else if (image_kind == "tetris" && template_kind == "tetris") {
-    p = make_tetris(image_center, read_cell(image)).positions;
-  } else if (image_kind == "bone" && template_kind == "bone") {
-    p = make_bone(image_center, read_bone(image), read_subdivisions(tmpl)).positions;
-  } else if (image_kind == "lung" && template_kind == "lung") {
-    int rings = 11, segments = 28;  // validated when the template was built
-    tmpl.read("rings", rings);
-    tmpl.read("segments", segments);
-    p = make_lung(image_center, read_lung(image), make_latlong_sphere(rings, segments)).positions;
-  } else {
-    return std::nullopt;
-  }
-  DSNAKE_ASSERT(int(p.size()) == t.num_vertices(), "paper targets: one per template vertex");
-  return std::vector<std::optional<Point<3>>>(p.begin(), p.end());
+// The true lung surface and its bronchi.
+PaperImageShape<3> lung_image_shape(const Point<3>& center, const LungImageOptions& o) {
+  PaperImageShape<3> out;
+  out.tube_level = o.bronchus_level;
+  out.surface = make_lung(center, o.shape, make_icosphere(5));
+  const double scale[3] = {1.0, 0.75, 0.55};
+  if (o.bronchi)
+    for (const auto& t : kBronchi)
+      out.tubes.push_back({center + o.shape.semi_axes.cwiseProduct(Point<3>(t.a[0], t.a[1], t.a[2])),
+                           center + o.shape.semi_axes.cwiseProduct(Point<3>(t.b[0], t.b[1], t.b[2])),
+                           o.bronchus_radius * scale[t.generation]});
+  return out;
 }
 
 }  // namespace dsnake

@@ -28,84 +28,15 @@ struct PhantomCanvas {
 };
 
 template <int D>
-PhantomCanvas<D> read_canvas(JsonReader& r, const GridIndex<D>& default_size, double default_blur) {
+PhantomCanvas<D> canvas_of(const CanvasOptions<D>& o) {
   PhantomCanvas<D> c;
-  c.blur = default_blur;
-  std::vector<double> size(default_size.data(), default_size.data() + D);
-  r.read("size", size);
-  r.expect(int(size.size()) == D, "size", "expected " + std::to_string(D) + " integers");
-  for (int a = 0; a < D; ++a) {
-    r.expect(size[a] >= 4 && size[a] <= 4096 && size[a] == std::floor(size[a]), "size",
-             "each size must be an integer in [4, 4096]");
-    c.grid.size[a] = static_cast<int>(size[a]);
-  }
-  r.read<D>("spacing", c.grid.spacing);
-  r.expect(c.grid.spacing.minCoeff() > 0, "spacing", "must be > 0");
-  r.read<D>("origin", c.grid.origin);
-  r.read("foreground", c.foreground);
-  r.read("background", c.background);
-  r.read("blur", c.blur);
-  r.expect(c.blur >= 0, "blur", "must be >= 0");
-  r.read("partial_volume", c.partial_volume);
-  c.center = c.grid.origin + 0.5 * (c.grid.size.template cast<double>() - Point<D>::Ones()).cwiseProduct(c.grid.spacing);
-  r.read<D>("center", c.center);
+  c.grid = o.grid();
+  c.foreground = o.foreground;
+  c.background = o.background;
+  c.blur = o.blur;
+  c.partial_volume = o.partial_volume;
+  c.center = o.center ? *o.center : c.grid.origin + 0.5 * (c.grid.size.template cast<double>() - Point<D>::Ones()).cwiseProduct(c.grid.spacing);
   return c;
-}
-
-// Default image size (voxels per axis), blur and template centre (the default image's centre)
-// of a phantom kind. The paper's phantoms (§8) are binary by default (blur 0), as the paper's
-// corruptions expect; the older ones keep a blur of 1.
-template <int D>
-constexpr int kDefaultImageSize = D == 2 ? 128 : 64;
-template <int D>
-GridIndex<D> default_image_size(const std::string& kind) {
-  const GridIndex<D> paper = paper_image_size<D>(kind);
-  return paper.minCoeff() > 0 ? paper : GridIndex<D>::Constant(kDefaultImageSize<D>);
-}
-template <int D>
-double default_blur(const std::string& kind) {
-  return paper_image_size<D>(kind).minCoeff() > 0 ? 0.0 : 1.0;
-}
-template <int D>
-Point<D> default_template_center(const std::string& kind) {
-  return 0.5 * (default_image_size<D>(kind).template cast<double>() - Point<D>::Ones());
-}
-
-// The parameters of a star shape, shared by the image and the template phantom.
-struct StarShape {
-  int arms = 5;
-  double outer = 40, inner = 18, rotation_deg = 90;
-};
-
-StarShape read_star(JsonReader& r) {
-  StarShape s;
-  r.read("arms", s.arms);
-  r.read("outer_radius", s.outer);
-  r.read("inner_radius", s.inner);
-  r.read("rotation_deg", s.rotation_deg);
-  r.expect(s.arms >= 3 && s.arms <= 64, "arms", "must be in [3, 64]");
-  r.expect(s.outer > 0, "outer_radius", "must be > 0");
-  r.expect(s.inner > 0 && s.inner < s.outer, "inner_radius", "must be in (0, outer_radius)");
-  return s;
-}
-
-// Semi-axes of a "sphere" (key radius) or an "ellipsoid" (key semi_axes); fails on other kinds.
-Point<3> read_axes(JsonReader& r, const std::string& kind, double default_radius, const char* role) {
-  Point<3> axes;
-  if (kind == "sphere") {
-    double radius = default_radius;
-    r.read("radius", radius);
-    r.expect(radius > 0, "radius", "must be > 0");
-    axes.setConstant(radius);
-  } else if (kind == "ellipsoid") {
-    axes = Point<3>(24, 16, 12);
-    r.read<3>("semi_axes", axes);
-    r.expect(axes.minCoeff() > 0, "semi_axes", "must be > 0");
-  } else {
-    r.fail("phantom", "unknown 3D " + std::string(role) + " phantom \"" + kind + "\" (known: sphere, ellipsoid, " +
-                          (std::string(role) == "image" ? paper_image_kinds<3>() + ", mesh, points" : paper_template_kinds<3>() + ", bunny") + ")");
-  }
-  return axes;
 }
 
 // Star polygon: outer vertices at rotation + 2 pi k / arms, inner ones half-way (2 * arms).
@@ -305,192 +236,347 @@ Template<3> make_icosphere(int subdivisions) {
   return t;
 }
 
-template <>
-Phantom<2> make_phantom<2>(JsonReader& r) {
-  std::string kind;
-  r.require("phantom", kind);
-  Phantom<2> ph;
+template <int D>
+void CanvasOptions<D>::check() const {
+  if (size.empty() && size_from_fit) return;
+  if (int(size.size()) != D) throw OptionError{"size", "expected " + std::to_string(D) + " integers"};
+  for (double n : size)
+    if (!(n >= 4 && n <= 4096 && n == std::floor(n))) throw OptionError{"size", "each size must be an integer in [4, 4096]"};
+}
+
+template <int D>
+Grid<D> CanvasOptions<D>::grid() const {
+  DSNAKE_ASSERT(int(size.size()) == D, "a canvas with its size");
+  Grid<D> g;
+  for (int a = 0; a < D; ++a) g.size[a] = static_cast<int>(size[a]);
+  g.spacing = spacing;
+  g.origin = origin;
+  return g;
+}
+
+template <int D>
+Point<D> CanvasOptions<D>::center_point() const {
+  return canvas_of(*this).center;
+}
+
+template struct CanvasOptions<2>;
+template struct CanvasOptions<3>;
+
+namespace {
+
+// An image phantom rendered from an inside test (render) or from its exact boundary
+// (render_surface).
+template <int D>
+Phantom<D> inside_phantom(const char* kind, const CanvasOptions<D>& o, const std::function<bool(const Point<D>&)>& inside) {
+  Phantom<D> ph;
   ph.kind = kind;
-  auto c = read_canvas<2>(r, default_image_size<2>(kind), default_blur<2>(kind));
-  if (auto shape = make_paper_image<2>(r, kind, c.center)) {
-    render_surface<2>(ph, c, *shape);
-  } else if (kind == "disk") {
-    double radius = 30;
-    r.read("radius", radius);
-    r.expect(radius > 0, "radius", "must be > 0");
-    render<2>(ph, c, [&](const Point<2>& x) { return (x - c.center).norm() < radius; });
-    ph.surface = polygon_template(circle_points(c.center, radius, 1024));
-  } else if (kind == "square") {
-    double half = 30, rotation = 0;
-    r.read("half_width", half);
-    r.read("rotation_deg", rotation);
-    r.expect(half > 0, "half_width", "must be > 0");
-    const double a = rotation * kPi / 180.0;
-    const Eigen::Matrix2d R = Eigen::Rotation2Dd(a).toRotationMatrix();
-    render<2>(ph, c, [&](const Point<2>& x) {
-      const Point<2> y = R.transpose() * (x - c.center);
-      return std::max(std::abs(y.x()), std::abs(y.y())) < half;
-    });
-    PointList<2> p;
-    const Point<2> corners[4] = {{half, -half}, {half, half}, {-half, half}, {-half, -half}};
-    constexpr int kPerSide = 128;
-    for (int s = 0; s < 4; ++s)
-      for (int k = 0; k < kPerSide; ++k) {
-        const double t = double(k) / kPerSide;
-        p.push_back(c.center + R * ((1 - t) * corners[s] + t * corners[(s + 1) % 4]));
-      }
-    ph.surface = polygon_template(std::move(p));
-  } else if (kind == "star") {
-    const PointList<2> poly = star_polygon(c.center, read_star(r));
-    render<2>(ph, c, [&](const Point<2>& x) { return inside_polygon(poly, x); });
-    ph.surface = polygon_template(poly);
-  } else {
-    r.fail("phantom", "unknown 2D image phantom \"" + kind + "\" (known: disk, square, star, " +
-                          paper_image_kinds<2>() + ")");
-  }
+  render<D>(ph, canvas_of(o), inside);
+  return ph;
+}
+template <int D>
+Phantom<D> boundary_phantom(const char* kind, const CanvasOptions<D>& o, const PaperImageShape<D>& shape) {
+  Phantom<D> ph;
+  ph.kind = kind;
+  render_surface<D>(ph, canvas_of(o), shape);
+  return ph;
+}
+template <int D>
+PaperImageShape<D> boundary_only(Template<D> surface) {
+  PaperImageShape<D> s;
+  s.surface = std::move(surface);
+  return s;
+}
+
+Phantom<2> square_phantom(const SquareOptions& o) {
+  const Point<2> center = o.canvas.center_point();
+  const double half = o.half_width;
+  const Eigen::Matrix2d R = Eigen::Rotation2Dd(o.rotation_deg * kPi / 180.0).toRotationMatrix();
+  Phantom<2> ph = inside_phantom<2>("square", o.canvas, [&](const Point<2>& x) {
+    const Point<2> y = R.transpose() * (x - center);
+    return std::max(std::abs(y.x()), std::abs(y.y())) < half;
+  });
+  PointList<2> p;
+  const Point<2> corners[4] = {{half, -half}, {half, half}, {-half, half}, {-half, -half}};
+  constexpr int kPerSide = 128;
+  for (int s = 0; s < 4; ++s)
+    for (int k = 0; k < kPerSide; ++k) {
+      const double t = double(k) / kPerSide;
+      p.push_back(center + R * ((1 - t) * corners[s] + t * corners[(s + 1) % 4]));
+    }
+  ph.surface = polygon_template(std::move(p));
   return ph;
 }
 
-template <>
-Phantom<3> make_phantom<3>(JsonReader& r) {
-  std::string kind;
-  r.require("phantom", kind);
-  Phantom<3> ph;
-  ph.kind = kind;
-  if (const GridIndex<3> size = mesh_image_size(r, kind); size.minCoeff() > 0) {  // experiments/phantoms/bunny.h
-    const auto c = read_canvas<3>(r, size, 0.0);
-    render_surface<3>(ph, c, PaperImageShape<3>{*make_mesh_image_surface(r, kind, c.center), {}});
-    return ph;
-  }
-  auto c = read_canvas<3>(r, default_image_size<3>(kind), default_blur<3>(kind));
-  if (auto shape = make_paper_image<3>(r, kind, c.center)) {
-    render_surface<3>(ph, c, *shape);
-    return ph;
-  }
-  const Point<3> axes = read_axes(r, kind, 20, "image");
-  render<3>(ph, c, [&](const Point<3>& x) { return (x - c.center).cwiseQuotient(axes).squaredNorm() < 1.0; });
-  ph.surface = scaled_icosphere(5, c.center, axes);
+template <class Options>
+Phantom<3> ellipsoid_phantom(const char* kind, const Options& o, const Point<3>& axes) {
+  const Point<3> center = o.canvas.center_point();
+  Phantom<3> ph = inside_phantom<3>(kind, o.canvas, [&](const Point<3>& x) {
+    return (x - center).cwiseQuotient(axes).squaredNorm() < 1.0;
+  });
+  ph.surface = scaled_icosphere(5, center, axes);
   return ph;
 }
 
-template <>
-Template<2> make_template_phantom<2>(JsonReader& r) {
-  std::string kind;
-  r.require("phantom", kind);
-  Point<2> center = default_template_center<2>(kind);
-  r.read<2>("center", center);
-  if (auto t = make_paper_template<2>(r, kind, center)) return std::move(*t);
-  if (kind == "circle") {
-    double radius = 40;
-    int vertices = 40;
-    r.read("radius", radius);
-    r.read("vertices", vertices);
-    r.expect(radius > 0, "radius", "must be > 0");
-    r.expect(vertices >= 3 && vertices <= 100000, "vertices", "must be in [3, 100000]");
-    return polygon_template(circle_points(center, radius, vertices));
-  }
-  if (kind == "star") {
-    const StarShape star = read_star(r);
-    Template<2> t = polygon_template(star_polygon(center, star));
-    for (int k = 0; k < star.arms; ++k) t.landmarks["tip" + std::to_string(k)] = 2 * k;
-    return t;
-  }
-  r.fail("phantom", "unknown 2D template phantom \"" + kind + "\" (known: circle, star, " +
-                        paper_template_kinds<2>() + ")");
-}
-
-template <>
-Template<3> make_template_phantom<3>(JsonReader& r) {
-  std::string kind;
-  r.require("phantom", kind);
-  if (auto t = make_bunny_template(r, kind)) return std::move(*t);  // experiments/phantoms/bunny.h
-  Point<3> center = default_template_center<3>(kind);
-  r.read<3>("center", center);
-  if (auto t = make_paper_template<3>(r, kind, center)) return std::move(*t);
-  int subdivisions = 2;
-  r.read("subdivisions", subdivisions);
-  r.expect(subdivisions >= 0 && subdivisions <= 6, "subdivisions", "must be in [0, 6]");
-  const Point<3> axes = read_axes(r, kind, 24, "template");
-  Template<3> t = scaled_icosphere(subdivisions, center, axes);
+// The six axis extremes of a 3D template, as landmarks "+x", "-x", ..., "-z".
+void add_axis_landmarks(Template<3>& t) {
   const char* names[6] = {"+x", "-x", "+y", "-y", "+z", "-z"};
-  for (int k = 0; k < 6; ++k) {  // the six axis extremes, as landmarks
+  for (int k = 0; k < 6; ++k) {
     int best = 0;
     const double sign = k % 2 == 0 ? 1.0 : -1.0;
     for (int v = 1; v < t.num_vertices(); ++v)
       if (sign * (t.positions[v][k / 2] - t.positions[best][k / 2]) > 0) best = v;
     t.landmarks[names[k]] = best;
   }
+}
+
+Template<3> icosphere_template(const Point<3>& center, int subdivisions, const Point<3>& axes) {
+  Template<3> t = scaled_icosphere(subdivisions, center, axes);
+  add_axis_landmarks(t);
   return t;
 }
 
-template <int D>
-std::vector<std::optional<Point<D>>> phantom_targets(const nlohmann::json& image_spec,
-                                                     const nlohmann::json& template_spec,
-                                                     const Template<D>& tmpl) {
-  std::vector<std::optional<Point<D>>> targets;
-  if (!image_spec.is_object() || !template_spec.is_object() || !image_spec.contains("phantom") ||
-      !template_spec.contains("phantom"))
-    return targets;
-  // Rebuild both phantoms' defaults through readers (the specs were validated already).
-  nlohmann::json img = image_spec, tpl = template_spec;
-  img.erase("file");
-  tpl.erase("transform");
-  const std::string ik = img.value("phantom", ""), tk = tpl.value("phantom", "");
-  JsonReader ir(img, "", "image"), tr(tpl, "", "template");
-  if constexpr (D == 3)
-    if (tk == "bunny") return bunny_targets(tr, tmpl);  // experiments/phantoms/bunny.h
-  const auto canvas = read_canvas<D>(ir, default_image_size<D>(ik), default_blur<D>(ik));
-  Point<D> template_center = default_template_center<D>(tk);
-  tr.read<D>("center", template_center);
-  if (auto paper = paper_targets<D>(ir, ik, canvas.center, tr, tk, tmpl)) return std::move(*paper);
+Phantom<3> mesh_phantom(const MeshImageOptions& o) {
+  CanvasOptions<3> canvas = o.canvas;
+  if (canvas.size.empty()) canvas.size.assign(3, std::ceil(o.fit) + 16);
+  return boundary_phantom<3>("mesh", canvas, boundary_only<3>(load_fitted_mesh(*o.mesh, o.fit, canvas.center_point())));
+}
 
-  // The template's direction in its own ellipsoid frame, mapped onto the image's ellipsoid.
-  auto radial = [&](const Point<D>& axes) {
-    Point<D> template_axes = Point<D>::Ones();
-    if constexpr (D == 3) template_axes = read_axes(tr, tk, 24, "template");
-    for (const auto& p : tmpl.positions)
-      targets.emplace_back(canvas.center + (p - template_center).cwiseQuotient(template_axes).normalized().cwiseProduct(axes));
-  };
-  if constexpr (D == 2) {
-    if (tk == "circle" && ik == "disk") {
-      radial(Point<2>::Constant(img.value("radius", 30.0)));
-    } else if (tk == "circle" && ik == "square") {
-      // Radial correspondence (a convention): the square's boundary point on the ray from its
-      // centre in the direction of the template vertex from the template's centre.
-      const double half = img.value("half_width", 30.0);
-      const Eigen::Matrix2d R = Eigen::Rotation2Dd(img.value("rotation_deg", 0.0) * kPi / 180.0).toRotationMatrix();
-      for (const auto& p : tmpl.positions) {
-        const Point<2> y = R.transpose() * (p - template_center).normalized();
-        targets.emplace_back(canvas.center + R * (y * half / std::max(std::abs(y.x()), std::abs(y.y()))));
-      }
-    } else if (tk == "star" && ik == "star") {
-      const StarShape image_star = read_star(ir), template_star = read_star(tr);
-      if (image_star.arms == template_star.arms)
-        for (const auto& p : star_polygon(canvas.center, image_star)) targets.emplace_back(p);
-    }
-  } else {
-    if ((tk == "sphere" || tk == "ellipsoid") && (ik == "sphere" || ik == "ellipsoid"))
-      radial(read_axes(ir, ik, 20, "image"));
-  }
+void add_image_phantoms(PhantomRegistry<Phantom<2>>& r) {
+  r.add<DiskOptions>("disk", "a disk of `radius`", [](const DiskOptions& o) {
+    const Point<2> center = o.canvas.center_point();
+    Phantom<2> ph = inside_phantom<2>("disk", o.canvas, [&](const Point<2>& x) { return (x - center).norm() < o.radius; });
+    ph.surface = polygon_template(circle_points(center, o.radius, 1024));
+    return ph;
+  });
+  r.add<SquareOptions>("square", "a square of side 2 half_width, rotated by rotation_deg", square_phantom);
+  r.add<StarImageOptions>("star", "the star of the paper's 2D experiments (§8)", [](const StarImageOptions& o) {
+    const PointList<2> poly = star_polygon(o.canvas.center_point(), o.star);
+    Phantom<2> ph = inside_phantom<2>("star", o.canvas, [&](const Point<2>& x) { return inside_polygon(poly, x); });
+    ph.surface = polygon_template(poly);
+    return ph;
+  });
+  r.add<PuzzleImageOptions>("puzzle", "the puzzle piece of Fig. 2", [](const PuzzleImageOptions& o) {
+    return boundary_phantom<2>("puzzle", o.canvas, puzzle_image_shape(o.canvas.center_point(), o.shape));
+  });
+  r.add<LungSliceImageOptions>("lung_slice", "the lung slice of Fig. 4: a smooth lobe with one sharp corner",
+                               [](const LungSliceImageOptions& o) {
+                                 return boundary_phantom<2>("lung_slice", o.canvas,
+                                                            boundary_only<2>(make_lung_slice(o.canvas.center_point(), o.shape, 4096)));
+                               });
+}
+
+void add_image_phantoms(PhantomRegistry<Phantom<3>>& r) {
+  r.add<SphereImageOptions>("sphere", "a ball of `radius`", [](const SphereImageOptions& o) {
+    return ellipsoid_phantom("sphere", o, Point<3>::Constant(o.radius));
+  });
+  r.add<EllipsoidImageOptions>("ellipsoid", "an axis-aligned ellipsoid", [](const EllipsoidImageOptions& o) {
+    return ellipsoid_phantom("ellipsoid", o, o.semi_axes);
+  });
+  r.add<Star3dImageOptions>("star", "the 6-armed star of Figs. 13-18", [](const Star3dImageOptions& o) {
+    return boundary_phantom<3>("star", o.canvas, boundary_only<3>(make_star3d(o.canvas.center_point(), o.star, 0)));
+  });
+  r.add<TetrisImageOptions>("tetris", "the T tetromino of Fig. 6", [](const TetrisImageOptions& o) {
+    return boundary_phantom<3>("tetris", o.canvas, boundary_only<3>(make_tetris(o.canvas.center_point(), o.cell)));
+  });
+  r.add<LungImageOptions>("lung", "the lung-like lobe of Fig. 9, with a bronchial tree", [](const LungImageOptions& o) {
+    return boundary_phantom<3>("lung", o.canvas, lung_image_shape(o.canvas.center_point(), o));
+  });
+  r.add<BoneImageOptions>("bone", "the genus-2 plate of Figs. 11-12", [](const BoneImageOptions& o) {
+    return boundary_phantom<3>("bone", o.canvas, boundary_only<3>(make_bone(o.canvas.center_point(), o.bone, 0)));
+  });
+  r.add<MeshImageOptions>("mesh", "a closed mesh file, scaled to `fit` (experiments/phantoms/bunny.h)", mesh_phantom);
+  r.add<PointsImageOptions>("points", "small solid balls: Fig. 1's attracting points", [](const PointsImageOptions& o) {
+    return boundary_phantom<3>("points", o.canvas, boundary_only<3>(points_surface(o)));
+  });
+}
+
+void add_template_phantoms(PhantomRegistry<Template<2>>& r) {
+  r.add<CircleTemplateOptions>("circle", "a circle of evenly spaced vertices", [](const CircleTemplateOptions& o) {
+    return polygon_template(circle_points(o.center, o.radius, o.vertices));
+  });
+  r.add<StarTemplateOptions>("star", "the star polygon (2 arms vertices, landmarks tip0, tip1, ...)", [](const StarTemplateOptions& o) {
+    Template<2> t = polygon_template(star_polygon(o.center, o.star));
+    for (int k = 0; k < o.star.arms; ++k) t.landmarks["tip" + std::to_string(k)] = 2 * k;
+    return t;
+  });
+  r.add<PuzzleTemplateOptions>("puzzle", "the puzzle piece of Fig. 2, with its 8 landmarks", [](const PuzzleTemplateOptions& o) {
+    return make_puzzle(o.center, o.shape, o.vertices);
+  });
+  r.add<LungSliceTemplateOptions>("lung_slice", "the lung slice of Fig. 4 (landmark \"corner\": vertex 0)",
+                                  [](const LungSliceTemplateOptions& o) { return make_lung_slice(o.center, o.shape, o.vertices); });
+}
+
+void add_template_phantoms(PhantomRegistry<Template<3>>& r) {
+  r.add<SphereTemplateOptions>("sphere", "an icosphere, with the six axis extremes as landmarks", [](const SphereTemplateOptions& o) {
+    return icosphere_template(o.center, o.subdivisions, Point<3>::Constant(o.radius));
+  });
+  r.add<EllipsoidTemplateOptions>("ellipsoid", "an icosphere scaled to the semi-axes, with the six axis extremes as landmarks",
+                                  [](const EllipsoidTemplateOptions& o) { return icosphere_template(o.center, o.subdivisions, o.semi_axes); });
+  r.add<Star3dTemplateOptions>("star", "the 6-armed star of Figs. 13-18", [](const Star3dTemplateOptions& o) {
+    return make_star3d(o.center, o.star, o.subdivisions);
+  });
+  r.add<TetrisTemplateOptions>("tetris", "the T tetromino of Fig. 6", [](const TetrisTemplateOptions& o) { return make_tetris(o.center, o.cell); });
+  r.add<BarTemplateOptions>("bar", "the straight square tube of Fig. 8", [](const BarTemplateOptions& o) { return make_bar(o.center, o.bar, 0); });
+  r.add<CShapeTemplateOptions>("c_shape", "the square tube of Fig. 8 bent into a C", [](const CShapeTemplateOptions& o) {
+    return make_bar(o.center, o.bar, o.bend_deg);
+  });
+  r.add<LungTemplateOptions>("lung", "the lobe of Fig. 9 on a latitude-longitude sphere", [](const LungTemplateOptions& o) {
+    return make_lung(o.center, o.shape, make_latlong_sphere(o.rings, o.segments));
+  });
+  r.add<BoneTemplateOptions>("bone", "the genus-2 plate of Figs. 11-12", [](const BoneTemplateOptions& o) {
+    return make_bone(o.center, o.bone, o.subdivisions);
+  });
+  r.add<BunnyTemplateOptions>("bunny", "the simplified, stretched, ear-twisted bunny of Fig. 10 (experiments/phantoms/bunny.h)",
+                              make_bunny_template);
+}
+
+}  // namespace
+
+template <int D>
+const PhantomRegistry<Phantom<D>>& image_phantoms() {
+  static const PhantomRegistry<Phantom<D>> registry = [] {
+    PhantomRegistry<Phantom<D>> r(std::to_string(D) + "D image");
+    add_image_phantoms(r);
+    return r;
+  }();
+  return registry;
+}
+
+template <int D>
+const PhantomRegistry<Template<D>>& template_phantoms() {
+  static const PhantomRegistry<Template<D>> registry = [] {
+    PhantomRegistry<Template<D>> r(std::to_string(D) + "D template");
+    add_template_phantoms(r);
+    return r;
+  }();
+  return registry;
+}
+
+template <int D>
+Phantom<D> make_phantom(JsonReader& reader) {
+  return image_phantoms<D>().read(reader).build();
+}
+
+template <int D>
+Template<D> make_template_phantom(JsonReader& reader) {
+  return template_phantoms<D>().read(reader).build();
+}
+
+namespace {
+
+// The template's direction from its centre in its own ellipsoid frame, mapped onto the image's
+// ellipsoid.
+template <int D>
+std::vector<std::optional<Point<D>>> radial_targets(const Template<D>& t, const Point<D>& template_center,
+                                                    const Point<D>& template_axes, const Point<D>& image_center,
+                                                    const Point<D>& image_axes) {
+  std::vector<std::optional<Point<D>>> targets;
+  for (const auto& p : t.positions)
+    targets.emplace_back(image_center + (p - template_center).cwiseQuotient(template_axes).normalized().cwiseProduct(image_axes));
   return targets;
 }
 
-template std::vector<std::optional<Point<2>>> phantom_targets<2>(const nlohmann::json&, const nlohmann::json&,
-                                                                 const Template<2>&);
-template std::vector<std::optional<Point<3>>> phantom_targets<3>(const nlohmann::json&, const nlohmann::json&,
-                                                                 const Template<3>&);
+template <int D>
+std::vector<std::optional<Point<D>>> as_targets(const PointList<D>& p) {
+  return std::vector<std::optional<Point<D>>>(p.begin(), p.end());
+}
+
+std::vector<std::optional<Point<2>>> targets_2d(const PhantomSpec<Phantom<2>>& image, const PhantomSpec<Template<2>>& tmpl,
+                                                const Template<2>& t) {
+  if (const auto* circle = tmpl.options_as<CircleTemplateOptions>()) {
+    if (const auto* disk = image.options_as<DiskOptions>())
+      return radial_targets<2>(t, circle->center, Point<2>::Ones(), disk->canvas.center_point(), Point<2>::Constant(disk->radius));
+    if (const auto* square = image.options_as<SquareOptions>()) {
+      // Radial correspondence (a convention): the square's boundary point on the ray from its
+      // centre in the direction of the template vertex from the template's centre.
+      const Point<2> center = square->canvas.center_point();
+      const Eigen::Matrix2d R = Eigen::Rotation2Dd(square->rotation_deg * kPi / 180.0).toRotationMatrix();
+      std::vector<std::optional<Point<2>>> targets;
+      for (const auto& p : t.positions) {
+        const Point<2> y = R.transpose() * (p - circle->center).normalized();
+        targets.emplace_back(center + R * (y * square->half_width / std::max(std::abs(y.x()), std::abs(y.y()))));
+      }
+      return targets;
+    }
+  }
+  const auto* image_star = image.options_as<StarImageOptions>();
+  const auto* template_star = tmpl.options_as<StarTemplateOptions>();
+  if (image_star && template_star && image_star->star.arms == template_star->star.arms)
+    return as_targets<2>(star_polygon(image_star->canvas.center_point(), image_star->star));
+  const auto* image_puzzle = image.options_as<PuzzleImageOptions>();
+  if (image_puzzle && tmpl.options_as<PuzzleTemplateOptions>())
+    return as_targets<2>(make_puzzle(image_puzzle->canvas.center_point(), image_puzzle->shape, t.num_vertices()).positions);
+  const auto* image_slice = image.options_as<LungSliceImageOptions>();
+  if (image_slice && tmpl.options_as<LungSliceTemplateOptions>())
+    return as_targets<2>(make_lung_slice(image_slice->canvas.center_point(), image_slice->shape, t.num_vertices()).positions);
+  return {};
+}
+
+// The semi-axes of a "sphere" or "ellipsoid" image or template phantom; nullopt for the others.
+std::optional<Point<3>> image_axes(const PhantomSpec<Phantom<3>>& image) {
+  if (const auto* o = image.options_as<SphereImageOptions>()) return Point<3>::Constant(o->radius);
+  if (const auto* o = image.options_as<EllipsoidImageOptions>()) return o->semi_axes;
+  return std::nullopt;
+}
+std::optional<std::pair<Point<3>, Point<3>>> template_center_axes(const PhantomSpec<Template<3>>& tmpl) {
+  if (const auto* o = tmpl.options_as<SphereTemplateOptions>()) return std::pair{o->center, Point<3>::Constant(o->radius)};
+  if (const auto* o = tmpl.options_as<EllipsoidTemplateOptions>()) return std::pair{o->center, o->semi_axes};
+  return std::nullopt;
+}
+
+// The paper's 3D pairs: vertex k to the same vertex of the true shape.
+std::optional<PointList<3>> paper_targets_3d(const PhantomSpec<Phantom<3>>& image, const PhantomSpec<Template<3>>& tmpl) {
+  const auto* is = image.options_as<Star3dImageOptions>();
+  if (const auto* ts = tmpl.options_as<Star3dTemplateOptions>(); is && ts)
+    return make_star3d(is->canvas.center_point(), is->star, ts->subdivisions).positions;
+  const auto* it = image.options_as<TetrisImageOptions>();
+  if (it && tmpl.options_as<TetrisTemplateOptions>()) return make_tetris(it->canvas.center_point(), it->cell).positions;
+  const auto* ib = image.options_as<BoneImageOptions>();
+  if (const auto* tb = tmpl.options_as<BoneTemplateOptions>(); ib && tb)
+    return make_bone(ib->canvas.center_point(), ib->bone, tb->subdivisions).positions;
+  const auto* il = image.options_as<LungImageOptions>();
+  if (const auto* tl = tmpl.options_as<LungTemplateOptions>(); il && tl)
+    return make_lung(il->canvas.center_point(), il->shape, make_latlong_sphere(tl->rings, tl->segments)).positions;
+  return std::nullopt;
+}
+
+std::vector<std::optional<Point<3>>> targets_3d(const PhantomSpec<Phantom<3>>& image, const PhantomSpec<Template<3>>& tmpl,
+                                                const Template<3>& t) {
+  if (const auto* bunny = tmpl.options_as<BunnyTemplateOptions>()) return bunny_targets(*bunny, t);
+  if (const auto paper = paper_targets_3d(image, tmpl)) {
+    DSNAKE_ASSERT(int(paper->size()) == t.num_vertices(), "paper targets: one per template vertex");
+    return as_targets<3>(*paper);
+  }
+  const auto axes = image_axes(image);
+  const auto frame = template_center_axes(tmpl);
+  if (axes && frame) {
+    const Point<3> center = image.options_as<SphereImageOptions>() ? image.options_as<SphereImageOptions>()->canvas.center_point()
+                                                                   : image.options_as<EllipsoidImageOptions>()->canvas.center_point();
+    return radial_targets<3>(t, frame->first, frame->second, center, *axes);
+  }
+  return {};
+}
+
+}  // namespace
 
 template <>
-std::vector<std::string> image_phantom_kinds<2>() { return {"disk", "square", "star", "puzzle", "lung_slice"}; }
-template <>
-std::vector<std::string> image_phantom_kinds<3>() {
-  return {"sphere", "ellipsoid", "star", "tetris", "lung", "bone", "mesh", "points"};
+std::vector<std::optional<Point<2>>> phantom_targets<2>(const PhantomSpec<Phantom<2>>& image, const PhantomSpec<Template<2>>& tmpl,
+                                                        const Template<2>& t) {
+  return targets_2d(image, tmpl, t);
 }
 template <>
-std::vector<std::string> template_phantom_kinds<2>() { return {"circle", "star", "puzzle", "lung_slice"}; }
-template <>
-std::vector<std::string> template_phantom_kinds<3>() {
-  return {"sphere", "ellipsoid", "star", "tetris", "bar", "c_shape", "lung", "bone", "bunny"};
+std::vector<std::optional<Point<3>>> phantom_targets<3>(const PhantomSpec<Phantom<3>>& image, const PhantomSpec<Template<3>>& tmpl,
+                                                        const Template<3>& t) {
+  return targets_3d(image, tmpl, t);
 }
+
+template const PhantomRegistry<Phantom<2>>& image_phantoms<2>();
+template const PhantomRegistry<Phantom<3>>& image_phantoms<3>();
+template const PhantomRegistry<Template<2>>& template_phantoms<2>();
+template const PhantomRegistry<Template<3>>& template_phantoms<3>();
+template Phantom<2> make_phantom<2>(JsonReader&);
+template Phantom<3> make_phantom<3>(JsonReader&);
+template Template<2> make_template_phantom<2>(JsonReader&);
+template Template<3> make_template_phantom<3>(JsonReader&);
 
 }  // namespace dsnake

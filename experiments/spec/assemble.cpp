@@ -58,9 +58,7 @@ std::optional<Phantom<D>> assemble_image(const ExperimentSpec<D>& spec, Image<D>
                                          std::optional<ImageLayout>& layout) {
   std::optional<Phantom<D>> phantom;
   if (spec.image.phantom) {
-    JsonReader r(spec.image.phantom->object, spec.image.phantom->file, spec.image.phantom->path);
-    phantom = make_phantom<D>(r);
-    r.finish();
+    phantom = spec.image.phantom->build();
     image = std::move(phantom->image);
   } else {
     layout.emplace();
@@ -76,9 +74,7 @@ Template<D> assemble_template(const ExperimentSpec<D>& spec) {
   const TemplateSpec<D>& t = spec.tmpl;
   Template<D> tmpl;
   if (t.phantom) {
-    JsonReader r(t.phantom->object, t.phantom->file, t.phantom->path);
-    tmpl = make_template_phantom<D>(r);
-    r.finish();
+    tmpl = t.phantom->build();
   } else {
     tmpl = read_template_file<D>(t.file);
     // A template that crosses itself (a figure-eight contour, a mesh through itself) has no
@@ -121,7 +117,7 @@ GroundTruth<D> assemble_truth(const ExperimentSpec<D>& spec, std::optional<Phant
     truth.mask = BinaryMask<D>(phantom->mask);  // a byte per voxel; the phantom's floats go now
     phantom->mask = Image<D>();
     truth.surface = std::move(phantom->surface);
-    if (spec.tmpl.phantom) truth.targets = phantom_targets<D>(spec.image.phantom->object, spec.tmpl.phantom->object, tmpl);
+    if (spec.tmpl.phantom) truth.targets = phantom_targets<D>(*spec.image.phantom, *spec.tmpl.phantom, tmpl);
   }
   const GroundTruthSpec& files = spec.truth;
   if (!files.mask.empty()) truth.mask = read_image<D>(files.mask, spec.image.read);
@@ -199,12 +195,7 @@ std::vector<Phase<D>> assemble_phases(const ExperimentSpec<D>& spec, const Templ
   for (size_t p = 0; p < spec.phases.size(); ++p) {
     const PhaseSpec<D>& s = spec.phases[p];
     Phase<D> ph;
-    ph.iterations = s.iterations;
-    ph.tolerance = s.tolerance;
-    ph.window = s.window;
-    ph.energy_tolerance = s.energy_tolerance;
-    ph.every = s.every;
-    ph.weights = s.weights;
+    static_cast<PhaseOptions&>(ph) = s;
     // The stages as one pipeline (3D: one pass over a shared editable mesh, same result).
     if (!s.remesh.empty()) {
       std::vector<std::unique_ptr<Remesher<D>>> stages;
@@ -315,13 +306,8 @@ void check_truth_placement(const Experiment<D>& ex, const ExperimentSpec<D>& spe
 template <int D>
 Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   Experiment<D> ex;
+  static_cast<RunSettings&>(ex) = spec;  // the run keys and run-level sections, whole
   ex.file = spec.file;
-  ex.name = spec.name;
-  ex.seed = spec.seed;
-  ex.solver = spec.solver;
-  ex.collision_guard = spec.collision_guard;
-  ex.global = spec.global;
-  ex.potential = spec.potential;
   std::optional<Phantom<D>> phantom = assemble_image(spec, ex.image, ex.image_layout);
   ex.image_is_file_as_read = !spec.image.phantom && spec.image.corruptions.empty();
   ex.tmpl = assemble_template(spec);
@@ -348,10 +334,6 @@ Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   ex.phases = assemble_phases(spec, ex.tmpl, ex.initial);
   for (size_t p = 0; p < spec.phases.size(); ++p)
     ex.phase_names.push_back(spec.phases[p].name.empty() ? "#" + std::to_string(p + 1) : spec.phases[p].name);
-  ex.success = spec.success;
-  ex.output = spec.output;
-  ex.metrics = spec.metrics;
-  ex.watchdog = spec.watchdog;
   return ex;
 }
 

@@ -102,43 +102,38 @@ struct OutputOptions {
   }
 };
 
-// "watchdog": when a run is stopped as diverged (framework/core/phase_driver.h,
-// Watchdog). A vertex moving more than max_move in one iteration, by a non-finite amount, a
-// remeshing that would leave more than max_vertices vertices, or a snake whose enclosed area
-// (2D) or volume (3D) falls below min_size of the placed template's stops the run with status
-// "diverged", the last positions that passed, and exit code 3. max_vertices is also the budget
-// that a phase's remeshing lengths are checked against when the experiment is assembled.
-struct WatchdogOptions {
-  double max_move = 0;         // mm per iteration; 0: the image's diagonal
-  int max_vertices = 1000000;  // after remeshing
-  double min_size = 1e-3;      // share of the placed template's enclosed area / volume; 0: off
+// The run's own keys at the top level of the experiment file.
+struct RunKeys {
+  int dimension = 2;  // the file's; load_experiment_file() has chosen the reader's D from it
+  std::string name, description;
+  uint64_t seed = 0;
+  SolverKind solver = SolverKind::kSnake;  // "solver": how a phase moves the snake (registration/registration.h)
 
   template <class V>
   void visit(V& v) {
-    v(max_move, Key{"max_move", "mm per iteration",
-                    "a vertex moving more than this in one iteration stops the run as diverged (0: the image's "
-                    "diagonal, farther than any meaningful move)",
-                    Range::at_least(0)});
-    v(max_vertices, Key{"max_vertices", "vertices",
-                        "remeshing that would leave more vertices than this stops the run as diverged (a runaway "
-                        "refinement); a phase whose remeshing edge length needs more for the placed template is refused",
-                        Range::closed(3, 1e8)});
-    v(min_size, Key{"min_size", "1 (share)",
-                    "a snake whose enclosed area (2D) or volume (3D), signed, falls below this share of the placed "
-                    "template's (shrunk to a point or turned inside out) stops the run as diverged at that iteration (0: off)",
-                    Range::closed_open(0, 1)});
+    v(dimension, Key{"dimension", "", "2 (contour on an image) or 3 (mesh in a volume)", Range::closed(2, 3)});
+    v(name, Key{"name", "", "names the default output folder out/<name>"});
+    v(description, Key{"description", "", "free text"});
+    v(seed, Key{"seed", "", "seeds the corruptions; same seed, same numbers", Range::at_least(0)});
+    v(solver, Key{"solver", "", "the snake iteration of §3.1 or one global Ceres solve per phase"});
   }
 };
 
-template <int D>
-struct Experiment {
-  ExperimentFile file;
-  std::string name;
-  uint64_t seed = 0;
-  SolverKind solver = SolverKind::kSnake;    // "solver": how a phase moves the snake (registration/registration.h)
-  CollisionGuardOptions collision_guard;    // "collision_guard": the snake iteration's check
-  GlobalSolverOptions global;               // "global": Ceres' options
+// What the experiment file says about the run as a whole: the run keys and the run-level
+// sections, read once into the spec (experiment_spec.h) and handed to the Experiment whole.
+struct RunSettings : RunKeys {
+  CollisionGuardOptions collision_guard;      // "collision_guard": the snake iteration's check
+  GlobalSolverOptions global;                 // "global": Ceres' options
   std::optional<PotentialOptions> potential;  // the external term's potential (global view)
+  SuccessCriteria success;
+  OutputOptions output;
+  MetricsOptions metrics;    // "metrics": how the surface distances are sampled
+  WatchdogOptions watchdog;  // "watchdog": when a run is stopped as diverged
+};
+
+template <int D>
+struct Experiment : RunSettings {
+  ExperimentFile file;
   Image<D> image;
   bool image_is_file_as_read = false;  // a file without corruptions (so image.nii.gz would be a copy)
   // A file's image: how the file stores its voxels, so that the images written from it
@@ -155,10 +150,6 @@ struct Experiment {
   std::vector<WeightedEnergy<D>> energies;
   std::vector<Phase<D>> phases;
   std::vector<std::string> phase_names;  // the file's "name" of each phase, or "#k"
-  SuccessCriteria success;
-  OutputOptions output;
-  MetricsOptions metrics;
-  WatchdogOptions watchdog;
 };
 
 // Reads the file's sections (read_experiment_spec) and assembles the objects (assemble).

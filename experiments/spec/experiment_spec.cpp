@@ -18,19 +18,26 @@ std::string resolve(const ExperimentFile& f, const std::string& p) {
   return (fs::path(f.base_dir) / p).string();
 }
 
-// "file": exactly one of a file and a phantom; the phantom keeps its object minus `own_keys`.
-std::optional<PhantomSource> read_source(JsonReader& r, const ExperimentFile& f, std::string& file,
-                                         std::initializer_list<const char*> own_keys) {
+// "file": exactly one of a file and a phantom; a phantom's kind and its family's keys are read
+// into its options here (experiments/phantoms/phantoms.h).
+template <class Product>
+std::optional<PhantomSpec<Product>> read_source(JsonReader& r, const ExperimentFile& f, std::string& file,
+                                                const PhantomRegistry<Product>& phantoms) {
   if (r.has("file") == r.has("phantom")) r.fail("", "give exactly one of \"file\" and \"phantom\"");
   if (r.has("file")) {
     r.read("file", file);
     file = resolve(f, file);
     return std::nullopt;
   }
-  PhantomSource source{r.object(), r.file(), r.path()};
-  for (const char* k : own_keys) source.object.erase(k);
-  for (auto it = source.object.begin(); it != source.object.end(); ++it) r.skip(it.key());  // the phantom reads them
-  return source;
+  return phantoms.read(r);
+}
+
+// A section object read into its options, every key checked.
+template <class O>
+void read_section(JsonReader& top, const char* key, O& options) {
+  JsonReader r = top.child(key);
+  read_options(r, options);
+  r.finish();
 }
 
 template <int D>
@@ -38,7 +45,7 @@ ImageSpec<D> read_image_section(JsonReader& top, const ExperimentFile& f) {
   ImageSpec<D> spec;
   JsonReader r = top.child("image");
   read_options(r, spec.read);
-  spec.phantom = read_source(r, f, spec.file, {"nifti_transform"});
+  spec.phantom = read_source(r, f, spec.file, image_phantoms<D>());
   r.finish();
   if (top.has("corruption")) {
     const auto& list = top.raw("corruption");
@@ -49,19 +56,6 @@ ImageSpec<D> read_image_section(JsonReader& top, const ExperimentFile& f) {
     }
   }
   return spec;
-}
-
-template <int D>
-PlacementSpec<D> read_placement(JsonReader t) {
-  PlacementSpec<D> p;
-  t.read("scale", p.scale);
-  t.expect(p.scale > 0, "scale", "must be > 0");
-  t.read("rotation_deg", p.rotation_deg);
-  t.expect(int(p.rotation_deg.size()) <= (D == 2 ? 1 : 3), "rotation_deg",
-           D == 2 ? "expected one angle" : "expected up to three angles (x, y, z)");
-  t.read<D>("translation", p.translation);
-  t.finish();
-  return p;
 }
 
 // "template.init": a required type, the keys of that type, points of D numbers; the mask's path
@@ -82,20 +76,11 @@ template <int D>
 TemplateSpec<D> read_template_section(JsonReader& top, const ExperimentFile& f, const ImageReadOptions& read) {
   TemplateSpec<D> spec;
   JsonReader r = top.child("template");
-  spec.phantom = read_source(r, f, spec.file, {"landmarks", "transform", "reference_image", "init"});
-  if (r.has("landmarks")) {
-    const auto& lm = r.raw("landmarks");
-    if (!lm.is_object()) r.fail("landmarks", "expected an object {\"name\": vertex id}");
-    for (auto it = lm.begin(); it != lm.end(); ++it) {
-      if (!it->is_number_integer() || it->get<int64_t>() < 0 || it->get<int64_t>() > 2000000000)
-        r.fail("landmarks." + it.key(), "expected a template vertex id (an integer >= 0)");
-      spec.landmarks[it.key()] = it->get<int>();
-    }
-  }
-  if (r.has("transform")) spec.transform = read_placement<D>(r.child("transform"));
-  r.read("reference_image", spec.reference_image);
+  spec.phantom = read_source(r, f, spec.file, template_phantoms<D>());
+  read_options(r, spec);
   if (r.has("reference_image")) r.expect(!spec.reference_image.empty(), "reference_image", "expected an image file");
   spec.reference_image = resolve(f, spec.reference_image);
+  if (r.has("transform")) read_section(r, "transform", spec.transform);
   if (r.has("init")) spec.init = read_init<D>(r.child("init"), f);
   if (spec.init && spec.init->type == TemplateInitType::kImage && spec.reference_image.empty())
     r.fail("init.type", "\"image\" needs template.reference_image (the atlas the template's file positions lie on)");
@@ -106,9 +91,7 @@ TemplateSpec<D> read_template_section(JsonReader& top, const ExperimentFile& f, 
 
 GroundTruthSpec read_truth_section(JsonReader r, const ExperimentFile& f) {
   GroundTruthSpec t;
-  r.read("mask", t.mask);
-  r.read("surface", t.surface);
-  r.read("correspondence", t.correspondence);
+  read_options(r, t);
   r.finish();
   t.mask = resolve(f, t.mask);
   t.surface = resolve(f, t.surface);
@@ -125,8 +108,7 @@ std::vector<EnergySpec<D>> read_energies_section(JsonReader& top, const Experime
     EnergySpec<D> e;
     e.path = "energies[" + std::to_string(i) + "]";
     JsonReader r(list[i], f.path, e.path);
-    r.read("weight", e.weight);
-    r.expect(e.weight > 0, "weight", "must be > 0");
+    read_options(r, static_cast<EnergyWeight&>(e));
     e.energy = energy_registry<D>().read(r);
     energies.push_back(std::move(e));
   }
@@ -171,30 +153,13 @@ std::vector<PhaseSpec<D>> read_phases_section(JsonReader& top, const ExperimentF
   return phases;
 }
 
-// "seed", "solver", "collision_guard", "global": the run's identity and how it minimises.
+// The run keys, "collision_guard", "global": the run's identity and how it minimises.
 template <int D>
 void read_run_keys(JsonReader& top, ExperimentSpec<D>& spec) {
-  int dimension = D;
-  top.read("dimension", dimension);
-  if (dimension != D) top.fail("dimension", "internal mismatch");
-  top.read("name", spec.name);
-  top.read("description", spec.description);
-  double seed = 0;
-  top.read("seed", seed);
-  top.expect(seed >= 0 && seed == std::floor(seed) && seed < 9.007e15, "seed", "must be a non-negative integer");
-  spec.seed = static_cast<uint64_t>(seed);
-  if (top.has("solver")) {
-    std::string solver;
-    top.read("solver", solver);
-    const auto kind = enum_from_name<SolverKind>(solver);
-    if (!kind) top.fail("solver", "must be " + enum_choices<SolverKind>());
-    spec.solver = *kind;
-  }
-  if (top.has("collision_guard")) {
-    JsonReader g = top.child("collision_guard");
-    read_options(g, spec.collision_guard);
-    g.finish();
-  }
+  spec.dimension = D;
+  read_options(top, static_cast<RunKeys&>(spec));
+  if (spec.dimension != D) top.fail("dimension", "internal mismatch");
+  if (top.has("collision_guard")) read_section(top, "collision_guard", spec.collision_guard);
   if (top.has("global")) {
     // The "global" object: Ceres' options and the external term's potential, for a
     // global solve or for a snake run whose energies are reported with the same potential.
@@ -228,25 +193,11 @@ ExperimentSpec<D> read_experiment_spec(const ExperimentFile& file) {
   spec.success = SuccessCriteria::defaults();
   if (top.has("success")) {
     spec.success = SuccessCriteria{};
-    JsonReader r = top.child("success");
-    read_options(r, spec.success);
-    r.finish();
+    read_section(top, "success", spec.success);
   }
-  if (top.has("output")) {
-    JsonReader r = top.child("output");
-    read_options(r, spec.output);
-    r.finish();
-  }
-  if (top.has("metrics")) {
-    JsonReader r = top.child("metrics");
-    read_options(r, spec.metrics);
-    r.finish();
-  }
-  if (top.has("watchdog")) {
-    JsonReader r = top.child("watchdog");
-    read_options(r, spec.watchdog);
-    r.finish();
-  }
+  if (top.has("output")) read_section(top, "output", spec.output);
+  if (top.has("metrics")) read_section(top, "metrics", spec.metrics);
+  if (top.has("watchdog")) read_section(top, "watchdog", spec.watchdog);
   top.finish();
   return spec;
 }

@@ -19,12 +19,6 @@ namespace {
 
 using json = nlohmann::ordered_json;
 
-// Per phantom key: the JSON types it is read as, and the kinds that read it.
-struct PhantomKey {
-  std::set<std::string> types, kinds;
-};
-using PhantomKeys = std::map<std::string, PhantomKey>;
-
 json closed_object(json properties, const std::vector<std::string>& required = {}, const std::string& description = "") {
   json s = {{"type", "object"}};
   if (!description.empty()) s["description"] = description;
@@ -69,114 +63,77 @@ json plugin_variants(const R2& r2, const R3& r3, const json& common) {
   return {{"oneOf", variants}};
 }
 
-// The keys that phantoms of the given kinds read, recorded while each builds from its defaults
-// (a phantom that needs a file fails after reading its keys; what it read so far is kept).
-template <class Build>
-void record_phantom_keys(const std::vector<std::string>& kinds, const char* section, Build build,
-                         PhantomKeys& keys) {
-  for (const auto& kind : kinds) {
-    nlohmann::json object = {{"phantom", kind}};
-    KeyRecorder recorder;
-    try {
-      JsonReader r(object, "", section);
-      build(r);
-    } catch (const std::exception&) {
+// The union of the 2D and 3D properties of one options struct (e.g. a point of 2 or 3
+// numbers): where they differ, the item counts widen and the default is dropped.
+json union_of_dims(const json& p2, const json& p3) {
+  json u = p3;
+  for (auto it = p2.begin(); it != p2.end(); ++it) {
+    if (!u.contains(it.key())) {
+      u[it.key()] = it.value();
+      continue;
     }
-    for (const auto& rec : recorder.records) {
-      if (rec.key == "phantom") continue;
-      auto& entry = keys[rec.key];
-      entry.types.insert(rec.type);
-      entry.kinds.insert(kind);
-    }
+    json& k = u[it.key()];
+    if (k == it.value()) continue;
+    if (k.contains("minItems") && it->contains("minItems"))
+      k["minItems"] = std::min(k["minItems"].get<int>(), (*it)["minItems"].get<int>());
+    if (k.contains("maxItems") && it->contains("maxItems"))
+      k["maxItems"] = std::max(k["maxItems"].get<int>(), (*it)["maxItems"].get<int>());
+    k.erase("default");
+  }
+  return u;
+}
+
+// One variant per phantom family of each dimension: {"phantom": const kind, the family's keys,
+// the section's own keys}; anyOf, as a kind may exist in 2D and 3D with different keys.
+template <class R>
+void add_phantom_variants(json& variants, const R& registry, const char* dims, const json& own) {
+  for (const auto& f : registry.families()) {
+    json props = {{"phantom", {{"const", f.name}, {"description", std::string(dims) + ": " + f.summary}}}};
+    merge(props, f.schema_properties);
+    merge(props, own);
+    variants.push_back(closed_object(props, {"phantom"}));
   }
 }
 
 // "image" or "template": {"file": path} or {"phantom": kind, the kind's parameters}, plus `own`.
-json source_schema(const std::vector<std::string>& kinds,
-                   const PhantomKeys& keys, json own,
-                   const std::string& description) {
-  json props = {{"file", {{"type", "string"}, {"description", "a file, relative to the experiment file's folder"}}},
-                {"phantom", {{"enum", kinds}, {"description", "a built-in synthetic phantom with its ground truth"}}}};
-  for (const auto& [key, entry] : keys) {
-    std::string by;
-    for (const auto& k : entry.kinds) by += (by.empty() ? "" : ", ") + k;
-    json p = {{"description", "phantom parameter, read by: " + by}};
-    std::set<std::string> types = entry.types;
-    if (types.count("number")) types.erase("integer");  // an integer is a number
-    if (types.count("")) types.erase("");               // asked about (has, raw): no type said
-    if (entry.types.size() == 1 && entry.types.count("")) types.clear();  // only raw: any JSON value
-    if (types.size() == 1) p["type"] = *types.begin();
-    else if (types.size() > 1) p["type"] = std::vector<std::string>(types.begin(), types.end());
-    props[key] = p;
-  }
-  merge(props, own);
-  json s = closed_object(props, {}, description);
-  s["oneOf"] = json::array({{{"required", {"file"}}}, {{"required", {"phantom"}}}});
-  return s;
-}
-
-template <int D>
-void image_keys(PhantomKeys& keys) {
-  record_phantom_keys(image_phantom_kinds<D>(), "image", [](JsonReader& r) { make_phantom<D>(r); }, keys);
-}
-template <int D>
-void template_keys(PhantomKeys& keys) {
-  record_phantom_keys(template_phantom_kinds<D>(), "template", [](JsonReader& r) { make_template_phantom<D>(r); }, keys);
-}
-
-std::vector<std::string> union_of(std::vector<std::string> a, const std::vector<std::string>& b) {
-  for (const auto& x : b)
-    if (std::find(a.begin(), a.end(), x) == a.end()) a.push_back(x);
-  return a;
+template <class R2, class R3>
+json source_schema(const R2& r2, const R3& r3, const json& own, const std::string& description) {
+  json file = {{"file", {{"type", "string"}, {"description", "a file, relative to the experiment file's folder"}}}};
+  merge(file, own);
+  json variants = json::array({closed_object(file, {"file"})});
+  add_phantom_variants(variants, r2, "2D", own);
+  add_phantom_variants(variants, r3, "3D", own);
+  return {{"type", "object"}, {"description", description}, {"anyOf", variants}};
 }
 
 json corruption_variants() {
   json variants = json::array();
-  auto add = [&](const char* type, json props) {
-    json p = {{"type", {{"const", type}}}};
-    merge(p, props);
+  for (const auto& kind : corruption_kinds()) {
+    json p = {{"type", {{"const", kind.name}, {"description", kind.summary}}}};
+    merge(p, kind.schema_properties);
     variants.push_back(closed_object(p, {"type"}));
-  };
-  add("outliers", options_schema<OutliersOptions>());
-  add("noise", options_schema<NoiseOptions>());
-  add("perturb", options_schema<PerturbOptions>());
+  }
   return {{"oneOf", variants}};
 }
 
 json template_schema() {
-  PhantomKeys keys;
-  template_keys<2>(keys);
-  template_keys<3>(keys);
-  json own = {
-      {"reference_image", {{"type", "string"},
-                           {"description", "an image in which the template at its rest positions (as read) lies on "
-                                           "its object (an atlas, the previous slice): the profile energy's expected "
-                                           "profiles are sampled there"}}},
-      {"landmarks", {{"type", "object"}, {"additionalProperties", {{"type", "integer"}, {"minimum", 0}}},
-                     {"description", "named template vertices: {\"name\": vertex id}"}}},
-      {"transform", closed_object({{"scale", {{"type", "number"}, {"exclusiveMinimum", 0}, {"default", 1},
-                                              {"description", "uniform scale about the origin"}}},
-                                   {"rotation_deg", {{"type", "array"}, {"items", {{"type", "number"}}}, {"maxItems", 3},
-                                                     {"description", "2D: one angle; 3D: up to three (x, y, z), degrees"}}},
-                                   {"translation", {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 2},
-                                                    {"maxItems", 3}, {"description", "mm, after scale and rotation"}}}},
-                                  {}, "the template's placement: x -> scale R x + translation")},
-      {"init", closed_object(options_schema<TemplateInitOptions>(), {"type"},
-                             "a pre-alignment after the transform: moments of a region, or a similarity from named landmark points")}};
-  return source_schema(union_of(template_phantom_kinds<2>(), template_phantom_kinds<3>()), keys, own,
+  json own = options_schema<TemplateSpec<3>>();
+  own["transform"] = closed_object(union_of_dims(options_schema<PlacementSpec<2>>(), options_schema<PlacementSpec<3>>()), {},
+                                   "the template's placement: x -> scale R x + translation");
+  own["transform"]["properties"]["rotation_deg"]["maxItems"] = 3;  // PlacementSpec::check: one angle in 2D
+  own["init"] = closed_object(options_schema<TemplateInitOptions>(), {"type"},
+                              "a pre-alignment after the transform: moments of a region, or a similarity from named landmark points");
+  return source_schema(template_phantoms<2>(), template_phantoms<3>(), own,
                        "the template: a contour (2D) or closed mesh (3D) file, or a phantom");
 }
 
 json image_schema() {
-  PhantomKeys keys;
-  image_keys<2>(keys);
-  image_keys<3>(keys);
-  return source_schema(union_of(image_phantom_kinds<2>(), image_phantom_kinds<3>()), keys,
-                       options_schema<ImageReadOptions>(), "the image or volume: a file, or a phantom");
+  return source_schema(image_phantoms<2>(), image_phantoms<3>(), options_schema<ImageReadOptions>(),
+                       "the image or volume: a file, or a phantom");
 }
 
 json phase_schema() {
-  json props = options_schema<PhaseSpec<3>>();
+  json props = options_schema<PhaseOptions>();
   json stages = plugin_variants(remesher_registry<2>(), remesher_registry<3>(), json::object());
   props["remesh"] = {{"type", "array"}, {"items", stages}, {"description", "remeshing stages, applied in order (§5)"}};
   return closed_object(props);
@@ -185,32 +142,24 @@ json phase_schema() {
 json experiment_definition() {
   json global = options_schema<GlobalSolverOptions>();
   merge(global, options_schema<PotentialOptions>());
-  json energy_common = {{"weight", {{"type", "number"}, {"exclusiveMinimum", 0}, {"default", 1},
-                                    {"description", "w_e of the term (§3.1's kappa, eta)"}}}};
-  json props = {
-      {"dimension", {{"enum", {2, 3}}, {"description", "2 (contour on an image) or 3 (mesh in a volume)"}}},
-      {"name", {{"type", "string"}, {"description", "names the default output folder out/<name>"}}},
-      {"description", {{"type", "string"}}},
-      {"seed", {{"type", "integer"}, {"minimum", 0}, {"description", "seeds the corruptions; same seed, same numbers"}}},
-      {"solver", {{"enum", {"snake", "global"}}, {"default", "snake"},
-                  {"description", "the snake iteration of §3.1 or one global Ceres solve per phase"}}},
+  json props = options_schema<RunKeys>();
+  props["dimension"].erase("default");  // required
+  merge(props, json{
       {"collision_guard", closed_object(options_schema<CollisionGuardOptions>(), {},
                                         "the snake iteration's non-self-intersection check")},
       {"global", closed_object(global, {}, "Ceres' options and the external term's potential")},
       {"image", image_schema()},
       {"corruption", {{"type", "array"}, {"items", corruption_variants()}, {"description", "seeded corruptions, in order"}}},
       {"template", template_schema()},
-      {"ground_truth", closed_object({{"mask", {{"type", "string"}}}, {"surface", {{"type", "string"}}},
-                                      {"correspondence", {{"type", "string"}}}},
-                                     {}, "files that override a phantom's own truth")},
+      {"ground_truth", closed_object(options_schema<GroundTruthSpec>(), {}, "files that override a phantom's own truth")},
       {"field", plugin_variants(field_registry<2>(), field_registry<3>(), field_common_schema_properties())},
       {"energies", {{"type", "array"}, {"minItems", 1},
-                    {"items", plugin_variants(energy_registry<2>(), energy_registry<3>(), energy_common)}}},
+                    {"items", plugin_variants(energy_registry<2>(), energy_registry<3>(), options_schema<EnergyWeight>())}}},
       {"phases", {{"type", "array"}, {"minItems", 1}, {"items", phase_schema()}}},
       {"success", closed_object(options_schema<SuccessCriteria>(), {}, "thresholds of a successful run")},
       {"output", closed_object(options_schema<OutputOptions>())},
       {"metrics", closed_object(options_schema<MetricsOptions>(), {}, "how the surface distances are sampled")},
-      {"watchdog", closed_object(options_schema<WatchdogOptions>(), {}, "when a snake run is stopped as diverged")}};
+      {"watchdog", closed_object(options_schema<WatchdogOptions>(), {}, "when a snake run is stopped as diverged")}});
   return closed_object(props, {"dimension", "image", "template", "field", "energies", "phases"}, "an experiment file");
 }
 
@@ -241,6 +190,16 @@ std::string plugin_tables(const char* section, const R2& r2, const R3& r3) {
   return s;
 }
 
+// Markdown: a heading, a summary line and the key table of each phantom family.
+template <class R>
+std::string phantom_tables(const char* section, const R& registry, const char* dims) {
+  std::string s;
+  for (const auto& f : registry.families())
+    s += "#### `" + std::string(section) + "` phantom `" + f.name + "` (" + dims + ")\n\n" + f.summary + ".\n\n" +
+         key_table_markdown(f.rows) + "\n";
+  return s;
+}
+
 }  // namespace
 
 nlohmann::ordered_json experiment_schema() {
@@ -254,8 +213,21 @@ nlohmann::ordered_json experiment_schema() {
 
 std::string experiment_reference_markdown() {
   std::string s;
+  s += "### Top-level keys: the run\n\n";
+  std::vector<KeyRow> run = options_rows<RunKeys>();
+  run.front().default_value = "required";
+  s += key_table_markdown(run) + "\n";
   s += "### `image`: how image files are read\n\n";
   s += key_table_markdown(options_rows<ImageReadOptions>()) + "\n";
+  s += "### `image` phantoms\n\nEvery image phantom takes the canvas keys (`size` to `center`) and its family's own.\n\n";
+  s += phantom_tables("image", image_phantoms<2>(), "2D") + phantom_tables("image", image_phantoms<3>(), "3D");
+  s += "### `template`\n\n" + key_table_markdown(options_rows<TemplateSpec<3>>()) + "\n";
+  s += "### `template.transform`: the placement\n\nx -> scale R x + translation about the template's centroid; in 2D, "
+       "`rotation_deg` has one angle and `translation` two numbers.\n\n";
+  s += key_table_markdown(options_rows<PlacementSpec<3>>()) + "\n";
+  s += "### `template` phantoms\n\n";
+  s += phantom_tables("template", template_phantoms<2>(), "2D") + phantom_tables("template", template_phantoms<3>(), "3D");
+  s += "### `ground_truth`\n\n" + key_table_markdown(options_rows<GroundTruthSpec>()) + "\n";
   s += "### `collision_guard`: the snake iteration's non-self-intersection check\n\n";
   s += key_table_markdown(options_rows<CollisionGuardOptions>()) + "\n";
   s += "### `global`: Ceres' options and the external term's potential\n\n";
@@ -264,22 +236,21 @@ std::string experiment_reference_markdown() {
   s += key_table_markdown(global) + "\n";
   s += "### `template.init`: the pre-alignment (moments, landmarks or image)\n\n";
   s += key_table_markdown(options_rows<TemplateInitOptions>()) + "\n";
-  s += "### `field`\n\nEvery field also takes `cache` (string): a folder of the field cache, and `region` "
-       "(object): where the field is computed (fields/region.h). By default the placed template's bounding box "
+  s += "### `field`\n\nEvery field also takes the cache keys:\n\n" + key_table_markdown(options_rows<FieldCacheOptions>()) +
+       "\nand `region` (object): where the field is computed (fields/region.h). By default the placed template's bounding box "
        "widened on every side by max(margin, margin_share x its largest extent), cut out of the image without "
        "resampling, so that the edge map is normalised near the object and the cost follows the template's size; "
        "a snake that leaves the region feels the force at its border:\n\n";
   s += key_table_markdown(options_rows<FieldRegionOptions>()) + "\n";
   s += plugin_tables("field", field_registry<2>(), field_registry<3>());
-  s += "### `energies[i]`\n\nEvery energy also takes `weight` (number > 0, default 1): its w_e.\n\n";
+  s += "### `energies[i]`\n\nEvery energy also takes:\n\n" + key_table_markdown(options_rows<EnergyWeight>()) + "\n";
   s += plugin_tables("energies[i]", energy_registry<2>(), energy_registry<3>());
-  s += "### `phases[k]`\n\n" + key_table_markdown(options_rows<PhaseSpec<3>>()) +
+  s += "### `phases[k]`\n\n" + key_table_markdown(options_rows<PhaseOptions>()) +
        "\n`remesh`: an array of stages, applied in order:\n\n";
   s += plugin_tables("phases[k].remesh[j]", remesher_registry<2>(), remesher_registry<3>());
   s += "### `corruption[i]`\n\n";
-  s += "#### type `outliers`\n\n" + key_table_markdown(options_rows<OutliersOptions>()) + "\n";
-  s += "#### type `noise`\n\n" + key_table_markdown(options_rows<NoiseOptions>()) + "\n";
-  s += "#### type `perturb`\n\n" + key_table_markdown(options_rows<PerturbOptions>()) + "\n";
+  for (const auto& kind : corruption_kinds())
+    s += "#### type `" + kind.name + "`\n\n" + kind.summary + ".\n\n" + key_table_markdown(kind.rows) + "\n";
   s += "### `success`\n\n" + key_table_markdown(options_rows<SuccessCriteria>()) + "\n";
   s += "### `output`\n\n" + key_table_markdown(options_rows<OutputOptions>()) + "\n";
   s += "### `metrics`\n\n" + key_table_markdown(options_rows<MetricsOptions>()) + "\n";

@@ -1,8 +1,9 @@
 // The experiment file's contract, generated from the code that reads it, so that it cannot
 // drift: the JSON Schema (draft 2020-12) of experiment and sweep files, printed by
 // `dsnake schema` for editors and validators, and the key tables of docs/experiment-file.md,
-// printed by `dsnake schema --markdown`. Plug-in keys come from the registries (each options
-// struct's visit()), phantom keys from recording what each phantom reads (json_reader.h).
+// printed by `dsnake schema --markdown`. Every key comes from the visit() of the options struct
+// that reads it: the plug-in registries', the phantom families' (experiments/phantoms/phantoms.h)
+// and the sections' (experiments/spec/experiment_spec.h).
 #pragma once
 
 #include <nlohmann/json.hpp>

@@ -21,26 +21,13 @@ void JsonReader::fail(const std::string& key, const std::string& message) const 
   throw InputError(file_, key.empty() ? path_ : path_of(key), message);
 }
 
-namespace {
-thread_local KeyRecorder* active_recorder = nullptr;
-}  // namespace
-
-KeyRecorder::KeyRecorder() { active_recorder = this; }
-KeyRecorder::~KeyRecorder() { active_recorder = nullptr; }
-
-void JsonReader::note(const std::string& key, const char* type, const std::string& default_json) {
-  if (active_recorder) active_recorder->records.push_back({key, type, default_json});
-}
-
 bool JsonReader::has(const std::string& key) const {
-  if (active_recorder) note(key, "", "");  // a key asked about is one the reader knows
   return object_->contains(key);
 }
 
 static const char* type_name(const nlohmann::json& j) { return j.type_name(); }
 
 void JsonReader::read(const std::string& key, double& value) {
-  if (active_recorder) note(key, "number", nlohmann::json(value).dump());
   if (!has(key)) return;
   seen_.insert(key);
   const auto& j = (*object_)[key];
@@ -50,7 +37,6 @@ void JsonReader::read(const std::string& key, double& value) {
 }
 
 void JsonReader::read(const std::string& key, int& value) {
-  if (active_recorder) note(key, "integer", std::to_string(value));
   if (!has(key)) return;
   seen_.insert(key);
   const auto& j = (*object_)[key];
@@ -66,8 +52,17 @@ void JsonReader::read(const std::string& key, int& value) {
   value = static_cast<int>(v);
 }
 
+void JsonReader::read(const std::string& key, uint64_t& value) {
+  if (!has(key)) return;
+  seen_.insert(key);
+  const auto& j = (*object_)[key];
+  if (!j.is_number()) fail(key, std::string("expected a number, found ") + type_name(j));
+  const double d = j.get<double>();
+  if (!(d >= 0 && d == std::floor(d) && d < 9.007e15)) fail(key, "must be a non-negative integer");
+  value = j.is_number_unsigned() ? j.get<uint64_t>() : static_cast<uint64_t>(d);
+}
+
 void JsonReader::read(const std::string& key, bool& value) {
-  if (active_recorder) note(key, "boolean", value ? "true" : "false");
   if (!has(key)) return;
   seen_.insert(key);
   const auto& j = (*object_)[key];
@@ -76,7 +71,6 @@ void JsonReader::read(const std::string& key, bool& value) {
 }
 
 void JsonReader::read(const std::string& key, std::string& value) {
-  if (active_recorder) note(key, "string", nlohmann::json(value).dump());
   if (!has(key)) return;
   seen_.insert(key);
   const auto& j = (*object_)[key];
@@ -85,7 +79,6 @@ void JsonReader::read(const std::string& key, std::string& value) {
 }
 
 void JsonReader::read(const std::string& key, std::vector<double>& value) {
-  if (active_recorder) note(key, "array", nlohmann::json(value).dump());
   if (!has(key)) return;
   seen_.insert(key);
   const auto& j = (*object_)[key];
@@ -99,7 +92,6 @@ void JsonReader::read(const std::string& key, std::vector<double>& value) {
 }
 
 void JsonReader::read(const std::string& key, std::vector<std::string>& value) {
-  if (active_recorder) note(key, "array", nlohmann::json(value).dump());
   if (!has(key)) return;
   seen_.insert(key);
   const auto& j = (*object_)[key];
@@ -113,7 +105,6 @@ void JsonReader::read(const std::string& key, std::vector<std::string>& value) {
 }
 
 void JsonReader::read(const std::string& key, NamedPoints& value) {
-  if (active_recorder) note(key, "object", nlohmann::json(value).dump());
   if (!has(key)) return;
   seen_.insert(key);
   const auto& j = (*object_)[key];
@@ -131,8 +122,33 @@ void JsonReader::read(const std::string& key, NamedPoints& value) {
   }
 }
 
+void JsonReader::read(const std::string& key, VertexIds& value) {
+  if (!has(key)) return;
+  seen_.insert(key);
+  const auto& j = (*object_)[key];
+  if (!j.is_object()) fail(key, "expected an object {\"name\": vertex id}");
+  value.clear();
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    if (!it->is_number_integer() || it->get<int64_t>() < 0 || it->get<int64_t>() > 2000000000)
+      fail(key + "." + it.key(), "expected a template vertex id (an integer >= 0)");
+    value[it.key()] = it->get<int>();
+  }
+}
+
+void JsonReader::read(const std::string& key, PointList<3>& value) {
+  if (!has(key)) return;
+  seen_.insert(key);
+  const auto& j = (*object_)[key];
+  if (!j.is_array() || j.empty()) fail(key, "expected a non-empty array of [x, y, z]");
+  value.clear();
+  for (const auto& c : j) {
+    if (!c.is_array() || c.size() != 3 || !c[0].is_number() || !c[1].is_number() || !c[2].is_number())
+      fail(key, "expected an array of [x, y, z] points");
+    value.emplace_back(c[0].get<double>(), c[1].get<double>(), c[2].get<double>());
+  }
+}
+
 const nlohmann::json& JsonReader::raw(const std::string& key) {
-  if (active_recorder) note(key, "", "");
   if (!has(key)) fail(key, "is required");
   seen_.insert(key);
   return (*object_)[key];

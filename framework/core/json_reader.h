@@ -6,6 +6,7 @@
 
 #include "framework/core/types.h"
 
+#include <cstdint>
 #include <map>
 #include <nlohmann/json_fwd.hpp>
 #include <optional>
@@ -18,21 +19,9 @@ namespace dsnake {
 // Named points, {"name": [x, y(, z)], ...}: landmark targets in world coordinates (LPS mm). The
 // reader checks that each is an array of numbers; the user of the points checks their length.
 using NamedPoints = std::map<std::string, std::vector<double>>;
-
-// Every key that JsonReaders on this thread are asked for while a KeyRecorder lives, with its
-// JSON type and the default it had: how the schema learns the keys of readers that are not
-// options structs (the phantoms, whose keys depend on their kind).
-struct KeyRecord {
-  std::string key, type, default_json;  // type: "number", "integer", "boolean", "string", "array"
-};
-class KeyRecorder {
- public:
-  KeyRecorder();
-  ~KeyRecorder();
-  KeyRecorder(const KeyRecorder&) = delete;
-  KeyRecorder& operator=(const KeyRecorder&) = delete;
-  std::vector<KeyRecord> records;
-};
+// Named vertex ids, {"name": id, ...}: landmarks of a template. The reader checks that each is
+// an integer >= 0; the user checks it against the template's size.
+using VertexIds = std::map<std::string, int>;
 
 class JsonReader {
  public:
@@ -43,20 +32,19 @@ class JsonReader {
   // Optional keys: leave `value` untouched when the key is absent; throw on a wrong type.
   void read(const std::string& key, double& value);
   void read(const std::string& key, int& value);
+  void read(const std::string& key, uint64_t& value);  // a non-negative integer below 2^53 (a seed)
   void read(const std::string& key, bool& value);
   void read(const std::string& key, std::string& value);
   void read(const std::string& key, std::vector<double>& value);
   void read(const std::string& key, std::vector<std::string>& value);
   void read(const std::string& key, NamedPoints& value);
+  void read(const std::string& key, VertexIds& value);
+  // A non-empty array of [x, y, z] points.
+  void read(const std::string& key, PointList<3>& value);
   template <int D>
   void read(const std::string& key, Point<D>& value) {
     std::vector<double> v;
-    if (!has(key)) {
-      std::string text = "[";
-      for (int a = 0; a < D; ++a) text += (a ? ", " : "") + std::to_string(value[a]);
-      note(key, "array", text + "]");
-      return;
-    }
+    if (!has(key)) return;
     read(key, v);
     if (int(v.size()) != D) fail(key, "expected " + std::to_string(D) + " numbers");
     for (int a = 0; a < D; ++a) value[a] = v[a];
@@ -64,10 +52,7 @@ class JsonReader {
   // Required keys: as read(), but a missing key is an error.
   template <class T>
   void require(const std::string& key, T& value) {
-    if (!has(key)) {
-      note(key, "", "");  // a recorder learns the key even though the reader fails here
-      fail(key, "is required");
-    }
+    if (!has(key)) fail(key, "is required");
     read(key, value);
   }
   // Range checks, after reading: expect(opts.mu > 0, "mu", "must be > 0").
@@ -82,9 +67,6 @@ class JsonReader {
 
   // Throws on the first key that was never read: unknown keys are errors.
   void finish() const;
-
-  // Tells a live KeyRecorder about a key (read() does this for every key it is asked for).
-  static void note(const std::string& key, const char* type, const std::string& default_json);
 
   [[noreturn]] void fail(const std::string& key, const std::string& message) const;
   const std::string& file() const { return file_; }

@@ -107,6 +107,14 @@ struct IsOptional<std::optional<T>> : std::true_type {};
 template <class O>
 concept HasCheck = requires(const O& o) { o.check(); };
 
+// Points of D numbers (Point<D>, key "center": [x, y(, z)]) and lists of them.
+template <class T>
+struct IsPoint : std::false_type {};
+template <int D>
+struct IsPoint<Point<D>> : std::true_type {
+  static constexpr int kDim = D;
+};
+
 // Reads every key the options list from a JsonReader (types and enum names checked here;
 // ranges in validate_options).
 class ReadVisitor {
@@ -126,6 +134,8 @@ class ReadVisitor {
       const auto v = enum_from_name<T>(name);
       if (!v) reader_.fail(key.name, "must be " + enum_choices<T>() + ", found \"" + name + "\"");
       value = *v;
+    } else if constexpr (IsPoint<T>::value) {
+      reader_.template read<IsPoint<T>::kDim>(key.name, value);
     } else {
       reader_.read(key.name, value);
     }
@@ -143,6 +153,9 @@ struct RangeVisitor {
       if (value) (*this)(*value, key);
     } else if constexpr (std::is_arithmetic_v<T> && !std::is_same_v<T, bool>) {
       if (!key.range.contains(static_cast<double>(value))) throw OptionError{key.name, key.range.requirement()};
+    } else if constexpr (IsPoint<T>::value) {  // the range holds for every coordinate
+      for (int a = 0; a < IsPoint<T>::kDim; ++a)
+        if (!key.range.contains(value[a])) throw OptionError{key.name, key.range.requirement()};
     }
   }
 };

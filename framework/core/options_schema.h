@@ -28,13 +28,31 @@ template <> struct TypeInfo<bool> { static constexpr const char* json = "boolean
 template <> struct TypeInfo<std::string> { static constexpr const char* json = "string"; static constexpr const char* doc = "string"; };
 template <> struct TypeInfo<std::vector<double>> { static constexpr const char* json = "array"; static constexpr const char* doc = "array of numbers"; };
 template <> struct TypeInfo<std::vector<std::string>> { static constexpr const char* json = "array"; static constexpr const char* doc = "array of strings"; };
+template <> struct TypeInfo<Point<2>> { static constexpr const char* json = "array"; static constexpr const char* doc = "array of 2 numbers"; };
+template <> struct TypeInfo<Point<3>> { static constexpr const char* json = "array"; static constexpr const char* doc = "array of 3 numbers"; };
+template <> struct TypeInfo<PointList<3>> { static constexpr const char* json = "array"; static constexpr const char* doc = "array of [x, y, z]"; };
+template <> struct TypeInfo<uint64_t> { static constexpr const char* json = "integer"; static constexpr const char* doc = "integer"; };
+template <> struct TypeInfo<VertexIds> { static constexpr const char* json = "object"; static constexpr const char* doc = "object {name: vertex id}"; };
 template <> struct TypeInfo<NamedPoints> { static constexpr const char* json = "object"; static constexpr const char* doc = "object {name: [x, y(, z)]}"; };
 
 template <class T>
 nlohmann::ordered_json value_json(const T& value) {
   if constexpr (IsOptional<T>::value) return value ? value_json(*value) : nlohmann::ordered_json(nullptr);
   else if constexpr (NamedEnum<T>) return enum_name(value);
-  else return value;
+  else if constexpr (IsPoint<T>::value) return std::vector<double>(value.data(), value.data() + value.size());
+  else if constexpr (std::is_same_v<T, PointList<3>>) {
+    nlohmann::ordered_json list = nlohmann::ordered_json::array();
+    for (const auto& p : value) list.push_back(value_json(p));
+    return list;
+  } else return value;
+}
+
+// The JSON Schema bounds of a range ("minimum", "exclusiveMaximum", ...).
+inline nlohmann::ordered_json range_schema(const Range& r) {
+  nlohmann::ordered_json p = nlohmann::ordered_json::object();
+  if (r.bounded_below()) p[r.min_open ? "exclusiveMinimum" : "minimum"] = r.min;
+  if (r.bounded_above()) p[r.max_open ? "exclusiveMaximum" : "maximum"] = r.max;
+  return p;
 }
 
 // JSON Schema "properties" of the keys, with each key's default and range.
@@ -60,13 +78,18 @@ class SchemaVisitor {
       p["type"] = TypeInfo<T>::json;
       if constexpr (std::is_same_v<T, std::vector<double>>) p["items"] = {{"type", "number"}};
       if constexpr (std::is_same_v<T, std::vector<std::string>>) p["items"] = {{"type", "string"}};
+      if constexpr (std::is_same_v<T, VertexIds>) p["additionalProperties"] = {{"type", "integer"}, {"minimum", 0}};
       if constexpr (std::is_same_v<T, NamedPoints>)
         p["additionalProperties"] = {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 2}, {"maxItems", 3}};
-      if constexpr (std::is_arithmetic_v<T> && !std::is_same_v<T, bool>) {
-        const Range& r = key.range;
-        if (r.bounded_below()) p[r.min_open ? "exclusiveMinimum" : "minimum"] = r.min;
-        if (r.bounded_above()) p[r.max_open ? "exclusiveMaximum" : "maximum"] = r.max;
+      if constexpr (std::is_arithmetic_v<T> && !std::is_same_v<T, bool>) p.update(range_schema(key.range));
+      if constexpr (IsPoint<T>::value) {
+        nlohmann::ordered_json items = {{"type", "number"}};
+        items.update(range_schema(key.range));
+        p["items"] = items;
+        p["minItems"] = p["maxItems"] = IsPoint<T>::kDim;
       }
+      if constexpr (std::is_same_v<T, PointList<3>>)
+        p["items"] = {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 3}, {"maxItems", 3}};
     }
     p["default"] = value_json(value);
     properties[key.name] = p;
@@ -98,6 +121,8 @@ struct RowVisitor {
     } else {
       row.type = TypeInfo<T>::doc;
       if constexpr (std::is_arithmetic_v<T> && !std::is_same_v<T, bool>) row.range = key.range.text();
+      if constexpr (IsPoint<T>::value)
+        if (key.range.bounded_below() || key.range.bounded_above()) row.range = "each in " + key.range.text();
     }
     row.default_value = value_json(value).dump();
     rows.push_back(row);

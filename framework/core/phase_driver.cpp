@@ -97,7 +97,7 @@ double PhaseDriver<D>::size_share(const Snake<D>& snake) const {
 
 template <int D>
 std::optional<Divergence> PhaseDriver<D>::check_move(double move, int vertex, int phase_iteration) const {
-  if (std::isfinite(move) && move <= watchdog_.max_move) return std::nullopt;
+  if (std::isfinite(move) && (!(watchdog_.max_move > 0) || move <= watchdog_.max_move)) return std::nullopt;
   Divergence d;
   d.reason = std::isfinite(move) ? "a vertex moved more than watchdog.max_move in one iteration"
                                  : "a vertex moved by a non-finite amount";

@@ -7,6 +7,7 @@
 
 #include "framework/core/energy.h"
 #include "framework/core/move_guard.h"
+#include "framework/core/options.h"
 #include "framework/core/remesher.h"
 
 #include <limits>
@@ -33,20 +34,47 @@ void apply_phase_weights(std::vector<WeightedEnergy<D>>& energies, const std::ve
 template <int D>
 std::vector<double> weighted_energy_terms(const std::vector<WeightedEnergy<D>>& energies, const Snake<D>& snake);
 
-template <int D>
-struct Phase {
+// A phase's schedule and stopping rules: the keys of an experiment file's "phases[k]" (its
+// "remesh" stages are read by the remesher registry).
+struct PhaseOptions {
+  std::string name;         // shown in progress lines and result.json; "" for "#k"
   int iterations = 100;     // iteration budget
   double tolerance = 0.0;   // stop when the largest displacement (physical units) is below; 0: never
+  int every = 1;            // run the remesher pipeline every `every` iterations
   // The windowed stop (framework/core/stall.h; the snake iteration only): every `window`
   // iterations, stop when the template vertices' net move per iteration, the centroid's motion
   // removed, is below `tolerance` and the total energy changed by less than energy_tolerance of
   // itself. 0: off.
   int window = 0;
   double energy_tolerance = 1e-3;
-  int every = 1;            // run the remesher pipeline every `every` iterations
   // Per-energy weights for this phase, in the energies' order (empty: their own weights); 0
   // switches a term off, e.g. §3's first phase with the deformation and external forces only.
   std::vector<double> weights;
+
+  template <class V>
+  void visit(V& v) {
+    v(name, Key{"name", "", "shown in progress lines and result.json (default \"#k\")"});
+    v(iterations, Key{"iterations", "iterations", "the phase's iteration budget (global solve: Ceres iterations are counted)", Range::closed(0, 10000000)});
+    v(tolerance, Key{"tolerance", "mm", "stop when the largest vertex move of an iteration is below (0: never)", Range::at_least(0)});
+    v(every, Key{"every", "iterations", "run the remeshing stages every `every` iterations", Range::at_least(1)});
+    v(window, Key{"window", "iterations",
+                  "the windowed stop (needs tolerance > 0; snake iteration only): every `window` iterations, stop when no "
+                  "template vertex moved more than `tolerance` per iteration on the net once the centroid's motion is "
+                  "removed, and the total energy changed by less than energy_tolerance of itself: a snake that only "
+                  "slides or oscillates has converged (0: off)",
+                  Range::closed(0, 10000000)});
+    v(energy_tolerance, Key{"energy_tolerance", "1", "the windowed stop's largest relative change of the total energy over a window",
+                            Range::at_least(0)});
+    v(weights, Key{"weights", "1", "one weight per energy for this phase, in the energies' order (0 switches a term off); default: their own weights"});
+  }
+  void check() const {
+    if (window > 0 && tolerance <= 0)
+      throw OptionError{"window", "needs a tolerance > 0 (the net move per iteration below which the shape is still)"};
+  }
+};
+
+template <int D>
+struct Phase : PhaseOptions {
   // The remeshing run every `every` iterations (null: none); an experiment's stages come as one
   // RemeshPipeline (remesh/pipeline.h), which reports per stage.
   std::unique_ptr<Remesher<D>> remesher;
@@ -65,18 +93,41 @@ struct IterationInfo {
 enum class EvolveStatus { kConverged, kIterationBudget, kDiverged };
 std::string to_string(EvolveStatus status);
 
-// The numeric watchdog: the snake iteration stops as diverged when a vertex moves by a
-// non-finite amount or by more than max_move in one iteration, when remeshing would leave more
-// than max_vertices vertices (the remeshers stop at that budget, remesher.h), or when the
-// snake collapses: its enclosed area (2D) or volume (3D), signed, falls below min_size times
-// that of the run's start (a shape shrunk to a point or turned inside out). The positions are
-// then those of the last iteration that passed. The global solve applies the same checks at each
-// of its iterations.
-struct Watchdog {
-  double max_move = std::numeric_limits<double>::infinity();  // mm per iteration
-  int max_vertices = std::numeric_limits<int>::max();
-  double min_size = 0;  // share of the start's enclosed area or volume; 0: off
+// The numeric watchdog, the experiment file's "watchdog": the snake iteration stops as
+// diverged when a vertex moves by a non-finite amount or by more than max_move in one
+// iteration, when remeshing would leave more than max_vertices vertices (the remeshers stop at
+// that budget, remesher.h), or when the snake collapses: its enclosed area (2D) or volume (3D),
+// signed, falls below min_size times that of the run's start (a shape shrunk to a point or
+// turned inside out). The positions are then those of the last iteration that passed, and the
+// run's status is "diverged" (exit code 3). The global solve applies the same checks at each of
+// its iterations. max_vertices is also the budget that a phase's remeshing lengths are checked
+// against when an experiment is assembled. In the file, max_move 0 is the image's diagonal (the
+// runner sets it); to the driver it means no bound.
+struct WatchdogOptions {
+  double max_move = 0;         // mm per iteration; 0: the image's diagonal (the driver: no bound)
+  int max_vertices = 1000000;  // after remeshing
+  double min_size = 1e-3;      // share of the start's enclosed area / volume; 0: off
+
+  // Non-finite moves only: what a driver checks unless told otherwise.
+  static WatchdogOptions off() { return {0, std::numeric_limits<int>::max(), 0}; }
+
+  template <class V>
+  void visit(V& v) {
+    v(max_move, Key{"max_move", "mm per iteration",
+                    "a vertex moving more than this in one iteration stops the run as diverged (0: the image's "
+                    "diagonal, farther than any meaningful move)",
+                    Range::at_least(0)});
+    v(max_vertices, Key{"max_vertices", "vertices",
+                        "remeshing that would leave more vertices than this stops the run as diverged (a runaway "
+                        "refinement); a phase whose remeshing edge length needs more for the placed template is refused",
+                        Range::closed(3, 1e8)});
+    v(min_size, Key{"min_size", "1 (share)",
+                    "a snake whose enclosed area (2D) or volume (3D), signed, falls below this share of the placed "
+                    "template's (shrunk to a point or turned inside out) stops the run as diverged at that iteration (0: off)",
+                    Range::closed_open(0, 1)});
+  }
 };
+using Watchdog = WatchdogOptions;
 
 // Why a phase diverged: what was seen, at which iteration (within the phase), which vertex and
 // which energy term (its type and index; "remesh" for the vertex cap).
@@ -147,7 +198,7 @@ class PhaseDriver {
   // SnakeStep (the global solve) do not use it.
   void set_move_guard(std::unique_ptr<MoveGuard<D>> guard) { move_guard_ = std::move(guard); }
   MoveGuard<D>* move_guard() const { return move_guard_.get(); }
-  // The numeric watchdog of the snake iteration (default: non-finite moves only).
+  // The numeric watchdog of the snake iteration (default: WatchdogOptions::off(), non-finite moves only).
   void set_watchdog(const Watchdog& watchdog) { watchdog_ = watchdog; }
   const Watchdog& watchdog() const { return watchdog_; }
 
@@ -184,7 +235,7 @@ class PhaseDriver {
   std::unique_ptr<Minimizer<D>> minimizer_;
   std::vector<EvolverObserver<D>*> observers_;
   std::unique_ptr<MoveGuard<D>> move_guard_;
-  Watchdog watchdog_;
+  Watchdog watchdog_ = Watchdog::off();
   std::vector<double> base_weights_;  // the energies' own weights (phases may override them)
   bool trace_energy_ = true;
   int iterations_ = 0;

@@ -243,7 +243,8 @@ TEST(FieldCache, SpecHoldsEveryOptionAndTheFolder) {
   const nlohmann::json j = nlohmann::json::parse(R"({"type": "ddgvf", "mu": 0.1, "cache": "c"})");
   JsonReader reader(j, "exp.json", "field");
   const FieldSpec<3> spec = read_field_spec<3>(reader);
-  EXPECT_EQ(spec.cache_dir, "c");
+  ASSERT_TRUE(spec.cache.cache);
+  EXPECT_EQ(*spec.cache.cache, "c");
   EXPECT_EQ(spec.field.type, "ddgvf");
   EXPECT_EQ(spec.field.options.dump(),
             R"({"sigma":1.0,"normalize":true,"mu":0.1,"solver":"multigrid","tolerance":0.0001,"iterations":0,)"

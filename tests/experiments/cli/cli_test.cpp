@@ -367,6 +367,10 @@ TEST_F(CliTest, HostileFilesAndSetPathsAreOneLineAndExitTwo) {
       {"builtin:default --set 'phases[0]=7'", "phases[0]: expected a JSON object"},
       {"builtin:default --set 'energies[0].weight=NaN'", "energies[0].weight: expected a number"},
       {"builtin:default --set image.phantom=nosuch", "unknown 2D image phantom"},
+      // a phantom's keys are its family's declared options: an unknown one, one out of range
+      {"builtin:default --set image.radiuss=3", "default: image.radiuss: unknown key"},
+      {"builtin:default --set template.vertices=2", "default: template.vertices: must be in [3, 100000]"},
+      {"builtin:ellipsoid --set 'image.spacing=[1, -1, 1]'", "ellipsoid: image.spacing: must be > 0"},
       {"builtin:default --set watchdog.max_move=-1", "watchdog.max_move"},
       {"builtin:default --set watchdog.bogus=1", "watchdog.bogus: unknown key"},
       {"builtin:default --set 'template.transform.translation=[1e300, 0]'", "outside the image"},

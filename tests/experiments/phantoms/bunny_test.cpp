@@ -7,6 +7,7 @@
 #include "experiments/phantoms/bunny.h"
 #include "experiments/phantoms/paper_phantoms.h"
 #include "experiments/phantoms/phantoms.h"
+#include "tests/experiments/phantoms/phantom_test_support.h"
 #include "framework/io/mesh_io.h"
 
 #include <Eigen/Geometry>
@@ -220,7 +221,7 @@ TEST_F(BunnyTest, BunnyTemplateTargetsAreTheUndeformedPositions) {
   EXPECT_EQ(c.euler, 2);
 
   const json image = {{"phantom", "mesh"}, {"mesh", (dir_ / "egg.off").string()}, {"fit", 40}};
-  const auto targets = phantom_targets<3>(image, spec, t);
+  const auto targets = targets_of<3>(image, spec, t);
   ASSERT_EQ(int(targets.size()), t.num_vertices());
   double moved = 0;
   for (int k = 0; k < t.num_vertices(); ++k) {

@@ -3,6 +3,7 @@
 // true shapes.
 #include "experiments/phantoms/paper_phantoms.h"
 #include "experiments/phantoms/phantoms.h"
+#include "tests/experiments/phantoms/phantom_test_support.h"
 #include "framework/core/errors.h"
 #include "framework/metrics/metrics.h"
 
@@ -36,7 +37,7 @@ Template<D> template_phantom(const std::string& spec) {
 
 template <int D>
 std::vector<std::optional<Point<D>>> targets(const std::string& image, const std::string& tmpl) {
-  return phantom_targets<D>(nlohmann::json::parse(image), nlohmann::json::parse(tmpl),
+  return targets_of<D>(nlohmann::json::parse(image), nlohmann::json::parse(tmpl),
                             template_phantom<D>(tmpl));
 }
 

@@ -1,6 +1,7 @@
 #include "experiments/phantoms/corruption.h"
 #include "experiments/spec/experiment.h"
 #include "experiments/phantoms/phantoms.h"
+#include "tests/experiments/phantoms/phantom_test_support.h"
 #include "framework/core/errors.h"
 
 #include <Eigen/Geometry>
@@ -58,7 +59,7 @@ TEST(Phantoms, RadialTargetsLieOnTheTrueBoundary) {
   const auto tpl = nlohmann::json::parse(R"({"phantom": "circle", "radius": 40, "vertices": 24})");
   JsonReader r(tpl, "t", "template");
   const Template<2> t = make_template_phantom<2>(r);
-  const auto targets = phantom_targets<2>(img, tpl, t);
+  const auto targets = targets_of<2>(img, tpl, t);
   ASSERT_EQ(targets.size(), 24u);
   const Eigen::Matrix2d R = Eigen::Rotation2Dd(10 * M_PI / 180).toRotationMatrix();
   for (int k = 0; k < 24; ++k) {
@@ -69,7 +70,7 @@ TEST(Phantoms, RadialTargetsLieOnTheTrueBoundary) {
   const auto sph = nlohmann::json::parse(R"({"phantom": "sphere", "subdivisions": 1})");
   JsonReader r3(sph, "t", "template");
   const Template<3> t3 = make_template_phantom<3>(r3);
-  for (const auto& x : phantom_targets<3>(ell, sph, t3))
+  for (const auto& x : targets_of<3>(ell, sph, t3))
     EXPECT_NEAR((*x - Point<3>(31.5, 31.5, 31.5)).cwiseQuotient(Point<3>(20, 15, 10)).norm(), 1.0, 1e-9);
 }
 
