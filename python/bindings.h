@@ -2,12 +2,14 @@
 // share: the module's exception classes and the conversion of nlohmann JSON to Python objects.
 #pragma once
 
+#include "framework/core/image.h"
 #include "framework/core/types.h"
 
 #include <nlohmann/json.hpp>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <string>
+#include <variant>
 #include <vector>
 
 namespace dsnake::python {
@@ -49,7 +51,15 @@ py::array_t<double> points_array(const PointList<D>& points) {
   return array_of(std::move(flat), {py::ssize_t(points.size()), D});
 }
 
+// dsnake.Image: the library's image, 2D or 3D (images.cpp).
+struct PyImage {
+  std::variant<Image<2>, Image<3>> image;
+  int dimension() const { return image.index() == 0 ? 2 : 3; }
+};
+
 void bind_run(py::module_& m);
 void bind_images(py::module_& m);
+void bind_sweep(py::module_& m);
+void bind_plugins(py::module_& m);
 
 }  // namespace dsnake::python

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstring>
 #include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
 #include <variant>
 
 namespace dsnake::python {
@@ -23,11 +24,6 @@ struct DimensionOf;
 template <int D>
 struct DimensionOf<Image<D>> {
   static constexpr int value = D;
-};
-
-struct PyImage {
-  std::variant<Image<2>, Image<3>> image;
-  int dimension() const { return image.index() == 0 ? 2 : 3; }
 };
 
 template <int D>
@@ -96,17 +92,20 @@ auto on_grid(const PyImage& self, F f) {
 
 std::vector<double> as_list(const double* v, int n) { return std::vector<double>(v, v + n); }
 
-PyImage read_image_file(const std::string& path) {
+PyImage read_image_file(const std::filesystem::path& file) {
+  const std::string path = file.string();
   if (image_file_dimension(path) == 2) return {read_image<2>(path)};
   return {read_image<3>(path)};
 }
 
-void write_image_file(const PyImage& image, const std::string& path, bool label, bool compress) {
+void write_image_file(const PyImage& image, const std::filesystem::path& file, bool label, bool compress) {
+  const std::string path = file.string();
   const ImageWriteOptions options{.compress = compress, .label = label};
   std::visit([&](const auto& im) { write_image(im, path, options); }, image.image);
 }
 
-py::tuple read_mesh_file(const std::string& path, int dimension) {
+py::tuple read_mesh_file(const std::filesystem::path& file, int dimension) {
+  const std::string path = file.string();
   if (dimension == 2) return py::make_tuple(points_array<2>(read_contour_template(path).positions), py::none());
   if (dimension != 3) raise_input_error("argument 'dimension'", "must be 2 (a contour) or 3 (a mesh)");
   const Template<3> mesh = read_mesh_template(path);
@@ -116,7 +115,8 @@ py::tuple read_mesh_file(const std::string& path, int dimension) {
   return py::make_tuple(points_array<3>(mesh.positions), array_of(std::move(faces), {f, 3}));
 }
 
-void write_mesh_file(const std::string& path, py::handle vertices, py::handle faces) {
+void write_mesh_file(const std::filesystem::path& file, py::handle vertices, py::handle faces) {
+  const std::string path = file.string();
   if (faces.is_none()) {
     write_contour(points_from<2>(vertices, "argument 'vertices'"), path);
     return;

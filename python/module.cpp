@@ -78,4 +78,6 @@ PYBIND11_MODULE(dsnake, m) {
   });
   bind_run(m);
   bind_images(m);
+  bind_sweep(m);
+  bind_plugins(m);
 }
