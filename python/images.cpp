@@ -9,6 +9,7 @@
 #include "framework/io/image_io.h"
 #include "framework/io/mesh_io.h"
 
+#include <Eigen/LU>  // determinant()
 #include <cmath>
 #include <cstring>
 #include <pybind11/stl.h>

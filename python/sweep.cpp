@@ -42,7 +42,7 @@ py::object sweep(py::handle config, py::handle out, int jobs) {
   } catch (py::error_already_set& e) {
     if (!e.matches(PyExc_ImportError)) throw;
   }
-  return std::move(rows);
+  return rows;
 }
 
 }  // namespace

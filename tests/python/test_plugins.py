@@ -79,7 +79,8 @@ def test_every_energy_type_is_documented():
 
 def test_the_schema():
     schema = dsnake.schema()
-    assert "energies" in schema["properties"]
+    assert schema["$schema"].startswith("https://json-schema.org/")
+    assert "energies" in json.dumps(schema["$defs"])
 
 
 def test_a_sweep(tmp_path, default_result):

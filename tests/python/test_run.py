@@ -116,5 +116,8 @@ def test_a_path_config(tmp_path, default_result):
 
 def test_the_one_liner_from_any_folder(tmp_path):
     code = "import dsnake; print(dsnake.run('builtin:default').metrics['dice'])"
-    out = subprocess.run(["/usr/bin/python3", "-c", code], cwd=tmp_path, check=True, capture_output=True, text=True)
+    # The module folder as an absolute path (setup.sh's .pth file, or ctest's PYTHONPATH).
+    env = dict(os.environ, PYTHONPATH=os.path.dirname(os.path.abspath(dsnake.__file__)))
+    out = subprocess.run(["/usr/bin/python3", "-c", code], cwd=tmp_path, env=env, check=True,
+                         capture_output=True, text=True)
     assert 0.9 < float(out.stdout) <= 1.0
