@@ -26,7 +26,7 @@ struct RunOptions {
   bool force = false;    // write into a non-empty folder that holds no earlier result (experiments/output/output_folder.h)
   // Called after every iteration, on the thread that runs the registration; an exception thrown
   // in it ends the run (nothing is written) and propagates to the caller.
-  std::function<void(const IterationInfo&)> on_iteration;
+  std::function<void(const IterationInfo&)> on_iteration = {};
 };
 
 // What a run computed, before anything is written.
