@@ -2,9 +2,11 @@
 // exceptions into them (the same one-line messages as the command line's), and the bindings.
 #include "python/bindings.h"
 
+#include "experiments/cli/heap_settings.h"
 #include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
 
+#include <cstdlib>
 #include <stdexcept>
 
 namespace dsnake::python {
@@ -44,7 +46,7 @@ nlohmann::json from_python(py::handle object, const std::string& where) {
 
 }  // namespace dsnake::python
 
-PYBIND11_MODULE(dsnake, m) {
+PYBIND11_MODULE(_dsnake, m) {
   namespace py = pybind11;
   using namespace dsnake::python;
   m.doc() =
@@ -58,6 +60,10 @@ PYBIND11_MODULE(dsnake, m) {
   stored(2) = py::reinterpret_steal<py::object>(PyErr_NewExceptionWithDoc(
       "dsnake.DivergenceError", "A run stopped by the watchdog; .result holds the Result of its last good positions.",
       stored(0).ptr(), nullptr));
+  // glibc's malloc as the dsnake executable sets it (experiments/cli/heap_settings.h): volume-sized
+  // buffers go back to the system when freed, and a remeshed mesh's arrays do not fault their
+  // pages in again at every remeshing.
+  dsnake::configure_heap(std::getenv("GLIBC_TUNABLES"));
   m.attr("Error") = stored(0);
   m.attr("InputError") = stored(1);
   m.attr("DivergenceError") = stored(2);

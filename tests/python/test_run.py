@@ -117,7 +117,8 @@ def test_a_path_config(tmp_path, default_result):
 def test_the_one_liner_from_any_folder(tmp_path):
     code = "import dsnake; print(dsnake.run('builtin:default').metrics['dice'])"
     # The module folder as an absolute path (setup.sh's .pth file, or ctest's PYTHONPATH).
-    env = dict(os.environ, PYTHONPATH=os.path.dirname(os.path.abspath(dsnake.__file__)))
+    package = os.path.dirname(os.path.abspath(dsnake.__file__))
+    env = dict(os.environ, PYTHONPATH=os.path.dirname(package))
     out = subprocess.run(["/usr/bin/python3", "-c", code], cwd=tmp_path, env=env, check=True,
                          capture_output=True, text=True)
     assert 0.9 < float(out.stdout) <= 1.0
