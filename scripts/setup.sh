@@ -8,15 +8,17 @@ PRESET=${1:-release}
 PACKAGES=(cmake ninja-build ccache g++ libeigen3-dev libceres-dev libopenmesh-dev libopencv-dev
           nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libspdlog-dev
           zlib1g-dev libpng-dev libfftw3-dev libgdcm-dev parallel python3-matplotlib python3-jsonschema python3-vtk9
-          python3-numpy python3-scipy python3-nibabel python3-dipy elastix)
+          python3-numpy python3-scipy python3-nibabel python3-dipy elastix
+          pybind11-dev python3-dev python3-pytest python3-nbconvert python3-nbformat python3-ipykernel
+          jupyter-nbconvert)
 [ "$PRESET" = sanitize ] && PACKAGES+=(clang-14 libclang-rt-14-dev libomp-14-dev)
+SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
 missing=()
 for p in "${PACKAGES[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
 if [ ${#missing[@]} -gt 0 ]; then
   echo "setup: installing ${missing[*]}" >&2
-  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
   $SUDO apt-get update -q
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi
@@ -38,3 +40,13 @@ if ! grep -qx "CMAKE_BUILD_TYPE:STRING=$want_type" "build/$PRESET/CMakeCache.txt
     { echo "setup: build/$PRESET is not configured as the $PRESET preset says; remove that folder and run again" >&2; exit 1; }
 fi
 cmake --build --preset "$PRESET"
+# `import dsnake` for the system python3 from any folder (docs/python.md): a .pth file in its
+# site-packages names this build's module folder (the checkout set up last is the one imported).
+if [ "$PRESET" = release ]; then
+  pth="$(/usr/bin/python3 -c 'import site; print(site.getsitepackages()[0])')/dsnake.pth"
+  module_dir="$PWD/build/release/python"
+  if [ "$(cat "$pth" 2>/dev/null)" != "$module_dir" ]; then
+    $SUDO mkdir -p "$(dirname "$pth")"
+    echo "$module_dir" | $SUDO tee "$pth" >/dev/null
+  fi
+fi

@@ -301,13 +301,27 @@ RegistrationProblem<D> registration_problem(Experiment<D>& ex) {
   return problem;
 }
 
-// Runs the experiment's registration with the recorder and, unless quiet, progress lines.
+// RunOptions::on_iteration as an observer.
+template <int D>
+class CallbackObserver : public EvolverObserver<D> {
+ public:
+  explicit CallbackObserver(const std::function<void(const IterationInfo&)>& call) : call_(call) {}
+  void on_iteration(const IterationInfo& info, const Snake<D>&) override { call_(info); }
+
+ private:
+  const std::function<void(const IterationInfo&)>& call_;
+};
+
+// Runs the experiment's registration with the recorder, the caller's callback and, unless quiet,
+// progress lines.
 template <int D>
 void evolve(Experiment<D>& ex, const RunOptions& options, RunRecord<D>& rec) {
   for (const auto& phase : ex.phases) rec.phases.push_back({phase.iterations, phase.window > 0});
   ProgressObserver<D> progress(rec.phases, ex.phase_names, ex.solver == SolverKind::kGlobal);
+  CallbackObserver<D> callback(options.on_iteration);
   rec.recorder.keep_phase_ends = ex.output.start_metrics;
   std::vector<EvolverObserver<D>*> observers{&rec.recorder};
+  if (options.on_iteration) observers.push_back(&callback);
   RegistrationProgress say;
   if (!options.quiet) {
     observers.push_back(&progress);
@@ -561,10 +575,23 @@ nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& 
   return result;
 }
 
+// What the caller gets back of a run: the result document and the snake, moved out of the record.
+template <int D>
+RunOutcome<D> outcome_of(const Experiment<D>& ex, RunRecord<D>& rec, nlohmann::ordered_json result) {
+  RunOutcome<D> outcome;
+  outcome.result = std::move(result);
+  outcome.final_world = world_positions(ex.image.grid(), rec.registration.snake.positions());
+  outcome.snake = std::move(rec.registration.snake);
+  outcome.trace = std::move(rec.recorder.trace);
+  outcome.term_names = std::move(rec.registration.term_names);
+  outcome.correspondence = std::move(rec.correspondence);
+  return outcome;
+}
+
 }  // namespace
 
 template <int D>
-nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& options) {
+RunOutcome<D> run_experiment_outcome(Experiment<D>& ex, const RunOptions& options) {
   const auto start = Clock::now();
   const fs::path out = options.out_dir.empty() ? fs::path("out") / (ex.name.empty() ? "run" : ex.name)
                                                : fs::path(options.out_dir);
@@ -581,7 +608,7 @@ nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& optio
     if (!options.quiet)
       std::fprintf(stderr, "dsnake: wrote %s (success: %s)\n", (out / "result.json").string().c_str(),
                    result["success"].get<bool>() ? "true" : ("false: " + result["failure"].get<std::string>()).c_str());
-    return result;
+    return outcome_of(ex, rec, result);
   } catch (...) {
     std::error_code ec;
     fs::remove_all(staging, ec);
@@ -589,7 +616,26 @@ nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& optio
   }
 }
 
+template <int D>
+nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& options) {
+  return run_experiment_outcome(ex, options).result;
+}
+
+template <int D>
+RunOutcome<D> compute_experiment(Experiment<D>& ex, const RunOptions& options) {
+  const auto start = Clock::now();
+  RunRecord<D> rec(fs::path(), /*snapshot_every=*/0, ex.image.grid());
+  evolve(ex, options, rec);
+  measure(ex, rec);
+  nlohmann::ordered_json result = result_json(ex, rec, start);
+  return outcome_of(ex, rec, std::move(result));
+}
+
 template nlohmann::ordered_json run_experiment<2>(Experiment<2>&, const RunOptions&);
+template RunOutcome<2> run_experiment_outcome<2>(Experiment<2>&, const RunOptions&);
+template RunOutcome<3> run_experiment_outcome<3>(Experiment<3>&, const RunOptions&);
+template RunOutcome<2> compute_experiment<2>(Experiment<2>&, const RunOptions&);
+template RunOutcome<3> compute_experiment<3>(Experiment<3>&, const RunOptions&);
 template nlohmann::ordered_json run_experiment<3>(Experiment<3>&, const RunOptions&);
 
 }  // namespace dsnake
