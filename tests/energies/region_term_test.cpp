@@ -133,7 +133,7 @@ TEST(RegionTermEnergy, ProposalsDoNotChangeWithAnAffineIntensityMap) {
 }
 
 // Every residual block against Ceres' numeric Jacobians (Ridders from a 1e-4 relative step, as
-// tests/framework/global_solver_test.cpp), at positions and means moved off the add point, each
+// tests/energies/global_solver_test.cpp), at positions and means moved off the add point, each
 // parameter block's error relative to its largest entry.
 template <int D>
 void expect_residuals_pass_the_gradient_checker(GlobalProblem<D>& problem, const PointList<D>& moved) {
