@@ -7,7 +7,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh sanitize
-LONG='Reproduction|PoseCapture|Template3d|Bunny|RealExperiments|UnitsTest|WorldOrientation|figure_scripts|viewer_files|experiment_schema'
+LONG='Reproduction|PoseCapture|Template3d|TemplateCliTest.Colin27|Bunny|RealExperiments|UnitsTest|WorldOrientation|figure_scripts|viewer_files|experiment_schema'
 # HeapSettings: glibc malloc's thresholds, which do not exist under AddressSanitizer's allocator.
 NOT_UNDER_ASAN='HeapSettings'
 ctest --preset sanitize -j 2 -E "$LONG|$NOT_UNDER_ASAN"
