@@ -18,8 +18,8 @@ namespace dsnake::python {
 
 namespace {
 
-PyImage& image_argument(py::handle image) {
-  if (!py::isinstance<PyImage>(image)) raise_input_error("argument 'image'", "must be a dsnake.Image");
+PyImage& image_argument(py::handle image, const std::string& argument = "argument 'image'") {
+  if (!py::isinstance<PyImage>(image)) raise_input_error(argument, "must be a dsnake.Image");
   return image.cast<PyImage&>();
 }
 
@@ -60,6 +60,7 @@ template <int D>
 struct BoundEnergy {
   Template<D> tmpl;
   std::optional<Image<D>> image;
+  std::optional<Image<D>> reference;  // the atlas image, in which the template lies on its object
   std::unique_ptr<ExternalField<D>> field;
   std::unique_ptr<Energy<D>> energy;
   Snake<D> snake;  // on the template's connectivity; its positions are each call's q
@@ -113,19 +114,26 @@ Template<D> template_from(py::handle object) {
 
 template <int D>
 std::shared_ptr<BoundEnergy<D>> bind_energy(const std::string& type, py::handle tmpl, py::handle image,
-                                            py::handle field_options, const py::kwargs& options) {
+                                            py::handle field_options, py::handle reference,
+                                            const py::kwargs& options) {
   auto bound = std::make_shared<BoundEnergy<D>>();
   bound->tmpl = template_from<D>(tmpl);
   const nlohmann::json document = options_document(type, options, "energy");
   JsonReader reader(document, "", "energy");
   bound->energy = energy_registry<D>().create(reader);
   bound->energy->check_template(bound->tmpl);
-  if (bound->energy->needs_reference_image())
-    raise_input_error("energy", "\"" + type + "\" needs a reference image, which dsnake.energy does not bind");
   EnergyContext<D> context;
   context.tmpl = &bound->tmpl;
+  if (!reference.is_none()) {
+    PyImage& im = image_argument(reference, "argument 'reference'");
+    if (im.dimension() != D) raise_input_error("argument 'reference'", "must have the template's dimension");
+    bound->reference = std::get<Image<D>>(im.image);
+    context.reference_image = &*bound->reference;
+  } else if (bound->energy->needs_reference_image()) {
+    raise_input_error("argument 'reference'", "\"" + type + "\" needs a reference image (an atlas image in which the template lies on its object)");
+  }
   if (!image.is_none()) {
-    PyImage& im = image_argument(image);
+    PyImage& im = image_argument(image, "argument 'image'");
     if (im.dimension() != D) raise_input_error("argument 'image'", "must have the template's dimension");
     bound->image = std::get<Image<D>>(im.image);
     py::dict field = field_options.is_none() ? py::dict(py::arg("type") = "gvf") : field_options.cast<py::dict>();
@@ -144,10 +152,10 @@ struct PyEnergy {
 };
 
 PyEnergy energy(const std::string& type, py::handle tmpl, py::handle image, py::handle field_options,
-                const py::kwargs& options) {
+                py::handle reference, const py::kwargs& options) {
   const bool three_d = py::isinstance<py::tuple>(tmpl) || py::isinstance<py::list>(tmpl);
-  if (three_d) return {bind_energy<3>(type, tmpl, image, field_options, options)};
-  return {bind_energy<2>(type, tmpl, image, field_options, options)};
+  if (three_d) return {bind_energy<3>(type, tmpl, image, field_options, reference, options)};
+  return {bind_energy<2>(type, tmpl, image, field_options, reference, options)};
 }
 
 // Every type of the 2D and 3D registries with its summary and its keys: name (type, unit) =
@@ -171,9 +179,51 @@ std::string catalogue(const Registry<Product2>& two, const Registry<Product3>& t
   return text;
 }
 
+// The same catalogue as data, for the type stubs' generator (python/generate_stubs.py): per type its
+// summary, the dimensions it exists in, its key table and its keys' JSON Schema.
+template <class Product2, class Product3>
+py::list catalogue_data(const Registry<Product2>& two, const Registry<Product3>& three) {
+  py::list types;
+  auto add = [&](const auto& registry, const std::string& name, py::list dimensions) {
+    const auto& entry = registry.entry(name);
+    py::list keys;
+    for (const KeyRow& row : entry.rows) {
+      py::dict key;
+      key["name"] = row.name;
+      key["type"] = row.type;
+      key["unit"] = row.unit;
+      key["default"] = row.default_value;
+      key["range"] = row.range;
+      key["help"] = row.help;
+      keys.append(key);
+    }
+    py::dict type;
+    type["name"] = name;
+    type["summary"] = entry.summary;
+    type["dimensions"] = dimensions;
+    type["keys"] = keys;
+    type["schema"] = to_python(entry.schema_properties);
+    types.append(type);
+  };
+  for (const auto& name : two.names()) add(two, name, three.contains(name) ? py::list(py::make_tuple(2, 3)) : py::list(py::make_tuple(2)));
+  for (const auto& name : three.names())
+    if (!two.contains(name)) add(three, name, py::list(py::make_tuple(3)));
+  return types;
+}
+
 }  // namespace
 
 void bind_plugins(py::module_& m) {
+  m.def(
+      "_catalogue",
+      [] {
+        py::dict d;
+        d["field"] = catalogue_data(field_registry<2>(), field_registry<3>());
+        d["energy"] = catalogue_data(energy_registry<2>(), energy_registry<3>());
+        return d;
+      },
+      "Every field and energy type with its keys (name, type, unit, default, range, help) and their JSON\n"
+      "Schema: what field() and energy() accept, as data (the type stubs are generated from it).");
   m.def("field", &field, py::arg("image"), py::arg("type") = "gvf",
         ("Computes an external field on an Image's grid: a float32 array [z, y, x, D] ([y, x, D] in 2D), the\n"
          "vector at each voxel with its components in (x, y[, z]) order. The keyword options are the\n"
@@ -187,10 +237,12 @@ void bind_plugins(py::module_& m) {
            py::arg("q"),
            "Where each vertex would move under this force alone (N x D); vertices it does not govern stay at q.");
   m.def("energy", &energy, py::arg("type"), py::arg("template"), py::arg("image") = py::none(),
-        py::arg("field") = py::none(),
+        py::arg("field") = py::none(), py::arg("reference") = py::none(),
         ("Binds an energy to a template: 2D an N x 2 float64 contour (in order), 3D a tuple (vertices N x 3\n"
          "float64, faces F x 3 int) of a closed mesh. image: a dsnake.Image for the terms that read one\n"
          "(external, region, ...), with the field computed from the dict `field` (default {'type': 'gvf'}).\n"
+         "reference: a dsnake.Image in which the template at its given positions lies on its object (an\n"
+         "atlas image), for the terms that learn their appearance there (patch, profile).\n"
          "The keyword options are the experiment file's \"energies\" keys (without weight). Types:\n" +
          catalogue(energy_registry<2>(), energy_registry<3>()))
             .c_str());

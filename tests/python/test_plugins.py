@@ -73,6 +73,24 @@ def test_energy_errors():
         e.propose(bad)
 
 
+def test_an_atlas_energy_takes_the_reference_image():
+    q = circle(radius=12.0)
+    atlas = disc_image()  # the template lies on its disc's edge here
+    with pytest.raises(dsnake.InputError, match="argument 'reference'.*needs a reference image"):
+        dsnake.energy("patch", q, image=atlas)
+    with pytest.raises(dsnake.InputError, match="argument 'reference'.*dsnake.Image"):
+        dsnake.energy("patch", q, image=atlas, reference=atlas.array)
+    # On the atlas itself every patch matches where it is: no move.
+    still = dsnake.energy("patch", q, image=atlas, reference=atlas).propose(q)
+    np.testing.assert_allclose(still, q, atol=1e-9)
+    # A scan whose disc is the atlas's moved 2 mm along +x: every vertex follows along x, up to the
+    # default step (the sampling step, 1 mm), and none across it on average.
+    scan = dsnake.Image(np.roll(atlas.array, 2, axis=1).copy())
+    move = dsnake.energy("patch", q, image=scan, reference=atlas).propose(q) - q
+    assert (move[:, 0] > 0.3).all() and (move[:, 0] <= 1 + 1e-9).all()
+    assert abs(move[:, 1].mean()) < 1e-9
+
+
 def test_every_energy_type_is_documented():
     assert "internal" in dsnake.energy.__doc__ and "alpha" in dsnake.energy.__doc__
 
