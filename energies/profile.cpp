@@ -15,6 +15,7 @@ namespace dsnake {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kFlat = 1e-12;  // a profile whose sum |dI| is below this has no edge
 
 // d[i] /= sum |d| over the 2K values at d; false (left as is) when the profile is flat.
@@ -116,6 +117,9 @@ void ProfileEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& sna
     reach_ = std::max(1, static_cast<int>(std::lround(options_.search / h_)));
     set_up_expected(context, snake);
     expected_for_ = context.image;
+    start_.assign(context.tmpl ? context.tmpl->num_vertices() : 0, Point<D>::Constant(kNaN));
+    for (int v = 0; v < snake.num_vertices(); ++v)
+      if (const int t = snake.template_id(v); t >= 0 && t < int(start_.size())) start_[t] = snake.positions()[v];
   }
   const int n = snake.num_vertices();
   profile_of_.assign(n, &mean_);
@@ -125,8 +129,10 @@ void ProfileEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& sna
     if (t >= 0 && options_.local_polarity && !context.reference_image) profile_of_[v] = &expected_[t];
   }
   set_up_free_vertices(context, snake);
+  template_of_.resize(n);
+  for (int v = 0; v < n; ++v) template_of_[v] = snake.template_id(v);
   offsets_.assign(n, 0.0);
-  scratch_.resize(size_t(n) * (2 * (reach_ + half_) + 1 + 2 * reach_ + 1));
+  scratch_.resize(size_t(n) * (2 * (reach_ + half_) + 1 + 2 * reach_ + 1 + 2 * half_ + 1));
   normals_.reserve(n);
 }
 
@@ -249,7 +255,7 @@ void ProfileEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   const PointList<D>& q = snake.positions();
   const Image<D>& image = image_.image();
   const int reach = reach_, half = half_, samples = 2 * (reach_ + half_) + 1;
-  const size_t stride = samples + 2 * reach + 1;
+  const size_t stride = samples + 2 * reach + 1 + 2 * half + 1;  // samples, misfits, one more line
   const double h = h_, step = options_.step;
   // Only an image larger than the caches gains from prefetching the samples of the vertex
   // kPrefetchAhead ahead (the real liver's 25.5 M voxels: each sample a new line along its normal).
@@ -268,17 +274,44 @@ void ProfileEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
     for (int i = 0; i < samples; ++i) s[i] = image.sample(q[v] + ((i - reach - half) * h) * nv);
     for (int i = 0; i + 1 < samples; ++i) s[i] = s[i + 1] - s[i];  // differences, in place
     const std::vector<double>& expected = *profile_of_[v];
-    for (int j = -reach; j <= reach; ++j)
-      misfits[j + reach] = expected.empty() ? kInf : misfit(s + (j + reach), expected);
-    double best = best_offset(misfits, reach);
+    // The trust region of max_travel: the start position of the vertex's template vertex, if any.
+    const int t = template_of_[v];
+    const Point<D>* anchor =
+        options_.max_travel > 0 && t >= 0 && t < int(start_.size()) && !std::isnan(start_[t][0]) ? &start_[t] : nullptr;
+    for (int j = -reach; j <= reach; ++j) {
+      const bool outside = anchor && (q[v] + (j * h) * nv - *anchor).norm() > options_.max_travel;
+      misfits[j + reach] = expected.empty() || outside ? kInf : misfit(s + (j + reach), expected);
+    }
+    const double best = best_offset(misfits, reach);
+    double offset = std::isnan(best) ? kNaN : best * h;
+    double at = std::isnan(best) ? kInf : misfits[int(std::lround(best)) + reach];
+    // With max_travel, the two points where the normal line leaves the ball are candidates too,
+    // so that a vertex drawn outwards stops on the ball rather than on the last sample inside it.
+    if (anchor) {
+      const Point<D> w = q[v] - *anchor;
+      const double b = nv.dot(w), disc = b * b - (w.squaredNorm() - options_.max_travel * options_.max_travel);
+      for (int side : {-1, 1}) {
+        const double d = disc >= 0 ? -b + side * std::sqrt(disc) : kNaN;
+        if (!(std::abs(d) <= reach * h)) continue;
+        double* line = misfits + 2 * reach + 1;
+        for (int i = 0; i <= 2 * half; ++i) line[i] = image.sample(q[v] + (d + (i - half) * h) * nv);
+        for (int i = 0; i < 2 * half; ++i) line[i] = line[i + 1] - line[i];
+        const double f = expected.empty() ? kInf : misfit(line, expected);
+        if (f < at) at = f, offset = d;
+      }
+    }
     // The evidence gate: a vertex moves only where the best match is clearly better than where it
     // stands (its misfit at most (1 - min_improvement) times the misfit at offset 0).
-    if (options_.min_improvement > 0 && !std::isnan(best)) {
-      const double at = misfits[int(std::lround(best)) + reach], here = misfits[reach];
-      if (std::isfinite(here) && !(at <= (1.0 - options_.min_improvement) * here)) best = 0.0;
+    if (options_.min_improvement > 0 && !std::isnan(offset)) {
+      const double here = misfits[reach];
+      if (std::isfinite(here) && !(at <= (1.0 - options_.min_improvement) * here)) offset = 0.0;
     }
-    offsets_[v] = std::isnan(best) ? 0.0 : best * h;
+    offsets_[v] = std::isnan(offset) ? 0.0 : offset;
     out[v] = q[v] + (step * offsets_[v]) * nv;
+    if (anchor) {  // back into the ball, for a vertex that the other forces moved out of it
+      const Point<D> away = out[v] - *anchor;
+      if (const double r = away.norm(); r > options_.max_travel) out[v] = *anchor + (options_.max_travel / r) * away;
+    }
   }
 }
 

@@ -11,7 +11,12 @@
 //  - d runs over -search, ..., +search in steps of h; the best d* (smallest f, ties to the
 //    smallest |d|, then the smaller d) is refined by a parabola through its neighbours' misfits;
 //  - propose: q + step d* n (no profile anywhere: q); with min_improvement m > 0, q unless
-//    f(d*) <= (1 - m) f(0): a vertex moves only on clear evidence.
+//    f(d*) <= (1 - m) f(0): a vertex moves only on clear evidence. With max_travel r > 0, the
+//    offsets searched are those whose point lies within r of where the template vertex stood when
+//    the run started (its first bind), and the proposal is kept within that ball: without an atlas
+//    image, the polarity learned from the start says nothing about edges farther away, and a
+//    search that starts again from wherever the vertex has got to would let it walk from edge
+//    to edge.
 // The expected profile:
 //  - with `template.reference_image` (EnergyContext::reference_image): sampled in that image
 //    along the normals of the template at its rest positions p, as read from its file (the
@@ -61,6 +66,7 @@ struct ProfileOptions {
   ReferenceProfile reference_profile = ReferenceProfile::kPerVertex;
   bool local_polarity = false;
   double min_improvement = 0.0;  // 1
+  double max_travel = 0.0;       // mm; 0: no bound
 
   template <class V>
   void visit(V& v) {
@@ -77,6 +83,9 @@ struct ProfileOptions {
                                                       "vertex (per_vertex) or their mean (mean)"});
     v(min_improvement, Key{"min_improvement", "1", "a vertex moves only where its best misfit is at most (1 - this) "
                                                   "times its misfit where it stands (0: always)", Range::closed_open(0, 1)});
+    v(max_travel, Key{"max_travel", "mm", "a template vertex is proposed no farther than this from where it stood when the "
+                                         "run started: the evidence an edge gives without an atlas image is local "
+                                         "(0: no bound)", Range::at_least(0)});
     v(local_polarity, Key{"local_polarity", "", "without a reference image: learn the polarity per vertex from the start "
                                                 "(a boundary whose contrast changes side); vertices without a clear "
                                                 "contrast hold; `polarity` is then not used"});
@@ -126,7 +135,9 @@ class ProfileEnergy final : public Energy<D> {
   std::vector<double> mean_;                   // the mean expected profile
   std::vector<const std::vector<double>*> profile_of_;  // per snake vertex
   std::vector<double> offsets_;
-  std::vector<double> scratch_;  // per vertex: 2(J + K) + 1 samples
+  PointList<D> start_;             // per template id: its position at the first bind (max_travel)
+  std::vector<int> template_of_;   // per snake vertex: its template id (-1: free)
+  std::vector<double> scratch_;  // per vertex: 2(J + K) + 1 samples, 2J + 1 misfits, 2K + 1 samples
   PointList<D> normals_;
 };
 

@@ -58,6 +58,29 @@ TEST(ProfileEnergy, Ball3DFromThreeMmOffEndsOnTheEdge) {
   EXPECT_LT(worst, 0.12);
 }
 
+// max_travel: the same disk's edge lies 3 mm inside a contour started at r = 13; with max_travel
+// 1 mm every vertex stops on the ball of 1 mm about its start (r = 12, to 1e-9: the point where
+// the normal leaves the ball is a candidate of its own and matches best), with 2.5 mm at r = 10.5,
+// and 4 mm (beyond the edge) lets it reach the edge as without a bound.
+TEST(ProfileEnergy, MaxTravelKeepsEveryVertexNearItsStart) {
+  const Image<2> image = radial_image<2>(64, 1.0, bright_disk(10.0), 1.5);
+  const Template<2> t = round_template<2>(13.0);
+  const double edge = blurred_edge_radius(2, 10.0, std::hypot(1.5, 1.0));
+  for (auto [travel, radius, tolerance] : {std::tuple{1.0, 12.0, 1e-9}, std::tuple{2.5, 10.5, 1e-9},
+                                           std::tuple{4.0, edge, 0.12}}) {
+    SCOPED_TRACE(travel);
+    Snake<2> snake = Snake<2>::from_template(t, t.positions);
+    ProfileOptions o = with_polarity(EdgePolarity::kBrightInside);
+    o.max_travel = travel;
+    ProfileEnergy<2> energy(o);
+    iterate_alone<2>(energy, EnergyContext<2>{&t, &image}, snake, 40);
+    const auto [mean, worst] = radial_error(snake, radius);
+    EXPECT_LT(worst, tolerance);
+    for (int v = 0; v < snake.num_vertices(); ++v)
+      EXPECT_LE((snake.positions()[v] - t.positions[v]).norm(), travel + 1e-9);
+  }
+}
+
 // Bright inside r = 8, dark ring, bright beyond r = 14; started half-way (r = 11, 3 mm from
 // both): bright_inside goes to 8, dark_inside to 14.
 TEST(ProfileEnergy, ConcentricEdgesArePickedByThePolarity) {
@@ -125,7 +148,8 @@ TEST(ProfileEnergy, BadKeysNameTheirPath) {
                              {R"({"type": "profile", "reference_profile": "median"})", "energies[0].reference_profile"},
                              {R"({"type": "profile", "min_improvement": 1})", "energies[0].min_improvement"},
                              {R"({"type": "profile", "min_improvement": -0.1})", "energies[0].min_improvement"},
-                             {R"({"type": "profile", "local_polarity": "yes"})", "energies[0].local_polarity"}});
+                             {R"({"type": "profile", "local_polarity": "yes"})", "energies[0].local_polarity"},
+                             {R"({"type": "profile", "max_travel": -1})", "energies[0].max_travel"}});
 }
 
 // One and two threads give the same proposals, bit for bit (a 642-vertex sphere, 3D).
