@@ -185,6 +185,8 @@ py::object run(py::handle config, py::handle out, py::handle progress) {
   const ExperimentFile file = load_config(config);
   RunOptions options;
   options.quiet = true;
+  // result.json's provenance: the call, with the config's path (or "<dict>")
+  options.command_line = {"dsnake.run", py::isinstance<py::dict>(config) ? std::string("<dict>") : py::str(config).cast<std::string>()};
   const bool write = !out.is_none();
   if (write) options.out_dir = py::str(py::module_::import("os").attr("fspath")(out)).cast<std::string>();
   if (!progress.is_none() && !PyCallable_Check(progress.ptr()))

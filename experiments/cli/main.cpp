@@ -249,6 +249,9 @@ void add_sweep_and_schema(CLI::App& app, CommandLine& c) {
                        "Write the unfinished runs for GNU parallel (manifest.txt) or Slurm (also sweep.slurm); run nothing")
           ->check(CLI::IsMember({"parallel", "slurm"}));
   c.sweep_cmd->add_flag("--aggregate-only", o.aggregate_only, "Only rebuild results.csv and breakdown.csv")->excludes(manifest_opt);
+  c.sweep_cmd->add_flag("--keep-stale", o.keep_stale,
+                        "Keep finished results made by another build or before an input file changed, instead of "
+                        "running them again (results.csv's column stale marks them)");
   c.sweep_cmd->add_flag("--quiet,-q", o.quiet, "No progress lines on stderr");
 
   c.schema_cmd = app.add_subcommand(
@@ -327,6 +330,7 @@ int main(int argc, char** argv) {
   add_sweep_and_schema(app, c);
   try {
     app.parse(argc, argv);
+    c.run.command_line.assign(argv, argv + argc);  // result.json's provenance
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::CallForAllHelp& e) {

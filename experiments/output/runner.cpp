@@ -1,5 +1,7 @@
 #include "experiments/output/runner.h"
 
+#include "experiments/output/provenance.h"
+
 #include "experiments/output/output_folder.h"
 
 #include "framework/core/image_filters.h"
@@ -516,7 +518,8 @@ std::string failure_summary(const Experiment<D>& ex, const EvolveSummary& summar
 }
 
 template <int D>
-nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& rec, Clock::time_point start) {
+nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& rec, Clock::time_point start,
+                                   const RunOptions& options, std::chrono::system_clock::time_point started) {
   const RegistrationResult<D>& reg = rec.registration;
   nlohmann::ordered_json result;
   result["name"] = ex.name;
@@ -572,6 +575,13 @@ nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& 
   result["seed"] = ex.seed;
   result["config"] = ex.file.document;
   result["version"] = dsnake_version();
+  ProvenanceContext provenance;
+  provenance.document = &ex.file.document;
+  provenance.base_dir = ex.file.base_dir;
+  provenance.command_line = options.command_line;
+  provenance.started = started;
+  provenance.finished = std::chrono::system_clock::now();
+  result["provenance"] = provenance_json(provenance);
   return result;
 }
 
@@ -593,6 +603,7 @@ RunOutcome<D> outcome_of(const Experiment<D>& ex, RunRecord<D>& rec, nlohmann::o
 template <int D>
 RunOutcome<D> run_experiment_outcome(Experiment<D>& ex, const RunOptions& options) {
   const auto start = Clock::now();
+  const auto started = std::chrono::system_clock::now();
   const fs::path out = options.out_dir.empty() ? fs::path("out") / (ex.name.empty() ? "run" : ex.name)
                                                : fs::path(options.out_dir);
   check_output_folder(out, options.force);
@@ -602,7 +613,7 @@ RunOutcome<D> run_experiment_outcome(Experiment<D>& ex, const RunOptions& option
     evolve(ex, options, rec);
     measure(ex, rec);
     write_outputs(ex, rec, staging);
-    const nlohmann::ordered_json result = result_json(ex, rec, start);
+    const nlohmann::ordered_json result = result_json(ex, rec, start, options, started);
     write_file_atomically((staging / "result.json").string(), result.dump(2) + "\n");
     publish_outputs(staging, out);
     if (!options.quiet)
@@ -624,10 +635,11 @@ nlohmann::ordered_json run_experiment(Experiment<D>& ex, const RunOptions& optio
 template <int D>
 RunOutcome<D> compute_experiment(Experiment<D>& ex, const RunOptions& options) {
   const auto start = Clock::now();
+  const auto started = std::chrono::system_clock::now();
   RunRecord<D> rec(fs::path(), /*snapshot_every=*/0, ex.image.grid());
   evolve(ex, options, rec);
   measure(ex, rec);
-  nlohmann::ordered_json result = result_json(ex, rec, start);
+  nlohmann::ordered_json result = result_json(ex, rec, start, options, started);
   return outcome_of(ex, rec, std::move(result));
 }
 

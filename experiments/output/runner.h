@@ -1,5 +1,6 @@
 // Runs an experiment as a snake and writes its output folder:
-//   result.json          metrics, success, iterations, vertices, timings, config, version
+//   result.json          metrics, success, iterations, vertices, timings, config, version,
+//                        provenance (experiments/output/provenance.h)
 //   final.{vtk,ply|txt}  the final snake (VTK with template_id and displacement scalars)
 //   initial.{vtk,...}    the placed template
 //   correspondence.csv   each template vertex's initial and final position (and target, error)
@@ -27,6 +28,8 @@ struct RunOptions {
   // Called after every iteration, on the thread that runs the registration; an exception thrown
   // in it ends the run (nothing is written) and propagates to the caller.
   std::function<void(const IterationInfo&)> on_iteration = {};
+  // The command that ran the experiment, as given: result.json's provenance.command_line.
+  std::vector<std::string> command_line = {};
 };
 
 // What a run computed, before anything is written.

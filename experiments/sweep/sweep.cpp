@@ -3,6 +3,7 @@
 #include "experiments/sweep/sweep.h"
 
 #include "experiments/output/output_folder.h"
+#include "experiments/output/provenance.h"
 #include "framework/core/json_text.h"
 
 #include "experiments/spec/experiment.h"
@@ -81,24 +82,16 @@ ExperimentFile load_base(const std::string& base, const std::string& sweep_dir, 
   return load_experiment_file(p.string(), overrides);
 }
 
-// The experiment file's relative paths, made absolute so that configs/<id>.json runs anywhere.
+// The experiment file's relative paths (every key that names an input file,
+// experiments/output/provenance.h), made absolute so that configs/<id>.json runs anywhere.
 void absolutise_paths(json& doc, const std::string& base_dir) {
   if (base_dir.empty()) return;
-  auto fix = [&](const char* section, const char* key) {
-    if (!doc.contains(section) || !doc[section].is_object()) return;
-    json& obj = doc[section];
-    if (!obj.contains(key) || !obj[key].is_string()) return;
-    const fs::path p = obj[key].get<std::string>();
-    if (!p.empty() && p.is_relative()) obj[key] = fs::absolute(fs::path(base_dir) / p).lexically_normal().string();
-  };
-  fix("image", "file");
-  fix("template", "file");
-  fix("image", "mesh");  // the "mesh" and "bunny" phantoms read a mesh file
-  fix("template", "mesh");
-  fix("template", "reference_image");
-  fix("ground_truth", "mask");
-  fix("ground_truth", "surface");
-  fix("ground_truth", "correspondence");
+  for (const std::string& pointer : input_file_pointers()) {
+    const json::json_pointer p(pointer);
+    if (!doc.contains(p) || !doc[p].is_string()) continue;
+    const fs::path path = doc[p].get<std::string>();
+    if (!path.empty() && path.is_relative()) doc[p] = fs::absolute(fs::path(base_dir) / path).lexically_normal().string();
+  }
 }
 
 // "seeds": a list, or {"count", "first"}; absent: one run with the base's own seed (`given` false).
@@ -524,6 +517,69 @@ void write_manifest(const Sweep& sweep, const SweepOptions& o, const fs::path& o
   if (!o.quiet) std::fprintf(stderr, "dsnake sweep: wrote %s (sbatch it)\n", (out / "sweep.slurm").c_str());
 }
 
+// The SHA-256 of the sweep's input files, each read once per invocation.
+class InputChecksums {
+ public:
+  // "" when the file cannot be read.
+  const std::string& of(const std::string& path) {
+    auto it = sums_.find(path);
+    if (it != sums_.end()) return it->second;
+    std::string sum;
+    try {
+      sum = file_sha256(path);
+    } catch (const InputError&) {
+    }
+    return sums_.emplace(path, sum).first->second;
+  }
+
+ private:
+  std::map<std::string, std::string> sums_;
+};
+
+// Why a finished run's result no longer stands for its run, or "" when it does: it was made by
+// another build, or an input file the run reads has changed (or cannot be read) since. The
+// experiment itself is in the run's id.
+std::string stale_reason(const json& result, const SweepRun& run, InputChecksums& sums) {
+  const auto p = result.find("provenance");
+  if (p == result.end() || !p->is_object() || !p->contains("build") || !p->contains("inputs"))
+    return "it records no provenance (an older dsnake made it)";
+  const json build = build_json();
+  if ((*p)["build"] != build) {
+    const json& made = (*p)["build"];
+    if (made.value("version", "") != build.value("version", ""))
+      return "another build made it (version " + made.value("version", "?") + "; this is " + build.value("version", "?") + ")";
+    return "another build made it (compiler or flags differ)";
+  }
+  const json& inputs = (*p)["inputs"];
+  for (const InputFile& f : input_files(run.config, "")) {
+    const std::string recorded = inputs.contains(f.key) && inputs[f.key].is_object() ? inputs[f.key].value("sha256", "") : "";
+    const std::string& now = sums.of(f.path);
+    if (now.empty()) return "its input " + f.key + " (" + f.path + ") cannot be read";
+    if (recorded != now) return "its input " + f.key + " (" + f.path + ") changed since it ran";
+  }
+  return "";
+}
+
+// The stale reason of every run (stale_reason; "" for a run that has not finished).
+std::vector<std::string> stale_reasons(const Sweep& sweep, const std::vector<std::optional<json>>& results) {
+  InputChecksums sums;
+  std::vector<std::string> reasons(sweep.runs.size());
+  for (size_t i = 0; i < sweep.runs.size(); ++i)
+    if (results[i]) reasons[i] = stale_reason(*results[i], sweep.runs[i], sums);
+  return reasons;
+}
+
+// At most five lines, one per stale run, then how many more.
+void report_stale(const Sweep& sweep, const std::vector<std::string>& reasons, const char* what) {
+  int shown = 0, total = 0;
+  for (size_t i = 0; i < reasons.size(); ++i) {
+    if (reasons[i].empty()) continue;
+    if (++total <= 5) std::fprintf(stderr, "dsnake sweep: %s %s: %s\n", what, sweep.runs[i].label().c_str(), reasons[i].c_str());
+    else ++shown;
+  }
+  if (shown > 0) std::fprintf(stderr, "dsnake sweep: ... and %d more (results.csv's column \"stale\" says why)\n", shown);
+}
+
 // results.csv and breakdown.csv from every finished run, written atomically.
 void aggregate(const Sweep& sweep, const fs::path& out, bool quiet) {
   std::vector<std::optional<json>> results;
@@ -532,20 +588,43 @@ void aggregate(const Sweep& sweep, const fs::path& out, bool quiet) {
     results.push_back(read_result(result_path(out, run)));
     finished += results.back().has_value();
   }
-  write_file_atomically((out / "results.csv").string(), results_csv(sweep, results));
+  const std::vector<std::string> stale = stale_reasons(sweep, results);
+  const int stale_count = int(std::count_if(stale.begin(), stale.end(), [](const std::string& r) { return !r.empty(); }));
+  write_file_atomically((out / "results.csv").string(), results_csv(sweep, results, stale));
   write_file_atomically((out / "breakdown.csv").string(), breakdown_csv(sweep, results));
+  // A result that no longer stands is aggregated (kept on purpose, or seen by --aggregate-only)
+  // but never silently: one line says how many, results.csv's column "stale" says why.
+  if (stale_count > 0)
+    std::fprintf(stderr, "dsnake sweep: warning: %d of the %d finished results no longer stand (another build, or changed "
+                 "inputs): results.csv's column \"stale\" says why; run the sweep without --aggregate-only or "
+                 "--keep-stale to run them again\n", stale_count, finished);
   if (!quiet)
     std::fprintf(stderr, "dsnake sweep: wrote %s and breakdown.csv (%d of %zu runs finished)\n",
                  (out / "results.csv").c_str(), finished, sweep.runs.size());
 }
 
-// The unfinished runs (finished ones counted as skipped), each with a fresh folder and its
-// configs/<id>.json written.
-std::vector<size_t> prepare_pending(const Sweep& sweep, const fs::path& out, SweepSummary& summary) {
+// The unfinished runs and, unless o.keep_stale, the finished ones whose results no longer stand
+// (the others counted as skipped), each with a fresh folder and its configs/<id>.json written.
+std::vector<size_t> prepare_pending(const Sweep& sweep, const SweepOptions& o, const fs::path& out, SweepSummary& summary) {
   std::vector<size_t> pending;
+  std::vector<std::optional<json>> results;
+  for (const auto& run : sweep.runs) results.push_back(read_result(result_path(out, run)));
+  std::vector<std::string> reasons = stale_reasons(sweep, results);
   for (size_t i = 0; i < sweep.runs.size(); ++i) {
-    if (fs::exists(result_path(out, sweep.runs[i]))) ++summary.skipped;
-    else pending.push_back(i);
+    if (!results[i]) {
+      pending.push_back(i);
+    } else if (!reasons[i].empty() && !o.keep_stale) {
+      pending.push_back(i);
+      ++summary.rerun;
+    } else {
+      ++summary.skipped;
+      if (reasons[i].empty()) continue;
+      ++summary.kept_stale;
+    }
+  }
+  if (!o.quiet) {
+    if (!o.keep_stale) report_stale(sweep, reasons, "running again");
+    else report_stale(sweep, reasons, "kept (--keep-stale), although it no longer stands:");
   }
   // An unfinished run's folder holds at most what a killed publish moved in: start it afresh.
   for (size_t i : pending) {
@@ -564,7 +643,7 @@ void report_run(const SweepRun& run, int status, const std::optional<json>& resu
   if (ok) {
     const bool success = result->value("success", false);
     std::fprintf(stderr, "[%d/%d] %s: %s (%.1f s)\n", done, summary.total, run.label().c_str(),
-                 success ? "success" : "failure", seconds);
+                 success ? "met its thresholds" : "missed its thresholds", seconds);
   } else {
     const std::string why = WIFEXITED(status) ? "exit code " + std::to_string(WEXITSTATUS(status))
                                               : "killed by signal " + std::to_string(WTERMSIG(status));
@@ -644,7 +723,7 @@ SweepSummary run_sweep(const Sweep& sweep, const SweepOptions& o) {
   for (const char* sub : {"runs", "configs", "logs"}) fs::create_directories(out / sub);
   remove_leftovers(out);
 
-  const std::vector<size_t> pending = prepare_pending(sweep, out, summary);
+  const std::vector<size_t> pending = prepare_pending(sweep, o, out, summary);
   if (!o.manifest.empty()) {
     write_manifest(sweep, o, out, pending);
     return summary;
@@ -652,7 +731,7 @@ SweepSummary run_sweep(const Sweep& sweep, const SweepOptions& o) {
 
   const int threads = o.threads > 0 ? o.threads : threads_per_job(o.jobs);
   if (!o.quiet)
-    std::fprintf(stderr, "dsnake sweep: %d runs, %d finished already (skipped), running %zu with -j %d%s\n",
+    std::fprintf(stderr, "dsnake sweep: %d runs, %d finished already (skipped), running %zu with %d jobs%s\n",
                  summary.total, summary.skipped, pending.size(), o.jobs,
                  threads > 0 ? (" (" + std::to_string(threads) + " OpenMP thread" + (threads > 1 ? "s" : "") + " each)").c_str() : "");
   StopSignals signals;  // installed until the return, the aggregation included
@@ -661,8 +740,10 @@ SweepSummary run_sweep(const Sweep& sweep, const SweepOptions& o) {
   remove_leftovers(out);  // staging folders of runs stopped by a signal
   aggregate(sweep, out, o.quiet);
   if (!o.quiet)
-    std::fprintf(stderr, "dsnake sweep: %d runs: %d skipped, %d completed, %d failed%s\n", summary.total,
-                 summary.skipped, summary.completed, summary.failed, summary.interrupted ? ", interrupted" : "");
+    std::fprintf(stderr, "dsnake sweep: %d runs: %d skipped, %d finished%s, %d process failed (logs/)%s\n", summary.total,
+                 summary.skipped, summary.completed,
+                 summary.rerun > 0 ? (" (" + std::to_string(summary.rerun) + " of them again: stale)").c_str() : "",
+                 summary.failed, summary.interrupted ? ", interrupted" : "");
   return summary;
 }
 

@@ -28,7 +28,10 @@
 //
 // The output folder:
 //   runs/<id>/        the runner's folder (result.json is written last: a run is finished
-//                     exactly when runs/<id>/result.json exists)
+//                     exactly when runs/<id>/result.json exists). A finished run is reused
+//                     only while its result stands: made by this build (result.json's
+//                     provenance.build) from input files with the SHA-256 it recorded; otherwise
+//                     it runs again, and says why (--keep-stale keeps it, marked in results.csv).
 //   configs/<id>.json the resolved experiment (relative file paths made absolute)
 //   logs/<id>.log     the run's stderr
 //   results.csv       one row per run (written atomically)
@@ -77,6 +80,10 @@ struct SweepOptions {
   int threads = 0;               // OpenMP threads per run; 0: the cores shared evenly among the jobs (at least 1)
   std::string manifest;          // "", "parallel" or "slurm": write the runs, run nothing
   bool aggregate_only = false;   // only rebuild results.csv and breakdown.csv
+  // Keep finished results that no longer stand (made by another build, or before an input file
+  // changed) instead of running them again; they are aggregated with results.csv's "stale" column
+  // saying why, and a warning line.
+  bool keep_stale = false;
   bool quiet = false;            // no progress lines on stderr
 };
 
@@ -85,6 +92,8 @@ struct SweepSummary {
   int skipped = 0;      // finished before this invocation
   int completed = 0;    // finished by this invocation
   int failed = 0;       // a run's process failed (see logs/<id>.log); rerun to retry
+  int rerun = 0;        // finished before, but their results no longer stood: run again
+  int kept_stale = 0;   // finished before, no longer standing, kept (keep_stale)
   bool interrupted = false;
 };
 
@@ -95,7 +104,9 @@ SweepSummary run_sweep(const Sweep& sweep, const SweepOptions& options);
 
 // The aggregates (sweep_report.cpp). `results[i]` is runs[i]'s result.json, or nullopt if
 // the run has not finished.
-std::string results_csv(const Sweep& sweep, const std::vector<std::optional<nlohmann::json>>& results);
+// `stale[i]`: why runs[i]'s result no longer stands ("" when it does, or when absent).
+std::string results_csv(const Sweep& sweep, const std::vector<std::optional<nlohmann::json>>& results,
+                        const std::vector<std::string>& stale = {});
 std::string breakdown_csv(const Sweep& sweep, const std::vector<std::optional<nlohmann::json>>& results);
 
 // A corruption list as a label and its place on a severity axis: [] -> ("clean", "clean", 0);

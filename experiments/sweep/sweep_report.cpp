@@ -86,7 +86,8 @@ CorruptionLevel describe_corruption(const json& list, int level_index) {
   return level;
 }
 
-std::string results_csv(const Sweep& sweep, const std::vector<std::optional<json>>& results) {
+std::string results_csv(const Sweep& sweep, const std::vector<std::optional<json>>& results,
+                        const std::vector<std::string>& stale) {
   static const char* kMetrics[] = {"mean_surface_distance", "hausdorff95", "hausdorff", "dice",
                                    "correspondence_error_mean", "correspondence_error_max", "self_intersections"};
   std::ostringstream s;
@@ -94,7 +95,7 @@ std::string results_csv(const Sweep& sweep, const std::vector<std::optional<json
   for (const auto& k : sweep.grid_keys) s << "," << csv_field(k);
   s << ",corruption_level,corruption,seed,status,success";
   for (const char* m : kMetrics) s << "," << m;
-  s << ",vertices_initial,vertices_final,vertices_deformation,iterations,field_s,evolve_s,metrics_s,total_s\n";
+  s << ",vertices_initial,vertices_final,vertices_deformation,iterations,field_s,evolve_s,metrics_s,total_s,build,stale\n";
   for (size_t i = 0; i < sweep.runs.size(); ++i) {
     const SweepRun& run = sweep.runs[i];
     s << csv_field(run.id) << "," << csv_field(run.method);
@@ -107,7 +108,10 @@ std::string results_csv(const Sweep& sweep, const std::vector<std::optional<json
     s << "," << field(r, "vertices", "initial") << "," << field(r, "vertices", "final") << ","
       << field(r, "vertices", "deformation") << "," << field(r, "iterations");
     for (const char* t : {"field_s", "evolve_s", "metrics_s", "total_s"}) s << "," << field(r, "timings", t);
-    s << "\n";
+    const json build = r.contains("provenance") && r["provenance"].is_object() ? r["provenance"].value("build", json::object())
+                                                                             : json::object();
+    s << "," << csv_field(build.is_object() ? build.value("version", std::string()) : std::string()) << ","
+      << csv_field(i < stale.size() ? stale[i] : std::string()) << "\n";
   }
   return s.str();
 }

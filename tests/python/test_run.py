@@ -32,6 +32,9 @@ def test_result_has_every_field(default_result):
     assert r.trace["iteration"].shape == r.trace["total"].shape
     assert r.trace["iteration"][-1] == r.result["iterations"]
     assert r.config["dimension"] == 2
+    provenance = r.result["provenance"]
+    assert provenance["command_line"] == ["dsnake.run", "builtin:default"]
+    assert provenance["build"]["version"] == r.result["version"] and provenance["inputs"] == {}
 
 
 def test_positions_identical_to_the_command_line(dsnake_exe, tmp_path, default_result):

@@ -3,6 +3,7 @@
 // sweep files) on tiny 2D experiments.
 #include "experiments/sweep/sweep.h"
 #include "framework/core/errors.h"
+#include "framework/io/image_io.h"
 
 #include "tests/experiments/temp_dir_test.h"
 
@@ -289,12 +290,12 @@ TEST_F(SweepTest, ResultsCsvHasOneRowPerRunWithItsValues) {
       "run_id", "method", "energies[0].alpha", "corruption_level", "corruption", "seed", "status", "success",
       "mean_surface_distance", "hausdorff95", "hausdorff", "dice", "correspondence_error_mean",
       "correspondence_error_max", "self_intersections", "vertices_initial", "vertices_final",
-      "vertices_deformation", "iterations", "field_s", "evolve_s", "metrics_s", "total_s"};
+      "vertices_deformation", "iterations", "field_s", "evolve_s", "metrics_s", "total_s", "build", "stale"};
   EXPECT_EQ(rows[0], header);
   const SweepRun& r = sweep.runs[3];
   EXPECT_EQ(rows[4], (std::vector<std::string>{r.id, "snake", "0.1", "1", "outliers=0.05", "5", "converged", "true", "0.25",
                                                "0.5", "0.75", "0.96875", "", "", "0", "32", "40", "32", "37", "0.5",
-                                               "1.5", "0.125", "2.25"}));
+                                               "1.5", "0.125", "2.25", "", ""}));
   for (size_t i = 0; i < sweep.runs.size(); ++i) {
     ASSERT_EQ(rows[1 + i].size(), header.size()) << i;
     EXPECT_EQ(rows[1 + i][0], sweep.runs[i].id);
@@ -432,7 +433,7 @@ TEST_F(SweepTest, AFailedRunIsReportedAndRetriedOnRerun) {
   const std::string text = slurp(err);
   EXPECT_NE(text.find("[1/2] clean/seed=0: run failed (killed by signal 9; " + (out / "logs" / (sweep.runs[0].id + ".log")).string()),
             std::string::npos) << text;
-  EXPECT_NE(text.find("2 runs: 0 skipped, 1 completed, 1 failed"), std::string::npos) << text;
+  EXPECT_NE(text.find("2 runs: 0 skipped, 1 finished, 1 process failed (logs/)"), std::string::npos) << text;
   EXPECT_EQ(finished_runs(out).size(), 1u);
   EXPECT_EQ(finished_runs(out).count(sweep.runs[1].id), 1u);
   EXPECT_EQ(read_csv(out / "results.csv")[1][column(read_csv(out / "results.csv")[0], "status")], "missing");
@@ -443,6 +444,71 @@ TEST_F(SweepTest, AFailedRunIsReportedAndRetriedOnRerun) {
   EXPECT_EQ(rerun.exit_code, 0) << rerun.err;
   EXPECT_NE(rerun.err.find("2 runs, 1 finished already (skipped), running 1"), std::string::npos) << rerun.err;
   EXPECT_EQ(finished_runs(out).size(), 2u);
+}
+
+// A finished run is reused only while its result stands: an input image replaced after the
+// runs, or a result made by another build, runs again and says why; --keep-stale keeps them and
+// --aggregate-only aggregates them, never silently (a warning line, results.csv's "stale").
+TEST_F(SweepTest, StaleResultsRunAgainAndSaySo) {
+  auto write_square = [&](int half_width) {
+    Image<2> im(Grid<2>{GridIndex<2>(64, 64), Point<2>(1, 1), Point<2>(0, 0)}, 0.0f);
+    for (int64_t l = 0; l < im.num_voxels(); ++l) {
+      const Point<2> x = im.grid().to_physical(im.grid().index(l)) - Point<2>(31.5, 31.5);
+      im[l] = std::max(std::abs(x[0]), std::abs(x[1])) < half_width ? 200.0f : 50.0f;
+    }
+    write_image<2>(im, (dir_ / "square.nii.gz").string());
+  };
+  write_square(16);
+  json exp = tiny_experiment();
+  exp["image"] = {{"file", "square.nii.gz"}};
+  write("exp.json", exp.dump(2));
+  const fs::path file = write("sweep.json", R"({"base": "exp.json", "seeds": [0, 1]})"), out = dir_ / "out";
+  const std::string sweep = "sweep " + file.string() + " --out " + out.string();
+  ASSERT_EQ(dsnake(sweep).exit_code, 0);
+  const Sweep loaded = load_sweep(file.string(), false);
+  const fs::path result0 = out / "runs" / loaded.runs[0].id / "result.json";
+  const json recorded = json::parse(slurp(result0));
+  EXPECT_EQ(recorded["provenance"]["inputs"]["image.file"]["path"], (dir_ / "square.nii.gz").string());
+  EXPECT_EQ(recorded["provenance"]["inputs"]["image.file"]["sha256"].get<std::string>().size(), 64u);
+  EXPECT_EQ(recorded["provenance"]["build"]["version"], recorded["version"]);
+
+  // Unchanged: both skipped.
+  CommandResult again = dsnake(sweep);
+  EXPECT_NE(again.err.find("2 runs: 2 skipped, 0 finished, 0 process failed"), std::string::npos) << again.err;
+
+  // The image replaced: both run again, each saying why.
+  write_square(15);
+  again = dsnake(sweep);
+  EXPECT_EQ(again.exit_code, 0) << again.err;
+  EXPECT_NE(again.err.find("running again " + loaded.runs[0].label() + ": its input image.file (" +
+                           (dir_ / "square.nii.gz").string() + ") changed since it ran"),
+            std::string::npos) << again.err;
+  EXPECT_NE(again.err.find("2 runs: 0 skipped, 2 finished (2 of them again: stale)"), std::string::npos) << again.err;
+  EXPECT_NE(json::parse(slurp(result0))["provenance"]["inputs"]["image.file"]["sha256"],
+            recorded["provenance"]["inputs"]["image.file"]["sha256"]);
+
+  // A result from another build: --aggregate-only and --keep-stale aggregate it with a warning and
+  // its reason in results.csv; a plain rerun runs it again.
+  json foreign = json::parse(slurp(result0));
+  foreign["provenance"]["build"]["version"] = "0.0.1+foreign";
+  std::ofstream(result0) << foreign.dump(2);
+  const std::string reason = "another build made it (version 0.0.1+foreign; this is " + recorded["version"].get<std::string>() + ")";
+  for (const std::string flag : {" --aggregate-only", " --keep-stale"}) {
+    SCOPED_TRACE(flag);
+    again = dsnake(sweep + flag);
+    EXPECT_EQ(again.exit_code, 0) << again.err;
+    EXPECT_NE(again.err.find("warning: 1 of the 2 finished results no longer stand"), std::string::npos) << again.err;
+    const auto rows = read_csv(out / "results.csv");
+    EXPECT_EQ(rows[1][column(rows[0], "stale")], reason);
+    EXPECT_EQ(rows[1][column(rows[0], "build")], "0.0.1+foreign");
+    EXPECT_EQ(rows[2][column(rows[0], "stale")], "");
+    EXPECT_EQ(json::parse(slurp(result0))["provenance"]["build"]["version"], "0.0.1+foreign");  // kept
+  }
+  again = dsnake(sweep);
+  EXPECT_NE(again.err.find("running again " + loaded.runs[0].label() + ": " + reason), std::string::npos) << again.err;
+  EXPECT_NE(again.err.find("2 runs: 1 skipped, 1 finished (1 of them again: stale)"), std::string::npos) << again.err;
+  EXPECT_EQ(json::parse(slurp(result0))["provenance"]["build"]["version"], recorded["version"]);
+  EXPECT_EQ(again.err.find("warning:"), std::string::npos) << again.err;
 }
 
 // --manifest parallel writes one command per unfinished run for GNU parallel; after it, an
