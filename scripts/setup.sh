@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 PRESET=${1:-release}
 PACKAGES=(cmake ninja-build ccache g++ libeigen3-dev libceres-dev libopenmesh-dev libopencv-dev
           nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libspdlog-dev
-          zlib1g-dev libpng-dev libfftw3-dev libgdcm-dev libssl-dev parallel python3-matplotlib python3-jsonschema python3-vtk9
+          zlib1g-dev libpng-dev libfftw3-dev libgdcm-dev libssl-dev libboost-dev parallel python3-matplotlib python3-jsonschema python3-vtk9
           python3-numpy python3-scipy python3-nibabel python3-dipy elastix
           pybind11-dev python3-dev python3-pytest python3-nbconvert python3-nbformat python3-ipykernel
           jupyter-nbconvert mypy)

@@ -25,12 +25,14 @@
 #include "experiments/output/runner.h"
 #include "experiments/spec/schema.h"
 #include "experiments/sweep/sweep.h"
+#include "experiments/sweep/sweep_summary.h"
 #include "experiments/cli/template_command.h"
 #include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
 #include "framework/core/json_text.h"
 
 #include <fstream>
+#include <iostream>
 #include <nlohmann/json.hpp>
 
 #include <CLI/CLI.hpp>
@@ -109,6 +111,14 @@ int sweep(const std::string& file, SweepOptions options) {
   return summary.failed > 0 ? 1 : 0;
 }
 
+// `dsnake report DIR`: DIR/summary.{csv,md,tex} from DIR/results.csv; the Markdown table on stdout.
+int report(const std::string& folder) {
+  write_summaries(folder);
+  std::ifstream md(std::filesystem::path(folder) / "summary.md");
+  std::cout << md.rdbuf();
+  return 0;
+}
+
 // Every subcommand's options, filled by CLI11.
 struct CommandLine {
   std::string config;
@@ -126,7 +136,8 @@ struct CommandLine {
   SweepOptions sweep;
   bool schema_markdown = false;
   std::string nifti_transform;  // --nifti-transform of template, convert, field and init ("" = auto)
-  CLI::App *run_cmd = nullptr, *validate_cmd = nullptr, *field_cmd = nullptr, *sweep_cmd = nullptr,
+  std::string report_folder;
+  CLI::App *run_cmd = nullptr, *validate_cmd = nullptr, *field_cmd = nullptr, *sweep_cmd = nullptr, *report_cmd = nullptr,
            *schema_cmd = nullptr, *convert_cmd = nullptr, *template_cmd = nullptr,
            *init_cmd = nullptr;
 };
@@ -248,12 +259,16 @@ void add_sweep_and_schema(CLI::App& app, CommandLine& c) {
           ->add_option("--manifest", o.manifest,
                        "Write the unfinished runs for GNU parallel (manifest.txt) or Slurm (also sweep.slurm); run nothing")
           ->check(CLI::IsMember({"parallel", "slurm"}));
-  c.sweep_cmd->add_flag("--aggregate-only", o.aggregate_only, "Only rebuild results.csv and breakdown.csv")->excludes(manifest_opt);
+  c.sweep_cmd->add_flag("--aggregate-only", o.aggregate_only, "Only rebuild results.csv, breakdown.csv and summary.*")->excludes(manifest_opt);
   c.sweep_cmd->add_flag("--keep-stale", o.keep_stale,
                         "Keep finished results made by another build or before an input file changed, instead of "
                         "running them again (results.csv's column stale marks them)");
   c.sweep_cmd->add_flag("--quiet,-q", o.quiet, "No progress lines on stderr");
 
+  c.report_cmd = app.add_subcommand(
+      "report", "Write the summary tables of a sweep's output folder (summary.csv, .md, .tex) from its results.csv, "
+                "and print the Markdown one");
+  c.report_cmd->add_option("folder", c.report_folder, "A sweep's output folder (it holds results.csv)")->required();
   c.schema_cmd = app.add_subcommand(
       "schema", "Print the JSON Schema of experiment and sweep files (editors validate and complete with it)");
   c.schema_cmd->add_flag("--markdown", c.schema_markdown, "Print the key tables of docs/experiment-file.md instead");
@@ -285,6 +300,7 @@ int dispatch(const CommandLine& c) {
   }
   if (*c.sweep_cmd) return sweep(c.sweep_file, c.sweep);
   if (*c.schema_cmd) return schema(c.schema_markdown);
+  if (*c.report_cmd) return report(c.report_folder);
   if (*c.convert_cmd) {
     ConvertCommandOptions o = c.convert;
     o.read = read_options_of(c.nifti_transform, o.in);

@@ -1,6 +1,7 @@
 // dsnake sweep: expansion of a sweep file into runs, and their execution as child processes
 // (or as a manifest for GNU parallel / Slurm). The robustness study is the paper's §8.
 #include "experiments/sweep/sweep.h"
+#include "experiments/sweep/sweep_summary.h"
 
 #include "experiments/output/output_folder.h"
 #include "experiments/output/provenance.h"
@@ -590,8 +591,13 @@ void aggregate(const Sweep& sweep, const fs::path& out, bool quiet) {
   }
   const std::vector<std::string> stale = stale_reasons(sweep, results);
   const int stale_count = int(std::count_if(stale.begin(), stale.end(), [](const std::string& r) { return !r.empty(); }));
-  write_file_atomically((out / "results.csv").string(), results_csv(sweep, results, stale));
+  const std::string table = results_csv(sweep, results, stale);
+  write_file_atomically((out / "results.csv").string(), table);
   write_file_atomically((out / "breakdown.csv").string(), breakdown_csv(sweep, results));
+  const SummaryTables summary = summary_tables(table, (out / "results.csv").string());
+  write_file_atomically((out / "summary.csv").string(), summary.csv);
+  write_file_atomically((out / "summary.md").string(), summary.markdown);
+  write_file_atomically((out / "summary.tex").string(), summary.latex);
   // A result that no longer stands is aggregated (kept on purpose, or seen by --aggregate-only)
   // but never silently: one line says how many, results.csv's column "stale" says why.
   if (stale_count > 0)
@@ -599,7 +605,7 @@ void aggregate(const Sweep& sweep, const fs::path& out, bool quiet) {
                  "inputs): results.csv's column \"stale\" says why; run the sweep without --aggregate-only or "
                  "--keep-stale to run them again\n", stale_count, finished);
   if (!quiet)
-    std::fprintf(stderr, "dsnake sweep: wrote %s and breakdown.csv (%d of %zu runs finished)\n",
+    std::fprintf(stderr, "dsnake sweep: wrote %s, breakdown.csv and summary.{csv,md,tex} (%d of %zu runs finished)\n",
                  (out / "results.csv").c_str(), finished, sweep.runs.size());
 }
 

@@ -37,6 +37,8 @@
 //   results.csv       one row per run (written atomically)
 //   breakdown.csv     success rate per method x grid point x corruption type x level over seeds,
 //                     and each group's breakdown level (first level below 50% success)
+//   summary.{csv,md,tex}  per method x grid point x level: n, mean, SD and 95% CI of the metrics
+//                     and time, the success rate with its Wilson interval (sweep_summary.h)
 //   manifest.txt, sweep.slurm   with --manifest: the unfinished runs as command lines for
 //                     GNU parallel, and a Slurm job-array script that runs one line per task
 #pragma once

@@ -2,6 +2,7 @@
 // (parallel runs, skip on rerun, resume after a kill, GNU parallel and Slurm manifests, bad
 // sweep files) on tiny 2D experiments.
 #include "experiments/sweep/sweep.h"
+#include "experiments/sweep/sweep_summary.h"
 #include "framework/core/errors.h"
 #include "framework/io/image_io.h"
 
@@ -334,6 +335,7 @@ TEST_F(SweepTest, CommandRunsInParallelAggregatesAndSkipsOnRerun) {
   }
   EXPECT_GE(successes, 4) << "the clean tiny runs register the square";
   EXPECT_EQ(read_csv(out / "breakdown.csv").size(), 1u + 2 * 2);
+  EXPECT_EQ(slurp(out / "summary.csv"), summary_tables(slurp(out / "results.csv"), (out / "results.csv").string()).csv);
 
   const CommandResult again = dsnake("sweep " + file.string() + " --out " + out.string() + " -j 2");
   ASSERT_EQ(again.exit_code, 0) << again.err;
