@@ -290,6 +290,10 @@ void add_run(Sweep& sweep, const SweepPlan& plan, const MethodSpec& method, cons
       if (e.where() == key) where = "grid." + key + " (" + context + ")";
     throw InputError(sweep.path, where, e.what());
   }
+  // A sweep keeps each run's image only on request (output.image): a phantom and its corruptions
+  // are made again from the run's seed, and a file read as it is stays where it is.
+  if (!f.document.contains("output")) f.document["output"] = json::object();
+  if (f.document["output"].is_object() && !f.document["output"].contains("image")) f.document["output"]["image"] = "never";
   const size_t g = point.index;
   SweepRun run;
   run.method = method.name;

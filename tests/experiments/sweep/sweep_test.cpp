@@ -335,6 +335,12 @@ TEST_F(SweepTest, CommandRunsInParallelAggregatesAndSkipsOnRerun) {
   }
   EXPECT_GE(successes, 4) << "the clean tiny runs register the square";
   EXPECT_EQ(read_csv(out / "breakdown.csv").size(), 1u + 2 * 2);
+  // The runs' corrupted phantoms are not kept (output.image "never" unless the experiment asks).
+  for (const auto& run : load_sweep(file.string(), false).runs) {
+    EXPECT_EQ(run.config["output"]["image"], "never");
+    EXPECT_TRUE(fs::exists(out / "runs" / run.id / "result.json"));
+    EXPECT_FALSE(fs::exists(out / "runs" / run.id / "image.nii.gz")) << run.id;
+  }
   EXPECT_EQ(slurp(out / "summary.csv"), summary_tables(slurp(out / "results.csv"), (out / "results.csv").string()).csv);
 
   const CommandResult again = dsnake("sweep " + file.string() + " --out " + out.string() + " -j 2");
