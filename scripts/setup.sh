@@ -10,7 +10,7 @@ PACKAGES=(cmake ninja-build ccache g++ libeigen3-dev libceres-dev libopenmesh-de
           zlib1g-dev libpng-dev libfftw3-dev libgdcm-dev libssl-dev libboost-dev parallel python3-matplotlib python3-jsonschema python3-vtk9
           python3-numpy python3-scipy python3-nibabel python3-dipy elastix
           pybind11-dev python3-dev python3-pytest python3-nbconvert python3-nbformat python3-ipykernel
-          jupyter-nbconvert mypy)
+          jupyter-nbconvert mypy slurmctld slurmd slurm-client munge)
 [ "$PRESET" = sanitize ] && PACKAGES+=(clang-14 libclang-rt-14-dev libomp-14-dev)
 SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
 missing=()

@@ -259,6 +259,15 @@ void add_sweep_and_schema(CLI::App& app, CommandLine& c) {
           ->add_option("--manifest", o.manifest,
                        "Write the unfinished runs for GNU parallel (manifest.txt) or Slurm (also sweep.slurm); run nothing")
           ->check(CLI::IsMember({"parallel", "slurm"}));
+  c.sweep_cmd->add_option("--slurm-time", o.slurm.time_minutes, "Slurm: --time of each array task, minutes (default: from the finished runs)")
+      ->check(CLI::Range(1, 525600));
+  c.sweep_cmd->add_option("--slurm-mem", o.slurm.memory_mb, "Slurm: --mem of each array task, MB (default: from the finished runs)")
+      ->check(CLI::Range(1, 100000000));
+  c.sweep_cmd->add_option("--slurm-lines-per-task", o.slurm.lines_per_task,
+                          "Slurm: runs per array task (default: about 5 minutes of the finished runs' median)")
+      ->check(CLI::Range(1, 100000));
+  c.sweep_cmd->add_option("--slurm-max-running", o.slurm.max_running, "Slurm: array tasks running at once (default: no cap)")
+      ->check(CLI::Range(1, 100000));
   c.sweep_cmd->add_flag("--aggregate-only", o.aggregate_only, "Only rebuild results.csv, breakdown.csv and summary.*")->excludes(manifest_opt);
   c.sweep_cmd->add_flag("--keep-stale", o.keep_stale,
                         "Keep finished results made by another build or before an input file changed, instead of "

@@ -9,6 +9,7 @@
 #include <memory>
 #include <omp.h>
 #include <openssl/evp.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 namespace dsnake {
@@ -96,6 +97,8 @@ nlohmann::ordered_json provenance_json(const ProvenanceContext& c) {
   p["host"] = host;
   p["threads"] = omp_get_max_threads();
   p["command_line"] = c.command_line;
+  rusage usage{};
+  if (getrusage(RUSAGE_SELF, &usage) == 0) p["peak_memory_mb"] = double(usage.ru_maxrss) / 1024.0;  // ru_maxrss: kB
   p["started"] = utc_timestamp(c.started);
   p["finished"] = utc_timestamp(c.finished);
   p["inputs"] = c.document ? input_files_json(*c.document, c.base_dir) : nlohmann::ordered_json::object();

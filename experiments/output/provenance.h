@@ -2,7 +2,9 @@
 // traced to its inputs and build, and a sweep can tell a result that still stands from a stale
 // one (experiments/sweep/sweep.h):
 //   "build":        version (git describe), compiler, flags and build type of this executable
-//   "host", "threads" (OpenMP threads), "command_line" (as given; ["dsnake.run"] from Python)
+//   "host", "threads" (OpenMP threads), "command_line" (as given; ["dsnake.run"] from Python),
+//   "peak_memory_mb" (the process's peak resident memory so far: a sweep's Slurm script asks
+//                   for memory from it)
 //   "started", "finished": UTC, ISO 8601 to the second
 //   "inputs":       per input file the experiment names ("image.file", "template.reference_image",
 //                   ...): its path, size in bytes and SHA-256 (as `sha256sum` prints it)

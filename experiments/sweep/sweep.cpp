@@ -484,42 +484,114 @@ std::string last_line(const fs::path& p) {
   return last;
 }
 
-// manifest.txt: one shell command per unfinished run (for `parallel -j N < manifest.txt`);
-// with "slurm" also sweep.slurm, a job array whose task k runs line k + 1.
+// The executable in a manifest line: $DSNAKE if set, else the one that wrote the manifest (a
+// path that needs no quoting inside double quotes), else dsnake on PATH.
+std::string manifest_executable(const std::string& path) {
+  const bool plain = !path.empty() && path.find_first_of("\"$`\\\n") == std::string::npos;
+  return "\"${DSNAKE:-" + (plain ? path : std::string("dsnake")) + "}\"";
+}
+
+// What the finished runs of this sweep measured: the slowest wall time (s), the median (s) and the
+// largest peak memory (MB), from their result.json (timings.total_s, provenance.peak_memory_mb).
+struct MeasuredRuns {
+  int count = 0;
+  double slowest_s = 0, median_s = 0, peak_mb = 0;
+};
+MeasuredRuns measured_runs(const Sweep& sweep, const fs::path& out) {
+  MeasuredRuns m;
+  std::vector<double> times;
+  for (const auto& run : sweep.runs) {
+    const auto r = read_result(result_path(out, run));
+    if (!r || !r->contains("timings") || !(*r)["timings"].contains("total_s")) continue;
+    times.push_back((*r)["timings"]["total_s"].get<double>());
+    if (r->contains("provenance") && (*r)["provenance"].contains("peak_memory_mb"))
+      m.peak_mb = std::max(m.peak_mb, (*r)["provenance"]["peak_memory_mb"].get<double>());
+  }
+  m.count = int(times.size());
+  if (times.empty()) return m;
+  std::sort(times.begin(), times.end());
+  m.slowest_s = times.back();
+  m.median_s = times[times.size() / 2];
+  return m;
+}
+
+// The Slurm job array's resources: each task runs `lines` manifest lines one after another, so
+// that a task lasts about kSlurmTaskTarget (many tasks of seconds each load the scheduler more
+// than the runs load the nodes); --time covers them at the slowest measured run, twice over, at
+// least 10 minutes; --mem is twice the largest measured peak, at least 1 GB. Without measured
+// runs: one line per task, 60 minutes, 4 GB. Options given on the command line win.
+struct SlurmResources {
+  int lines = 1, time_minutes = 60, memory_mb = 4096, max_running = 0;
+};
+constexpr double kSlurmTaskTarget = 300.0;  // s
+SlurmResources slurm_resources(const SweepOptions& o, const MeasuredRuns& m) {
+  SlurmResources r;
+  if (m.count > 0) {
+    r.lines = int(std::clamp(std::ceil(kSlurmTaskTarget / std::max(m.median_s, 0.1)), 1.0, 1000.0));
+    r.time_minutes = std::max(10, int(std::ceil(2.0 * r.lines * m.slowest_s / 60.0)));
+    r.memory_mb = std::max(1024, int(std::ceil(2.0 * m.peak_mb)));
+  }
+  if (o.slurm.lines_per_task > 0) r.lines = o.slurm.lines_per_task;
+  if (o.slurm.time_minutes > 0) r.time_minutes = o.slurm.time_minutes;
+  if (o.slurm.memory_mb > 0) r.memory_mb = o.slurm.memory_mb;
+  r.max_running = o.slurm.max_running;
+  return r;
+}
+
+// manifest.txt: one shell command per unfinished run, with paths relative to the sweep's folder
+// (run it there: `cd DIR && parallel -j N < manifest.txt`), so that the folder can move to a
+// cluster; with "slurm" also sweep.slurm, a job array whose tasks run consecutive lines.
 void write_manifest(const Sweep& sweep, const SweepOptions& o, const fs::path& out, const std::vector<size_t>& pending) {
   const int threads = o.threads > 0 ? o.threads : 1;
   std::string manifest;
   for (size_t i : pending) {
-    std::string line;
-    for (const auto& a : run_arguments(o, out, sweep.runs[i], threads, true)) line += (line.empty() ? "" : " ") + shell_quote(a);
-    manifest += line + "\n";
+    const SweepRun& run = sweep.runs[i];
+    manifest += manifest_executable(o.executable) + " run " + shell_quote("configs/" + run.id + ".json") + " --out " +
+                shell_quote("runs/" + run.id) + " --threads " + std::to_string(threads) + " --quiet\n";
   }
   write_file_atomically((out / "manifest.txt").string(), manifest);
   if (!o.quiet)
-    std::fprintf(stderr, "dsnake sweep: wrote %s (%zu runs; run them with: parallel -j N < %s)\n",
-                 (out / "manifest.txt").c_str(), pending.size(), shell_quote((out / "manifest.txt").string()).c_str());
+    std::fprintf(stderr, "dsnake sweep: wrote %s (%zu runs; run them with: cd %s && parallel -j N < manifest.txt)\n",
+                 (out / "manifest.txt").c_str(), pending.size(), shell_quote(out.string()).c_str());
   if (o.manifest != "slurm") return;
   if (pending.empty()) {
     if (!o.quiet) std::fprintf(stderr, "dsnake sweep: every run is finished: no Slurm script written\n");
     return;
   }
+  const MeasuredRuns measured = measured_runs(sweep, out);
+  const SlurmResources r = slurm_resources(o, measured);
+  const size_t tasks = (pending.size() + r.lines - 1) / r.lines;
   std::ostringstream s;
   s << "#!/bin/bash\n"
-    << "# dsnake sweep " << sweep.path << ": one unfinished run per array task (line TASK+1 of manifest.txt).\n"
-    << "# Submit with: sbatch " << shell_quote((out / "sweep.slurm").string()) << "\n"
-    << "# Then aggregate: dsnake sweep " << shell_quote(fs::absolute(sweep.path).string()) << " --out " << shell_quote(out.string())
-    << " --aggregate-only\n"
+    << "# dsnake sweep " << sweep.path << ": " << pending.size() << " unfinished runs, " << r.lines
+    << " manifest line(s) per array task.\n"
+    << "# Submit from the sweep's folder (the paths are relative to it): cd DIR && sbatch sweep.slurm\n"
+    << "# Then aggregate: dsnake sweep SWEEP_FILE --out DIR --aggregate-only\n"
+    << "# Resources: " << (measured.count > 0 ? "from " + std::to_string(measured.count) + " finished runs (slowest " +
+                                                      json(measured.slowest_s).dump() + " s, median " +
+                                                      json(measured.median_s).dump() + " s, peak " +
+                                                      json(measured.peak_mb).dump() + " MB)"
+                                                : std::string("no finished run to measure: defaults"))
+    << "; override with --slurm-time, --slurm-mem, --slurm-lines-per-task, --slurm-max-running.\n"
     << "#SBATCH --job-name=dsnake-sweep\n"
-    << "#SBATCH --array=0-" << pending.size() - 1 << "\n"
+    << "#SBATCH --array=0-" << tasks - 1 << (r.max_running > 0 ? "%" + std::to_string(r.max_running) : "") << "\n"
     << "#SBATCH --cpus-per-task=" << threads << "\n"
-    << "#SBATCH --output=" << (out / "logs" / "slurm-%A_%a.log").string() << "\n"
-    << "set -euo pipefail\n"
-    << "line=$(sed -n \"$((SLURM_ARRAY_TASK_ID + 1))p\" " << shell_quote((out / "manifest.txt").string()) << ")\n"
-    << "eval \"$line\"\n";
+    << "#SBATCH --time=" << r.time_minutes << "\n"
+    << "#SBATCH --mem=" << r.memory_mb << "M\n"
+    << "#SBATCH --output=logs/slurm-%A_%a.log\n"
+    << "cd \"${DSNAKE_SWEEP_DIR:-${SLURM_SUBMIT_DIR:-.}}\"\n"
+    << "first=$((SLURM_ARRAY_TASK_ID * " << r.lines << " + 1))\n"
+    << "status=0\n"
+    << "while IFS= read -r line; do\n"
+    << "  eval \"$line\" || status=1\n"
+    << "done < <(sed -n \"${first},$((first + " << r.lines - 1 << "))p\" manifest.txt)\n"
+    << "exit $status\n";
   write_file_atomically((out / "sweep.slurm").string(), s.str());
   fs::permissions(out / "sweep.slurm", fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec,
                   fs::perm_options::add);
-  if (!o.quiet) std::fprintf(stderr, "dsnake sweep: wrote %s (sbatch it)\n", (out / "sweep.slurm").c_str());
+  if (!o.quiet)
+    std::fprintf(stderr, "dsnake sweep: wrote %s (%zu array tasks; submit with: cd %s && sbatch sweep.slurm)\n",
+                 (out / "sweep.slurm").c_str(), tasks, shell_quote(out.string()).c_str());
 }
 
 // The SHA-256 of the sweep's input files, each read once per invocation.

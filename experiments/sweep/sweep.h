@@ -40,7 +40,10 @@
 //   summary.{csv,md,tex}  per method x grid point x level: n, mean, SD and 95% CI of the metrics
 //                     and time, the success rate with its Wilson interval (sweep_summary.h)
 //   manifest.txt, sweep.slurm   with --manifest: the unfinished runs as command lines for
-//                     GNU parallel, and a Slurm job-array script that runs one line per task
+//                     GNU parallel (paths relative to the folder; the executable $DSNAKE, by
+//                     default the writer's), and a Slurm job-array script whose tasks run
+//                     consecutive lines, with --time, --mem and --cpus-per-task from the
+//                     finished runs' measured time and memory
 #pragma once
 
 #include <cstdint>
@@ -75,12 +78,22 @@ struct Sweep {
 // InputError naming the sweep file and the JSON path (or the run and the experiment's path).
 Sweep load_sweep(const std::string& path, bool validate = true);
 
+// The resources of the Slurm script (--manifest slurm); 0: derived from the sweep's finished runs
+// (sweep.cpp's slurm_resources).
+struct SlurmManifestOptions {
+  int time_minutes = 0;    // --time of each array task
+  int memory_mb = 0;       // --mem of each array task
+  int lines_per_task = 0;  // manifest lines (runs) each array task runs one after another
+  int max_running = 0;     // array tasks running at once (the array's %N); 0: no cap
+};
+
 struct SweepOptions {
   std::string out_dir;
   std::string executable;        // the dsnake binary run for each run (absolute path)
   int jobs = 1;                  // runs at once
   int threads = 0;               // OpenMP threads per run; 0: the cores shared evenly among the jobs (at least 1)
   std::string manifest;          // "", "parallel" or "slurm": write the runs, run nothing
+  SlurmManifestOptions slurm;
   bool aggregate_only = false;   // only rebuild results.csv and breakdown.csv
   // Keep finished results that no longer stand (made by another build, or before an input file
   // changed) instead of running them again; they are aggregated with results.csv's "stale" column

@@ -530,14 +530,20 @@ TEST_F(SweepTest, ManifestRunsUnderGnuParallelAndSlurm) {
   ASSERT_EQ(manifest.exit_code, 0) << manifest.err;
   const Sweep sweep = load_sweep(file.string(), false);
   const std::string lines = slurp(out / "manifest.txt");
-  EXPECT_EQ(count_lines(lines, fs::canonical(DSNAKE_EXE).string() + " run "), 4) << lines;
+  // The executable: $DSNAKE, by default the writer's; paths relative to the sweep's folder.
+  EXPECT_EQ(count_lines(lines, "\"${DSNAKE:-" + fs::canonical(DSNAKE_EXE).string() + "}\" run configs/"), 4) << lines;
   for (const auto& run : sweep.runs) {
-    EXPECT_EQ(count_lines(lines, "--out " + (fs::absolute(out) / "runs" / run.id).string() + " "), 1) << lines;
+    EXPECT_EQ(count_lines(lines, "--out runs/" + run.id + " --threads 1 --quiet"), 1) << lines;
     EXPECT_TRUE(fs::exists(out / "configs" / (run.id + ".json")));
   }
   EXPECT_TRUE(finished_runs(out).empty()) << "--manifest ran something";
 
-  const CommandResult par = shell("cd / && parallel --will-cite -j 2 < " + (out / "manifest.txt").string());
+  // Run from the folder moved elsewhere, with the executable named by $DSNAKE.
+  const fs::path moved = dir_ / "moved";
+  fs::rename(out, moved);
+  const CommandResult par = shell("cd " + moved.string() + " && DSNAKE=" + std::string(DSNAKE_EXE) +
+                                  " parallel --will-cite -j 2 < manifest.txt");
+  fs::rename(moved, out);
   ASSERT_EQ(par.exit_code, 0) << par.err;
   EXPECT_EQ(finished_runs(out).size(), 4u);
   ASSERT_EQ(dsnake("sweep " + file.string() + " --out " + out.string() + " --aggregate-only").exit_code, 0);
@@ -545,16 +551,32 @@ TEST_F(SweepTest, ManifestRunsUnderGnuParallelAndSlurm) {
   ASSERT_EQ(rows.size(), 5u);
   for (size_t i = 1; i < rows.size(); ++i) EXPECT_NE(rows[i][column(rows[0], "status")], "missing");
 
-  // Slurm: one run unfinished -> a one-task array; task 0 runs manifest line 1.
-  const std::string last = sweep.runs[3].id;
+  // Slurm: two runs unfinished. Measured from the two finished (runs of milliseconds): both
+  // lines in one task of at least 10 minutes and 1 GB; given on the command line: one line per
+  // task, two tasks, at most one at once. Each task runs its lines in the submit folder.
+  const std::string third = sweep.runs[2].id, last = sweep.runs[3].id;
+  fs::remove_all(out / "runs" / third);
   fs::remove_all(out / "runs" / last);
   ASSERT_EQ(dsnake("sweep " + file.string() + " --out " + out.string() + " --manifest slurm").exit_code, 0);
-  EXPECT_EQ(count_lines(slurp(out / "manifest.txt"), " run "), 1);
-  const std::string script = slurp(out / "sweep.slurm");
-  EXPECT_NE(script.find("#SBATCH --array=0-0\n"), std::string::npos) << script;
-  const CommandResult task = shell("cd / && SLURM_ARRAY_TASK_ID=0 bash " + (out / "sweep.slurm").string());
-  ASSERT_EQ(task.exit_code, 0) << task.err;
-  EXPECT_TRUE(fs::exists(out / "runs" / last / "result.json"));
+  EXPECT_EQ(count_lines(slurp(out / "manifest.txt"), " run "), 2);
+  std::string script = slurp(out / "sweep.slurm");
+  for (const char* line : {"#SBATCH --array=0-0\n", "#SBATCH --time=10\n", "#SBATCH --mem=1024M\n",
+                           "#SBATCH --cpus-per-task=1\n", "#SBATCH --output=logs/slurm-%A_%a.log\n",
+                           "from 2 finished runs"})
+    EXPECT_NE(script.find(line), std::string::npos) << line << "\n" << script;
+  ASSERT_EQ(dsnake("sweep " + file.string() + " --out " + out.string() +
+                   " --manifest slurm --slurm-lines-per-task 1 --slurm-max-running 1 --slurm-time 30 --slurm-mem 2000")
+                .exit_code,
+            0);
+  script = slurp(out / "sweep.slurm");
+  for (const char* line : {"#SBATCH --array=0-1%1\n", "#SBATCH --time=30\n", "#SBATCH --mem=2000M\n"})
+    EXPECT_NE(script.find(line), std::string::npos) << line << "\n" << script;
+  for (int task : {1, 0}) {
+    const CommandResult run = shell("cd / && SLURM_ARRAY_TASK_ID=" + std::to_string(task) + " SLURM_SUBMIT_DIR=" +
+                                    out.string() + " bash " + (out / "sweep.slurm").string());
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_TRUE(fs::exists(out / "runs" / (task == 0 ? third : last) / "result.json")) << task;
+  }
 }
 
 TEST_F(SweepTest, CommandOnABadSweepFileIsOneLineAndExitCode2) {
