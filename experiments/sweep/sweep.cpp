@@ -290,6 +290,19 @@ void add_run(Sweep& sweep, const SweepPlan& plan, const MethodSpec& method, cons
       if (e.where() == key) where = "grid." + key + " (" + context + ")";
     throw InputError(sweep.path, where, e.what());
   }
+  // A method's run is named by its method, unless an override names it: the base's name and
+  // description describe the base, not a method that replaced one of its energies (figure titles
+  // and result.json would call an ARAP run "star_dsnake").
+  const bool named = std::any_of(point.overrides.begin(), point.overrides.end(),
+                                 [](const std::string& o) { return o.rfind("name=", 0) == 0; });
+  if (!method.name.empty() && !named) {
+    const std::string base_name = f.document.value("name", std::string());
+    const std::string base_description = f.document.value("description", std::string());
+    f.document["name"] = method.name;
+    f.document["description"] = "Method \"" + method.name + "\" of the sweep " + fs::path(sweep.path).filename().string() +
+                                " (base: " + (base_name.empty() ? method.base : base_name) + ")" +
+                                (base_description.empty() ? std::string() : ". The base: " + base_description);
+  }
   // A sweep keeps each run's image only on request (output.image): a phantom and its corruptions
   // are made again from the run's seed, and a file read as it is stays where it is.
   if (!f.document.contains("output")) f.document["output"] = json::object();

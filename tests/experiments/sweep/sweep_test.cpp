@@ -140,6 +140,9 @@ TEST_F(SweepTest, ExpandsTheCartesianProductInOrderWithStableIds) {
     EXPECT_EQ(r.corruption, r.config["corruption"]);
     ASSERT_EQ(r.parameters.size(), 1u);
     EXPECT_EQ(r.parameters[0].second, r.config["energies"][0]["alpha"]);
+    // Named by its method, the base named in its description.
+    EXPECT_EQ(r.config["name"], r.method);
+    EXPECT_EQ(r.config["description"], "Method \"" + r.method + "\" of the sweep sweep.json (base: tiny)");
   }
   EXPECT_EQ(ids.size(), sweep.runs.size());
   EXPECT_EQ(sweep.runs[15].label(), "stiff/energies[0].alpha=0.1/outliers=0.05/seed=5");
