@@ -52,6 +52,45 @@ class FigureScripts(unittest.TestCase):
         image = mpimg.imread(os.path.join(self.dir, "success_rates.png"))
         self.assertEqual(image.shape[1], int(2 * 4.2 * 110))  # two panels: outliers, noise
 
+    def test_success_rates_wilson_band_and_curves_that_coincide(self):
+        sys.path.insert(0, HERE)
+        import success_rates
+        # Published 95% Wilson intervals (Newcombe 1998): 5/10 and 0/10.
+        low, high = success_rates.wilson(5, 10)
+        self.assertAlmostEqual(low, 0.2366, places=4)
+        self.assertAlmostEqual(high, 0.7634, places=4)
+        self.assertEqual(success_rates.wilson(0, 10)[0], 0.0)
+        self.assertAlmostEqual(success_rates.wilson(0, 10)[1], 0.2775, places=4)
+        # Two methods with the same rates (as ARAP and D-Snake on the clean star): both curves are
+        # drawn, apart, with n in their labels and the unit on the axis.
+        rows = ["method,grid,corruption_type,level,corruption,magnitude,runs,finished,successes,success_rate,breakdown"]
+        for method in ("arap", "dsnake"):
+            for level, (mag, k) in enumerate(((0, 4), (0.01, 2), (0.03, 0))):
+                rows.append(f"{method},,outliers,{level},outliers={mag},{mag},4,4,{k},{k / 4},x")
+        write(os.path.join(self.dir, "breakdown.csv"), "\n".join(rows) + "\n")
+        fig_texts = []
+        original = plt.Figure.savefig
+
+        def capture(fig, *a, **kw):
+            ax = fig.axes[0]
+            fig_texts.append((ax.get_xlabel(), [t.get_text() for t in ax.get_legend().get_texts()],
+                              [list(l.get_xdata()) for l in ax.get_lines() if l.get_label() in ("arap (n = 4)", "dsnake (n = 4)")],
+                              len(ax.collections)))
+            return original(fig, *a, **kw)
+
+        plt.Figure.savefig = capture
+        try:
+            sys.argv = ["success_rates.py", self.dir]
+            success_rates.main()
+        finally:
+            plt.Figure.savefig = original
+        xlabel, legend, xs, bands = fig_texts[0]
+        self.assertEqual(xlabel, "outliers: fraction of voxels flipped")
+        self.assertEqual(legend, ["arap (n = 4)", "dsnake (n = 4)"])
+        self.assertEqual(len(xs), 2)
+        self.assertTrue(all(a < b for a, b in zip(xs[0], xs[1])))  # offset sideways, not on top
+        self.assertEqual(bands, 2)  # one Wilson band per curve
+
     def test_correspondence_colours_each_template_vertex_alike_in_both_panels(self):
         run_dir = os.path.join(self.dir, "run")
         os.makedirs(run_dir)
