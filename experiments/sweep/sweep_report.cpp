@@ -4,6 +4,8 @@
 // success rate falls below 50% (the robustness criterion of §8, Figs. 13-18).
 #include "experiments/sweep/sweep.h"
 
+#include "experiments/sweep/csv_text.h"
+
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
@@ -15,14 +17,6 @@ namespace dsnake {
 using json = nlohmann::json;
 
 namespace {
-
-// A CSV field (RFC 4180): quoted when it holds a comma, a quote or a line break.
-std::string csv_field(const std::string& s) {
-  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
-  std::string q = "\"";
-  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
-  return q + "\"";
-}
 
 std::string number_text(double v) {
   if (!std::isfinite(v)) return "nan";

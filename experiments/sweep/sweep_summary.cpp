@@ -1,5 +1,7 @@
 #include "experiments/sweep/sweep_summary.h"
 
+#include "experiments/sweep/csv_text.h"
+
 #include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
 
@@ -47,13 +49,6 @@ std::vector<Row> parse_csv(const std::string& text) {
   }
   if (any || !field.empty()) row.push_back(field), rows.push_back(row);
   return rows;
-}
-
-std::string csv_field(const std::string& s) {
-  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
-  std::string q = "\"";
-  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
-  return q + "\"";
 }
 
 std::string number(double v, int digits = 10) {
