@@ -4,9 +4,9 @@
 // glibc then advises huge pages (madvise MADV_HUGEPAGE) for every block it maps, which on a kernel
 // whose transparent huge pages are "madvise" (Debian's default) is what puts a volume's images,
 // fields and solver arrays on 2 MB pages. glibc reads that setting once, when a process starts,
-// and python3 starts without it: a run on the lung phantom then took about 30% longer in Python
-// than on the command line, in the field solve, the evolution and the metrics alike
-// (docs/performance.md). So the module replaces operator new for its own code: a block of
+// and python3 starts without it, so a volume's buffers would sit on 4 kB pages, with many more
+// page faults and TLB misses in the field solve, the evolution and the metrics alike
+// (docs/performance.md measures it). So the module replaces operator new for its own code: a block of
 // kHeapMmapThreshold or more (the size from which glibc maps blocks, experiments/cli/heap_settings.h)
 // gets the same advice before it is first touched.
 //
