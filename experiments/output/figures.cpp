@@ -478,7 +478,8 @@ struct CurveFrame {
 
 // The ranges of the usable values and the layout: a title band (title, scale note), the plot
 // area with tick labels on the left and below.
-CurveFrame curve_frame(const std::vector<std::vector<double>>& series, const std::string& title, bool log_y) {
+CurveFrame curve_frame(const std::vector<std::vector<double>>& series, const std::string& title, bool log_y,
+                       const CurveAxes& axes) {
   CurveFrame fr;
   fr.log_y = log_y;
   size_t longest = 0;
@@ -507,22 +508,29 @@ CurveFrame curve_frame(const std::vector<std::vector<double>>& series, const std
   fr.hi = hi + pad;
 
   const int plot_h = 480;
-  const int title_h = title.empty() && !log_y ? 0 : text_height() + kMarginPx;
+  const int title_h = (title.empty() && !log_y ? 0 : text_height() + kMarginPx) +
+                      (axes.y.empty() ? 0 : text_height() + kMarginPx / 2);
   fr.left = 2 * kMarginPx + std::max(text_width(fr.value_text(fr.data_lo)), text_width(fr.value_text(fr.data_hi)));
   fr.x_hi = tick_text(fr.x_max);
   fr.top = kMarginPx + title_h;
   fr.right = fr.width - kMarginPx - std::max(kMarginPx, text_width(fr.x_hi) / 2 + 2);
   fr.bottom = fr.top + plot_h;
-  fr.height = fr.bottom + 2 * kMarginPx + text_height();
+  fr.height = fr.bottom + 2 * kMarginPx + text_height() + (axes.x.empty() ? 0 : text_height() + kMarginPx / 2);
   return fr;
 }
 
 // Title and scale note, grid at the quarter lines, frame, tick marks and labels at the data's
 // min and max (and "no data" for a figure without a usable value).
-void draw_curve_axes(cv::Mat& canvas, const CurveFrame& fr, const std::string& title) {
+void draw_curve_axes(cv::Mat& canvas, const CurveFrame& fr, const std::string& title, const CurveAxes& axes) {
   const int left = fr.left, right = fr.right, top = fr.top, bottom = fr.bottom;
   if (!title.empty()) put_text(canvas, title, kMarginPx, kMarginPx);
-  if (fr.log_y) put_text(canvas, "(log scale)", right - text_width("(log scale)"), kMarginPx);
+  if (fr.log_y && axes.y.empty()) put_text(canvas, "(log scale)", right - text_width("(log scale)"), kMarginPx);
+  if (!axes.y.empty()) {
+    const std::string y = axes.y + (fr.log_y ? ", log scale" : "");
+    put_text(canvas, y, left, top - kMarginPx / 2 - text_height());
+  }
+  if (!axes.x.empty())
+    put_text(canvas, axes.x, (left + right) / 2 - text_width(axes.x) / 2, bottom + kMarginPx + text_height());
   for (int q = 1; q < 4; ++q) {
     const int gx = left + (right - left) * q / 4, gy = top + (bottom - top) * q / 4;
     cv::line(canvas, {gx, top}, {gx, bottom}, kLightGrey, 1);
@@ -586,12 +594,12 @@ void draw_curve_legend(cv::Mat& canvas, const CurveFrame& fr, const std::vector<
 }  // namespace
 
 void write_curve_figure(const std::vector<std::string>& names, const std::vector<std::vector<double>>& series,
-                        const std::string& png_path, const std::string& title, bool log_y) {
+                        const std::string& png_path, const std::string& title, bool log_y, const CurveAxes& axes) {
   DSNAKE_ASSERT(names.size() == series.size(), "write_curve_figure: " + std::to_string(names.size()) +
                                                    " names for " + std::to_string(series.size()) + " series");
-  const CurveFrame frame = curve_frame(series, title, log_y);
+  const CurveFrame frame = curve_frame(series, title, log_y, axes);
   cv::Mat canvas(frame.height, frame.width, CV_8UC3, kWhite);
-  draw_curve_axes(canvas, frame, title);
+  draw_curve_axes(canvas, frame, title, axes);
   draw_curves(canvas, frame, series);
   if (!series.empty()) draw_curve_legend(canvas, frame, names);
   write_png(canvas, png_path);

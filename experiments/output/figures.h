@@ -79,11 +79,18 @@ void write_slice_figure(const Image<3>& volume, const std::vector<ShapeLayer3>& 
                         const Point<3>& centre, const std::string& png_path,
                         const std::string& title = "", const std::vector<MaskLayer<3>>& masks = {});
 
+// What a curve figure's axes measure, with units ("iteration", "largest vertex move (mm)"):
+// x below the axis, y on a line of its own above the plot (with ", log scale" when it is).
+struct CurveAxes {
+  std::string x, y;
+};
+
 // A line plot of series[i] against its index (0, 1, ...), one colour per series, a legend with
-// names[i], min/max tick labels. With log_y the y axis is log10 and non-positive values are
-// skipped; NaN and infinite values are always skipped (the line breaks there).
+// names[i], min/max tick labels, the axes' labels. With log_y the y axis is log10 and
+// non-positive values are skipped; NaN and infinite values are always skipped (the line breaks
+// there).
 void write_curve_figure(const std::vector<std::string>& names,
                         const std::vector<std::vector<double>>& series, const std::string& png_path,
-                        const std::string& title, bool log_y);
+                        const std::string& title, bool log_y, const CurveAxes& axes = {});
 
 }  // namespace dsnake

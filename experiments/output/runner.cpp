@@ -706,11 +706,18 @@ void write_figures(const Experiment<D>& ex, const Snake<D>& snake, const fs::pat
     series.back().push_back(t.total_energy);
     positive &= t.total_energy > 0;
   }
-  write_curve_figure(curve_names, series, (dir / "energy.png").string(), ex.name + ": weighted energy terms", positive);
+  // A term without a value (the external term of a field without a potential, the profile
+  // search) says so in the legend rather than drawing nothing unexplained.
+  for (size_t i = 0; i + 1 < series.size(); ++i)
+    if (std::none_of(series[i].begin(), series[i].end(), [](double e) { return std::isfinite(e); }))
+      curve_names[i] += " (no value)";
+  write_curve_figure(curve_names, series, (dir / "energy.png").string(), ex.name + ": weighted energy terms", positive,
+                     {"iteration (over all phases)", "weight x energy (the term's units: docs/methods.md)"});
   std::vector<double> moves;
   for (const auto& t : trace) moves.push_back(t.max_displacement);
   write_curve_figure({"largest vertex move"}, {moves}, (dir / "convergence.png").string(),
-                     ex.name + ": largest vertex displacement per iteration", true);
+                     ex.name + ": largest vertex displacement per iteration", true,
+                     {"iteration (over all phases)", "largest vertex move (mm)"});
 }
 
 }  // namespace

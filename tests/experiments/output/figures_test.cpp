@@ -401,6 +401,32 @@ TEST(Figures, CurvesDrawSeriesAndLegend) {
   EXPECT_GT(blue_sample, 20);
 }
 
+// Axis labels: one text line more above the plot (y) and below it (x), drawn in dark pixels
+// centred under the plot and at the plot's left above it; the plot itself unchanged in size.
+TEST(Figures, CurvesLabelTheirAxes) {
+  const fs::path dir = output_folder("curves_axes");
+  const std::vector<double> moves = {4.0, 2.0, 1.0, 0.5, 0.25};
+  write_curve_figure({"move"}, {moves}, (dir / "plain.png").string(), "convergence", true);
+  write_curve_figure({"move"}, {moves}, (dir / "labelled.png").string(), "convergence", true,
+                     {"iteration", "largest vertex move (mm)"});
+  const cv::Mat plain = cv::imread((dir / "plain.png").string(), cv::IMREAD_COLOR);
+  const cv::Mat labelled = cv::imread((dir / "labelled.png").string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(plain.empty());
+  ASSERT_FALSE(labelled.empty());
+  EXPECT_EQ(labelled.cols, plain.cols);
+  const int extra = labelled.rows - plain.rows;
+  EXPECT_GT(extra, 20);  // two text lines
+  auto dark_in = [](const cv::Mat& m, int y0, int y1, int x0, int x1) {
+    int n = 0;
+    for (int y = std::max(0, y0); y < std::min(m.rows, y1); ++y)
+      for (int x = std::max(0, x0); x < std::min(m.cols, x1); ++x) n += m.at<cv::Vec3b>(y, x)[0] < 100;
+    return n;
+  };
+  // The x label: the bottom band, around the centre; nothing there without it.
+  EXPECT_GT(dark_in(labelled, labelled.rows - extra / 2 - 12, labelled.rows, labelled.cols / 3, 2 * labelled.cols / 3), 30);
+  EXPECT_EQ(dark_in(plain, plain.rows - 12, plain.rows, plain.cols / 3, 2 * plain.cols / 3), 0);
+}
+
 TEST(Figures, CurvesOnLogScaleSkipNonPositiveAndEmptyInput) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const fs::path dir = output_folder("curves_log");
