@@ -13,6 +13,7 @@
 #include <Eigen/Geometry>
 #include <ceres/ceres.h>
 #include <cmath>
+#include <numbers>
 #include "tests/energy_fixtures.h"
 
 #include <gtest/gtest.h>
@@ -25,10 +26,7 @@ namespace {
 using test_support::perturbed;
 using test_support::wobbly_polygon;
 using test_support::wobbly_sphere;
-template <int D>
-std::unique_ptr<Energy<D>> make(const std::string& json) { return test_support::make_energy<D>(json); }
-
-constexpr double kPi = 3.14159265358979323846;
+using test_support::make_energy;
 
 // ARAP: zero for rigid motions (rotations + translations), positive under scaling; 2D and 3D.
 TEST(Arap, RigidMotionsAreFreeScalingIsNot) {
@@ -96,7 +94,7 @@ TEST(Laplacian, TranslationsAreFree) {
   s3.positions() = perturbed<3>(q3, 0.5, 1);
   EXPECT_GT(e3.value(s3), 1e-2);
   // Gauss-Seidel sweeps are exact coordinate descent on the quadratic form: never increasing
-  auto gs = make<3>(R"({"type": "laplacian", "iteration": "gauss_seidel"})");
+  auto gs = make_energy<3>(R"({"type": "laplacian", "iteration": "gauss_seidel"})");
   gs->bind({&t3}, s3);
   PointList<3> out(s3.num_vertices());
   double prev = gs->value(s3);
@@ -113,10 +111,10 @@ TEST(Laplacian, TranslationsAreFree) {
 // radius r becomes (nearly) radius r + pressure; the value is -pressure x area.
 TEST(Balloon, PushesAlongTheNormal) {
   Template<2> t;
-  for (int i = 0; i < 64; ++i) t.positions.push_back(Point<2>(5 * std::cos(2 * kPi * i / 64), 5 * std::sin(2 * kPi * i / 64)));
+  for (int i = 0; i < 64; ++i) t.positions.push_back(Point<2>(5 * std::cos(2 * std::numbers::pi * i / 64), 5 * std::sin(2 * std::numbers::pi * i / 64)));
   t.connectivity = Connectivity::polygon(64);
   for (double pressure : {0.5, -0.5}) {
-    auto e = make<2>(R"({"type": "balloon", "pressure": )" + std::to_string(pressure) + "}");
+    auto e = make_energy<2>(R"({"type": "balloon", "pressure": )" + std::to_string(pressure) + "}");
     Snake<2> s = Snake<2>::from_template(t, t.positions);
     e->bind({&t}, s);
     PointList<2> out(64);
@@ -176,13 +174,13 @@ TEST(Residuals, SumOfSquaresIsTheValueAndGradientsMatch) {
   for (const char* json : {R"({"type": "asap_mls", "variant": "exact", "neighborhood": "k_nearest", "k": 5})",
                            R"({"type": "asap_mls", "neighborhood": "rings", "rings": 2, "falloff": 0.5})",
                            R"({"type": "laplacian"})", R"({"type": "arap"})"}) {
-    check_residuals<2>(*make<2>(json), t2, q2, std::string("2D ") + json);
-    check_residuals<3>(*make<3>(json), t3, q3, std::string("3D ") + json);
+    check_residuals<2>(*make_energy<2>(json), t2, q2, std::string("2D ") + json);
+    check_residuals<3>(*make_energy<3>(json), t3, q3, std::string("3D ") + json);
   }
   // balloon and the volume-type energies have no least-squares form
   Snake<3> s = Snake<3>::from_template(t3, q3);
   GlobalProblem<3> problem(s);
-  EXPECT_FALSE(make<3>(R"({"type": "balloon"})")->add_residuals(s, 1.0, problem));
+  EXPECT_FALSE(make_energy<3>(R"({"type": "balloon"})")->add_residuals(s, 1.0, problem));
 }
 
 }  // namespace

@@ -20,6 +20,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <random>
 #include <sstream>
 
@@ -29,10 +30,7 @@ namespace {
 using test_support::perturbed;
 using test_support::wobbly_polygon;
 using test_support::wobbly_sphere;
-template <int D>
-std::unique_ptr<Energy<D>> make(const std::string& json) { return test_support::make_energy<D>(json); }
-
-constexpr double kPi = 3.14159265358979323846;
+using test_support::make_energy;
 
 // P(x) = s (|x - c| - R)^2: a smooth shell attractor (the "edge" is the sphere of radius R).
 template <int D>
@@ -91,7 +89,7 @@ void check_all_residual_blocks(GlobalProblem<D>& problem, unsigned seed, const s
       x[0] = q.w(), x[1] = q.x(), x[2] = q.y(), x[3] = q.z();
       if (size == 5) x[4] = 0.5 * u(rng);
     } else {
-      x[0] = kPi * u(rng);
+      x[0] = std::numbers::pi * u(rng);
       if (size == 2) x[1] = 0.5 * u(rng);
     }
   }
@@ -136,7 +134,7 @@ void check_energies(const Template<D>& t, const std::vector<std::string>& specs,
   const Image<D> image = test_support::radial_image<D>(D == 2 ? 48 : 32, 1.0, [](double r) { return r < 10 ? 170.0 : 85.0; }, 1.5);
   EnergyContext<D> context{&t, &image, nullptr, &potential};
   for (const auto& spec : specs) {
-    auto e = make<D>(spec);
+    auto e = make_energy<D>(spec);
     ASSERT_TRUE(e->has_least_squares_form()) << spec;
     if (e->type() != "external") e->bind(context, snake);
     else {
@@ -235,7 +233,7 @@ void asap_alone_reaches_a_similarity(const Template<D>& t, const std::string& sp
   SCOPED_TRACE(std::to_string(D) + "D " + spec);
   Snake<D> snake = Snake<D>::from_template(t, perturbed<D>(t.positions, 0.15 * bounding_diagonal(t.positions) / 10, seed));
   std::vector<WeightedEnergy<D>> energies;
-  energies.push_back({1.0, make<D>(spec)});
+  energies.push_back({1.0, make_energy<D>(spec)});
   GlobalSolverOptions options;
   options.max_iterations = 500;
   options.function_tolerance = 1e-16;
@@ -276,9 +274,9 @@ TEST(GlobalSolver, ReachesAtMostTheSnakesEnergyOnASmooth2dCase) {
     std::vector<WeightedEnergy<2>> e;
     // umbrella: a value quadratic in q, so that Ceres' final cost is the value at the solution
     // (the physical form's residuals freeze M and K at the start of the solve)
-    e.push_back({1.0, make<2>(R"({"type": "internal", "alpha": 0.3, "beta": 0.0, "discretization": "umbrella"})")});
-    e.push_back({0.4, make<2>(R"({"type": "external", "tau": 0.5})")});
-    e.push_back({0.5, make<2>(R"({"type": "asap_mls", "variant": "exact", "neighborhood": "k_nearest", "k": 6})")});
+    e.push_back({1.0, make_energy<2>(R"({"type": "internal", "alpha": 0.3, "beta": 0.0, "discretization": "umbrella"})")});
+    e.push_back({0.4, make_energy<2>(R"({"type": "external", "tau": 0.5})")});
+    e.push_back({0.5, make_energy<2>(R"({"type": "asap_mls", "variant": "exact", "neighborhood": "k_nearest", "k": 6})")});
     return e;
   };
   const auto total = [](const std::vector<double>& terms) {
@@ -332,7 +330,7 @@ TEST(GlobalSolver, ACollapseStopsTheSolveAtThatIteration) {
   const Template<2> t = wobbly_polygon(40, 10.0);
   auto energies = [] {
     std::vector<WeightedEnergy<2>> e;
-    e.push_back({1.0, make<2>(R"({"type": "internal", "alpha": 5, "beta": 0.0, "discretization": "umbrella"})")});
+    e.push_back({1.0, make_energy<2>(R"({"type": "internal", "alpha": 5, "beta": 0.0, "discretization": "umbrella"})")});
     return e;
   };
   GlobalSolverOptions options;
@@ -372,8 +370,8 @@ TEST(GlobalSolver, StopsAtItsIterationAndTimeBounds) {
   const Template<2> t = wobbly_polygon(40, 10.0);
   auto energies = [] {
     std::vector<WeightedEnergy<2>> e;
-    e.push_back({1.0, make<2>(R"({"type": "internal", "alpha": 0.3, "beta": 0.0, "discretization": "umbrella"})")});
-    e.push_back({0.5, make<2>(R"({"type": "asap_mls", "variant": "exact", "neighborhood": "k_nearest", "k": 6})")});
+    e.push_back({1.0, make_energy<2>(R"({"type": "internal", "alpha": 0.3, "beta": 0.0, "discretization": "umbrella"})")});
+    e.push_back({0.5, make_energy<2>(R"({"type": "asap_mls", "variant": "exact", "neighborhood": "k_nearest", "k": 6})")});
     return e;
   };
   PointList<2> start = t.positions;
