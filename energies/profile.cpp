@@ -315,9 +315,32 @@ void ProfileEnergy<D>::propose(const Snake<D>& snake, PointList<D>& out) {
   }
 }
 
+// E = sum_v |g_v(0) - e_v|^2: each vertex's misfit where it stands, what the search along its
+// normal lowers. A flat window counts as g = 0 (misfit |e_v|^2, no edge where one is expected); a
+// vertex without an expected profile counts 0. Summed serially: the same bits for any thread count.
 template <int D>
-double ProfileEnergy<D>::value(const Snake<D>&) const {
-  return std::numeric_limits<double>::quiet_NaN();
+double ProfileEnergy<D>::value(const Snake<D>& snake) const {
+  const int n = snake.num_vertices();
+  DSNAKE_ASSERT(int(profile_of_.size()) == n, "bind() before value(), one entry per vertex");
+  PointList<D> normals;
+  snake.vertex_normals(normals);
+  const PointList<D>& q = snake.positions();
+  const Image<D>& image = image_.image();
+  std::vector<double> line(2 * half_ + 1);
+  double e = 0.0;
+  for (int v = 0; v < n; ++v) {
+    const std::vector<double>& expected = *profile_of_[v];
+    if (expected.empty()) continue;
+    for (int i = 0; i <= 2 * half_; ++i) line[i] = image.sample(q[v] + ((i - half_) * h_) * normals[v]);
+    for (int i = 0; i < 2 * half_; ++i) line[i] = line[i + 1] - line[i];
+    const double f = misfit(line.data(), expected);
+    if (std::isfinite(f)) {
+      e += f;
+    } else {
+      for (double x : expected) e += x * x;
+    }
+  }
+  return e;
 }
 
 template class ProfileEnergy<2>;

@@ -35,8 +35,10 @@
 //    one neighbour, brighter than another); where that contrast is below the image's gradient
 //    noise level times search / 2, the vertex has no expected profile and holds. A free vertex
 //    takes the polarity of its nearest template vertex (along the mesh).
-// Global view: none. The best offset is a discrete search, not a smooth function of q, so the
-// term has no least-squares form (value() is NaN; "solver": "global" refuses it).
+// Value: sum_v |g_v(0) - e_v|^2, each vertex's misfit where it stands (a flat window counts as
+// g = 0, a vertex without an expected profile as 0): what the search lowers, for the energy trace
+// and the run's total. Global view: none. The best offset is a discrete search, not a smooth
+// function of q, so the term has no least-squares form ("solver": "global" refuses it).
 #pragma once
 
 #include "energies/polarity.h"
@@ -111,7 +113,7 @@ class ProfileEnergy final : public Energy<D> {
   // out[v] = q_v + step d*_v n_v for every vertex; parallel over vertices, the same bits for any
   // thread count (each vertex is computed alone).
   void propose(const Snake<D>& snake, PointList<D>& out) override;
-  double value(const Snake<D>& snake) const override;  // NaN: no energy (see above)
+  double value(const Snake<D>& snake) const override;  // the summed misfit at offset 0 (above)
 
   // The polarity of the step edge (after the first bind; kAuto with a reference image).
   EdgePolarity polarity() const { return polarity_; }

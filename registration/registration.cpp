@@ -124,6 +124,7 @@ RegistrationResult<D> register_template(RegistrationProblem<D> problem, const st
   if (result.guarded) driver.set_move_guard(std::make_unique<CollisionGuard<D>>(problem.collision_guard));
   driver.set_watchdog(problem.watchdog);
   result.term_names = term_names(driver.energies());
+  result.start_energy_terms = driver.energy_terms(result.snake);
   for (EvolverObserver<D>* observer : observers) driver.add_observer(observer);
   result.summary = driver.run(result.snake, problem.phases);
   result.force.median_end = median_force_magnitude(*problem.field, result.snake);

@@ -96,6 +96,9 @@ struct RegistrationResult {
   // One unique name per energy, in the problem's order: its type, with "_<index>" appended when
   // two energies share a type ("internal", "asap_mls_2"); the columns of an energy trace.
   std::vector<std::string> term_names;
+  // w_e E_e per energy, in term_names' order, at the placed template before the first iteration
+  // (with the energies' own weights, as the first phase has them unless it sets its own).
+  std::vector<double> start_energy_terms;
   VoxelBox<D> field_region;  // the voxels the field (and the potential) was computed on
   ForceMagnitudes force;
   bool guarded = false;  // the collision guard checked the snake iteration's moves (solver kSnake, enabled)

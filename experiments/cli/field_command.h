@@ -13,6 +13,9 @@
 
 namespace dsnake {
 
+// The rows under the 2D figure's image that keep the field's magnitude: a colour bar from 0 to |F|max.
+inline constexpr int kFieldLegendPx = 64;
+
 struct FieldCommandOptions {
   std::string image;                // --image: 2D or 3D image file (framework/io/image_io.h)
   std::string type = "gvf";         // --type: a field registry name
@@ -21,7 +24,7 @@ struct FieldCommandOptions {
   std::string cache;                // --field-cache DIR: inserted as "cache" ("" = none)
   std::string out;                  // --out: .mha / .mhd / .nii / .nii.gz / .nrrd / .nhdr / .inr / .inr.gz
   ImageReadOptions read;            // --nifti-transform: which NIfTI transform places the image
-  std::string png;                  // --png: 2D figure; "" = --out with its extension -> .png
+  std::string png;                  // --png: 2D figure (kFieldLegendPx rows of magnitude legend under the image); "" = --out with its extension -> .png
   bool no_png = false;              // --no-png: skip the figure
 };
 

@@ -12,6 +12,7 @@
 //                   an experiment file for your own scan (experiments/cli/init_command.h)
 //   dsnake sweep SWEEP.json [--out DIR] [-j N] [--threads T] [--manifest parallel|slurm]
 //                [--aggregate-only] [--quiet]                    (experiments/sweep/sweep.h)
+//   dsnake report DIR                a run's or a sweep's report.html (experiments/output/report_step.h)
 //   dsnake schema [--markdown]       the experiment file's JSON Schema, or its key tables
 // field, convert, template and init take --nifti-transform auto|sform|qform: which NIfTI
 // transform places the voxels (framework/io/image_io.h, NiftiTransform).
@@ -22,6 +23,7 @@
 #include "experiments/cli/field_command.h"
 #include "experiments/cli/heap_settings.h"
 #include "experiments/cli/init_command.h"
+#include "experiments/output/report_step.h"
 #include "experiments/output/runner.h"
 #include "experiments/spec/schema.h"
 #include "experiments/sweep/sweep.h"
@@ -60,13 +62,19 @@ int run(const std::string& config, const std::vector<std::string>& overrides, co
   if (!field_cache.empty() && file.document.contains("field") && file.document["field"].is_object())
     file.document["field"]["cache"] = field_cache;
   nlohmann::ordered_json result;
+  OutputOptions output;
   if (file.dimension == 2) {
     auto ex = make_experiment<2>(file);
+    output = ex.output;
     result = run_experiment(ex, options);
   } else {
     auto ex = make_experiment<3>(file);
+    output = ex.output;
     result = run_experiment(ex, options);
   }
+  // The matplotlib figures and report.html (output.report): a report that cannot be written is a
+  // warning, not a failed run.
+  if (output.figures && output.report) write_report(options.out_dir, {.quiet = options.quiet});
   // A run stopped by the watchdog wrote its outputs (the last positions that passed) but did not
   // register anything: exit code 3, so that scripts and sweeps count it as failed. The line that
   // says where and why is the run's outcome, so --quiet keeps it.
@@ -108,15 +116,21 @@ int sweep(const std::string& file, SweepOptions options) {
   options.executable = std::filesystem::read_symlink("/proc/self/exe").string();
   const SweepSummary summary = run_sweep(s, options);
   if (summary.interrupted) return 130;
+  if (options.manifest.empty()) write_report(options.out_dir, {.quiet = options.quiet});
   return summary.failed > 0 ? 1 : 0;
 }
 
-// `dsnake report DIR`: DIR/summary.{csv,md,tex} from DIR/results.csv; the Markdown table on stdout.
+// `dsnake report DIR`: a run folder (result.json) gets its matplotlib figures and report.html; a
+// sweep folder (results.csv) DIR/summary.{csv,md,tex} from DIR/results.csv, the Markdown table on
+// stdout, and its report.html. Exit 1 when report.html could not be written.
 int report(const std::string& folder) {
+  const std::filesystem::path dir(folder);
+  if (std::filesystem::is_regular_file(dir / "result.json") && !std::filesystem::exists(dir / "results.csv"))
+    return write_report(folder) ? 0 : 1;
   write_summaries(folder);
-  std::ifstream md(std::filesystem::path(folder) / "summary.md");
+  std::ifstream md(dir / "summary.md");
   std::cout << md.rdbuf();
-  return 0;
+  return write_report(folder) ? 0 : 1;
 }
 
 // Every subcommand's options, filled by CLI11.
@@ -275,9 +289,9 @@ void add_sweep_and_schema(CLI::App& app, CommandLine& c) {
   c.sweep_cmd->add_flag("--quiet,-q", o.quiet, "No progress lines on stderr");
 
   c.report_cmd = app.add_subcommand(
-      "report", "Write the summary tables of a sweep's output folder (summary.csv, .md, .tex) from its results.csv, "
-                "and print the Markdown one");
-  c.report_cmd->add_option("folder", c.report_folder, "A sweep's output folder (it holds results.csv)")->required();
+      "report", "Write report.html for a run's output folder (with its matplotlib figures), or for a sweep's: "
+                "its summary tables (summary.csv, .md, .tex) from its results.csv, the Markdown one printed, and report.html");
+  c.report_cmd->add_option("folder", c.report_folder, "A run's output folder (result.json) or a sweep's (results.csv)")->required();
   c.schema_cmd = app.add_subcommand(
       "schema", "Print the JSON Schema of experiment and sweep files (editors validate and complete with it)");
   c.schema_cmd->add_flag("--markdown", c.schema_markdown, "Print the key tables of docs/experiment-file.md instead");

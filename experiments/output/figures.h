@@ -1,5 +1,6 @@
-// Figure writers (PNG): a 2D image with shapes drawn over it, three orthogonal slices of a
-// volume with the cross-sections of meshes, and line plots of energy / metric curves.
+// Figure writers (PNG): a 2D image with shapes drawn over it, and three orthogonal slices of a
+// volume with the cross-sections of meshes. The line plots (energy, convergence) and the 3D
+// rendering are matplotlib and VTK (scripts/figures/run_figures.py), drawn by `dsnake run`.
 // As in the paper's figures (e.g. Fig. 12 of Levi & Gotsman, "D-Snake"), the template or the
 // initial snake is drawn in yellow and the result in red; feature points are dots (green, Fig. 2).
 //
@@ -78,19 +79,5 @@ void write_overlay_figure(const Image<2>& image, const std::vector<ShapeLayer2>&
 void write_slice_figure(const Image<3>& volume, const std::vector<ShapeLayer3>& layers,
                         const Point<3>& centre, const std::string& png_path,
                         const std::string& title = "", const std::vector<MaskLayer<3>>& masks = {});
-
-// What a curve figure's axes measure, with units ("iteration", "largest vertex move (mm)"):
-// x below the axis, y on a line of its own above the plot (with ", log scale" when it is).
-struct CurveAxes {
-  std::string x, y;
-};
-
-// A line plot of series[i] against its index (0, 1, ...), one colour per series, a legend with
-// names[i], min/max tick labels, the axes' labels. With log_y the y axis is log10 and
-// non-positive values are skipped; NaN and infinite values are always skipped (the line breaks
-// there).
-void write_curve_figure(const std::vector<std::string>& names,
-                        const std::vector<std::vector<double>>& series, const std::string& png_path,
-                        const std::string& title, bool log_y, const CurveAxes& axes = {});
 
 }  // namespace dsnake

@@ -1,5 +1,6 @@
 // A run's output folder; see output_folder.h.
 #include "experiments/output/output_folder.h"
+#include "experiments/output/report_step.h"
 
 #include "framework/core/atomic_file.h"
 #include "framework/core/errors.h"
@@ -171,7 +172,10 @@ void publish_outputs(const fs::path& staging, const fs::path& out_arg) {
       fs::remove(staging / kOutputManifest, ec);
     }
     fs::create_directories(out);
-    const std::set<std::string> earlier = read_manifest(out);
+    std::set<std::string> earlier = read_manifest(out);
+    // The report step's files are written after the run (report_step.h): an earlier run's report
+    // goes with it, and the report step makes this run's.
+    for (const char* f : kReportFiles) earlier.insert(f);
     check_targets(out, files, earlier);
     // This run's files, result.json last (a folder with a new result.json is complete).
     std::vector<std::string> order = files;

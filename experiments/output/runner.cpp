@@ -136,6 +136,20 @@ nlohmann::ordered_json optional_number(const std::optional<double>& v) {
   return v && std::isfinite(*v) ? nlohmann::ordered_json(*v) : nlohmann::ordered_json(nullptr);
 }
 
+// {"terms": {name: w_e E_e}, "total": their sum}: the run's energy as the snake and the global
+// solve both minimise it (a term without a value, which no registered energy has, is null and
+// left out of the total).
+nlohmann::ordered_json energy_json(const std::vector<std::string>& names, const std::vector<double>& values) {
+  nlohmann::ordered_json terms = nlohmann::ordered_json::object();
+  double total = 0.0;
+  for (size_t i = 0; i < names.size(); ++i) {
+    const double v = i < values.size() ? values[i] : std::numeric_limits<double>::quiet_NaN();
+    terms[names[i]] = optional_number(v);
+    if (std::isfinite(v)) total += v;
+  }
+  return {{"terms", terms}, {"total", total}};
+}
+
 std::string csv_number(double v) {
   if (!std::isfinite(v)) return "nan";
   std::ostringstream s;
@@ -227,8 +241,7 @@ nlohmann::ordered_json global_json(const Experiment<D>& ex, size_t phase_count,
 }
 
 template <int D>
-void write_figures(const Experiment<D>& ex, const Snake<D>& snake, const fs::path& dir,
-                   const std::vector<IterationInfo>& trace, const std::vector<std::string>& names);
+void write_figures(const Experiment<D>& ex, const Snake<D>& snake, const fs::path& dir);
 
 }  // namespace
 
@@ -420,7 +433,7 @@ void write_outputs(const Experiment<D>& ex, const RunRecord<D>& rec, const fs::p
   write_file_atomically((staging / "energy_trace.csv").string(), trace_csv<D>(rec.recorder.trace, names));
   if (rec.finite && ex.output.result_mask) write_result_mask(ex, snake, staging);
   if (writes_image(ex)) write_from_image<D>(ex, ex.image, (staging / "image.nii.gz").string(), ImageWriteOptions{.compress = true});
-  if (ex.output.figures && rec.finite) write_figures(ex, snake, staging, rec.recorder.trace, names);
+  if (ex.output.figures && rec.finite) write_figures(ex, snake, staging);
 }
 
 nlohmann::ordered_json metrics_json(const Metrics& m, bool finite) {
@@ -557,12 +570,8 @@ nlohmann::ordered_json result_json(const Experiment<D>& ex, const RunRecord<D>& 
   const auto& recorder = rec.recorder;
   if (!recorder.mesh_quality.empty()) result["mesh_quality"] = recorder.mesh_quality.rbegin()->second;
   if (!recorder.trace.empty()) {
-    const auto& last = recorder.trace.back();
-    nlohmann::ordered_json terms;
-    for (size_t i = 0; i < reg.term_names.size(); ++i)
-      terms[reg.term_names[i]] = optional_number(last.energy_terms.empty() ? std::optional<double>()
-                                                                           : std::optional<double>(last.energy_terms[i]));
-    result["energy"] = {{"terms", terms}, {"total", last.total_energy}};
+    result["energy"] = energy_json(reg.term_names, recorder.trace.back().energy_terms);
+    result["energy"]["start"] = energy_json(reg.term_names, reg.start_energy_terms);
   }
   result["external_force"] = external_force_json(reg.force);
   result["field_region"] = field_region_json(ex, reg.field_region);
@@ -656,8 +665,7 @@ namespace dsnake {
 namespace {
 
 template <int D>
-void write_figures(const Experiment<D>& ex, const Snake<D>& snake, const fs::path& dir,
-                   const std::vector<IterationInfo>& trace, const std::vector<std::string>& names) {
+void write_figures(const Experiment<D>& ex, const Snake<D>& snake, const fs::path& dir) {
   std::vector<int> template_marks, result_marks;
   for (const auto& [name, id] : ex.tmpl.landmarks) {
     template_marks.push_back(id);
@@ -692,32 +700,6 @@ void write_figures(const Experiment<D>& ex, const Snake<D>& snake, const fs::pat
     centre /= std::max(1, snake.num_vertices());
     write_slice_figure(ex.image, layers, centre, (dir / "slices.png").string(), title, masks);
   }
-  if (trace.empty()) return;
-  std::vector<std::string> curve_names = names;
-  curve_names.push_back("total");
-  std::vector<std::vector<double>> series(curve_names.size());
-  bool positive = true;
-  for (const auto& t : trace) {
-    for (size_t i = 0; i < names.size(); ++i) {
-      const double e = i < t.energy_terms.size() ? t.energy_terms[i] : NAN;
-      series[i].push_back(e);
-      positive &= !(std::isfinite(e) && e <= 0);
-    }
-    series.back().push_back(t.total_energy);
-    positive &= t.total_energy > 0;
-  }
-  // A term without a value (the external term of a field without a potential, the profile
-  // search) says so in the legend rather than drawing nothing unexplained.
-  for (size_t i = 0; i + 1 < series.size(); ++i)
-    if (std::none_of(series[i].begin(), series[i].end(), [](double e) { return std::isfinite(e); }))
-      curve_names[i] += " (no value)";
-  write_curve_figure(curve_names, series, (dir / "energy.png").string(), ex.name + ": weighted energy terms", positive,
-                     {"iteration (over all phases)", "weight x energy (the term's units: docs/methods.md)"});
-  std::vector<double> moves;
-  for (const auto& t : trace) moves.push_back(t.max_displacement);
-  write_curve_figure({"largest vertex move"}, {moves}, (dir / "convergence.png").string(),
-                     ex.name + ": largest vertex displacement per iteration", true,
-                     {"iteration (over all phases)", "largest vertex move (mm)"});
 }
 
 }  // namespace

@@ -37,11 +37,12 @@ mkdir -p "$OUT/configs" "$OUT/time" "$OUT/logs"
 "$DSNAKE" sweep "$SWEEP" --out "$OUT" --manifest parallel >/dev/null
 while read -r line; do
   [ -n "$line" ] || continue
-  id=$(sed -E 's|.* --out [^ ]*/runs/([^ ]+) .*|\1|' <<<"$line")
+  id=$(sed -E 's|.* --out ([^ ]*/)?runs/([^ ]+).*|\2|' <<<"$line")
   echo "run.sh: $id" >&2
   cmd=${line/--threads 1/--threads $THREADS}
   cmd=${cmd/ --quiet/}
-  if ! /usr/bin/time -f "%e %M" -o "$OUT/time/$id.txt" bash -c "$cmd" 2>"$OUT/logs/$id.log"; then
+  # the manifest's paths are relative to the sweep folder, its executable "${DSNAKE:-...}"
+  if ! /usr/bin/time -f "%e %M" -o "$OUT/time/$id.txt" env DSNAKE="$DSNAKE" bash -c "cd \"$OUT\" && $cmd" 2>"$OUT/logs/$id.log"; then
     echo "run.sh: $id failed: $(tail -1 "$OUT/logs/$id.log")" >&2
   fi
 done <"$OUT/manifest.txt"

@@ -91,6 +91,7 @@ struct OutputOptions {
   bool result_mask = true;  // result_mask.nii.gz: the result's interior on the image grid
   bool start_metrics = false;  // result.json's "start": the placed template's metrics
   ImageOutput image = ImageOutput::kAuto;
+  bool report = true;  // `dsnake run`: the matplotlib figures and report.html (experiments/output/report_step.h)
 
   template <class V>
   void visit(V& v) {
@@ -99,6 +100,7 @@ struct OutputOptions {
     v(result_mask, Key{"result_mask", "", "write result_mask.nii.gz: the result's interior as a uint8 label map on the image file's own grid (its dimensions, voxel order and NIfTI header; a phantom's grid otherwise)"});
     v(start_metrics, Key{"start_metrics", "", "also measure the placed template (result.json's \"start\") and the snake at the end of every phase (\"phases\"[i].\"metrics\") against the ground truth, to see what each step gained; costs one more metrics pass each"});
     v(image, Key{"image", "", "write image.nii.gz, the image that was registered: auto (when it is a phantom or was corrupted), always or never"});
+    v(report, Key{"report", "", "with figures, `dsnake run` also draws the matplotlib figures (energy terms, convergence, a 3D rendering of a mesh result coloured by its error) and writes report.html, the self-contained report with an interactive 3D view (python3: scripts/report/make_report.py, docs/reports.md); sweeps set it to false unless the experiment sets it"});
   }
 };
 

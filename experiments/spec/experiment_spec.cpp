@@ -161,13 +161,14 @@ void read_run_keys(JsonReader& top, ExperimentSpec<D>& spec) {
   if (spec.dimension != D) top.fail("dimension", "internal mismatch");
   if (top.has("collision_guard")) read_section(top, "collision_guard", spec.collision_guard);
   if (top.has("global")) {
-    // The "global" object: Ceres' options and the external term's potential, for a
-    // global solve or for a snake run whose energies are reported with the same potential.
+    // The "global" object: Ceres' options and the external term's potential.
     JsonReader g = top.child("global");
     read_options(g, spec.global);
     spec.potential = read_options<PotentialOptions>(g);
     g.finish();
-  } else if (spec.solver == SolverKind::kGlobal) {
+  } else {
+    // Every run, snake or global solve, values its external term with a potential (the default
+    // one without a "global" object), so that `total` is one energy for every field and solver.
     spec.potential = PotentialOptions{};
   }
 }

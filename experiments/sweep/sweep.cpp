@@ -304,9 +304,14 @@ void add_run(Sweep& sweep, const SweepPlan& plan, const MethodSpec& method, cons
                                 (base_description.empty() ? std::string() : ". The base: " + base_description);
   }
   // A sweep keeps each run's image only on request (output.image): a phantom and its corruptions
-  // are made again from the run's seed, and a file read as it is stays where it is.
+  // are made again from the run's seed, and a file read as it is stays where it is. Each run's
+  // report (a python3 process, about a second) is also on request (output.report): the sweep's
+  // own report.html covers its runs.
   if (!f.document.contains("output")) f.document["output"] = json::object();
-  if (f.document["output"].is_object() && !f.document["output"].contains("image")) f.document["output"]["image"] = "never";
+  if (f.document["output"].is_object()) {
+    if (!f.document["output"].contains("image")) f.document["output"]["image"] = "never";
+    if (!f.document["output"].contains("report")) f.document["output"]["report"] = false;
+  }
   const size_t g = point.index;
   SweepRun run;
   run.method = method.name;

@@ -2,7 +2,8 @@
 here in a temporary folder with its own munge socket and ports, run as root), a sweep written
 with `--manifest slurm`, submitted with `sbatch --wait`, aggregated with `--aggregate-only`, and
 its results.csv equal to the same sweep run locally (timings aside); then one run removed and
-the sweep resumed on Slurm with the same rules (only that run submitted again)."""
+the sweep resumed on Slurm with the same rules (only that run submitted again); then a sweep
+cancelled mid-way with `scancel` and submitted again, nothing lost."""
 import csv
 import json
 import os
@@ -87,6 +88,26 @@ class SingleNodeSlurm:
                 pass
         time.sleep(0.5)
 
+    def sbatch(self, script, cwd):
+        """Submits without waiting; returns the job id."""
+        done = subprocess.run(["sbatch", "--parsable", str(script)], cwd=cwd, capture_output=True, text=True,
+                              env=self.env, timeout=60)
+        if done.returncode != 0:
+            raise AssertionError("sbatch failed: " + done.stdout + done.stderr)
+        return done.stdout.strip().split(";")[0]
+
+    def wait_gone(self, job, timeout=60):
+        """Waits until no task of the job is queued or running."""
+        deadline = time.time() + timeout
+        while time.time() < deadline:
+            q = subprocess.run(["squeue", "-h", "-j", job], capture_output=True, text=True, env=self.env)
+            if q.returncode == 0 and not q.stdout.strip():
+                return
+            if q.returncode != 0 and "Invalid job id" in q.stderr:
+                return
+            time.sleep(0.2)
+        raise AssertionError(f"job {job} still in the queue after {timeout} s")
+
     def sbatch_wait(self, script, cwd):
         done = subprocess.run(["sbatch", "--wait", str(script)], cwd=cwd, capture_output=True, text=True,
                               env=self.env, timeout=300)
@@ -145,6 +166,29 @@ class SlurmSweepTest(unittest.TestCase):
                 slurm.sbatch_wait(out / "sweep.slurm", out)
                 subprocess.run([DSNAKE, "sweep", sweep, "--out", str(out), "--aggregate-only", "--quiet"], check=True)
                 self.assertEqual(rows(out / "results.csv"), local)
+
+                # Cancelled mid-way and submitted again: one run per task, one task at a time;
+                # `scancel` once some runs have finished and others have not, then the manifest of
+                # the unfinished runs is submitted and the aggregate is the local one, nothing lost.
+                again = tmp / "cancelled"
+                subprocess.run([DSNAKE, "sweep", sweep, "--out", str(again), "--manifest", "slurm",
+                                "--slurm-lines-per-task", "1", "--slurm-max-running", "1", "--quiet"], check=True)
+                job = slurm.sbatch(again / "sweep.slurm", again)
+                finished = lambda: len(list((again / "runs").glob("*/result.json")))
+                deadline = time.time() + 120
+                while finished() < 3 and time.time() < deadline:
+                    time.sleep(0.2)
+                subprocess.run(["scancel", job], env=slurm.env, check=True)
+                slurm.wait_gone(job)
+                done_before = finished()
+                self.assertGreaterEqual(done_before, 3)
+                self.assertLess(done_before, 12, "the cancel came after every run had finished")
+                subprocess.run([DSNAKE, "sweep", sweep, "--out", str(again), "--manifest", "slurm", "--quiet"], check=True)
+                self.assertEqual(len((again / "manifest.txt").read_text().splitlines()), 12 - done_before)
+                slurm.sbatch_wait(again / "sweep.slurm", again)
+                subprocess.run([DSNAKE, "sweep", sweep, "--out", str(again), "--aggregate-only", "--quiet"], check=True)
+                self.assertEqual(rows(again / "results.csv"), local)
+                self.assertEqual(list((again / "runs").glob("*.partial-*")), [])
             finally:
                 slurm.stop()
 

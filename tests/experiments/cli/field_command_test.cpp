@@ -55,7 +55,23 @@ TEST(FieldCommand, WritesTheRegistryFieldAndAFigure) {
   const cv::Mat png = cv::imread((dir / "field.png").string());
   ASSERT_FALSE(png.empty());
   EXPECT_EQ(png.cols, 48 * 11);          // upscaled so that the long (physical) side is >= 512 px
-  EXPECT_EQ(png.rows, 40 * 11 * 5 / 4);  // physical aspect: y spacing 1.25
+  EXPECT_EQ(png.rows, 40 * 11 * 5 / 4 + kFieldLegendPx);  // physical aspect: y spacing 1.25; the legend below
+  // The legend keeps the magnitude: a colour bar from viridis' dark violet (0) to its yellow
+  // (|F|max), and the arrows take the bar's colours (none is drawn in the old uniform red).
+  const int bar_y = 40 * 11 * 5 / 4 + 8 + 7;
+  const cv::Vec3b low = png.at<cv::Vec3b>(bar_y, 13), high = png.at<cv::Vec3b>(bar_y, png.cols - 14);
+  EXPECT_GT(low[0], low[1]);   // violet: blue above green
+  EXPECT_GT(high[1], high[0]);  // yellow: green above blue
+  EXPECT_GT(high[2], 150);
+  int yellowish = 0, red = 0;
+  for (int y = 0; y < 40 * 11 * 5 / 4; ++y)
+    for (int x = 0; x < png.cols; ++x) {
+      const cv::Vec3b p = png.at<cv::Vec3b>(y, x);
+      yellowish += p[1] > 180 && p[2] > 180 && p[0] < 100;
+      red += p[2] > 200 && p[1] < 60 && p[0] < 60;
+    }
+  EXPECT_GT(yellowish, 10);  // the strongest arrows
+  EXPECT_EQ(red, 0);
   EXPECT_EQ(std::distance(std::filesystem::directory_iterator(o.cache), {}), 1);
   std::filesystem::remove_all(dir);
 }

@@ -55,27 +55,64 @@ TEST(GlobalRun, RegistersThePuzzleAndReportsCeresSummary) {
   fs::remove_all(out);
 }
 
-TEST(GlobalRun, ASnakeRunWithAGlobalObjectReportsItsEnergyWithThePotential) {
+// One energy for every solver: a snake run values its external term with a potential whether or
+// not the file has a "global" object (the default one is the global solve's default), so its
+// total is finite, the same with and without that object, and the potential does not move the
+// snake.
+TEST(GlobalRun, EverySnakeRunValuesItsExternalTermWithThePotential) {
   const fs::path a = fresh_dir("snake_potential"), b = fresh_dir("snake_plain");
   const std::vector<std::string> few{"phases[0].iterations=20"};
   const auto with = run_file(kPuzzle, a, few);
-  EXPECT_TRUE(std::isfinite(with["energy"]["terms"]["external"].get<double>()));
-  auto without_overrides = few;
   nlohmann::json doc;
   {
     std::ifstream in(kPuzzle);
     doc = nlohmann::json::parse(in);
   }
+  ASSERT_EQ(doc["global"]["potential"], "integrated");
   doc.erase("global");
   const fs::path file = fresh_dir("no_global.json");
   std::ofstream(file) << doc.dump();
   const auto plain = run_file(file.string(), b, few);
-  EXPECT_TRUE(plain["energy"]["terms"]["external"].is_null());  // GVF has no potential of its own
-  EXPECT_FALSE(plain.contains("potential"));
+  for (const auto* r : {&with, &plain}) {
+    for (const auto& [name, value] : (*r)["energy"]["terms"].items()) EXPECT_TRUE(value.is_number()) << name;
+    for (const auto& [name, value] : (*r)["energy"]["start"]["terms"].items()) EXPECT_TRUE(value.is_number()) << name;
+  }
+  EXPECT_EQ(plain["potential"]["type"], "integrated");  // GVF has no potential of its own: the default surrogate
+  EXPECT_EQ(with["energy"].dump(), plain["energy"].dump());
   EXPECT_EQ(with["metrics"].dump(), plain["metrics"].dump());  // the potential does not change the snake
+  std::ifstream trace(b / "energy_trace.csv");
+  const std::string text((std::istreambuf_iterator<char>(trace)), {});
+  EXPECT_EQ(text.find("nan"), std::string::npos);
   fs::remove_all(a);
   fs::remove_all(b);
   fs::remove(file);
+}
+
+// The snake and the global solve report totals of the same energy: a snake started where the
+// global solve ended reports, at its start, the total the global solve reported at its end. The
+// field (and its potential) is computed on the whole image in both, so that it does not depend on
+// where each run started (field.region "template" crops around the start).
+TEST(GlobalRun, ASnakeStartedAtTheGlobalOptimumReportsTheGlobalTotal) {
+  const fs::path a = fresh_dir("global_optimum"), b = fresh_dir("snake_from_optimum");
+  auto global = make_experiment<2>(load_experiment_file(kPuzzle, {"solver=global", "field.region.extent=whole"}));
+  const RunOutcome<2> solved = run_experiment_outcome(global, RunOptions{a.string(), true});
+  auto snake = make_experiment<2>(load_experiment_file(kPuzzle, {"phases[0].iterations=5", "field.region.extent=whole"}));
+  ASSERT_EQ(snake.solver, SolverKind::kSnake);
+  ASSERT_EQ(solved.snake.num_vertices(), int(snake.initial.size()));  // no remeshing: the same vertices
+  snake.initial = solved.snake.positions();
+  const auto started = run_experiment(snake, RunOptions{b.string(), true});
+  const double global_total = solved.result["energy"]["total"].get<double>();
+  const double snake_start = started["energy"]["start"]["total"].get<double>();
+  EXPECT_GT(global_total, 0.0);
+  EXPECT_NEAR(snake_start, global_total, 1e-9 * (1.0 + std::abs(global_total)));
+  for (const auto& [name, value] : solved.result["energy"]["terms"].items())
+    EXPECT_NEAR(started["energy"]["start"]["terms"][name].get<double>(), value.get<double>(), 1e-9 * (1.0 + std::abs(value.get<double>())))
+        << name;
+  // and what it reports is what it minimises: five snake steps from there do not lower the total
+  // below the global optimum by more than the solver's tolerance
+  EXPECT_GT(started["energy"]["total"].get<double>(), global_total * (1.0 - 1e-3));
+  fs::remove_all(a);
+  fs::remove_all(b);
 }
 
 TEST(GlobalRun, SameNumbersWhateverTheThreadCount) {

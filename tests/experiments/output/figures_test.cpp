@@ -362,89 +362,6 @@ TEST(Figures, SlicesHandleVerticesAndEdgesLyingOnThePlane) {
   }
 }
 
-TEST(Figures, CurvesDrawSeriesAndLegend) {
-  std::vector<double> energy, metric;
-  for (int i = 0; i < 200; ++i) {
-    energy.push_back(100.0 * std::exp(-i / 40.0));
-    metric.push_back(i == 50 ? std::numeric_limits<double>::quiet_NaN() : 60.0 - 0.2 * i);
-  }
-  const fs::path png = output_folder("curves") / "curves.png";
-  write_curve_figure({"energy", "distance"}, {energy, metric}, png.string(), "convergence", false);
-  const cv::Mat out = cv::imread(png.string(), cv::IMREAD_COLOR);
-  ASSERT_FALSE(out.empty());
-  // Series 0 is blue (31, 119, 180), series 1 orange (255, 127, 14).
-  auto near = [](const cv::Vec3b& p, int r, int g, int b) {
-    return std::abs(p[2] - r) < 40 && std::abs(p[1] - g) < 40 && std::abs(p[0] - b) < 40;
-  };
-  double left_y = 0, mid_y = 0;
-  int left_n = 0, mid_n = 0, orange = 0;
-  for (int y = 0; y < out.rows; ++y)
-    for (int x = 0; x < out.cols; ++x) {
-      const cv::Vec3b p = out.at<cv::Vec3b>(y, x);
-      orange += near(p, 255, 127, 14);
-      if (!near(p, 31, 119, 180)) continue;
-      if (x < out.cols / 5) left_y += y, ++left_n;
-      if (x > 2 * out.cols / 5 && x < 3 * out.cols / 5) mid_y += y, ++mid_n;
-    }
-  ASSERT_GT(left_n, 20);
-  ASSERT_GT(mid_n, 20);
-  EXPECT_LT(left_y / left_n, mid_y / mid_n) << "a decreasing series falls (rows grow downwards)";
-  EXPECT_GT(orange, 100);
-  // Legend: a framed box with the names in the plot's top-right corner.
-  int dark = 0, blue_sample = 0;
-  for (int y = 0; y < out.rows / 4; ++y)
-    for (int x = 3 * out.cols / 4; x < out.cols; ++x) {
-      dark += out.at<cv::Vec3b>(y, x)[0] < 80 && out.at<cv::Vec3b>(y, x)[2] < 80;
-      blue_sample += near(out.at<cv::Vec3b>(y, x), 31, 119, 180);
-    }
-  EXPECT_GT(dark, 50);
-  EXPECT_GT(blue_sample, 20);
-}
-
-// Axis labels: one text line more above the plot (y) and below it (x), drawn in dark pixels
-// centred under the plot and at the plot's left above it; the plot itself unchanged in size.
-TEST(Figures, CurvesLabelTheirAxes) {
-  const fs::path dir = output_folder("curves_axes");
-  const std::vector<double> moves = {4.0, 2.0, 1.0, 0.5, 0.25};
-  write_curve_figure({"move"}, {moves}, (dir / "plain.png").string(), "convergence", true);
-  write_curve_figure({"move"}, {moves}, (dir / "labelled.png").string(), "convergence", true,
-                     {"iteration", "largest vertex move (mm)"});
-  const cv::Mat plain = cv::imread((dir / "plain.png").string(), cv::IMREAD_COLOR);
-  const cv::Mat labelled = cv::imread((dir / "labelled.png").string(), cv::IMREAD_COLOR);
-  ASSERT_FALSE(plain.empty());
-  ASSERT_FALSE(labelled.empty());
-  EXPECT_EQ(labelled.cols, plain.cols);
-  const int extra = labelled.rows - plain.rows;
-  EXPECT_GT(extra, 20);  // two text lines
-  auto dark_in = [](const cv::Mat& m, int y0, int y1, int x0, int x1) {
-    int n = 0;
-    for (int y = std::max(0, y0); y < std::min(m.rows, y1); ++y)
-      for (int x = std::max(0, x0); x < std::min(m.cols, x1); ++x) n += m.at<cv::Vec3b>(y, x)[0] < 100;
-    return n;
-  };
-  // The x label: the bottom band, around the centre; nothing there without it.
-  EXPECT_GT(dark_in(labelled, labelled.rows - extra / 2 - 12, labelled.rows, labelled.cols / 3, 2 * labelled.cols / 3), 30);
-  EXPECT_EQ(dark_in(plain, plain.rows - 12, plain.rows, plain.cols / 3, 2 * plain.cols / 3), 0);
-}
-
-TEST(Figures, CurvesOnLogScaleSkipNonPositiveAndEmptyInput) {
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  const fs::path dir = output_folder("curves_log");
-  write_curve_figure({"residual", "zeros"}, {{1.0, 0.0, 0.1, -1.0, 0.01, nan, 1e-3}, {0.0, 0.0}},
-                     (dir / "log.png").string(), "log", true);
-  const cv::Mat out = cv::imread((dir / "log.png").string(), cv::IMREAD_COLOR);
-  ASSERT_FALSE(out.empty());
-  int coloured = 0;
-  for (int y = 0; y < out.rows; ++y)
-    for (int x = 0; x < out.cols; ++x) {
-      const cv::Vec3b p = out.at<cv::Vec3b>(y, x);
-      coloured += std::max({p[0], p[1], p[2]}) - std::min({p[0], p[1], p[2]}) > 60;
-    }
-  EXPECT_GT(coloured, 50);
-  write_curve_figure({}, {}, (dir / "empty.png").string(), "", true);
-  EXPECT_FALSE(cv::imread((dir / "empty.png").string()).empty());
-}
-
 TEST(Figures, UnwritablePathThrowsNamingItAndLeavesNoFile) {
   const fs::path dir = output_folder("unwritable");
   const Image<2> img = blob_image<2>({20, 20}, {1.0, 1.0});
@@ -458,7 +375,7 @@ TEST(Figures, UnwritablePathThrowsNamingItAndLeavesNoFile) {
   EXPECT_FALSE(fs::exists(missing));
   // The final name is taken by a folder: the rename fails and the temporary file is removed.
   fs::create_directory(dir / "taken.png");
-  EXPECT_THROW(write_curve_figure({"a"}, {{1.0, 2.0}}, (dir / "taken.png").string(), "", false), std::runtime_error);
+  EXPECT_THROW(write_overlay_figure(img, {}, (dir / "taken.png").string()), std::runtime_error);
   int entries = 0;
   for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++entries;
   EXPECT_EQ(entries, 1) << "only the folder taken.png";
