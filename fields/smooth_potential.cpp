@@ -176,17 +176,18 @@ std::vector<double> integrate_field(const VectorField<D>& field) {
 
 template <int D>
 Image<D> compute_potential(const PotentialOptions& options, const Image<D>& image, const ExternalField<D>* field) {
-  DSNAKE_ASSERT(image.num_voxels() > 0, "compute_potential: a non-empty image");
   checked(options, "potential");
+  if (options.type != PotentialType::kIntegrated)
+    DSNAKE_ASSERT(image.num_voxels() > 0, "compute_potential: a non-empty image");
   if (options.type == PotentialType::kEdge) return edge_potential(image, options.sigma);
   if (options.type == PotentialType::kDistance) return distance_potential(image, options.sigma);
   DSNAKE_ASSERT(options.type == PotentialType::kIntegrated, "potential options: type is edge, distance or integrated");
   DSNAKE_ASSERT(field != nullptr, "the integrated potential needs a field");
   const VectorField<D>& vectors = field->vectors();
-  DSNAKE_ASSERT(!vectors.empty() && vectors.grid().same_geometry(image.grid()),
+  DSNAKE_ASSERT(!vectors.empty() && (image.num_voxels() == 0 || vectors.grid().same_geometry(image.grid())),
                 "the integrated potential needs a field computed on the image");
   const std::vector<double> p = integrate_field(vectors);
-  Image<D> out(image.grid());
+  Image<D> out(vectors.grid());
   const int64_t n = out.num_voxels();
 #pragma omp parallel for schedule(static)
   for (int64_t l = 0; l < n; ++l) out[l] = static_cast<float>(p[l]);
@@ -222,15 +223,19 @@ template <int D>
 struct SmoothPotential<D>::Impl {
   Grid<D> grid;
   std::string interpolation;
+  // The values: doubles, or (3D, built from an image, whose voxels are floats) the floats
+  // themselves, the same numbers in half the memory (each is widened exactly where it is read).
   std::vector<double> values;
+  std::vector<float> single;
   bool cubic = true;
   std::unique_ptr<CeresGrid> ceres_grid;  // D = 2, cubic: views `values` (row = y, col = x)
   std::unique_ptr<CeresBicubic> bicubic;
 
-  Impl(const Grid<D>& g, std::vector<double> v, const std::string& interp)
-      : grid(g), interpolation(interp), values(std::move(v)) {
+  Impl(const Grid<D>& g, std::vector<double> v, std::vector<float> f, const std::string& interp)
+      : grid(g), interpolation(interp), values(std::move(v)), single(std::move(f)) {
     DSNAKE_ASSERT(interp == "cubic" || interp == "linear", "interpolation is \"cubic\" or \"linear\"");
-    DSNAKE_ASSERT(grid.num_voxels() > 0 && int64_t(values.size()) == grid.num_voxels(),
+    DSNAKE_ASSERT(grid.num_voxels() > 0 && int64_t(values.size() + single.size()) == grid.num_voxels() &&
+                      (values.empty() || single.empty()) && (D == 3 || single.empty()),
                   "one potential value per voxel");
     cubic = interp == "cubic";
     if constexpr (D == 2) {
@@ -257,6 +262,13 @@ struct SmoothPotential<D>::Impl {
       du = Point<2>(dfdc, dfdr);
       return f;
     } else {
+      return single.empty() ? tricubic(values.data(), x, du) : tricubic(single.data(), x, du);
+    }
+  }
+
+  template <class T>
+  double tricubic(const T* data, const Point<D>& x, Point<D>& du) const {
+    if constexpr (D == 3) {
       int64_t index[3][4];
       double w[3][4], dw[3][4];
       for (int a = 0; a < 3; ++a) {
@@ -271,7 +283,7 @@ struct SmoothPotential<D>::Impl {
       for (int k = 0; k < 4; ++k) {
         double sf = 0, sx = 0, sy = 0;  // the z-slice k, interpolated in x and y
         for (int j = 0; j < 4; ++j) {
-          const double* row = values.data() + index[2][k] + index[1][j];
+          const T* row = data + index[2][k] + index[1][j];
           double r = 0, rx = 0;
           for (int i = 0; i < 4; ++i) {
             const double v = row[index[0][i]];
@@ -290,11 +302,17 @@ struct SmoothPotential<D>::Impl {
       du = Point<3>(fx, fy, fz);
       return f;
     }
+    return 0.0;
   }
 
   // (Bi/tri)linear value and gradient (per voxel index) in the cell containing the clamped x;
   // the gradient is zero along an axis where x lies outside the grid (the value is constant).
   double eval_linear(const Point<D>& x, Point<D>& du) const {
+    return single.empty() ? linear(values.data(), x, du) : linear(single.data(), x, du);
+  }
+
+  template <class T>
+  double linear(const T* data, const Point<D>& x, Point<D>& du) const {
     std::array<int64_t, D> lo, hi;
     std::array<double, D> t;
     std::array<bool, D> inside;
@@ -328,7 +346,7 @@ struct SmoothPotential<D>::Impl {
           if (b != a) d *= ((corner >> b) & 1) ? t[b] : 1.0 - t[b];
         dweight[a] = d;
       }
-      const double v = values[l];
+      const double v = data[l];
       f += weight * v;
       g += dweight * v;
     }
@@ -341,11 +359,16 @@ struct SmoothPotential<D>::Impl {
 
 template <int D>
 SmoothPotential<D>::SmoothPotential(const Image<D>& values, const std::string& interpolation)
-    : SmoothPotential(values.grid(), std::vector<double>(values.data().begin(), values.data().end()), interpolation) {}
+    : impl_(D == 3 ? std::make_shared<const Impl>(values.grid(), std::vector<double>(),
+                                                  std::vector<float>(values.data().begin(), values.data().end()),
+                                                  interpolation)
+                   : std::make_shared<const Impl>(values.grid(),
+                                                  std::vector<double>(values.data().begin(), values.data().end()),
+                                                  std::vector<float>(), interpolation)) {}
 
 template <int D>
 SmoothPotential<D>::SmoothPotential(const Grid<D>& grid, std::vector<double> values, const std::string& interpolation)
-    : impl_(std::make_shared<const Impl>(grid, std::move(values), interpolation)) {}
+    : impl_(std::make_shared<const Impl>(grid, std::move(values), std::vector<float>(), interpolation)) {}
 
 template <int D>
 const Grid<D>& SmoothPotential<D>::grid() const {

@@ -59,7 +59,8 @@ struct PotentialOptions {
 
 // The potential P on the image grid, P >= 0 with min P = 0 (all zero for an image without
 // edges or a zero field). `field` (computed on `image`'s grid) is used by "integrated" only
-// and may be null otherwise. For a field with uses_normal() (DDGVF), vectors() is the
+// and may be null otherwise; "integrated" reads only the field (on its grid), so `image` may
+// then be empty (a caller that has released it). For a field with uses_normal() (DDGVF), vectors() is the
 // polarity-blind field (both signs summed per axis), so "integrated" integrates that field,
 // without DDGVF's normal test. Deterministic for any thread count.
 template <int D>

@@ -50,10 +50,10 @@ std::vector<ReportedDistances> reported_distances(const std::vector<WeightedEner
   return list;
 }
 
-// Computes the field on `region` of the image and, when the problem asks for one, the global
-// view's potential on the same voxels (it is built from the field or its image). The cropped
-// copy is the field's to release (a volume less through the run) unless the potential is built
-// from it too; then it goes once that is built.
+// Computes the field on `region` of the image and the external term's potential on the same
+// voxels (it is built from the field or its image). The cropped copy is the field's to release
+// (a volume less through the run) unless the potential reads it too (edge, distance); then it
+// goes once that is built.
 template <int D>
 std::unique_ptr<SmoothPotential<D>> compute_field_and_potential(RegistrationProblem<D>& problem, const VoxelBox<D>& region,
                                                                 const RegistrationProgress& progress,
@@ -62,7 +62,8 @@ std::unique_ptr<SmoothPotential<D>> compute_field_and_potential(RegistrationProb
   const bool whole = region.num_voxels() == problem.image->num_voxels();
   Image<D> cropped = whole ? Image<D>() : crop(*problem.image, region);
   const Image<D>& field_image = whole ? *problem.image : cropped;
-  const bool field_takes_crop = !whole && !problem.potential;
+  const bool potential_reads_image = problem.potential && problem.potential->type != PotentialType::kIntegrated;
+  const bool field_takes_crop = !whole && !potential_reads_image;
   try {
     problem.field->check_grid(field_image.grid());
     if (progress)

@@ -10,7 +10,7 @@ PACKAGES=(cmake ninja-build ccache g++ libeigen3-dev libceres-dev libopenmesh-de
           zlib1g-dev libpng-dev libfftw3-dev libgdcm-dev libssl-dev libboost-dev parallel python3-matplotlib python3-jsonschema python3-vtk9
           python3-numpy python3-scipy python3-nibabel python3-dipy elastix
           pybind11-dev python3-dev python3-pytest python3-nbconvert python3-nbformat python3-ipykernel
-          jupyter-nbconvert mypy slurmctld slurmd slurm-client munge)
+          jupyter-nbconvert mypy slurmctld slurmd slurm-client munge chromium)
 [ "$PRESET" = sanitize ] && PACKAGES+=(clang-14 libclang-rt-14-dev libomp-14-dev)
 SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
 missing=()
@@ -22,12 +22,28 @@ if [ ${#missing[@]} -gt 0 ]; then
   $SUDO apt-get update -q
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi
+# npm (the scans, the bunny and the report viewer's packages): Debian's, unless a node.js with its
+# own npm is installed already (a NodeSource nodejs conflicts with Debian's npm package).
+if ! command -v npm >/dev/null; then
+  echo "setup: installing npm" >&2
+  $SUDO apt-get update -q
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q --no-install-recommends npm
+fi
 # The Stanford bunny for experiments/paper/bunny_*.json (npm registry; not committed; no test
 # needs it, so a failed download only warns).
 scripts/fetch_bunny.sh || echo "setup: warning: the bunny was not fetched; only experiments/paper/bunny_*.json need it" >&2
 # Real scans for the reader, template and real-scan tests (Debian archive and npm; not
 # committed; sources and licences in the script). The tests need them, so a failure stops here.
 scripts/fetch_scans.sh
+# The report viewer's npm packages (three.js, esbuild), exactly as viewer/package-lock.json pins
+# them, for the CMake target dsnake_viewer (docs/reports.md); skipped while node_modules holds
+# that lock file's packages, so a rerun needs no network.
+lock_sum=$(sha256sum viewer/package-lock.json | cut -d' ' -f1)
+if [ "$(cat viewer/node_modules/.dsnake-lock-sha256 2>/dev/null)" != "$lock_sum" ]; then
+  command -v npm >/dev/null || { echo "setup: npm is needed for viewer/ (the report's 3D view)" >&2; exit 1; }
+  npm ci --prefix viewer --no-audit --no-fund --prefer-offline
+  echo "$lock_sum" > viewer/node_modules/.dsnake-lock-sha256
+fi
 cmake --preset "$PRESET" >/dev/null
 # CMake starts a build folder's cache afresh when its compiler changes (a build/sanitize first
 # configured with g++, then with the preset's clang) and then drops the preset's other variables:

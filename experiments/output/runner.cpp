@@ -151,7 +151,7 @@ nlohmann::ordered_json energy_json(const std::vector<std::string>& names, const 
 }
 
 std::string csv_number(double v) {
-  if (!std::isfinite(v)) return "nan";
+  if (!std::isfinite(v)) return "";  // a missing value: an empty field, as CSV readers take it
   std::ostringstream s;
   s << std::setprecision(10) << v;
   return s.str();
@@ -173,7 +173,7 @@ std::string trace_csv(const std::vector<IterationInfo>& trace, const std::vector
 }
 
 // correspondence.csv: per template vertex its start, end, displacement, target and error; positions
-// in world coordinates, "nan" where a value does not exist (a CSV reader's missing value).
+// in world coordinates, an empty field where a value does not exist (a CSV reader's missing value).
 template <int D>
 std::string correspondence_csv(const Experiment<D>& ex, const Snake<D>& snake, const CorrespondenceError& err) {
   static const char* axis[3] = {"x", "y", "z"};

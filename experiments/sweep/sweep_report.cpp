@@ -18,8 +18,9 @@ using json = nlohmann::json;
 
 namespace {
 
+// A missing value is an empty field, as CSV readers (pandas, R) read a missing value.
 std::string number_text(double v) {
-  if (!std::isfinite(v)) return "nan";
+  if (!std::isfinite(v)) return "";
   std::ostringstream s;
   s << std::setprecision(10) << v;
   return s.str();

@@ -7,7 +7,7 @@ each has its own marker and line style, and they are offset sideways by a small 
 axis. Dashed lines mark the 80% pass and 20% fail levels; a cross marks each curve's breakdown
 level (success below 50%).
 
-    /usr/bin/python3 scripts/figures/success_rates.py SWEEP_DIR [--out SWEEP_DIR/success_rates.png]
+    /usr/bin/python3 scripts/figures/success_rates.py SWEEP_DIR [--out SWEEP_DIR/success_rates.png] [--quiet]
 
 Prints one line per curve: method, grid, type, breakdown level.
 """
@@ -58,11 +58,12 @@ def curves(rows):
     return out
 
 
-def main():
+def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("sweep_dir")
     ap.add_argument("--out")
-    args = ap.parse_args()
+    ap.add_argument("--quiet", action="store_true", help="print nothing")
+    args = ap.parse_args(argv)
     rows = read_table(args.sweep_dir, "breakdown.csv")
     data = curves(rows)
     types = sorted(data)
@@ -87,18 +88,25 @@ def main():
             level = next((p[0] for p in points if p[1] < 0.5), None)
             if level is not None:
                 ax.plot([level + shift], [0.5], marker="x", markersize=12, color=line.get_color(), zorder=10)
-            print(f"{method},{grid},{ctype},{'none' if level is None else format(level, 'g')}")
+            if not args.quiet:
+                print(f"{method},{grid},{ctype},{'none' if level is None else format(level, 'g')}")
         ax.axhline(0.8, color="0.6", linestyle="--", linewidth=0.8)
         ax.axhline(0.2, color="0.6", linestyle="--", linewidth=0.8)
         ax.set_ylim(-0.05, 1.05)
         ax.set_xlabel(AXIS.get(ctype, f"{ctype} level"))
-        ax.set_ylabel("success rate (95% Wilson band)")
+        ax.set_ylabel("success rate (fraction of runs; 95% Wilson band)")
         ax.set_title(ctype)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
+    # The sweep's own name (its folder) as the title, and the PNG's Title metadata.
+    title = os.path.basename(os.path.normpath(os.path.abspath(args.sweep_dir))) + " — success rate"
+    fig.suptitle(title)
     fig.tight_layout()
     out = args.out or os.path.join(args.sweep_dir, "success_rates.png")
-    fig.savefig(out, dpi=110)
+    tmp = out + f".{os.getpid()}.tmp.png"
+    fig.savefig(tmp, dpi=110, metadata={"Title": title})
+    os.replace(tmp, out)
+    plt.close(fig)
     return 0
 
 
