@@ -74,7 +74,7 @@ int run(const std::string& config, const std::vector<std::string>& overrides, co
   }
   // The matplotlib figures and report.html (output.report): a report that cannot be written is a
   // warning, not a failed run.
-  if (output.figures && output.report) write_report(options.out_dir, {.quiet = options.quiet});
+  if (output.figures && output.report) write_report(options.out_dir);
   // A run stopped by the watchdog wrote its outputs (the last positions that passed) but did not
   // register anything: exit code 3, so that scripts and sweeps count it as failed. The line that
   // says where and why is the run's outcome, so --quiet keeps it.
@@ -116,7 +116,7 @@ int sweep(const std::string& file, SweepOptions options) {
   options.executable = std::filesystem::read_symlink("/proc/self/exe").string();
   const SweepSummary summary = run_sweep(s, options);
   if (summary.interrupted) return 130;
-  if (options.manifest.empty()) write_report(options.out_dir, {.quiet = options.quiet});
+  if (options.manifest.empty()) write_report(options.out_dir);
   return summary.failed > 0 ? 1 : 0;
 }
 

@@ -455,6 +455,38 @@ TEST_F(CliTest, AFullDiskLeavesNoOutputAndOneLine) {
 // The numeric watchdog: a run whose forces send the snake to infinity stops as
 // diverged with exit code 3, writes the last finite state and its metrics, names the term, and
 // leaves no staging folder; the watchdog's bound and vertex cap are keys.
+// The report step after a run: the matplotlib figures and report.html beside the run's own
+// outputs; without a python3 that can run the report script, one warning line, exit 0 and the
+// run's outputs all there; a rerun into the folder without a report removes the old one.
+TEST_F(CliTest, RunWritesItsReportAndWithoutPythonWarnsInOneLine) {
+  const fs::path file = experiment("default", [](nlohmann::json&) {});
+  const fs::path out = dir_ / "out";
+  CommandResult r = dsnake("run " + file.string() + " --out " + out.string() + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err, "");
+  for (const char* f : {"report.html", "energy.png", "convergence.png", "overlay.png", "result.json"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  EXPECT_NE(slurp(out / "report.html").find("DsnakeViewer"), std::string::npos);  // the 3D view's bundle is inlined
+
+  r = dsnake_with_environment("DSNAKE_PYTHON=/nonexistent/python3",
+                              "run " + file.string() + " --out " + out.string() + " --quiet");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_NE(r.err.find("warning: the report of " + out.string()), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("/nonexistent/python3 could not run"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::exists(out / "result.json"));
+  EXPECT_TRUE(fs::exists(out / "overlay.png"));
+  for (const char* f : {"report.html", "energy.png", "convergence.png"})
+    EXPECT_FALSE(fs::exists(out / f)) << f << ": the earlier run's report is gone";
+
+  r = dsnake("report " + out.string());
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(out / "report.html"));
+  r = dsnake("report " + (dir_ / "nowhere").string());
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+}
+
 TEST_F(CliTest, ADivergingRunStopsWithExitCodeThreeAndFiniteOutputs) {
   const fs::path out = dir_ / "out";
   const CommandResult r = dsnake("run builtin:default --set 'energies[1].tau=1e308' --out " + out.string());
