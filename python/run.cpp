@@ -3,6 +3,7 @@
 // computes; the progress callback takes it back for each call.
 #include "python/bindings.h"
 
+#include "experiments/output/report_step.h"
 #include "experiments/output/runner.h"
 #include "experiments/spec/experiment.h"
 #include "framework/core/errors.h"
@@ -168,6 +169,8 @@ py::object run_dimension(const ExperimentFile& file, const RunOptions& options, 
     py::gil_scoped_release release;
     ex.emplace(make_experiment<D>(file));
     outcome = write ? run_experiment_outcome(*ex, options) : compute_experiment(*ex, options);
+    // With `out`, the same report step as `dsnake run` (experiments/output/report_step.h).
+    if (write && ex->output.figures && ex->output.report) write_report(options.out_dir);
   } catch (const StopRun&) {
     std::rethrow_exception(raised);
   }
