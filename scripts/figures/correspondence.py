@@ -9,6 +9,7 @@ initial.vtk / final.vtk. 2D contours or 3D meshes (3D: the vertices over the mes
 Prints the number of template vertices drawn and the largest correspondence error.
 """
 import argparse
+import json
 import math
 import os
 import sys
@@ -31,6 +32,15 @@ def edges(cells):
                 break
             seen.add((min(a, b), max(a, b)))
     return sorted(seen)
+
+
+def run_name(run_dir):
+    """The run's own name (result.json's "name"), else its folder's."""
+    try:
+        with open(os.path.join(run_dir, "result.json")) as f:
+            return json.load(f)["name"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return os.path.basename(os.path.normpath(os.path.abspath(run_dir)))
 
 
 def main():
@@ -72,13 +82,19 @@ def main():
             if r.get("landmark"):
                 ax.text(*p, r["landmark"], fontsize=7)
         ax.set_title(title)
+        ax.set_xlabel("x (mm)")
+        ax.set_ylabel("y (mm)")
+        if dim == 3:
+            ax.set_zlabel("z (mm)")
     errors = [number(r["error"]) for r in rows]
     finite = [e for e in errors if not math.isnan(e)]
-    fig.suptitle("correspondence: one colour per template vertex"
-                 + (f" (max error {max(finite):.2f})" if finite else ""))
+    name = run_name(args.run_dir)
+    suptitle = (f"{name} — correspondence: one colour per template vertex"
+                + (f" (max error {max(finite):.2f} mm)" if finite else ""))
+    fig.suptitle(suptitle)
     fig.tight_layout()
     out = args.out or os.path.join(args.run_dir, "correspondence.png")
-    fig.savefig(out, dpi=110)
+    fig.savefig(out, dpi=110, metadata={"Title": suptitle})
     print(f"{n} template vertices; max error {max(finite) if finite else float('nan'):.4g}")
     return 0
 

@@ -49,11 +49,15 @@ def main():
         if positive:
             ax.set_yscale("log")
         ax.set_title(term)
-        ax.set_xlabel("iteration")
+        ax.set_xlabel("iteration (over all phases)")
+        # the terms' units differ (docs/methods.md, "Parameters with units")
+        ax.set_ylabel("weight × term (the term's units)" + (", log scale" if positive else ""))
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
+    title = "energy: " + ", ".join(labels)
+    fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(args.out, dpi=110)
+    fig.savefig(args.out, dpi=110, metadata={"Title": title})
     for label, t in zip(labels, traces):
         if t:
             print(f"{label},{len(t)},{number(t[0]['total']):.6g},{number(t[-1]['total']):.6g}")

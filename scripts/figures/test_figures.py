@@ -12,6 +12,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.image as mpimg  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
+from PIL import Image  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -75,7 +76,7 @@ class FigureScripts(unittest.TestCase):
             ax = fig.axes[0]
             fig_texts.append((ax.get_xlabel(), [t.get_text() for t in ax.get_legend().get_texts()],
                               [list(l.get_xdata()) for l in ax.get_lines() if l.get_label() in ("arap (n = 4)", "dsnake (n = 4)")],
-                              len(ax.collections)))
+                              len(ax.collections), ax.get_ylabel(), fig._suptitle.get_text()))
             return original(fig, *a, **kw)
 
         plt.Figure.savefig = capture
@@ -84,7 +85,10 @@ class FigureScripts(unittest.TestCase):
             success_rates.main()
         finally:
             plt.Figure.savefig = original
-        xlabel, legend, xs, bands = fig_texts[0]
+        xlabel, legend, xs, bands, ylabel, title = fig_texts[0]
+        self.assertEqual(ylabel, "success rate (fraction of runs; 95% Wilson band)")
+        self.assertEqual(title, os.path.basename(self.dir) + " — success rate")
+        self.assertEqual(Image.open(os.path.join(self.dir, "success_rates.png")).info["Title"], title)
         self.assertEqual(xlabel, "outliers: fraction of voxels flipped")
         self.assertEqual(legend, ["arap (n = 4)", "dsnake (n = 4)"])
         self.assertEqual(len(xs), 2)
@@ -104,8 +108,11 @@ class FigureScripts(unittest.TestCase):
             pts = "\n".join(f"{scale * x} {scale * y} 0" for x, y in square)
             write(os.path.join(run_dir, name), "# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\n"
                   f"POINTS 4 double\n{pts}\nLINES 4 12\n2 0 1\n2 1 2\n2 2 3\n2 3 0\n")
+        write(os.path.join(run_dir, "result.json"), '{"name": "square_run"}')
         out = run("correspondence.py", run_dir)
         self.assertIn("4 template vertices; max error 0.5", out)
+        self.assertEqual(Image.open(os.path.join(run_dir, "correspondence.png")).info["Title"],
+                         "square_run — correspondence: one colour per template vertex (max error 0.50 mm)")
         image = mpimg.imread(os.path.join(run_dir, "correspondence.png"))[:, :, :3]
         width = image.shape[1]
         # vertex 2's colour (hsv at 2/4: cyan) appears in the left and the right panel
@@ -127,6 +134,7 @@ class FigureScripts(unittest.TestCase):
         out = run("energy_curves.py", *runs, "--out", os.path.join(self.dir, "e.png"), "--labels", "snake,global")
         self.assertEqual(out.split(), ["snake,3,10,2", "global,2,10,1.5"])
         self.assertTrue(os.path.getsize(os.path.join(self.dir, "e.png")) > 5000)
+        self.assertEqual(Image.open(os.path.join(self.dir, "e.png")).info["Title"], "energy: snake, global")
 
 
 if __name__ == "__main__":
