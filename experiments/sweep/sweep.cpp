@@ -305,7 +305,7 @@ void add_run(Sweep& sweep, const SweepPlan& plan, const MethodSpec& method, cons
   }
   // A sweep keeps each run's image only on request (output.image): a phantom and its corruptions
   // are made again from the run's seed, and a file read as it is stays where it is. Each run's
-  // report (a python3 process, about a second) is also on request (output.report): the sweep's
+  // report (a python3 process per run) is also on request (output.report): the sweep's
   // own report.html covers its runs.
   if (!f.document.contains("output")) f.document["output"] = json::object();
   if (f.document["output"].is_object()) {
