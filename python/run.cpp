@@ -9,6 +9,7 @@
 #include "framework/core/errors.h"
 
 #include <exception>
+#include <filesystem>
 #include <optional>
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
@@ -212,9 +213,30 @@ py::object run(py::handle config, py::handle out, py::handle progress) {
   return run_dimension<3>(file, options, write, raised);
 }
 
+// dsnake.report(folder): the report step on a run's or a sweep's folder; its path.
+std::string report(py::handle folder) {
+  const std::string dir = py::str(py::module_::import("os").attr("fspath")(folder)).cast<std::string>();
+  namespace fs = std::filesystem;
+  if (!fs::is_regular_file(fs::path(dir) / "result.json") && !fs::is_regular_file(fs::path(dir) / "results.csv"))
+    raise_input_error("argument 'folder'", dir + ": neither a run folder (result.json) nor a sweep folder (results.csv)");
+  bool written = false;
+  {
+    py::gil_scoped_release release;
+    written = write_report(dir, {.quiet = true});
+  }
+  if (!written)
+    throw std::runtime_error(dir + "/report.html was not written (python3 with matplotlib: scripts/setup.sh)");
+  return (fs::path(dir) / "report.html").string();
+}
+
 }  // namespace
 
 void bind_run(py::module_& m) {
+  m.def("report", &report, py::arg("folder"),
+        R"(Writes folder/report.html (and, for a run, its matplotlib figures) and returns its path:
+what `dsnake report FOLDER` does (docs/reports.md). folder: a run's output folder (result.json)
+or a sweep's (results.csv). Raises dsnake.InputError for any other folder, RuntimeError when the
+report could not be written.)");
   m.def("run", &run, py::arg("config"), py::arg("out") = py::none(), py::arg("progress") = py::none(),
         R"(Runs an experiment and returns its Result.
 

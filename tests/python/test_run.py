@@ -57,6 +57,19 @@ def test_out_writes_the_command_lines_folder(dsnake_exe, tmp_path, default_resul
     np.testing.assert_array_equal(r.vertices, default_result.vertices)
 
 
+def test_report_writes_a_run_folders_report_and_refuses_other_folders(tmp_path):
+    out = tmp_path / "run"
+    dsnake.run("builtin:default", out=out)
+    for name in ("report.html", "energy.png", "convergence.png"):
+        (out / name).unlink()
+    path = dsnake.report(out)
+    assert path == str(out / "report.html")
+    assert "DsnakeViewer" in (out / "report.html").read_text()
+    assert (out / "energy.png").exists() and (out / "convergence.png").exists()
+    with pytest.raises(dsnake.InputError, match="argument 'folder'"):
+        dsnake.report(tmp_path)
+
+
 def test_without_out_nothing_touches_the_disk(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     dsnake.run("builtin:classical")
