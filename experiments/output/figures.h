@@ -1,6 +1,6 @@
 // Figure writers (PNG): a 2D image with shapes drawn over it, and three orthogonal slices of a
 // volume with the cross-sections of meshes. The line plots (energy, convergence) and the 3D
-// rendering are matplotlib and VTK (scripts/figures/run_figures.py), drawn by `dsnake run`.
+// rendering are matplotlib's (scripts/figures/run_figures.py), drawn by `dsnake run`.
 // As in the paper's figures (e.g. Fig. 12 of Levi & Gotsman, "D-Snake"), the template or the
 // initial snake is drawn in yellow and the result in red; feature points are dots (green, Fig. 2).
 //

@@ -1,5 +1,5 @@
 // The report of a run's or a sweep's output folder: the matplotlib figures (energy terms,
-// convergence, for a mesh a VTK rendering coloured by its error) and a self-contained
+// convergence, for a mesh a rendering coloured by its error) and a self-contained
 // report.html with the tables and an interactive 3D view, written by
 // scripts/report/make_report.py (docs/reports.md) in a child python3 process. The registration
 // library writes only data and its raster figures; `dsnake run`, `dsnake sweep` and

@@ -29,11 +29,13 @@ left, +y posterior, +z superior) and rasterised by matplotlib (depth-sorted Gour
 so no display or OpenGL context is needed: Debian's VTK 9.1 can render only through an X server.
 """
 import argparse
-import csv
 import json
 import math
 import os
 import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from common import InputError, read_csv_records, read_polydata  # noqa: E402
 
 FIXED_COLUMNS = ("iteration", "phase", "phase_iteration", "vertices", "max_displacement")
 DPI = 150
@@ -49,10 +51,6 @@ NO_TARGET_GREY = (0.72, 0.72, 0.72)
 # umbrella form in mm^2), the ASAP-MLS energy (§4) in mm^2, an external potential in the field's
 # own units, and the weights are pure numbers (docs/methods.md, docs/experiment-file.md).
 ENERGY_UNIT = "weight × term, units differ by term"
-
-
-class InputError(Exception):
-    """Missing or malformed input; the message names the file."""
 
 
 class OutputError(Exception):
@@ -94,24 +92,14 @@ def read_trace(run_dir):
     term has no value; None when it has no iteration (a header only)."""
     import numpy as np
     path = os.path.join(run_dir, "energy_trace.csv")
-    try:
-        with open(path, newline="") as f:
-            rows = list(csv.reader(f))
-    except OSError as e:
-        raise InputError(f"{path}: {e.strerror}") from None
-    except (csv.Error, UnicodeDecodeError) as e:
-        raise InputError(f"{path}: not CSV ({e})") from None
-    if not rows:
-        raise InputError(f"{path}: empty")
-    header = [h.strip() for h in rows[0]]
+    header, data = read_csv_records(path)
     missing = [c for c in FIXED_COLUMNS + ("total",) if c not in header]
     if missing:
         raise InputError(f"{path}: no column {missing[0]!r}")
-    data = [r for r in rows[1:] if r]
     if not data:  # a run stopped before its first iteration: no curve to draw
         return None
     values = []
-    for i, r in enumerate(data, start=2):
+    for i, r in data:
         if len(r) != len(header):
             raise InputError(f"{path}: row {i}: {len(r)} fields, the header has {len(header)}")
         values.append([_number(t, path, i, c) for t, c in zip(r, header)])
@@ -124,84 +112,18 @@ def read_trace(run_dir):
     return {"columns": columns, "terms": terms}
 
 
-def _legacy_vtk_tokens(path):
-    """The tokens after a legacy VTK file's title line (which may hold any text)."""
-    try:
-        with open(path) as f:
-            lines = f.read().split("\n", 4)
-    except OSError as e:
-        raise InputError(f"{path}: {e.strerror}") from None
-    except UnicodeDecodeError:
-        raise InputError(f"{path}: not a legacy ASCII VTK file") from None
-    if len(lines) < 5 or lines[2].strip() != "ASCII" or lines[3].split() != ["DATASET", "POLYDATA"]:
-        raise InputError(f"{path}: not a legacy ASCII VTK POLYDATA file")
-    return lines[4].split()
-
-
-def _floats(tokens, start, count, path, what):
-    import numpy as np
-    if start + count > len(tokens):
-        raise InputError(f"{path}: {what}: the file ends early")
-    try:
-        return np.array(tokens[start:start + count], dtype=float)
-    except ValueError:
-        raise InputError(f"{path}: {what}: not a number") from None
-
-
-def _point_arrays(tokens, start, n, path):
-    """The SCALARS (and skipped VECTORS/NORMALS) of a POINT_DATA section from tokens[start]."""
-    arrays, i = {}, start
-    while i < len(tokens):
-        kind = tokens[i]
-        if kind == "SCALARS":
-            name = tokens[i + 1]
-            components = int(tokens[i + 3]) if tokens[i + 3].isdigit() else 1
-            i += 4 if tokens[i + 3].isdigit() else 3
-            if tokens[i] == "LOOKUP_TABLE":
-                i += 2
-            values = _floats(tokens, i, n * components, path, f"SCALARS {name}")
-            arrays[name] = values.reshape(n, components)[:, 0]
-            i += n * components
-        elif kind in ("VECTORS", "NORMALS"):
-            i += 3 + 3 * n
-        else:
-            break
-    return arrays
-
-
 def read_mesh(run_dir):
     """final.vtk's points (n, 3), triangles (m, 3) and point arrays, or None when the run is 2D
     (its final.vtk holds lines) or has no final.vtk."""
-    import numpy as np
     path = os.path.join(run_dir, "final.vtk")
     if not os.path.exists(path):
         return None
-    tokens = _legacy_vtk_tokens(path)
-    if "POLYGONS" not in tokens:
+    mesh = read_polydata(path)
+    if "triangles" not in mesh:
         return None
-    try:
-        k = tokens.index("POINTS")
-        n = int(tokens[k + 1])
-        points = _floats(tokens, k + 3, 3 * n, path, "POINTS").reshape(n, 3)
-        k = tokens.index("POLYGONS")
-        cells = _floats(tokens, k + 3, int(tokens[k + 2]), path, "POLYGONS").astype(np.int64)
-    except (ValueError, IndexError):
-        raise InputError(f"{path}: malformed POINTS or POLYGONS") from None
-    if len(cells) % 4 == 0 and np.all(cells[::4] == 3):  # triangles only, as dsnake writes them
-        triangles = cells.reshape(-1, 4)[:, 1:]
-    else:  # a fan per polygon
-        triangles, j = [], 0
-        while j < len(cells):
-            m = int(cells[j])
-            triangles.extend((cells[j + 1], cells[j + 1 + t], cells[j + 2 + t]) for t in range(1, m - 1))
-            j += 1 + m
-        triangles = np.array(triangles, dtype=np.int64).reshape(-1, 3)
-    if len(triangles) == 0 or triangles.min() < 0 or triangles.max() >= n:
-        raise InputError(f"{path}: POLYGONS refer to points that do not exist")
-    arrays = _point_arrays(tokens, tokens.index("POINT_DATA") + 2, n, path) if "POINT_DATA" in tokens else {}
-    if "displacement" not in arrays:
+    if "displacement" not in mesh["arrays"]:
         raise InputError(f"{path}: no point array 'displacement'")
-    return {"points": points, "triangles": triangles, "arrays": arrays}
+    return mesh
 
 
 # ---------------------------------------------------------------------------------------------

@@ -249,6 +249,11 @@ class RunFiguresTest(unittest.TestCase):
             ("final.vtk", lambda: write(os.path.join(self.dir, "final.vtk"),
                                         "# vtk DataFile Version 3.0\nx\nASCII\nDATASET POLYDATA\nPOINTS 3 double\n"
                                         "0 0 0 1 0 0 0 1 0\nPOLYGONS 1 4\n3 0 1 9\n")),
+            # a triangle naming a vertex that does not exist, in a file that is otherwise whole
+            ("final.vtk", lambda: write(os.path.join(self.dir, "final.vtk"),
+                                        "# vtk DataFile Version 3.0\nx\nASCII\nDATASET POLYDATA\nPOINTS 3 double\n"
+                                        "0 0 0 1 0 0 0 1 0\nPOLYGONS 1 4\n3 0 1 9\nPOINT_DATA 3\n"
+                                        "SCALARS displacement double 1\nLOOKUP_TABLE default\n0 0 0\n")),
         )
         for culprit, spoil in cases:
             for f in os.listdir(self.dir):

@@ -28,10 +28,8 @@ one line on stderr naming the file, nothing written; 1 report.html could not be 
 """
 import argparse
 import base64
-import csv
 import datetime
 import html
-import importlib.util
 import json
 import math
 import os
@@ -44,7 +42,11 @@ import tempfile
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(os.path.dirname(HERE))
 DEFAULT_VIEWER = os.path.join(REPO, "build", "release", "viewer", "dsnake_viewer.js")
-RUN_FIGURES = os.path.join(HERE, "..", "figures", "run_figures.py")
+# The figure scripts and their readers of dsnake's files (scripts/figures/common.py: InputError,
+# read_csv_records, read_polydata), shared with this script.
+sys.path.insert(0, os.path.join(HERE, "..", "figures"))
+from common import InputError, read_csv_records, read_polydata  # noqa: E402
+import run_figures  # noqa: E402  (matplotlib is imported when a figure is drawn)
 SWEEP_DIGITS = 4  # significant digits of the sweep's numbers (summary.csv holds ten)
 RUN_DIGITS = 4    # and of a run's metrics
 
@@ -88,10 +90,6 @@ FIGURE_CAPTIONS = {
 FIGURE_ORDER = ("overlay.png", "slices.png", "render.png", "energy.png", "convergence.png")
 
 
-class InputError(Exception):
-    """Missing or malformed input; the message names the file."""
-
-
 # ---------------------------------------------------------------------------------------------
 # Reading
 
@@ -108,137 +106,16 @@ def read_json(path):
 
 def read_csv(path, needed=()):
     """(header, rows as dicts) of a CSV file whose rows all have the header's length."""
-    try:
-        with open(path, newline="", encoding="utf-8") as f:
-            records = list(csv.reader(f))
-    except OSError as e:
-        raise InputError(f"{path}: cannot be read: {e.strerror}") from None
-    except (csv.Error, UnicodeDecodeError) as e:
-        raise InputError(f"{path}: not CSV ({e})") from None
-    if not records:
-        raise InputError(f"{path}: empty: no header")
-    header = records[0]
+    header, records = read_csv_records(path)
     for column in needed:
         if column not in header:
             raise InputError(f'{path}: no column "{column}"')
     rows = []
-    for number, record in enumerate(records[1:], start=2):
+    for number, record in records:
         if len(record) != len(header):
             raise InputError(f"{path}: row {number} has {len(record)} fields, the header {len(header)}")
         rows.append(dict(zip(header, record)))
     return header, rows
-
-
-def _vtk_numbers(tokens, start, count, path, what, kind=float):
-    if start + count > len(tokens):
-        raise InputError(f"{path}: {what}: the file ends after {len(tokens) - start} of {count} values")
-    import numpy as np
-    try:
-        values = np.array(tokens[start:start + count], dtype=np.float64)
-    except ValueError:
-        raise InputError(f"{path}: {what}: a value is not a number") from None
-    if not np.all(np.isfinite(values)):
-        raise InputError(f"{path}: {what}: a value is not finite")
-    if kind is int:
-        if np.any(values != np.round(values)) or np.any(values < 0):
-            raise InputError(f"{path}: {what}: an index is not a non-negative integer")
-        return values.astype(np.int64)
-    return values
-
-
-def _vtk_cells(numbers, path, keyword):
-    """The cells of a POLYGONS or LINES list (each: count, then indices) as a list of lists."""
-    cells, i = [], 0
-    while i < len(numbers):
-        k = int(numbers[i])
-        if k < 1 or i + 1 + k > len(numbers):
-            raise InputError(f"{path}: {keyword}: a cell's vertex count does not match the list's size")
-        cells.append(numbers[i + 1:i + 1 + k].tolist())
-        i += 1 + k
-    return cells
-
-
-def _vtk_point_arrays(tokens, i, n, path):
-    """The POINT_DATA arrays (SCALARS with their LOOKUP_TABLE line, VECTORS, NORMALS) from token i."""
-    arrays = {}
-    while i < len(tokens):
-        keyword = tokens[i].upper()
-        if keyword == "SCALARS":
-            name = tokens[i + 1] if i + 2 < len(tokens) else "?"
-            components, i = 1, i + 3
-            if i < len(tokens) and tokens[i].isdigit():
-                components, i = int(tokens[i]), i + 1
-            if i + 1 < len(tokens) and tokens[i].upper() == "LOOKUP_TABLE":
-                i += 2
-            arrays[name] = _vtk_numbers(tokens, i, n * components, path, f"SCALARS {name}")
-            i += n * components
-        elif keyword in ("VECTORS", "NORMALS"):
-            name = tokens[i + 1] if i + 1 < len(tokens) else "?"
-            arrays[name] = _vtk_numbers(tokens, i + 3, 3 * n, path, f"{keyword} {name}").reshape(n, 3)
-            i += 3 + 3 * n
-        elif keyword == "CELL_DATA":
-            break  # the report uses point data only
-        else:
-            raise InputError(f"{path}: unexpected '{tokens[i]}' in POINT_DATA")
-    return arrays
-
-
-def read_vtk(path):
-    """A legacy ASCII POLYDATA file: {"points": (n, 3), "triangles" or "segments": (m, 3 or 2)
-    vertex indices, "arrays": {name: per-point values}}. Polygons are split into fans, polylines
-    into segments."""
-    try:
-        with open(path, encoding="ascii") as f:
-            lines = f.read().split("\n", 3)
-    except (OSError, UnicodeDecodeError) as e:
-        raise InputError(f"{path}: cannot be read: {getattr(e, 'strerror', None) or e}") from None
-    if len(lines) < 4 or not lines[0].startswith("# vtk DataFile") or lines[2].strip().upper() != "ASCII":
-        raise InputError(f"{path}: not a legacy ASCII VTK file")
-    tokens = lines[3].split()
-    if tokens[:2] != ["DATASET", "POLYDATA"]:
-        raise InputError(f"{path}: not a POLYDATA data set")
-    mesh, i = {"points": None, "polygons": [], "lines": [], "arrays": {}}, 2
-    while i < len(tokens):
-        keyword = tokens[i].upper()
-        if keyword == "POINTS" and i + 2 < len(tokens) and tokens[i + 1].isdigit():
-            n = int(tokens[i + 1])
-            mesh["points"] = _vtk_numbers(tokens, i + 3, 3 * n, path, "POINTS").reshape(n, 3)
-            i += 3 + 3 * n
-        elif keyword in ("POLYGONS", "LINES", "VERTICES", "TRIANGLE_STRIPS") and i + 2 < len(tokens):
-            size = int(tokens[i + 2]) if tokens[i + 2].isdigit() else -1
-            numbers = _vtk_numbers(tokens, i + 3, max(size, 0), path, keyword, int)
-            if keyword in ("POLYGONS", "LINES"):
-                mesh[keyword.lower()] += _vtk_cells(numbers, path, keyword)
-            i += 3 + max(size, 0)
-        elif keyword == "POINT_DATA" and mesh["points"] is not None:
-            count = tokens[i + 1] if i + 1 < len(tokens) else ""
-            if count != str(len(mesh["points"])):
-                raise InputError(f"{path}: POINT_DATA {count}: expected the point count, {len(mesh['points'])}")
-            mesh["arrays"] = _vtk_point_arrays(tokens, i + 2, len(mesh["points"]), path)
-            break
-        else:
-            raise InputError(f"{path}: unexpected '{tokens[i]}'")
-    if mesh["points"] is None:
-        raise InputError(f"{path}: no POINTS")
-    return _vtk_connectivity(mesh, path)
-
-
-def _vtk_connectivity(mesh, path):
-    import numpy as np
-    n = len(mesh["points"])
-    if mesh["polygons"]:
-        cells = [(c[0], c[k], c[k + 1]) for c in mesh["polygons"] for k in range(1, len(c) - 1)]
-        out = {"points": mesh["points"], "triangles": np.array(cells, dtype=np.int64).reshape(-1, 3)}
-    else:
-        cells = [(c[k], c[k + 1]) for c in mesh["lines"] for k in range(len(c) - 1)]
-        out = {"points": mesh["points"], "segments": np.array(cells, dtype=np.int64).reshape(-1, 2)}
-    connectivity = out.get("triangles", out.get("segments"))
-    if len(connectivity) == 0:
-        raise InputError(f"{path}: no POLYGONS or LINES")
-    if connectivity.max() >= n:
-        raise InputError(f"{path}: a cell names vertex {int(connectivity.max())} of {n}")
-    out["arrays"] = mesh["arrays"]
-    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -372,7 +249,8 @@ def mesh_payload(final, initial, dimension):
         scalars["error"] = {"name": "error", "label": "distance to the vertex's true position",
                             "no_value": "no true position (a vertex that remeshing inserted)"}
     if "displacement" in arrays:
-        # A vertex that remeshing inserted (template_id -1) has no template position: its 0 is a placeholder.
+        # final.vtk writes displacement 0 for a vertex that remeshing inserted (template_id -1: it
+        # has no template position, docs/output.md); the view shows such vertices as "no value".
         template_id = arrays.get("template_id")
         free = template_id < 0 if template_id is not None else np.zeros(n, dtype=bool)
         values["displacement"] = np.where(free, np.nan, arrays["displacement"])
@@ -603,25 +481,13 @@ def config_section(result):
 
 def draw_figures(run_dir):
     """energy.png, convergence.png and render.png by scripts/figures/run_figures.py. Its
-    InputError (a malformed energy_trace.csv or final.vtk) is this script's; when the module
-    cannot be loaded or fails otherwise, the report embeds the PNGs that exist and says so."""
+    InputError (a malformed energy_trace.csv or final.vtk) is bad input here too; when drawing
+    fails otherwise (no matplotlib), the report embeds the PNGs that exist and says so."""
     try:
-        spec = importlib.util.spec_from_file_location("dsnake_run_figures", RUN_FIGURES)
-        if spec is None:
-            raise ImportError("not a Python file")
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        draw = module.draw_run_figures
-    except Exception as e:  # not written yet, or broken: the report does without new figures
-        print(f"make_report.py: note: figures not drawn ({os.path.normpath(RUN_FIGURES)}: {e}); "
-              "embedding the PNGs that exist", file=sys.stderr)
-        return
-    module_error = getattr(module, "InputError", None)
-    try:
-        draw(run_dir)
-    except Exception as e:
-        if module_error is not None and isinstance(e, module_error):
-            raise InputError(str(e)) from None
+        run_figures.draw_run_figures(run_dir)
+    except InputError:
+        raise
+    except Exception as e:  # noqa: BLE001 - a figure that cannot be drawn must not lose the report
         print(f"make_report.py: note: figures not drawn (run_figures.py: {type(e).__name__}: {e}); "
               "embedding the PNGs that exist", file=sys.stderr)
 
@@ -631,9 +497,9 @@ def run_view(run_dir, dimension, bundle):
     final_path = os.path.join(run_dir, "final.vtk")
     if not os.path.exists(final_path):
         return '<section id="view"><p class="note" id="no-viewer">No view: the run wrote no final.vtk.</p></section>'
-    final = read_vtk(final_path)
+    final = read_polydata(final_path)
     initial_path = os.path.join(run_dir, "initial.vtk")
-    initial = read_vtk(initial_path) if os.path.exists(initial_path) else None
+    initial = read_polydata(initial_path) if os.path.exists(initial_path) else None
     if dimension not in (2, 3):
         dimension = 3 if "triangles" in final else 2
     bundle_text, why = bundle
@@ -852,19 +718,14 @@ def draw_success_rates(sweep_dir):
     """success_rates.png (scripts/figures/success_rates.py) when the sweep's breakdown.csv has
     rows: the success rate per method against each corruption's magnitude. A figure that cannot
     be drawn is a note on stderr; the report embeds the PNGs that exist."""
-    path = os.path.join(sweep_dir, "breakdown.csv")
     try:
-        with open(path, newline="") as f:
-            if sum(1 for _ in csv.DictReader(f)) == 0:
-                return
-    except (OSError, csv.Error, UnicodeDecodeError):
+        if not read_csv_records(os.path.join(sweep_dir, "breakdown.csv"))[1]:
+            return
+    except InputError:
         return
-    script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "figures", "success_rates.py")
     try:
-        spec = importlib.util.spec_from_file_location("dsnake_success_rates", script)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        module.main([sweep_dir, "--quiet"])
+        import success_rates  # scripts/figures, on the path above; imports matplotlib
+        success_rates.main([sweep_dir, "--quiet"])
     except (Exception, SystemExit) as e:  # noqa: BLE001 - a figure that fails must not lose the report
         print(f"make_report.py: note: {os.path.join(sweep_dir, 'success_rates.png')} not drawn: {e}", file=sys.stderr)
 
