@@ -3,8 +3,10 @@
 out/real/anatomy/ (experiments/real/anatomy/run_all.sh writes it):
 
   rows     start (the registrations' placed template: output.start_metrics of the recipe run),
+           start without atlas (the template as given: the recipe without atlas has no image init),
            recipe without atlas (recipe_noref), recipe with atlas (recipe: template.reference_image),
-           fixed point (start: the truth's own surface; then the run), elastix (affine + B-spline,
+           fixed point (start: the truth's own surface; then the run), fixed point without atlas (the
+           same start, the recipe without atlas: fixed_point_noref), elastix (affine + B-spline,
            experiments/real/elastix.sh), SyN (dipy, experiments/real/syn.py), each measured on the
            surface of its warped mask (2000 vertices, the cerebellum 3000) and on the template's own
            vertices carried by its transform ("template carried": the mesh dsnake returns, at the
@@ -14,7 +16,7 @@ out/real/anatomy/ (experiments/real/anatomy/run_all.sh writes it):
            the vertices carried by the inverse of their transform), wall time (s) and peak memory
            (MB) under /usr/bin/time: a dsnake run; elastix's registration plus transformix's mask
            warp; SyN's registration (affine, SyN, mask warp, vertices) in its child process.
-The fixed point has no correspondence (its template is the truth's surface, not the template).
+The fixed points have no correspondence (their template is the truth's surface, not the template).
 
   table.py [OUT] [--compact]   (default out/real/anatomy; --compact: one row per case, Dice / msd
                                per method, then the warp cases' correspondence errors and the wall times)
@@ -29,7 +31,8 @@ COMPACT = "--compact" in sys.argv[1:]
 OUT = ARGS[0] if ARGS else "out/real/anatomy"
 CASES = [f"{s}_{v}" for v in ("mirror", "cross", "warp") for s in ("amygdala", "pallidum", "cerebellum")]
 METHODS = [("recipe_noref", "recipe without atlas"), ("recipe", "recipe with atlas"), ("fixed_point", "fixed point"),
-           ("true_correspondence", "template at phi(p)")]
+           ("fixed_point_noref", "fixed point without atlas"), ("true_correspondence", "template at phi(p)")]
+FIXED_POINTS = ("fixed_point", "fixed_point_noref")
 
 
 def f(x, p=3):
@@ -85,20 +88,27 @@ def carried(case, name):
 
 
 def compact():
-    cols = ["start", "recipe without atlas", "recipe with atlas", "fixed point", "elastix", "SyN"]
+    cols = ["start", "recipe with atlas", "elastix", "SyN", "fixed point", "start without atlas", "recipe without atlas",
+            "fixed point without atlas"]
     table = {}
     for case in CASES:
         runs = dsnake_runs(case)
         rec = runs.get("recipe", (None, None, None))
+        noref = runs.get("recipe_noref", (None, None, None))
         fp = runs.get("fixed_point", (None, None, None))
+        fpn = runs.get("fixed_point_noref", (None, None, None))
         table[case] = {
             "start": (rec[0].get("start", {}).get("metrics") if rec[0] else None, None, None),
-            "recipe without atlas": (runs["recipe_noref"][0]["metrics"],) + runs["recipe_noref"][1:] if "recipe_noref" in runs else (None, None, None),
+            "start without atlas": (noref[0].get("start", {}).get("metrics") if noref[0] else None, None, None),
+            "recipe without atlas": (noref[0]["metrics"] if noref[0] else None,) + noref[1:],
+            "fixed point without atlas": (fpn[0]["metrics"] if fpn[0] else None,) + fpn[1:],
             "recipe with atlas": (rec[0]["metrics"] if rec[0] else None,) + rec[1:],
             "fixed point": (fp[0]["metrics"] if fp[0] else None,) + fp[1:],
             "elastix": peer(case, "elastix"), "SyN": peer(case, "syn")}
         table[case]["fixed point start"] = fp[0].get("start", {}).get("metrics") if fp[0] else None
-    print("Dice / mean surface distance (mm); fixed point: from the truth's own surface (its start Dice in brackets)\n")
+        table[case]["fixed point without atlas start"] = fpn[0].get("start", {}).get("metrics") if fpn[0] else None
+    print("Dice / mean surface distance (mm); start: the template after the image init (the recipe with atlas); start "
+          "without atlas: the template as given; fixed points: from the truth's own surface (its start Dice in brackets)\n")
     print("| case | " + " | ".join(cols) + " |")
     print("| --- |" + " --- |" * len(cols))
     for case, t in table.items():
@@ -106,8 +116,8 @@ def compact():
         for c in cols:
             m = t[c][0]
             cell = "-" if m is None else f"{f(m.get('dice'))} / {f(m.get('mean_surface_distance'), 2)}"
-            if c == "fixed point" and t["fixed point start"]:
-                cell += f" ({f(t['fixed point start'].get('dice'))})"
+            if c.startswith("fixed point") and t[c + " start"]:
+                cell += f" ({f(t[c + ' start'].get('dice'))})"
             cells.append(cell)
         print(f"| {case} | " + " | ".join(cells) + " |")
     print("\nWarp cases: correspondence error mean / max (mm), the template's vertices against phi(p); "
@@ -136,7 +146,7 @@ def compact():
         ms = [t["recipe with atlas"][0], carried(case, "elastix"), carried(case, "syn"), t["elastix"][0], t["SyN"][0]]
         print(f"| {case} | " + " | ".join("-" if m is None else "self-intersecting" if m.get("refused") else
                                           f"{f(m.get('dice'))} / {f(m.get('mean_surface_distance'), 2)}" for m in ms) + " |")
-    tc = ["recipe without atlas", "recipe with atlas", "fixed point", "elastix", "SyN"]
+    tc = ["recipe with atlas", "elastix", "SyN", "fixed point", "recipe without atlas", "fixed point without atlas"]
     print("\nWall time (s) / peak memory (MB), one thread each\n")
     print("| case | " + " | ".join(tc) + " |")
     print("| --- |" + " --- |" * len(tc))
@@ -158,6 +168,8 @@ def main():
         runs = dsnake_runs(case)
         start = runs.get("recipe", runs.get("recipe_noref", (None,)))[0]
         print(row("start", start.get("start", {}).get("metrics") if start else None))
+        if "recipe_noref" in runs:
+            print(row("start without atlas", runs["recipe_noref"][0].get("start", {}).get("metrics")))
         for key, name in METHODS:
             if key == "true_correspondence" and not case.endswith("_warp"):
                 continue
@@ -165,10 +177,10 @@ def main():
                 print(row(name, None))
                 continue
             res, wall, mb = runs[key]
-            if key == "fixed_point":
+            if key in FIXED_POINTS:
                 sm = res.get("start", {}).get("metrics", {})
-                name = f"fixed point (from Dice {f(sm.get('dice'))})"
-            print(row(name, res["metrics"], wall, mb, corr=key != "fixed_point"))
+                name = f"{name} (from Dice {f(sm.get('dice'))})"
+            print(row(name, res["metrics"], wall, mb, corr=key not in FIXED_POINTS))
         e = f"{OUT}/{case}/elastix/summary.json"
         if os.path.exists(e):
             s = json.load(open(e))

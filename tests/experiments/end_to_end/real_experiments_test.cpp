@@ -31,7 +31,9 @@ json read_json(const fs::path& p) {
 
 // Every case's "recipe" and "fixed_point" methods (the four real scans and the anatomy
 // development set) take the recipe file as it is (no base of their own) and override only
-// inputs: what a user changes when copying it.
+// inputs: what a user changes when copying it. The anatomy cases' methods without an atlas image
+// ("recipe_noref", "fixed_point_noref") do the same with recipe_3d_without_atlas.json as their
+// base, and name no reference image.
 TEST(RealExperiments, RecipeMethodsChangeOnlyTheInputs) {
   const std::set<std::string> inputs = {"name", "image", "template", "ground_truth", "output"};
   const std::set<std::string> template_inputs = {"file", "reference_image", "transform"};
@@ -47,10 +49,18 @@ TEST(RealExperiments, RecipeMethodsChangeOnlyTheInputs) {
     const std::string recipe = s.at("base").get<std::string>();
     const std::string up = folder.parent_path() == kReal ? "../" : "../../";
     EXPECT_TRUE(recipe == up + "recipe_2d.json" || recipe == up + "recipe_3d.json") << sweep;
-    for (const char* method : {"recipe", "fixed_point"}) {
+    const bool anatomy = folder.parent_path() != kReal;
+    std::vector<std::string> methods = {"recipe", "fixed_point"};
+    if (anatomy) methods.insert(methods.end(), {"recipe_noref", "fixed_point_noref"});
+    for (const std::string& method : methods) {
       SCOPED_TRACE(sweep.string() + " " + method);
       const json& m = s.at("methods").at(method);
-      EXPECT_FALSE(m.contains("base"));
+      const bool noref = method.ends_with("_noref");
+      if (noref) {
+        EXPECT_EQ(m.value("base", ""), up + "recipe_3d_without_atlas.json");
+      } else {
+        EXPECT_FALSE(m.contains("base"));
+      }
       // An override is an object per section ("template": {"file": ...}) or a key path
       // ("template.file"); either way its section and, for template and output, its key.
       for (const auto& [key, value] : m.at("overrides").items()) {
@@ -65,6 +75,9 @@ TEST(RealExperiments, RecipeMethodsChangeOnlyTheInputs) {
         for (const auto& k : keys) {
           if (section == "template") {
             EXPECT_TRUE(template_inputs.count(k)) << key << " " << k;
+            if (noref) {
+              EXPECT_NE(k, "reference_image") << key;
+            }
           } else if (section == "output") {
             EXPECT_EQ(k, "start_metrics") << key;
           }
