@@ -111,13 +111,17 @@ constexpr double kLocalMapRegularisation = 0.05;  // lambda, relative to the mea
 constexpr double kRemapTolerance = 0.01;           // resample a patch when max |L_v - L_used| exceeds this
 
 // Each vertex's neighbourhood for its local map: v, its one-ring, and every vertex reached from v
-// along edges through vertices whose rest positions lie within `radius` of v's (breadth-first,
-// v first), as offsets + list.
+// along edges through vertices whose rest positions lie within `radius` of v's and whose rest
+// normals lie within 90 degrees of v's (breadth-first, v first), as offsets + list. The normal
+// test keeps the far side of a thin part (a gyrus, a fold: both sides within the radius) out of
+// v's map: with it, the map would measure the part's thickness, and a snake that thickened it
+// would see its atlas patches stretched to match, a change that feeds itself.
 template <int D>
 void neighbourhoods(const Snake<D>& snake, const PointList<D>& rest, double radius, std::vector<int>& offsets,
                     std::vector<int>& list) {
   const int n = snake.num_vertices();
   const Connectivity& c = snake.connectivity();
+  const PointList<D> normals = Snake<D>(rest, c, snake.template_ids()).vertex_normals();
   offsets.assign(1, 0);
   list.clear();
   std::vector<int> seen(n, -1);  // the vertex whose search last reached it
@@ -128,7 +132,8 @@ void neighbourhoods(const Snake<D>& snake, const PointList<D>& rest, double radi
     seen[v] = v;
     for (size_t i = first; i < list.size(); ++i)
       for (int u : c.neighbors(list[i]))
-        if (seen[u] != v && (i == first || (rest[u] - rest[v]).squaredNorm() <= r2)) {
+        if (seen[u] != v &&
+            (i == first || ((rest[u] - rest[v]).squaredNorm() <= r2 && normals[u].dot(normals[v]) > 0))) {
           seen[u] = v;
           list.push_back(u);
         }

@@ -12,7 +12,8 @@
 //    (K = round(radius / h)), with its mean removed and unit norm, so that it covers the same
 //    anatomy as the scan's axis-aligned patch below. L_v is v's local linear map from the rest
 //    shape to the snake: the least-squares affine map of v's neighbourhood (v, its one-ring and
-//    the vertices reached along edges whose rest positions lie within `map_radius` of v's) from
+//    the vertices reached along edges whose rest positions lie within `map_radius` of v's and
+//    whose rest normals lie within 90 degrees of v's: one side of a thin part) from
 //    their rest positions to their current positions, regularised towards their similarity
 //    (Umeyama) by lambda = 0.05 of the mean squared spread, so that the direction a surface
 //    cannot show (its normal) takes the similarity's scale. The as-similar-as-possible model

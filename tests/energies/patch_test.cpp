@@ -272,6 +272,39 @@ TEST(PatchEnergy, LocalMapsFollowANonUniformStretch) {
   EXPECT_LT(error[1], 0.5 * error[0]);
 }
 
+// A thin part (a rectangle 20 mm x 2 mm: a gyrus, a fold) has both sides within map_radius of a
+// vertex near its end. A vertex's map takes only its own side (rest normals within 90 degrees):
+// the snake thickened to 3 mm (the top side moved up 1 mm, the end sides stretched) leaves the
+// bottom side where it was, and so the map of a bottom vertex 2 mm from the end is the identity.
+// Were the far side in it, the map would measure the thickening (a stretch of about 1.5 across)
+// and stretch the vertex's atlas patch to match a thickening it helped make.
+TEST(PatchEnergy, ALocalMapTakesOnlyItsOwnSideOfAThinPart) {
+  Template<2> t;
+  auto add = [&](double x, double y) { t.positions.push_back(Point<2>(x, y)); };
+  for (int i = 0; i < 40; ++i) add(0.5 * i, 0.0);      // bottom, left to right (counter-clockwise)
+  for (int i = 0; i < 4; ++i) add(20.0, 0.5 * i);      // right end, upwards
+  for (int i = 0; i < 40; ++i) add(20.0 - 0.5 * i, 2.0);  // top, right to left
+  for (int i = 0; i < 4; ++i) add(0.0, 2.0 - 0.5 * i);  // left end, downwards
+  t.connectivity = Connectivity::polygon(t.num_vertices());
+  PointList<2> thick = t.positions;
+  for (Point<2>& q : thick) q[1] *= 1.5;  // 2 mm -> 3 mm: the bottom (y = 0) stays
+  const Snake<2> snake = Snake<2>::from_template(t, thick);
+  Grid<2> g;
+  g.size = GridIndex<2>(40, 20);
+  g.spacing = Point<2>::Constant(1.0);
+  g.origin = Point<2>(-10.0, -8.0);
+  const Image<2> flat(g, 100.0f);
+  PatchOptions o;
+  o.map_radius = 6.0;
+  PatchEnergy<2> energy(o);
+  EnergyContext<2> context{&t, &flat};
+  context.reference_image = &flat;
+  energy.bind(context, snake);
+  const int v = 36;  // (18, 0): 2 mm from the right end, whose far side lies within 6 mm
+  ASSERT_EQ(t.positions[v], Point<2>(18.0, 0.0));
+  EXPECT_LT((energy.patch_map(v) - Eigen::Matrix2d::Identity()).norm(), 1e-9) << energy.patch_map(v);
+}
+
 // Where the atlas is flat (no appearance to match) every vertex holds: the proposal is exactly
 // where it stands, never an undefined move.
 TEST(PatchEnergy, AFlatAtlasGivesNoMove) {
