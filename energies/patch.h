@@ -72,8 +72,9 @@ struct PatchOptions {
     v(max_step, Key{"max_step", "mm", "longest move proposed per iteration (0: the sampling step)", Range::at_least(0)});
     v(step, Key{"step", "1", "share of the Gauss-Newton move proposed per iteration", Range::open_closed(0, 1)});
     v(map_radius, Key{"map_radius", "mm", "each vertex's atlas patch follows the local affine map of the vertices within "
-                                          "this distance of it on the template (and its one-ring), from their rest positions to "
-                                          "where they are (0: one map for all, the placement's)",
+                                          "this distance of it on the template and on its side (rest normals within 90 degrees of "
+                                          "its own; and its one-ring), from their rest positions to where they are (0: one map "
+                                          "for all, the placement's)",
                       Range::at_least(0)});
   }
 };
