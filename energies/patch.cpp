@@ -121,7 +121,7 @@ void neighbourhoods(const Snake<D>& snake, const PointList<D>& rest, double radi
                     std::vector<int>& list) {
   const int n = snake.num_vertices();
   const Connectivity& c = snake.connectivity();
-  const PointList<D> normals = Snake<D>(rest, c, snake.template_ids()).vertex_normals();
+  const PointList<D> normals = vertex_normals<D>(rest, c);
   offsets.assign(1, 0);
   list.clear();
   std::vector<int> seen(n, -1);  // the vertex whose search last reached it

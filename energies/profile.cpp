@@ -147,7 +147,7 @@ void ProfileEnergy<D>::set_up_expected(const EnergyContext<D>& context, const Sn
     const Image<D>& ref = reference_.of(*context.reference_image, options_.sigma, context.smoothed_images);
     PointList<D> p = context.tmpl->positions;
     for (auto& x : p) x = ref.grid().to_frame(x);
-    const PointList<D> normals = Snake<D>::from_template(*context.tmpl, p).vertex_normals();
+    const PointList<D> normals = vertex_normals<D>(p, context.tmpl->connectivity);
     expected_.resize(p.size());
     for (size_t t = 0; t < p.size(); ++t) expected_[t] = sample_profile(ref, p[t], normals[t], h_, half_);
     mean_ = mean_profile(expected_, 2 * half_);

@@ -276,34 +276,6 @@ PointList<D> Snake<D>::vertex_normals() const {
 }
 
 template <>
-void Snake<2>::vertex_normals(PointList<2>& normals) const {
-  const int n = num_vertices();
-  normals.resize(n);
-  // A contour may come in either orientation (its ids are its line numbers, so it is never
-  // reordered): the outward side follows the sign of the area.
-  const double orientation = signed_measure() >= 0 ? 1.0 : -1.0;
-  for (int v = 0; v < n; ++v) {
-    const Point<2> t = positions_[(v + 1) % n] - positions_[(v + n - 1) % n];
-    Point<2> nv = orientation * Point<2>(t.y(), -t.x());
-    const double len = nv.norm();
-    normals[v] = len > 0 ? Point<2>(nv / len) : Point<2>::Zero();
-  }
-}
-
-template <>
-void Snake<3>::vertex_normals(PointList<3>& normals) const {
-  normals.assign(num_vertices(), Point<3>::Zero());
-  for (const auto& t : connectivity_.triangles()) {
-    const Point<3> fn = (positions_[t[1]] - positions_[t[0]]).cross(positions_[t[2]] - positions_[t[0]]);
-    for (int k = 0; k < 3; ++k) normals[t[k]] += fn;  // area weighted
-  }
-  for (auto& nv : normals) {
-    const double len = nv.norm();
-    if (len > 0) nv /= len;
-  }
-}
-
-template <>
 double signed_measure<2>(const PointList<2>& p, const Connectivity&) {
   double a = 0;
   const size_t n = p.size();
@@ -320,6 +292,46 @@ double signed_measure<3>(const PointList<3>& p, const Connectivity& c) {
   double v = 0;
   for (const auto& t : c.triangles()) v += p[t[0]].dot(p[t[1]].cross(p[t[2]]));
   return v / 6.0;
+}
+
+template <>
+void vertex_normals<2>(const PointList<2>& p, const Connectivity& c, PointList<2>& normals) {
+  const int n = static_cast<int>(p.size());
+  normals.resize(n);
+  // A contour may come in either orientation (its ids are its line numbers, so it is never
+  // reordered): the outward side follows the sign of the area.
+  const double orientation = signed_measure<2>(p, c) >= 0 ? 1.0 : -1.0;
+  for (int v = 0; v < n; ++v) {
+    const Point<2> t = p[(v + 1) % n] - p[(v + n - 1) % n];
+    Point<2> nv = orientation * Point<2>(t.y(), -t.x());
+    const double len = nv.norm();
+    normals[v] = len > 0 ? Point<2>(nv / len) : Point<2>::Zero();
+  }
+}
+
+template <>
+void vertex_normals<3>(const PointList<3>& p, const Connectivity& c, PointList<3>& normals) {
+  normals.assign(p.size(), Point<3>::Zero());
+  for (const auto& t : c.triangles()) {
+    const Point<3> fn = (p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]);
+    for (int k = 0; k < 3; ++k) normals[t[k]] += fn;  // area weighted
+  }
+  for (auto& nv : normals) {
+    const double len = nv.norm();
+    if (len > 0) nv /= len;
+  }
+}
+
+template <int D>
+void Snake<D>::vertex_normals(PointList<D>& normals) const {
+  dsnake::vertex_normals<D>(positions_, connectivity_, normals);
+}
+
+template <int D>
+PointList<D> vertex_normals(const PointList<D>& p, const Connectivity& c) {
+  PointList<D> normals;
+  vertex_normals<D>(p, c, normals);
+  return normals;
 }
 
 template <int D>
@@ -347,6 +359,8 @@ PointList<D> place(const PointList<D>& p, double scale, const std::vector<double
   return out;
 }
 
+template PointList<2> vertex_normals<2>(const PointList<2>&, const Connectivity&);
+template PointList<3> vertex_normals<3>(const PointList<3>&, const Connectivity&);
 template class Snake<2>;
 template class Snake<3>;
 template PointList<2> place<2>(const PointList<2>&, double, const std::vector<double>&, const Point<2>&);

@@ -106,6 +106,13 @@ class Snake {
 template <int D>
 double signed_measure(const PointList<D>& p, const Connectivity& c);
 
+// Outward unit vertex normals of a closed polygon or mesh at positions p (one per vertex of c):
+// 2D from the two adjacent edges (outward by the sign of the area), 3D area-weighted face normals.
+template <int D>
+void vertex_normals(const PointList<D>& p, const Connectivity& c, PointList<D>& out);
+template <int D>
+PointList<D> vertex_normals(const PointList<D>& p, const Connectivity& c);
+
 // Applies scale and rotation (degrees; x, then y, then z) about the centroid of p, then the
 // translation: the placement of "template.transform" (docs/experiment-file.md).
 template <int D>
