@@ -17,6 +17,7 @@ ImageAlignmentOptions TemplateInitOptions::alignment() const {
   a.margin = margin;
   a.levels = levels;
   a.iterations = iterations;
+  a.max_scale = max_scale;
   return a;
 }
 
@@ -26,6 +27,7 @@ void TemplateInitOptions::check() const {
   if (levels.empty()) throw OptionError{"levels", "expected at least one smoothing level (mm)"};
   for (double s : levels)
     if (!std::isfinite(s) || s < 0) throw OptionError{"levels", "every level must be a sigma >= 0 (mm)"};
+  if (max_scale != 0 && !(max_scale >= 1)) throw OptionError{"max_scale", "expected 0 (no bound) or a ratio >= 1"};
   if (type == TemplateInitType::kImage) {
     if (!mask.empty()) throw OptionError{"mask", "only for \"type\": \"moments\""};
     if (!threshold.empty()) throw OptionError{"threshold", "only for \"type\": \"moments\""};

@@ -7,12 +7,14 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 
 namespace dsnake {
 
 void ImageAlignmentOptions::check() const {
+  if (max_scale != 0 && !(max_scale >= 1)) throw OptionError{"max_scale", "expected 0 (no bound) or a ratio >= 1"};
   if (levels.empty()) throw OptionError{"levels", "expected at least one smoothing level (mm)"};
   for (double s : levels)
     if (!std::isfinite(s) || s < 0) throw OptionError{"levels", "every level must be a finite sigma >= 0 (mm)"};
@@ -358,11 +360,24 @@ ImageAlignmentResult<D> align_images(const Image<D>& fixed, const Image<D>& movi
       // the guard, on the finest level: never worse than the start by the metric
       const Fit start = evaluate<D>(lv, initial, c);
       result.ncc_before = start.ncc;
-      if (fit.finite && fit.score() >= start.score()) {
+      // ... and within the scale bound (options.max_scale), relative to the start.
+      const double scale =
+          std::pow(std::abs(T.matrix.determinant()) / std::abs(initial.matrix.determinant()), 1.0 / D);
+      const bool scale_ok = options.max_scale == 0 ||
+                            (std::isfinite(scale) && scale <= options.max_scale && scale >= 1 / options.max_scale);
+      if (fit.finite && fit.score() >= start.score() && scale_ok) {
         result.transform = T, result.ncc_after = fit.ncc, result.overlap = fit.overlap;
       } else {
         result.transform = initial, result.ncc_after = start.ncc, result.overlap = start.overlap;
-        result.warning = "the alignment did not improve the NCC: the start is kept";
+        if (!scale_ok) {
+          char why[200];
+          std::snprintf(why, sizeof why,
+                        "the alignment's scale %.3g is outside [1/%g, %g] of the start's (max_scale): the start is kept",
+                        scale, options.max_scale, options.max_scale);
+          result.warning = why;
+        } else {
+          result.warning = "the alignment did not improve the NCC: the start is kept";
+        }
       }
     }
   }

@@ -61,6 +61,11 @@ struct ImageAlignmentOptions {
   int iterations = 50;                        // Levenberg-Marquardt steps per level at most
   double tolerance = 1e-3;                    // mm: a level ends when a step moves no region corner further
   double min_overlap = 0.8;                   // a step keeping less than this share of the start's overlap is refused
+  // The result's scale relative to the start's (|det|^(1/D) of the linear parts) must lie within
+  // [1 / max_scale, max_scale], else the start is kept: NCC over a region of the fixed image can
+  // rise by mapping that region onto a small part of the moving one, and an atlas of the same
+  // species is not several times larger or smaller than the scan. 0: no bound.
+  double max_scale = 1.5;
 
   template <class V>
   void visit(V& v) {
@@ -70,6 +75,7 @@ struct ImageAlignmentOptions {
     v(iterations, Key{"iterations", "", "Levenberg-Marquardt steps per level at most", Range::at_least(1)});
     v(tolerance, Key{"tolerance", "mm", "a level ends when a step moves no corner of the region further", Range::greater_than(0)});
     v(min_overlap, Key{"min_overlap", "1 (relative)", "a step is refused when the share of the region inside the moving image drops below this times the start's", Range::closed(0, 1)});
+    v(max_scale, Key{"max_scale", "1 (ratio)", "the result's scale relative to the start's must lie within [1 / max_scale, max_scale], else the start is kept (0: no bound)", Range::at_least(0)});
   }
   void check() const;
 };
@@ -91,7 +97,7 @@ struct ImageAlignmentResult {
   double overlap = 0.0;    // share of the region's samples that T maps inside the moving image
   int iterations = 0;      // accepted steps over all levels
   std::vector<AlignmentLevel> levels;
-  std::string warning;     // "" or why the start was kept (no overlap, no improvement)
+  std::string warning;     // "" or why the start was kept (no overlap, no improvement, a scale out of bounds)
 };
 
 // Aligns `fixed` (sampled at its voxel centres within `region`, world mm, widened by

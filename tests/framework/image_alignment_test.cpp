@@ -282,6 +282,30 @@ TEST_F(ImageAlignmentTest, AnObliqueReferenceIsAlignedInWorldCoordinates2d) {
   EXPECT_LT(rotation_error_deg<2>(r.transform.matrix, truth.matrix), 0.5);
 }
 
+// The scale bound (max_scale) is relative to the start: a 1.05 similarity is recovered without
+// it and with a bound of 1.5, and refused (the start kept, with a warning naming the key) with a
+// bound of 1.02; started at that similarity, the result's scale against the start is 1 and kept.
+TEST_F(ImageAlignmentTest, AResultScaledBeyondMaxScaleAgainstTheStartKeepsTheStart) {
+  const AffineMap<2> truth = truth2(AlignmentModel::kSimilarity);
+  const Image<2> moving = resample<2>(slice(), truth);
+  ImageAlignmentOptions o;
+  o.model = AlignmentModel::kSimilarity;
+  for (double bound : {0.0, 1.5}) {
+    o.max_scale = bound;
+    expect_recovered<2>(align_images<2>(slice(), moving, slice_region(), {}, o), truth, slice_region(),
+                        "max_scale " + std::to_string(bound));
+  }
+  o.max_scale = 1.02;
+  const auto refused = align_images<2>(slice(), moving, slice_region(), {}, o);
+  EXPECT_NE(refused.warning.find("scale 1.05 is outside [1/1.02, 1.02]"), std::string::npos) << refused.warning;
+  EXPECT_EQ(refused.transform.matrix, Matrix<2>::Identity());
+  EXPECT_EQ(refused.transform.translation, Point<2>::Zero());
+  EXPECT_EQ(refused.ncc_after, refused.ncc_before);
+  const auto from_truth = align_images<2>(slice(), moving, slice_region(), truth, o);
+  EXPECT_TRUE(from_truth.warning.empty()) << from_truth.warning;
+  EXPECT_LT(corner_error<2>(from_truth.transform, truth, slice_region()), 0.1);
+}
+
 TEST_F(ImageAlignmentTest, BadOptionsAreRefused) {
   ImageAlignmentOptions o;
   o.levels = {};
@@ -292,6 +316,9 @@ TEST_F(ImageAlignmentTest, BadOptionsAreRefused) {
   o.margin = -1;
   EXPECT_THROW(align_images<2>(slice(), slice(), slice_region(), {}, o), std::invalid_argument);
   EXPECT_THROW(align_images<2>(Image<2>(), slice(), slice_region(), {}, {}), std::invalid_argument);
+  o = {};
+  o.max_scale = 0.9;  // a bound below 1 would refuse the start itself
+  EXPECT_THROW(align_images<2>(slice(), slice(), slice_region(), {}, o), std::invalid_argument);
 }
 
 }  // namespace

@@ -201,6 +201,8 @@ TEST_F(ImageInitTest, BadImageInitInputsNameTheirJsonPath) {
       {with_init({{"type", "image"}, {"levels", 4}}), "template.init.levels"},
       {with_init({{"type", "image"}, {"iterations", 0}}), "template.init.iterations"},
       {with_init({{"type", "image"}, {"iterations", 2.5}}), "template.init.iterations"},
+      {with_init({{"type", "image"}, {"max_scale", 0.5}}), "template.init.max_scale"},
+      {with_init({{"type", "image"}, {"max_scale", -1}}), "template.init.max_scale"},
       {with_init({{"type", "image"}, {"threshold", {0, 1}}}), "template.init.threshold"},
       {with_init({{"type", "image"}, {"points", {{"a", {1, 2}}}}}), "template.init.points"}};
   for (const auto& [d, where] : cases) {
