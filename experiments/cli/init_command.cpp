@@ -3,6 +3,7 @@
 
 #include "experiments/spec/experiment.h"
 #include "experiments/spec/experiment_spec.h"
+#include "experiments/spec/recipe_scale.h"
 #include "experiments/spec/recipes.h"
 #include "framework/core/errors.h"
 #include "framework/io/image_io.h"
@@ -34,10 +35,13 @@ bool is_surface_file(const std::string& path, int dimension) {
 // recipe_3d_without_atlas.json; compiled in, recipes.h) with only its inputs replaced: name,
 // image, template (file; reference_image with --reference, and the recipe's template.init) and
 // ground truth. Every setting is the recipe's, in mm, so that this file runs exactly what the
-// project's real experiments run (REPRODUCTION.md). The recipe's lengths are chosen for scans
-// with voxels of 0.3 to 3 mm; outside that, a warning on stderr says so.
+// project's real experiments run (REPRODUCTION.md), except that on a template smaller than the
+// structures the recipe was measured on, its lengths are scaled to the template's size
+// (experiments/spec/recipe_scale.h; one note on stderr says by how much). The recipe's lengths
+// are chosen for scans with voxels of 0.3 to 3 mm (at that scale); outside that, a warning on
+// stderr says so.
 template <int D>
-nlohmann::ordered_json recommended(const InitCommandOptions& o, const Grid<D>& grid) {
+nlohmann::ordered_json recommended(const InitCommandOptions& o, const Grid<D>& grid, double radius) {
   const bool atlas = !o.reference.empty();
   nlohmann::ordered_json j = nlohmann::ordered_json::parse(recipe_json(D, atlas));
   const std::string recipe_file =
@@ -67,27 +71,40 @@ nlohmann::ordered_json recommended(const InitCommandOptions& o, const Grid<D>& g
                  "the scan the template was made from) is recommended; without it the forces see only edges, and a "
                  "boundary whose contrast changes side (darker than one neighbour, brighter than another) cannot be "
                  "followed, so this recipe moves only where the edge evidence is clear\n");
-  const double h = grid.spacing.maxCoeff();
-  if (h < 0.3 || h > 3.0)
+  const double k = recipe_length_scale(radius);
+  if (k < 1.0) {
+    scale_lengths(j, D, k);
+    char line[400];
+    std::snprintf(line, sizeof line,
+                  "the template's equivalent radius is %.3g mm, below the %.3g mm of the smallest structure the recipe "
+                  "was measured on: every length in mm is scaled by %.3g (experiments/spec/recipe_scale.h)",
+                  radius, kRecipeRadiusMm, k);
+    j["description"] = j["description"].get<std::string>() + " Lengths: " + line + ".";
+    std::fprintf(stderr, "dsnake: note: %s\n", line);
+  }
+  // The voxels in proportion to the (scaled) lengths: as if the structure had the recipe's size.
+  const double h = grid.spacing.maxCoeff(), h_at_recipe_scale = h / k;
+  if (h_at_recipe_scale < 0.3 || h_at_recipe_scale > 3.0)
     std::fprintf(stderr,
                  "dsnake: warning: %s: voxels of up to %.3g mm; the recipe's lengths (field.sigma, the profile's "
-                 "search and length, tolerances, in mm) are chosen for voxels of 0.3 to 3 mm: scale them by about "
+                 "search and length, tolerances, in mm) are chosen for voxels of 0.3 to 3 mm%s: scale them by about "
                  "%.3g (docs/experiment-file.md)\n",
-                 o.image.c_str(), h, h);
+                 o.image.c_str(), h, k < 1.0 ? " at the recipe's scale" : "", h_at_recipe_scale);
   return j;
 }
 
 template <int D>
 nlohmann::ordered_json init_experiment(const InitCommandOptions& o) {
   const Image<D> image = read_image<D>(o.image, o.read);
-  // The template is read here only to refuse a bad one before anything is printed.
-  if constexpr (D == 3) read_mesh_template(o.tmpl);
-  else read_contour_template(o.tmpl);
+  // The template is read to refuse a bad one before anything is printed, and for its size.
+  double radius = 0;
+  if constexpr (D == 3) radius = equivalent_radius<3>(read_mesh_template(o.tmpl));
+  else radius = equivalent_radius<2>(read_contour_template(o.tmpl));
   if (!o.mask.empty() && !is_surface_file(o.mask, D) && image_file_dimension(o.mask) != D)
     throw InputError(o.mask, "--mask", "expected a " + std::to_string(D) + "D label image like the image");
   if (!o.reference.empty() && image_file_dimension(o.reference) != D)
     throw InputError(o.reference, "--reference", "expected a " + std::to_string(D) + "D image like the image");
-  nlohmann::ordered_json j = recommended<D>(o, image.grid());
+  nlohmann::ordered_json j = recommended<D>(o, image.grid(), radius);
   // The experiment reader checks the file as `dsnake validate` would.
   ExperimentFile file{"(dsnake init)", fs::current_path().string(), nlohmann::json::parse(j.dump()), D};
   read_experiment_spec<D>(file);

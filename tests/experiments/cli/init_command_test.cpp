@@ -3,6 +3,7 @@
 // registers a label volume it was not tuned for; a scan outside the recipe's voxel range gets a
 // warning; bad input exits 2 with one line and prints nothing.
 #include "framework/io/image_io.h"
+#include "framework/io/mesh_io.h"
 
 #include "tests/experiments/temp_dir_test.h"
 
@@ -22,16 +23,18 @@ namespace fs = std::filesystem;
 
 class InitCommandTest : public test_support::CommandTest {
  protected:
-  // A label volume: 1 inside an ellipsoid (semi-axes 14, 11, 9 mm), anisotropic voxels.
-  fs::path ellipsoid_labels() {
-    Grid<3> g{GridIndex<3>(44, 36, 26), Point<3>(0.8, 0.8, 1.2), Point<3>(-20, 35, 7)};
+  // A label volume: 1 inside an ellipsoid (semi-axes 14, 11, 9 mm), anisotropic voxels; the
+  // whole volume scaled by `scale` about the world origin (voxels, origin and ellipsoid).
+  fs::path ellipsoid_labels(double scale = 1.0, const Point<3>& semi_axes = Point<3>(14, 11, 9),
+                            const std::string& name = "labels.nii.gz") {
+    Grid<3> g{GridIndex<3>(44, 36, 26), scale * Point<3>(0.8, 0.8, 1.2), scale * Point<3>(-20, 35, 7)};
     Image<3> im(g, 0.0f);
     const Point<3> c = g.origin + 0.5 * (g.size.cast<double>() - Point<3>::Ones()).cwiseProduct(g.spacing);
     for (int64_t l = 0; l < im.num_voxels(); ++l) {
-      const Point<3> d = (g.to_physical(g.index(l)) - c).cwiseQuotient(Point<3>(14, 11, 9));
+      const Point<3> d = (g.to_physical(g.index(l)) - c).cwiseQuotient(scale * semi_axes);
       im[l] = d.squaredNorm() <= 1 ? 1.0f : 0.0f;
     }
-    const fs::path p = dir_ / "labels.nii.gz";
+    const fs::path p = dir_ / name;
     write_image<3>(im, p.string());
     return p;
   }
@@ -111,10 +114,65 @@ TEST_F(InitCommandTest, WarnsWhenTheVoxelsAreOutsideTheRecipesRange) {
   Image<2> im(g, 0.0f);
   const fs::path image = dir_ / "tiny.nii.gz", contour = dir_ / "c.txt";
   write_image<2>(im, image.string());
-  std::ofstream(contour) << "0.5 0.5\n1.5 0.5\n1.5 1.5\n0.5 1.5\n";
+  // A 20 mm square (equivalent radius 11.3 mm): the recipe's own size, 0.05 mm voxels.
+  std::ofstream(contour) << "0 0\n20 0\n20 20\n0 20\n";
   ASSERT_EQ(dsnake("init --image " + image.string() + " --template " + contour.string()), 0) << err_;
   EXPECT_NE(err_.find("warning: " + image.string() + ": voxels of up to 0.05 mm"), std::string::npos) << err_;
   EXPECT_EQ(nlohmann::json::parse(out_)["dimension"], 2);
+  // A 1 mm square on the same voxels: the recipe scaled to it (by 0.56 / 7), the voxels in
+  // proportion (0.62 mm at the recipe's scale): a note, no warning.
+  std::ofstream(contour) << "0.5 0.5\n1.5 0.5\n1.5 1.5\n0.5 1.5\n";
+  ASSERT_EQ(dsnake("init --image " + image.string() + " --template " + contour.string()), 0) << err_;
+  EXPECT_EQ(err_.find("voxels of up to"), std::string::npos) << err_;
+  EXPECT_NE(err_.find("dsnake: note: the template's equivalent radius is 0.564 mm"), std::string::npos) << err_;
+  EXPECT_DOUBLE_EQ(nlohmann::json::parse(out_)["energies"][2]["search"].get<double>(), 5.0 * (1 / std::sqrt(M_PI)) / 7.0);
+}
+
+// A structure smaller than the recipe's (another species' brain): the printed lengths are in
+// proportion to its size, so that the same structure at half the size gets the same run, half
+// as large: the same Dice, half the surface distance.
+TEST_F(InitCommandTest, ASmallStructureGetsTheRecipesLengthsInProportionToItsSize) {
+  const Point<3> semi_axes(8, 6.3, 5);  // equivalent radius 6.3 mm, below the recipe's 7
+  const fs::path full = ellipsoid_labels(1.0, semi_axes, "full.nii.gz"), half = ellipsoid_labels(0.5, semi_axes, "half.nii.gz");
+  const fs::path t_full = dir_ / "full.off", t_half = dir_ / "half.off";
+  ASSERT_EQ(dsnake("template --mask " + full.string() + " --label 1 --vertices 300 --out " + t_full.string()), 0) << err_;
+  Template<3> t = read_mesh_template(t_full.string());
+  for (auto& p : t.positions) p *= 0.5;
+  write_mesh(t.positions, t.connectivity, t_half.string());
+
+  nlohmann::json exp[2];
+  double dice[2], distance[2];
+  const fs::path labels[2] = {full, half}, templates[2] = {t_full, t_half};
+  for (int i = 0; i < 2; ++i) {
+    SCOPED_TRACE(i);
+    ASSERT_EQ(dsnake("init --image " + labels[i].string() + " --template " + templates[i].string() + " --reference " +
+                     labels[i].string() + " --mask " + labels[i].string()),
+              0)
+        << err_;
+    EXPECT_EQ(std::count(err_.begin(), err_.end(), '\n'), 1) << err_;
+    EXPECT_NE(err_.find("dsnake: note: the template's equivalent radius is"), std::string::npos) << err_;
+    exp[i] = nlohmann::json::parse(out_);
+    const fs::path file = dir_ / ("exp" + std::to_string(i) + ".json"), run = dir_ / ("run" + std::to_string(i));
+    std::ofstream(file) << out_;
+    ASSERT_EQ(dsnake("run " + file.string() + " -o " + run.string() + " -j 2 --quiet --set template.transform.scale=0.9"), 0)
+        << err_;
+    const nlohmann::json r = nlohmann::json::parse(slurp(run / "result.json"));
+    dice[i] = r["metrics"]["dice"].get<double>();
+    distance[i] = r["metrics"]["mean_surface_distance"].get<double>();
+  }
+  // Full size: scaled by its radius over 7 mm (below 1); half size: by half that.
+  const double k_full = exp[0]["energies"][1]["sigma"].get<double>() / 2.0;
+  EXPECT_LT(k_full, 0.95);
+  EXPECT_GT(k_full, 0.8);
+  for (const char* key : {"sigma", "radius", "spacing", "map_radius"})
+    EXPECT_NEAR(exp[1]["energies"][3][key].get<double>(), 0.5 * exp[0]["energies"][3][key].get<double>(), 1e-6) << key;
+  EXPECT_NEAR(exp[1]["template"]["init"]["levels"][0].get<double>(), 2 * k_full, 1e-6);
+  EXPECT_NEAR(exp[1]["phases"][1]["tolerance"].get<double>(), 0.005 * k_full, 1e-9);
+  std::printf("  k %.3f; Dice %.4f / %.4f, mean distance %.3f / %.3f mm\n", k_full, dice[0], dice[1], distance[0],
+              distance[1]);
+  EXPECT_GT(dice[0], 0.95);
+  EXPECT_NEAR(dice[1], dice[0], 0.002);
+  EXPECT_NEAR(distance[1], 0.5 * distance[0], 0.05 * distance[0]);
 }
 
 TEST_F(InitCommandTest, BadInputExitsTwoWithOneLineAndPrintsNothing) {

@@ -1,0 +1,106 @@
+// The recipes' lengths scaled to a small structure (experiments/spec/recipe_scale.h): the
+// equivalent radius of known shapes, the factor, and which keys of the real recipes are lengths
+// (scaled, defaults written out) and which are not (left as they are).
+#include "experiments/spec/recipe_scale.h"
+
+#include "experiments/phantoms/phantoms.h"
+#include "experiments/spec/recipes.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+namespace dsnake {
+namespace {
+
+using json = nlohmann::ordered_json;
+
+TEST(RecipeScale, TheEquivalentRadiusOfASphereAndADiscIsTheirRadius) {
+  Template<3> sphere = make_icosphere(4);  // 2562 vertices: its volume within 0.2% of the ball's
+  for (auto& p : sphere.positions) p *= 5.0;
+  EXPECT_NEAR(equivalent_radius<3>(sphere), 5.0, 0.01);
+  Template<2> disc;
+  const int n = 720;
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * std::numbers::pi * i / n;
+    disc.positions.push_back(Point<2>(3 + 4 * std::cos(a), -1 + 4 * std::sin(a)));
+  }
+  disc.connectivity = Connectivity::polygon(n);
+  EXPECT_NEAR(equivalent_radius<2>(disc), 4.0, 0.001);
+  // Orientation does not matter: the same disc clockwise.
+  std::reverse(disc.positions.begin(), disc.positions.end());
+  EXPECT_NEAR(equivalent_radius<2>(disc), 4.0, 0.001);
+}
+
+TEST(RecipeScale, OnlyAStructureSmallerThanTheRecipesOwnIsScaled) {
+  EXPECT_DOUBLE_EQ(recipe_length_scale(kRecipeRadiusMm / 2), 0.5);
+  EXPECT_DOUBLE_EQ(recipe_length_scale(kRecipeRadiusMm), 1.0);
+  EXPECT_DOUBLE_EQ(recipe_length_scale(4 * kRecipeRadiusMm), 1.0);
+  EXPECT_DOUBLE_EQ(recipe_length_scale(0.0), 1.0);  // nothing to measure by
+}
+
+TEST(RecipeScale, TheRecipeWithAnAtlasHasEveryLengthScaledAndNothingElse) {
+  const json recipe = json::parse(recipe_json(3, true));
+  json j = recipe;
+  scale_lengths(j, 3, 0.5);
+  EXPECT_DOUBLE_EQ(j["field"]["sigma"].get<double>(), 0.5 * recipe["field"]["sigma"].get<double>());
+  EXPECT_DOUBLE_EQ(j["field"]["region"]["margin"].get<double>(), 10.0);
+  for (int e : {1, 3}) {  // the coarse and the fine patch force
+    SCOPED_TRACE(e);
+    for (const char* key : {"sigma", "radius", "spacing"})
+      EXPECT_DOUBLE_EQ(j["energies"][e][key].get<double>(), 0.5 * recipe["energies"][e][key].get<double>()) << key;
+    EXPECT_DOUBLE_EQ(j["energies"][e]["map_radius"].get<double>(), 3.0);  // its default (6 mm), written out
+    EXPECT_FALSE(j["energies"][e].contains("max_step"));                   // default 0: the sampling step, scaled with it
+    EXPECT_EQ(j["energies"][e]["weight"], recipe["energies"][e]["weight"]);
+  }
+  EXPECT_DOUBLE_EQ(j["template"]["init"]["margin"].get<double>(), 5.0);
+  EXPECT_EQ(j["template"]["init"]["levels"], json::parse("[2.0, 1.0, 0.5]"));
+  for (int k : {0, 1}) {
+    EXPECT_DOUBLE_EQ(j["phases"][k]["tolerance"].get<double>(), 0.005);
+    EXPECT_EQ(j["phases"][k]["weights"], recipe["phases"][k]["weights"]);
+    EXPECT_EQ(j["phases"][k]["iterations"], recipe["phases"][k]["iterations"]);
+  }
+  // The tension's alpha has a unit that depends on its discretisation: left as it is; so are the
+  // ASAP-MLS rings (edges, not mm).
+  EXPECT_EQ(j["energies"][0], recipe["energies"][0]);
+  EXPECT_EQ(j["energies"][2], recipe["energies"][2]);
+  EXPECT_EQ(j["energies"][4], recipe["energies"][4]);
+  // k = 1 changes nothing.
+  json same = recipe;
+  scale_lengths(same, 3, 1.0);
+  EXPECT_EQ(same, recipe);
+}
+
+TEST(RecipeScale, TheRecipeWithoutAnAtlasHasItsProfileAndPolarityLengthsScaled) {
+  const json recipe = json::parse(recipe_json(3, false));
+  json j = recipe;
+  scale_lengths(j, 3, 0.25);
+  for (int e : {2, 4}) {
+    SCOPED_TRACE(e);
+    for (const char* key : {"sigma", "search", "length", "max_travel"})
+      EXPECT_DOUBLE_EQ(j["energies"][e][key].get<double>(), 0.25 * recipe["energies"][e][key].get<double>()) << key;
+    EXPECT_DOUBLE_EQ(j["energies"][e]["step"].get<double>(), 0.5);  // a share of the best offset, not a length
+    EXPECT_DOUBLE_EQ(j["energies"][e]["min_improvement"].get<double>(), 0.3);
+  }
+  // The external term: its polarity rule's lengths (defaults 1 and 5 mm) written out scaled; its
+  // step tau, whose unit depends on "normalize", left as it is.
+  EXPECT_DOUBLE_EQ(j["energies"][1]["polarity_sigma"].get<double>(), 0.25);
+  EXPECT_DOUBLE_EQ(j["energies"][1]["polarity_range"].get<double>(), 1.25);
+  EXPECT_EQ(j["energies"][1]["tau"], recipe["energies"][1]["tau"]);
+  EXPECT_DOUBLE_EQ(j["phases"][1]["tolerance"].get<double>(), 0.0025);
+}
+
+TEST(RecipeScale, In2DTheProfileAndToleranceScaleAndTheTensionAndFieldDiffusionDoNot) {
+  const json recipe = json::parse(recipe_json(2));
+  json j = recipe;
+  scale_lengths(j, 2, 0.5);
+  EXPECT_DOUBLE_EQ(j["energies"][2]["search"].get<double>(), 2.5);
+  EXPECT_DOUBLE_EQ(j["energies"][2]["length"].get<double>(), 1.5);
+  EXPECT_DOUBLE_EQ(j["phases"][0]["tolerance"].get<double>(), 0.005);
+  EXPECT_FALSE(j["field"].contains("mu"));  // mm^2 per unit of a normalised edge map: invariant
+  EXPECT_EQ(j["energies"][0], recipe["energies"][0]);
+}
+
+}  // namespace
+}  // namespace dsnake
