@@ -4,7 +4,8 @@
 #                                        anatomy/NAME: the anatomy development set's cases, inputs
 #                                        from experiments/real/anatomy/make_inputs.py)
 # Makes the inputs (data/real/CASE/, not committed) if they are missing, runs the sweep's runs one
-# at a time into out/real/CASE/ (resumable: a finished run is skipped), and prints per method:
+# at a time into out/real/CASE/ (resumable: a finished run made by this build from the same
+# inputs is skipped), and prints per method:
 # Dice, mean surface distance, HD95 (mm), self-intersections, Euler characteristic, wall time and
 # peak memory of the run (/usr/bin/time), and for the fixed_point methods the centroid's shift.
 # Environment: DSNAKE (default build/release/experiments/dsnake), THREADS (OpenMP threads per run,

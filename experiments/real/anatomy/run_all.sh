@@ -8,8 +8,9 @@
 #
 #   experiments/real/anatomy/run_all.sh [all | dsnake | elastix | syn | table]   (default all)
 #
-# Resumable: a finished dsnake run (result.json) or peer (summary.json) is skipped; delete
-# out/real/anatomy/ after remaking the inputs. Two streams side by side (2 jobs): the dsnake runs
+# Resumable: a finished peer (summary.json) is skipped, and so is a finished dsnake run made by
+# this build from the same inputs (a rebuild, even of unrelated code, runs every dsnake run again:
+# docs/sweeps.md); delete out/real/anatomy/ after remaking the inputs. Two streams side by side (2 jobs): the dsnake runs
 # then SyN, and elastix; each process with THREADS threads (default 1, so that the wall times of
 # dsnake, elastix and SyN compare one core each). Logs: out/real/anatomy/{dsnake_syn,elastix}.log.
 # Environment: DSNAKE (default build/release/experiments/dsnake), THREADS, CASES (default all nine).
