@@ -18,12 +18,19 @@ namespace {
 
 using json = nlohmann::ordered_json;
 
+// x to `digits` significant digits (the printed file then reads 1.104, not 1.1040000000000001).
+double round_significant(double x, int digits) {
+  if (x == 0 || !std::isfinite(x)) return x;
+  const double p = std::pow(10.0, digits - 1 - static_cast<int>(std::floor(std::log10(std::abs(x)))));
+  return std::round(x * p) / p;
+}
+
 json scaled(const json& value, double f) {
-  if (value.is_number()) return value.get<double>() * f;
+  if (value.is_number()) return round_significant(value.get<double>() * f, 6);
   json out = value;
   if (value.is_array())
     for (auto& x : out)
-      if (x.is_number()) x = x.get<double>() * f;
+      if (x.is_number()) x = round_significant(x.get<double>() * f, 6);
   return out;
 }
 
@@ -96,7 +103,7 @@ double equivalent_radius(const Template<D>& t) {
 
 double recipe_length_scale(double r) {
   if (!(r > 0) || !std::isfinite(r)) return 1.0;
-  return std::min(1.0, r / kRecipeRadiusMm);
+  return std::min(1.0, round_significant(r / kRecipeRadiusMm, 3));
 }
 
 void scale_lengths(json& experiment, int dimension, double k) {

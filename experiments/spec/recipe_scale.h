@@ -29,13 +29,15 @@ inline constexpr double kRecipeRadiusMm = 7.0;
 template <int D>
 double equivalent_radius(const Template<D>& t);
 
-// k above for a template of equivalent radius r: min(1, r / kRecipeRadiusMm), and 1 for r <= 0
-// (nothing to measure the structure by).
+// k above for a template of equivalent radius r: min(1, r / kRecipeRadiusMm) to 3 significant
+// digits (so that the printed lengths read), and 1 for r <= 0 (nothing to measure the structure
+// by).
 double recipe_length_scale(double equivalent_radius_mm);
 
 // Multiplies the lengths of an experiment's settings by k: in "field" (and its "region"), every
 // "energies[i]", "template.init" and every "phases[k]" (and its "remesh" stages), each key whose
-// unit is mm. A length the object leaves at its default is written out scaled, unless the default
+// unit is mm (to 6 significant digits). A length the object leaves at its default is written out
+// scaled, unless the default
 // is 0 (which means "from the voxel size" or "off" wherever a length defaults to it). Left as
 // they are: keys whose unit is not plainly mm (the tension's alpha and the external step tau,
 // whose units depend on another key; the GVF's mu, which with a normalised edge map needs no

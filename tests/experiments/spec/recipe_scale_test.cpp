@@ -38,6 +38,7 @@ TEST(RecipeScale, OnlyAStructureSmallerThanTheRecipesOwnIsScaled) {
   EXPECT_DOUBLE_EQ(recipe_length_scale(kRecipeRadiusMm), 1.0);
   EXPECT_DOUBLE_EQ(recipe_length_scale(4 * kRecipeRadiusMm), 1.0);
   EXPECT_DOUBLE_EQ(recipe_length_scale(0.0), 1.0);  // nothing to measure by
+  EXPECT_DOUBLE_EQ(recipe_length_scale(3.86), 0.551);  // 0.55143 to 3 significant digits
 }
 
 TEST(RecipeScale, TheRecipeWithAnAtlasHasEveryLengthScaledAndNothingElse) {
