@@ -24,10 +24,7 @@ ImageAlignmentOptions TemplateInitOptions::alignment() const {
 void TemplateInitOptions::check() const {
   if (type != TemplateInitType::kImage && transform == AlignmentModel::kAffine)
     throw OptionError{"transform", "\"affine\" only for \"type\": \"image\""};
-  if (levels.empty()) throw OptionError{"levels", "expected at least one smoothing level (mm)"};
-  for (double s : levels)
-    if (!std::isfinite(s) || s < 0) throw OptionError{"levels", "every level must be a sigma >= 0 (mm)"};
-  if (max_scale != 0 && !(max_scale >= 1)) throw OptionError{"max_scale", "expected 0 (no bound) or a ratio >= 1"};
+  alignment().check();  // levels and max_scale: the alignment's own checks, under the same key names
   if (type == TemplateInitType::kImage) {
     if (!mask.empty()) throw OptionError{"mask", "only for \"type\": \"moments\""};
     if (!threshold.empty()) throw OptionError{"threshold", "only for \"type\": \"moments\""};
