@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <limits>
 #include <fstream>
+#include <iostream>
 
 namespace dsnake {
 
@@ -214,15 +215,20 @@ std::vector<Phase<D>> assemble_phases(const ExperimentSpec<D>& spec, const Templ
 // An oblique image (a rotated direction, image.h) is registered in its grid's frame: the placed
 // template, the ground-truth surface and targets are mapped from world into it here, and the
 // runner maps results back (runner.cpp). A ground-truth mask must share the image's direction
-// (it is re-expressed in the image's frame); any other mask is refused, naming its file.
+// (it is re-expressed in the image's frame); a mask whose axes are turned against the image's is
+// first resampled onto a grid along the image's axes (resample_along: linear, inside at 0.5), with
+// a warning, as a label drawn on another acquisition is compared with the scan's in any viewer.
 template <int D>
 void express_in_image_frame(Experiment<D>& ex, const GroundTruthSpec& files) {
   const Grid<D>& g = ex.image.grid();
   if (g.axis_aligned() && (!ex.truth.mask || ex.truth.mask->grid().axis_aligned())) return;
   if (ex.truth.mask) {
-    if ((ex.truth.mask->grid().direction - g.direction).cwiseAbs().maxCoeff() > 1e-6)
-      throw InputError(files.mask, "direction",
-                       "the mask's axis directions differ from the image's: resample it onto the image's grid");
+    if ((ex.truth.mask->grid().direction - g.direction).cwiseAbs().maxCoeff() > 1e-6) {
+      ex.truth.mask = resample_along(*ex.truth.mask, g.direction);
+      std::cerr << "warning: " << files.mask
+                << ": the mask's axes are turned against the image's: resampled along the image's axes for the "
+                   "metrics (linear interpolation, inside at 0.5)\n";
+    }
     Grid<D> m = ex.truth.mask->grid();
     m.origin = g.to_frame(m.origin);
     m.direction.setIdentity();

@@ -72,7 +72,7 @@ struct GroundTruthSpec {  // "ground_truth": files that override a phantom's own
 
   template <class V>
   void visit(V& v) {
-    v(mask, Key{"mask", "", "a label image on the image grid (non-zero = inside)"});
+    v(mask, Key{"mask", "", "a label image (non-zero = inside) on any grid; one whose axes are turned against the image's is resampled along them (linear, inside at 0.5, a warning)"});
     v(surface, Key{"surface", "", "the true contour (2D) or mesh (3D)"});
     v(correspondence, Key{"correspondence", "", "a JSON file {\"targets\": [[x, y(, z)] | null, ...]}: the target of every template vertex"});
   }

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace dsnake {
 
@@ -229,10 +230,68 @@ BinaryMask<D>::BinaryMask(const Image<D>& image) : grid_(image.grid()), inside_(
   for (size_t l = 0; l < v.size(); ++l) inside_[l] = v[l] != 0.0f;
 }
 
+template <int D>
+BinaryMask<D> resample_along(const BinaryMask<D>& mask, const Eigen::Matrix<double, D, D>& direction) {
+  const Grid<D>& m = mask.grid();
+  // The inside voxels' box in the mask's indices, and its corners (half a voxel out) in the new
+  // axes' coordinates u = direction^T world.
+  GridIndex<D> lo = m.size, hi = GridIndex<D>::Constant(-1);
+  for (int64_t l = 0; l < mask.num_voxels(); ++l) {
+    if (!mask[l]) continue;
+    const GridIndex<D> idx = m.index(l);
+    lo = lo.cwiseMin(idx);
+    hi = hi.cwiseMax(idx);
+  }
+  Grid<D> out;
+  out.direction = direction;
+  if ((hi.array() < 0).any()) {  // nothing inside: one empty voxel where the mask's origin is
+    out.size.setOnes();
+    out.spacing = m.spacing;
+    out.origin = m.origin;
+    return BinaryMask<D>(out, std::vector<uint8_t>(1, 0));
+  }
+  Point<D> ulo = Point<D>::Constant(std::numeric_limits<double>::infinity()), uhi = -ulo;
+  for (int corner = 0; corner < (1 << D); ++corner) {
+    Point<D> frame;
+    for (int a = 0; a < D; ++a) frame[a] = m.origin[a] + m.spacing[a] * ((corner >> a & 1) ? hi[a] + 0.5 : lo[a] - 0.5);
+    const Point<D> u = direction.transpose() * m.to_world(frame);
+    ulo = ulo.cwiseMin(u);
+    uhi = uhi.cwiseMax(u);
+  }
+  double box_voxels = 1, h = m.spacing.minCoeff();
+  for (int a = 0; a < D; ++a) box_voxels *= double(hi[a] - lo[a] + 1);
+  auto count = [&](double s) {
+    double n = 1;
+    for (int a = 0; a < D; ++a) n *= std::ceil((uhi[a] - ulo[a]) / s);
+    return n;
+  };
+  if (count(h) > 32 * box_voxels) h *= std::pow(count(h) / (32 * box_voxels), 1.0 / D);
+  out.spacing = Point<D>::Constant(h);
+  for (int a = 0; a < D; ++a) out.size[a] = std::max(1, static_cast<int>(std::ceil((uhi[a] - ulo[a]) / h)));
+  // Voxel 0's centre half a voxel inside the box; the grid's frame is the new axes about its origin.
+  const Point<D> u0 = ulo + Point<D>::Constant(h / 2);
+  out.origin = direction * u0;
+  std::vector<uint8_t> inside(static_cast<size_t>(out.num_voxels()), 0);
+  for (int64_t l = 0; l < out.num_voxels(); ++l) {
+    const Point<D> x = m.to_frame(out.to_world(out.to_physical(out.index(l))));
+    const Point<D> c = m.to_continuous_index(x);
+    bool within = true;
+    for (int a = 0; a < D; ++a) within = within && c[a] >= 0 && c[a] <= m.size[a] - 1;
+    if (!within) continue;
+    const auto s = m.stencil(x);
+    double v = 0;
+    for (size_t k = 0; k < s.voxel.size(); ++k) v += s.weight[k] * double(mask[s.voxel[k]]);
+    inside[size_t(l)] = v >= 0.5;
+  }
+  return BinaryMask<D>(out, std::move(inside));
+}
+
 template class Image<2>;
 template class Image<3>;
 template class BinaryMask<2>;
 template class BinaryMask<3>;
+template BinaryMask<2> resample_along<2>(const BinaryMask<2>&, const Eigen::Matrix<double, 2, 2>&);
+template BinaryMask<3> resample_along<3>(const BinaryMask<3>&, const Eigen::Matrix<double, 3, 3>&);
 template class VectorField<2>;
 template class VectorField<3>;
 

@@ -110,6 +110,15 @@ class BinaryMask {
   std::vector<uint8_t> inside_;
 };
 
+// `mask` on a grid whose axes run along `direction` (a frame -> world rotation, Grid::direction):
+// the smallest such grid that holds the mask's inside, with the mask's smallest spacing on every
+// axis (coarser only where that grid would hold more than 32 times the voxels of the mask's own
+// box around its inside), a voxel inside where the mask's linear interpolant at its centre is at
+// least 0.5 (0 beyond the mask's voxel centres). For a ground truth whose grid is turned against
+// the image's: the metrics run in the image's frame, on masks whose axes are its axes.
+template <int D>
+BinaryMask<D> resample_along(const BinaryMask<D>& mask, const Eigen::Matrix<double, D, D>& direction);
+
 // One D-vector per voxel, stored as D interleaved floats: 12 bytes a voxel in 3D instead of the
 // 24 of Point<D>. Every field's solver works in float, and the vectors are what a run
 // keeps for its whole evolution. Sampling converts to double before interpolating, so a field

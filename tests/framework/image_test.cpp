@@ -1,6 +1,7 @@
 #include "framework/core/image.h"
 #include "framework/core/image_filters.h"
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include <omp.h>
@@ -107,6 +108,56 @@ TEST(BinaryMask, IsInsideWhereTheImageIsNonZero) {
   const BinaryMask<2> adopted(g, std::move(bytes));
   EXPECT_EQ(adopted.data().data(), storage);
   EXPECT_TRUE(adopted[1] && adopted[4] && !adopted[0] && !adopted[5]);
+}
+
+// A ball of radius 8 mm on an oblique grid of 0.5 x 0.5 x 1 mm voxels (turned 30 degrees about
+// (1, 2, 2) / 3), resampled along the world's axes and along another turn: the same ball, within
+// what its voxels resolve (volume, centre, inside and outside well away from its surface).
+TEST(BinaryMask, ResampledAlongOtherAxesKeepsItsObjectInWorld) {
+  const Eigen::Matrix3d r = Eigen::AngleAxisd(0.5236, Eigen::Vector3d(1, 2, 2) / 3).toRotationMatrix();
+  Grid<3> g;
+  g.size = {48, 48, 24};
+  g.spacing = {0.5, 0.5, 1.0};
+  g.origin = {-40.0, 15.0, 7.0};
+  g.direction = r;
+  const Point<3> centre = g.to_world(g.to_physical(GridIndex<3>(24, 23, 12)));
+  std::vector<uint8_t> inside(size_t(g.num_voxels()));
+  double volume = 0;
+  for (int64_t l = 0; l < g.num_voxels(); ++l) {
+    inside[size_t(l)] = (g.to_world(g.to_physical(g.index(l))) - centre).norm() < 8.0;
+    volume += inside[size_t(l)] * g.spacing.prod();
+  }
+  const BinaryMask<3> mask(g, std::move(inside));
+  for (const Eigen::Matrix3d& axes : {Eigen::Matrix3d(Eigen::Matrix3d::Identity()),
+                                      Eigen::Matrix3d(Eigen::AngleAxisd(-1.1, Eigen::Vector3d(0, 0.6, 0.8)).toRotationMatrix())}) {
+    const BinaryMask<3> out = resample_along(mask, axes);
+    const Grid<3>& o = out.grid();
+    EXPECT_LE((o.direction - axes).cwiseAbs().maxCoeff(), 0.0);
+    EXPECT_DOUBLE_EQ(o.spacing.minCoeff(), 0.5);  // the mask's finest spacing on every axis
+    EXPECT_DOUBLE_EQ(o.spacing.maxCoeff(), 0.5);
+    double v = 0;
+    Point<3> c = Point<3>::Zero();
+    for (int64_t l = 0; l < out.num_voxels(); ++l) {
+      const Point<3> x = o.to_world(o.to_physical(o.index(l)));
+      const double d = (x - centre).norm();
+      if (d < 7.0) {
+        EXPECT_TRUE(out[l]) << "inside at " << d << " mm from the centre";
+      } else if (d > 9.0) {
+        EXPECT_FALSE(out[l]) << "outside at " << d << " mm from the centre";
+      }
+      v += out[l] * o.spacing.prod();
+      c += out[l] * o.spacing.prod() * x;
+    }
+    EXPECT_NEAR(v / volume, 1.0, 0.02);
+    EXPECT_LE((c / v - centre).norm(), 0.05);
+    // The grid holds the ball's box and no more: a cube of the box's diagonal at most.
+    EXPECT_LE(double(out.num_voxels()) * o.spacing.prod(), std::pow(16.0 * std::sqrt(3.0) + 2.0, 3));
+  }
+  // Nothing inside: one empty voxel.
+  const BinaryMask<3> empty = resample_along(BinaryMask<3>(g, std::vector<uint8_t>(size_t(g.num_voxels()), 0)),
+                                             Eigen::Matrix3d(Eigen::Matrix3d::Identity()));
+  ASSERT_EQ(empty.num_voxels(), 1);
+  EXPECT_FALSE(empty[0]);
 }
 
 TEST(VectorField, SamplesEachComponentLinearly) {
