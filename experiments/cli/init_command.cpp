@@ -38,8 +38,9 @@ bool is_surface_file(const std::string& path, int dimension) {
 // project's real experiments run (REPRODUCTION.md), except that on a template smaller than the
 // structures the recipe was measured on, its lengths are scaled to the template's size
 // (experiments/spec/recipe_scale.h; one note on stderr says by how much). The recipe's lengths
-// are chosen for scans with voxels of 0.3 to 3 mm (at that scale); outside that, a warning on
-// stderr says so.
+// are chosen for scans with voxels of 0.3 to 3 mm (at that scale); on coarser voxels the patch
+// forces are made as coarse as the voxels (coarsen_patches_to_voxels, one note), and otherwise
+// outside that range a warning on stderr says so.
 template <int D>
 nlohmann::ordered_json recommended(const InitCommandOptions& o, const Grid<D>& grid, double radius) {
   const bool atlas = !o.reference.empty();
@@ -84,12 +85,23 @@ nlohmann::ordered_json recommended(const InitCommandOptions& o, const Grid<D>& g
   }
   // The voxels in proportion to the (scaled) lengths: as if the structure had the recipe's size.
   const double h = grid.spacing.maxCoeff(), h_at_recipe_scale = h / k;
-  if (h_at_recipe_scale < 0.3 || h_at_recipe_scale > 3.0)
+  const double coarsened = h_at_recipe_scale > kRecipeMaxVoxelMm ? coarsen_patches_to_voxels(j, D, h) : 1.0;
+  if (coarsened > 1.0) {
+    char line[400];
+    std::snprintf(line, sizeof line,
+                  "voxels of up to %.3g mm (%.3g at the recipe's scale), coarser than the recipe's 0.3 to %.3g mm: "
+                  "each patch force's sigma is made at least a quarter of the largest voxel side, its radius and "
+                  "spacing in proportion (the finest by %.3g); the other lengths stay as measured "
+                  "(experiments/spec/recipe_scale.h)",
+                  h, h_at_recipe_scale, kRecipeMaxVoxelMm, coarsened);
+    j["description"] = j["description"].get<std::string>() + " Voxels: " + line + ".";
+    std::fprintf(stderr, "dsnake: note: %s: %s\n", o.image.c_str(), line);
+  } else if (h_at_recipe_scale < 0.3 || h_at_recipe_scale > kRecipeMaxVoxelMm)
     std::fprintf(stderr,
-                 "dsnake: warning: %s: voxels of up to %.3g mm; the recipe's lengths (field.sigma, the profile's "
-                 "search and length, tolerances, in mm) are chosen for voxels of 0.3 to 3 mm%s: scale them by about "
-                 "%.3g (docs/experiment-file.md)\n",
-                 o.image.c_str(), h, k < 1.0 ? " at the recipe's scale" : "", h_at_recipe_scale);
+                 "dsnake: warning: %s: voxels of up to %.3g mm (%.3g at the recipe's scale); the recipe's lengths "
+                 "(in mm: smoothing, profile and patch sizes, tolerances) were chosen on voxels of 0.3 to %.3g mm and "
+                 "may fit less well here (REPRODUCTION.md, \"Other acquisitions\")\n",
+                 o.image.c_str(), h, h_at_recipe_scale, kRecipeMaxVoxelMm);
   return j;
 }
 

@@ -7,6 +7,7 @@
 #include "framework/core/phase_driver.h"
 #include "remesh/registry.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -110,6 +111,31 @@ void scale_lengths(json& experiment, int dimension, double k) {
   if (k == 1.0) return;
   if (dimension == 3) scale_lengths_d<3>(experiment, k);
   else scale_lengths_d<2>(experiment, k);
+}
+
+template <int D>
+double coarsen_patches_d(json& j, double h) {
+  double largest = 1.0;
+  if (!j.contains("energies")) return largest;
+  const auto& registry = energy_registry<D>();
+  for (auto& e : j["energies"]) {
+    if (!e.is_object() || e.value("type", "") != "patch" || !registry.contains("patch")) continue;
+    const auto& entry = registry.entry("patch");
+    const double sigma = e.contains("sigma") ? e["sigma"].get<double>()
+                                             : entry.schema_properties["sigma"]["default"].template get<double>();
+    if (!(sigma > 0) || !(sigma < h / 4)) continue;
+    const double f = round_significant(h / (4 * sigma), 3);
+    std::vector<KeyRow> rows;
+    for (const KeyRow& row : entry.rows)
+      if (row.name == "sigma" || row.name == "radius" || row.name == "spacing") rows.push_back(row);
+    scale_object(e, rows, entry.schema_properties, f);
+    largest = std::max(largest, f);
+  }
+  return largest;
+}
+
+double coarsen_patches_to_voxels(json& experiment, int dimension, double h) {
+  return dimension == 3 ? coarsen_patches_d<3>(experiment, h) : coarsen_patches_d<2>(experiment, h);
 }
 
 template double equivalent_radius<2>(const Template<2>&);

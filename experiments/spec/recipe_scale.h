@@ -45,4 +45,18 @@ double recipe_length_scale(double equivalent_radius_mm);
 // must be valid (its types registered for `dimension`).
 void scale_lengths(nlohmann::ordered_json& experiment, int dimension, double k);
 
+// The largest voxel side (mm, at the recipe's scale: h / k) the recipes were measured on.
+inline constexpr double kRecipeMaxVoxelMm = 3.0;
+
+// For a scan whose voxels are coarser than the recipe's (largest side h mm, h / k above
+// kRecipeMaxVoxelMm): every patch energy whose smoothing sigma is below h / 4 gets its sigma,
+// radius and sample spacing multiplied by f = h / (4 sigma), to 3 significant digits (a default
+// written out; a 0 spacing, "the image's smallest voxel", kept). A patch finer than the slices
+// compares the atlas's detail across a slice with the scan's interpolation between two: on
+// 4 and 5 mm slices the recipe's refine phase (sigma 0.5 mm) then walked the fit off its
+// boundary, and with sigma h / 4 it held it (REPRODUCTION.md, "Other acquisitions"). The other
+// lengths stay as measured (the image init and the coarse patches see the structure, not the
+// voxels). Returns the largest f applied (1: none). `experiment` must be valid.
+double coarsen_patches_to_voxels(nlohmann::ordered_json& experiment, int dimension, double h);
+
 }  // namespace dsnake

@@ -109,6 +109,37 @@ TEST_F(InitCommandTest, WithoutAnAtlasImageItWritesTheRecipeForThatAndSaysWhyAnA
   EXPECT_EQ(dsnake("validate " + exp.string()), 0) << err_;
 }
 
+// Slices 4 mm thick (beyond the recipe's 3 mm): with an atlas, the fine patch force (sigma 0.5 mm)
+// is made as coarse as a quarter of a slice (sigma 1, radius 4, spacing 1 mm) and one note says so;
+// the coarse patches, the image init and the phases are the recipe's. Without an atlas (no patch
+// force) the recipe is kept and a warning says the voxels are beyond what it was chosen on.
+TEST_F(InitCommandTest, OnThickSlicesThePatchesAreMadeAsCoarseAsTheVoxels) {
+  Grid<3> g{GridIndex<3>(40, 40, 10), Point<3>(1.0, 1.0, 4.0), Point<3>(-20, -20, -18)};
+  Image<3> im(g, 0.0f);
+  for (int64_t l = 0; l < im.num_voxels(); ++l)
+    im[l] = (g.to_physical(g.index(l))).cwiseQuotient(Point<3>(12, 10, 11)).squaredNorm() <= 1 ? 1.0f : 0.0f;
+  const fs::path image = dir_ / "thick.nii.gz", tmpl = dir_ / "t.off";
+  write_image<3>(im, image.string());
+  ASSERT_EQ(dsnake("template --mask " + image.string() + " --label 1 --vertices 300 --out " + tmpl.string()), 0) << err_;
+  ASSERT_EQ(dsnake("init --image " + image.string() + " --template " + tmpl.string() + " --reference " + image.string()), 0)
+      << err_;
+  const nlohmann::json j = nlohmann::json::parse(out_);
+  std::ifstream recipe_file(std::string(DSNAKE_SOURCE_DIR) + "/experiments/real/recipe_3d.json");
+  nlohmann::json recipe = nlohmann::json::parse(recipe_file);
+  EXPECT_EQ(j["energies"][3], nlohmann::json::parse(R"({"type": "patch", "weight": 1.0, "sigma": 1.0, "radius": 4.0,
+                                                        "spacing": 1.0})"));
+  nlohmann::json rest = settings_of(j);
+  rest["energies"][3] = recipe["energies"][3] = nullptr;
+  EXPECT_EQ(rest, settings_of(recipe));
+  EXPECT_EQ(std::count(err_.begin(), err_.end(), '\n'), 1) << err_;
+  EXPECT_NE(err_.find("dsnake: note: " + image.string() + ": voxels of up to 4 mm"), std::string::npos) << err_;
+  EXPECT_NE(j["description"].get<std::string>().find("Voxels: voxels of up to 4 mm"), std::string::npos);
+  ASSERT_EQ(dsnake("init --image " + image.string() + " --template " + tmpl.string()), 0) << err_;
+  std::ifstream without(std::string(DSNAKE_SOURCE_DIR) + "/experiments/real/recipe_3d_without_atlas.json");
+  EXPECT_EQ(settings_of(nlohmann::json::parse(out_)), settings_of(nlohmann::json::parse(without)));
+  EXPECT_NE(err_.find("dsnake: warning: " + image.string() + ": voxels of up to 4 mm"), std::string::npos) << err_;
+}
+
 TEST_F(InitCommandTest, WarnsWhenTheVoxelsAreOutsideTheRecipesRange) {
   Grid<2> g{GridIndex<2>(40, 40), Point<2>(0.05, 0.05), Point<2>(0, 0)};
   Image<2> im(g, 0.0f);

@@ -103,5 +103,30 @@ TEST(RecipeScale, In2DTheProfileAndToleranceScaleAndTheTensionAndFieldDiffusionD
   EXPECT_EQ(j["energies"][0], recipe["energies"][0]);
 }
 
+// Voxels coarser than the recipe's: only a patch force finer than a quarter of the largest voxel
+// side is coarsened, its sigma to h / 4 and its radius and spacing in proportion; nothing else.
+TEST(RecipeScale, OnCoarseVoxelsOnlyThePatchesFinerThanAQuarterVoxelAreCoarsened) {
+  const json recipe = json::parse(recipe_json(3, true));
+  json j = recipe;
+  EXPECT_DOUBLE_EQ(coarsen_patches_to_voxels(j, 3, 2.0), 1.0);  // the fine patch's 0.5 mm is h / 4 already
+  EXPECT_EQ(j, recipe);
+  EXPECT_DOUBLE_EQ(coarsen_patches_to_voxels(j, 3, 5.0), 2.5);
+  for (const char* key : {"sigma", "radius", "spacing"})  // the fine patch: 0.5, 2, 0.5 mm times 2.5
+    EXPECT_DOUBLE_EQ(j["energies"][3][key].get<double>(), 2.5 * recipe["energies"][3][key].get<double>()) << key;
+  json rest = j, rest_recipe = recipe;
+  rest["energies"][3] = rest_recipe["energies"][3] = nullptr;
+  EXPECT_EQ(rest, rest_recipe);  // the coarse patch (sigma 2 mm > 5 / 4), the init, the phases: as they were
+  // A patch with its defaults (sigma 1, radius 3, spacing 0: the voxel size) on 8 mm voxels:
+  // sigma and radius written out doubled, the 0 spacing kept; the recipe without an atlas has none.
+  json d = json::parse(R"({"energies": [{"type": "patch", "weight": 1.0}, {"type": "internal", "weight": 1.0}]})");
+  EXPECT_DOUBLE_EQ(coarsen_patches_to_voxels(d, 3, 8.0), 2.0);
+  EXPECT_EQ(d["energies"][0], json::parse(R"({"type": "patch", "weight": 1.0, "sigma": 2.0, "radius": 6.0})"));
+  EXPECT_EQ(d["energies"][1], json::parse(R"({"type": "internal", "weight": 1.0})"));
+  json without = json::parse(recipe_json(3, false));
+  const json copy = without;
+  EXPECT_DOUBLE_EQ(coarsen_patches_to_voxels(without, 3, 6.0), 1.0);
+  EXPECT_EQ(without, copy);
+}
+
 }  // namespace
 }  // namespace dsnake
