@@ -181,7 +181,20 @@ void read_nifti_orientation(const std::string& bytes, bool swap, NiftiTransform 
   const char* const wanted = choice == NiftiTransform::kSform ? "sform" : "qform";
   const bool lacks = (choice == NiftiTransform::kSform && !has_s) || (choice == NiftiTransform::kQform && !has_q);
   if (lacks) choice = NiftiTransform::kAuto;
-  const bool use_s = has_s && choice != NiftiTransform::kQform, use_q = !use_s && has_q;
+  // A sform with no extent along an axis of several voxels (a zero or non-finite column) places
+  // them all at one point: nibabel's affine is then singular. The qform (or pixdim) places them.
+  int flat_axis = -1;
+  if (has_s)
+    for (int axis = 0; axis < v.ndims && flat_axis < 0; ++axis) {
+      double norm = 0;
+      for (int k = 0; k < 3; ++k) norm += std::pow(nifti_field<float>(bytes, 280 + 16 * k + 4 * axis, swap), 2);
+      if (v.size[axis] > 1 && !(norm > 0 && std::isfinite(norm))) flat_axis = axis;
+    }
+  const bool use_s = has_s && flat_axis < 0 && choice != NiftiTransform::kQform, use_q = !use_s && has_q;
+  if (warn && flat_axis >= 0 && choice != NiftiTransform::kQform)
+    std::fprintf(stderr, "dsnake: warning: %s: sform: its column for axis %d (%lld voxels) is zero or not finite, which "
+                 "places them all at one point; using %s\n",
+                 path.c_str(), flat_axis, static_cast<long long>(v.size[flat_axis]), use_q ? "the qform" : "pixdim at the origin");
   if (warn && lacks)
     std::fprintf(stderr, "dsnake: warning: %s: the %s was asked for (image.nifti_transform or --nifti-transform), but its "
                  "%s_code is 0; using %s\n",

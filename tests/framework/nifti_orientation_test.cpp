@@ -251,6 +251,34 @@ TEST(NiftiOrientation, DisagreeingTransformsWarnOnceAndTheOverridePicksEither) {
   EXPECT_EQ(err, "");
 }
 
+// An sform whose column for an axis of several voxels is zero (all of them at one point; nibabel's
+// affine is singular): the qform places the voxels, or pixdim when there is none, with one
+// warning line naming the axis.
+TEST(NiftiOrientation, AnSformWithAZeroColumnGivesWayToTheQformWithAWarning) {
+  const std::string dir = fresh_dir();
+  NiftiGeometry g;
+  g.pixdim = {1.5f, 1, 2};
+  g.qform_code = 1;
+  g.qoffset = {3, 4, 5};
+  g.sform_code = 2;
+  g.sform = affine_of(Eigen::Matrix3d::Identity(), {2, 2, 2}, {7, 8, 9});
+  g.sform.col(1).setZero();
+  write_file(dir + "/flat_q.nii", nifti_file(g));
+  std::string err;
+  expect_voxels_at(read_capturing(dir + "/flat_q.nii", {}, err), g.dim,
+                   affine_of(Eigen::Matrix3d::Identity(), {1.5, 1, 2}, {3, 4, 5}), 1e-4);
+  EXPECT_EQ(err, "dsnake: warning: " + dir + "/flat_q.nii: sform: its column for axis 1 (5 voxels) is zero or not "
+                 "finite, which places them all at one point; using the qform\n");
+  g.qform_code = 0;
+  g.sform.setZero();
+  write_file(dir + "/flat.nii", nifti_file(g));
+  expect_voxels_at(read_capturing(dir + "/flat.nii", {}, err), g.dim,
+                   affine_of(Eigen::Matrix3d::Identity(), {1.5, 1, 2}, {0, 0, 0}), 1e-4);
+  EXPECT_EQ(lines_of(err), 1) << err;
+  EXPECT_TRUE(contains(err, "its column for axis 0 (6 voxels) is zero or not finite, which places them all at one "
+                            "point; using pixdim at the origin")) << err;
+}
+
 // The header read for the dimension alone says nothing (the image is read afterwards and warns then).
 TEST(NiftiOrientation, FileDimensionDoesNotWarn) {
   const std::string dir = fresh_dir();
