@@ -201,13 +201,15 @@ NrrdSpace nrrd_space(const NrrdHeader& h, const std::string& path) {
   return s;
 }
 
-// True if axis `a` holds the components of a vector, not a position: its kind says so or its
-// space direction is "none".
+// True if axis `a` holds the components of a value, not a position: its kind is one of NRRD's
+// range kinds (vector, normal, list, the colours, the matrices, complex, ...: anything but the
+// domain kinds "domain", "space" and "time" and the unknown "???" / "none"), or its space
+// direction is "none".
 bool is_vector_axis(const std::vector<std::string>& kinds, const std::vector<std::string>& directions, int a) {
-  static const char* vector_kinds[] = {"vector", "covariant-vector", "normal", "2-vector", "3-vector", "list"};
-  if (a < int(kinds.size()))
-    for (const char* k : vector_kinds)
-      if (lower(kinds[a]) == k) return true;
+  if (a < int(kinds.size())) {
+    const std::string k = lower(kinds[a]);
+    if (k != "domain" && k != "space" && k != "time" && k != "???" && k != "none") return true;
+  }
   return a < int(directions.size()) && lower(directions[a]) == "none";
 }
 
@@ -271,6 +273,9 @@ RawVolume nrrd_geometry(const NrrdHeader& h, const std::string& path) {
                                                             : std::vector<std::string>{};
   if (!directions.empty() && int(directions.size()) != dim)
     throw InputError(path, "space directions", "expected one entry per axis (" + std::to_string(dim) + ")");
+  for (int a = 0; a < int(kinds.size()) && a < dim; ++a)
+    if (lower(kinds[a]) == "time")
+      throw InputError(path, "kinds", "axis " + std::to_string(a) + " is time: time series are not supported");
   const int lead = dim > 2 && is_vector_axis(kinds, directions, 0) ? 1 : 0;
   for (int a = lead; a < dim; ++a)
     if (is_vector_axis(kinds, directions, a))

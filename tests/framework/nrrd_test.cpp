@@ -389,6 +389,15 @@ TEST(Nrrd, BadFilesNameTheFileAndTheField) {
   expect_bad(dir + "/dir.nrrd", "space directions");
   write_file(dir + "/line.nrrd", head + "sizes 2 2\nencoding: raw\n\n" + four);
   expect_bad(dir + "/line.nrrd", "header line 4");
+  // A colour image is not a volume (its first axis holds the colour, not a position), nor is a
+  // slice series in time.
+  const std::string eight(8, '\x07');
+  write_file(dir + "/rgb.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nkinds: RGB-color domain domain\n"
+                                "encoding: raw\n\n" + eight);
+  expect_bad(dir + "/rgb.nrrd", "kinds");
+  write_file(dir + "/slices_in_time.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\n"
+                                           "kinds: domain domain time\nencoding: raw\n\n" + eight);
+  expect_bad(dir + "/slices_in_time.nrrd", "kinds", "time");
 }
 
 // Sizes of 10^12 and more voxels are refused from the header and the data's length, quickly
