@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <filesystem>
 
 namespace dsnake {
@@ -109,9 +110,24 @@ template <int D>
 nlohmann::ordered_json init_experiment(const InitCommandOptions& o) {
   const Image<D> image = read_image<D>(o.image, o.read);
   // The template is read to refuse a bad one before anything is printed, and for its size.
-  double radius = 0;
-  if constexpr (D == 3) radius = equivalent_radius<3>(read_mesh_template(o.tmpl));
-  else radius = equivalent_radius<2>(read_contour_template(o.tmpl));
+  Template<D> tmpl;
+  if constexpr (D == 3) tmpl = read_mesh_template(o.tmpl);
+  else tmpl = read_contour_template(o.tmpl);
+  const double radius = equivalent_radius<D>(tmpl);
+  // As `dsnake run` refuses it (assemble.cpp, check_placement): a template smaller than a voxel
+  // has nothing to register at this image's resolution.
+  Point<D> lo = Point<D>::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  for (const Point<D>& p : tmpl.positions) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const double extent = (hi - lo).norm(), voxel = image.grid().spacing.minCoeff();
+  if (!(extent >= voxel)) {
+    char what[200];
+    std::snprintf(what, sizeof what, "the template spans %.3g mm, less than a voxel of the image (%.3g mm): scale it to the object's size",
+                  extent, voxel);
+    throw InputError(o.tmpl, "--template", what);
+  }
   if (!o.mask.empty() && !is_surface_file(o.mask, D) && image_file_dimension(o.mask) != D)
     throw InputError(o.mask, "--mask", "expected a " + std::to_string(D) + "D label image like the image");
   if (!o.reference.empty() && image_file_dimension(o.reference) != D)

@@ -229,6 +229,15 @@ TEST_F(InitCommandTest, BadInputExitsTwoWithOneLineAndPrintsNothing) {
   // A reference image of the wrong dimension is named with the option it came from.
   ASSERT_EQ(dsnake(good + " --reference " + flat.string()), 2);
   EXPECT_NE(err_.find(flat.string() + ": --reference: expected a 3D image"), std::string::npos) << err_;
+  // A template smaller than a voxel (a tetrahedron 0.5 mm across on 0.8 x 1.2 mm voxels) is
+  // refused here, as `dsnake run` would refuse the file, not printed into a file that cannot run.
+  const fs::path tiny = dir_ / "tiny.off";
+  std::ofstream(tiny) << "OFF\n4 4 0\n0 0 0\n0.3 0 0\n0 0.3 0\n0 0 0.3\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+  ASSERT_EQ(dsnake("init --image " + labels.string() + " --template " + tiny.string()), 2);
+  EXPECT_EQ(out_, "");
+  EXPECT_EQ(std::count(err_.begin(), err_.end(), '\n'), 1) << err_;
+  EXPECT_NE(err_.find(tiny.string() + ": --template: the template spans 0.52 mm, less than a voxel of the image (0.8 mm)"),
+            std::string::npos) << err_;
 }
 
 }  // namespace
