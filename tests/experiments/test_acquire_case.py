@@ -82,6 +82,24 @@ class AcquireCaseTest(unittest.TestCase):
             np.testing.assert_allclose(np.asanyarray(im.dataobj),
                                        np.asanyarray(nib.load(os.path.join(d, "c", "image.nii.gz")).dataobj), atol=1e-3)
 
+    def test_the_bias_field_multiplies_the_scan_by_a_ramp_from_1_minus_b_to_1_plus_b(self):
+        with tempfile.TemporaryDirectory() as d:
+            make_case(os.path.join(d, "c"))
+            for name, extra in (("plain", []), ("biased", ["--bias", "0.3"])):
+                r = self.run_script(os.path.join(d, name), os.path.join(d, "c"), *extra)
+                self.assertEqual(r.returncode, 0, r.stderr)
+            plain = nib.load(os.path.join(d, "plain", "c", "image.nii.gz"))
+            biased = np.asanyarray(nib.load(os.path.join(d, "biased", "c", "image.nii.gz")).dataobj)
+            ratio = biased / np.asanyarray(plain.dataobj)
+            self.assertAlmostEqual(float(ratio.max()), 1.3, places=4)
+            self.assertAlmostEqual(float(ratio.min()), 0.7, places=4)
+            # The ramp runs along (1, 2, 2) / 3 in RAS world: constant across it, linear along it.
+            a = plain.affine
+            step = np.linalg.solve(a[:3, :3], np.array([2.0, -1.0, 0.0]))  # a world move orthogonal to the ramp
+            self.assertTrue(np.allclose(step, np.rint(step)))
+            i = np.array([5, 5, 5]) + np.rint(step).astype(int)
+            self.assertAlmostEqual(float(ratio[5, 5, 5]), float(ratio[tuple(i)]), places=5)
+
     def test_bad_input_is_one_line_naming_the_file_or_option_and_nothing_is_written(self):
         with tempfile.TemporaryDirectory() as d:
             make_case(os.path.join(d, "c"))
@@ -89,7 +107,8 @@ class AcquireCaseTest(unittest.TestCase):
             for args, named in (([out, os.path.join(d, "none")], "image.nii.gz"),
                                 ([out, os.path.join(d, "c"), "--spacing", "1", "0", "1"], "--spacing"),
                                 ([out, os.path.join(d, "c"), "--rotate", "x"], "--rotate"),
-                                ([out, os.path.join(d, "c"), "--gain", "0"], "--gain")):
+                                ([out, os.path.join(d, "c"), "--gain", "0"], "--gain"),
+                                ([out, os.path.join(d, "c"), "--bias", "1"], "--bias")):
                 r = self.run_script(*args)
                 self.assertEqual(r.returncode, 2, args)
                 self.assertEqual(r.stderr.count("\n"), 1, r.stderr)

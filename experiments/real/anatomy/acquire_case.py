@@ -8,11 +8,13 @@ unchanged. The control of REPRODUCTION.md's "Other acquisitions": a registration
 dsnake init's settings on the re-acquired scan should end where it ends on the original one, up
 to what the new voxels resolve.
 
-  acquire_case.py OUT_DIR CASE_DIR... [--spacing SX SY SZ] [--rotate DEG] [--gain G] [--offset O]
+  acquire_case.py OUT_DIR CASE_DIR... [--spacing SX SY SZ] [--rotate DEG] [--gain G] [--offset O] [--bias B]
 
 --spacing: the new voxel size in mm along the new grid's axes (default: the scan's); --rotate:
 the new grid turned by DEG degrees about the axis (1, 1, 1)/sqrt(3) through the scan's centre;
 --gain, --offset: the stored intensities are G * I + O, written as int16 (default 1, 0: float32).
+--bias: a smooth multiplicative field (an MR coil's intensity inhomogeneity), 1 + B t with t
+running linearly from -1 to 1 across the scan's box along (1, 2, 2) / 3 (default 0: none).
 Each CASE_DIR must hold image.nii.gz, template.off and truth.nii.gz and may hold
 reference.nii.gz; OUT_DIR/CASE/ gets the copies under the same names. Bad input: one line naming
 the file or option, exit 2; a case is written whole or not at all.
@@ -37,7 +39,7 @@ def rotation(deg):
     return np.eye(3) + math.sin(t) * k + (1 - math.cos(t)) * (k @ k)
 
 
-def reacquire(path, spacing, deg, gain, offset):
+def reacquire(path, spacing, deg, gain, offset, bias=0.0):
     """The scan at `path` resampled onto a grid of `spacing` mm turned by `deg` about its centre."""
     import nibabel as nib
     import numpy as np
@@ -70,6 +72,10 @@ def reacquire(path, spacing, deg, gain, offset):
         old_ijk = np.linalg.solve(old[:3, :3], xyz - old[:3, 3:4])
         values = ndimage.map_coordinates(data, old_ijk, order=3, mode="constant", cval=0.0)
         values = values.reshape(tuple(shape))
+        if bias != 0.0:
+            u = np.array([1.0, 2.0, 2.0]) / 3.0
+            t = u @ (xyz - centre[:, None])
+            values = values * (1.0 + bias * (t / np.abs(t).max())).reshape(tuple(shape))
         if gain != 1.0 or offset != 0.0:
             values = np.clip(np.rint(gain * values + offset), -32768, 32767).astype(np.int16)
         else:
@@ -84,7 +90,7 @@ def reacquire(path, spacing, deg, gain, offset):
 
 def main(argv):
     args = argv[1:]
-    options = {"--spacing": None, "--rotate": 0.0, "--gain": 1.0, "--offset": 0.0}
+    options = {"--spacing": None, "--rotate": 0.0, "--gain": 1.0, "--offset": 0.0, "--bias": 0.0}
     positional = []
     i = 0
     while i < len(args):
@@ -110,7 +116,10 @@ def main(argv):
             positional.append(args[i])
             i += 1
     if len(positional) < 2:
-        fail("usage: acquire_case.py OUT_DIR CASE_DIR... [--spacing SX SY SZ] [--rotate DEG] [--gain G] [--offset O]")
+        fail("usage: acquire_case.py OUT_DIR CASE_DIR... [--spacing SX SY SZ] [--rotate DEG] [--gain G] [--offset O] "
+             "[--bias B]")
+    if not -1 < options["--bias"] < 1:
+        fail("--bias: must lie in (-1, 1), so that the field stays positive")
     if options["--gain"] == 0:
         fail("--gain: must not be 0")
     import nibabel as nib
@@ -119,7 +128,7 @@ def main(argv):
             if not os.path.exists(os.path.join(case, name)):
                 fail(f"{os.path.join(case, name)}: missing")
         scan = reacquire(os.path.join(case, "image.nii.gz"), options["--spacing"], options["--rotate"],
-                         options["--gain"], options["--offset"])
+                         options["--gain"], options["--offset"], options["--bias"])
         target = os.path.join(positional[0], os.path.basename(os.path.normpath(case)))
         os.makedirs(positional[0], exist_ok=True)
         staging = tempfile.mkdtemp(dir=positional[0], prefix=".acquire_case_")
