@@ -23,7 +23,8 @@ import math
 import os
 import shutil
 import sys
-import tempfile
+
+from case_dir import replace_case
 
 
 def fail(message):
@@ -129,16 +130,14 @@ def main(argv):
                 fail(f"{os.path.join(case, name)}: missing")
         scan = reacquire(os.path.join(case, "image.nii.gz"), options["--spacing"], options["--rotate"],
                          options["--gain"], options["--offset"], options["--bias"])
-        target = os.path.join(positional[0], os.path.basename(os.path.normpath(case)))
-        os.makedirs(positional[0], exist_ok=True)
-        staging = tempfile.mkdtemp(dir=positional[0], prefix=".acquire_case_")
-        nib.save(scan, os.path.join(staging, "image.nii.gz"))
-        for name in ("template.off", "truth.nii.gz", "reference.nii.gz"):
-            if os.path.exists(os.path.join(case, name)):
-                shutil.copyfile(os.path.join(case, name), os.path.join(staging, name))
-        if os.path.exists(target):
-            shutil.rmtree(target)
-        os.rename(staging, target)
+
+        def write(staging):
+            nib.save(scan, os.path.join(staging, "image.nii.gz"))
+            for name in ("template.off", "truth.nii.gz", "reference.nii.gz"):
+                if os.path.exists(os.path.join(case, name)):
+                    shutil.copyfile(os.path.join(case, name), os.path.join(staging, name))
+
+        target = replace_case(positional[0], case, write)
         print(f"{target}: {case} on {scan.shape} voxels of {scan.header.get_zooms()} mm")
 
 

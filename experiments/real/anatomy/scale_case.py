@@ -13,9 +13,9 @@ input: one line naming the file, exit 2; a case is written whole or not at all.
 """
 import math
 import os
-import shutil
 import sys
-import tempfile
+
+from case_dir import replace_case
 
 
 def fail(message):
@@ -75,17 +75,16 @@ def main(argv):
                     continue
                 fail(f"{path}: missing")
             files[name] = scaled_off(path, s) if name.endswith(".off") else scaled_nifti(path, s)
-        target = os.path.join(argv[2], os.path.basename(os.path.normpath(case)))
-        os.makedirs(argv[2], exist_ok=True)
-        staging = tempfile.mkdtemp(dir=argv[2], prefix=".scale_case_")
-        for name, content in files.items():
-            if isinstance(content, str):
-                open(os.path.join(staging, name), "w").write(content)
-            else:
-                nib.save(content, os.path.join(staging, name))
-        if os.path.exists(target):
-            shutil.rmtree(target)
-        os.rename(staging, target)
+
+        def write(staging):
+            for name, content in files.items():
+                if isinstance(content, str):
+                    with open(os.path.join(staging, name), "w") as f:
+                        f.write(content)
+                else:
+                    nib.save(content, os.path.join(staging, name))
+
+        target = replace_case(argv[2], case, write)
         print(f"{target}: {case} scaled by {s}")
 
 
