@@ -362,7 +362,7 @@ namespace {
 // (normal axis, horizontal axis, vertical axis, name, v upwards, orientation) of axial, coronal
 // and sagittal views in the radiological convention of LPS world coordinates (image.h): axial
 // with the patient's left (+x) on the right and posterior (+y) down, coronal and sagittal with
-// superior (+z) up. The frame of an oblique scan is shown as if it were the world's.
+// superior (+z) up. The frame of an oblique scan is shown in its grid's planes (slice_label).
 struct SliceView { int normal, u, v; const char* name; bool v_up; const char* orientation; };
 constexpr std::array<SliceView, 3> kSliceViews{{{2, 0, 1, "axial", false, "x right = L, y down = P"},
                                         {1, 0, 2, "coronal", true, "x right = L, z up = S"},
@@ -371,7 +371,6 @@ constexpr std::array<SliceView, 3> kSliceViews{{{2, 0, 1, "axial", false, "x rig
 // The panel of one view: the slice's voxels through the grey window, at the figure's scale.
 Panel slice_panel(const Image<3>& volume, const GreyWindow& window, const GridIndex<3>& slice, const SliceView& view,
                   double finest, int factor) {
-  static const char* kAxis = "xyz";
   const Grid<3>& grid = volume.grid();
   Panel p;
   p.nu = grid.size[view.u];
@@ -388,13 +387,24 @@ Panel slice_panel(const Image<3>& volume, const GreyWindow& window, const GridIn
       idx[view.v] = j;
       p.grey[static_cast<size_t>(j) * p.nu + i] = window.map(volume.at(idx));
     }
-  const double level = grid.origin[view.normal] + slice[view.normal] * grid.spacing[view.normal];
   p.v_up = view.v_up;
-  p.label = std::string(view.name) + "  " + kAxis[view.normal] + " = " + tick_text(level) + " mm  (" + view.orientation + ")";
+  p.label = slice_label(grid, slice, view.normal);
   return p;
 }
 
 }  // namespace
+
+std::string slice_label(const Grid<3>& grid, const GridIndex<3>& slice, int normal) {
+  static const char* kAxis = "xyz";
+  const SliceView& view = kSliceViews[2 - normal];
+  if (!grid.axis_aligned()) {
+    const Point<3> w = grid.to_world(grid.to_physical(slice));
+    return std::string("grid ") + kAxis[view.normal] + " plane through (" + tick_text(w[0]) + ", " + tick_text(w[1]) +
+           ", " + tick_text(w[2]) + ") mm  (an oblique scan's axes)";
+  }
+  const double level = grid.origin[view.normal] + slice[view.normal] * grid.spacing[view.normal];
+  return std::string(view.name) + "  " + kAxis[view.normal] + " = " + tick_text(level) + " mm  (" + view.orientation + ")";
+}
 
 void write_slice_figure(const Image<3>& volume, const std::vector<ShapeLayer3>& layers, const Point<3>& centre,
                         const std::string& png_path, const std::string& title, const std::vector<MaskLayer<3>>& masks) {

@@ -11,7 +11,8 @@
 // this is the radiological view, patient's left on the right, posterior down). 3D slices follow
 // the radiological convention of LPS: axial x right (L), y down (P); coronal x right (L), z up
 // (S); sagittal y right (P), z up (S); each panel's label names the slice's position in mm and
-// its orientation. Every PNG is written atomically.
+// its orientation (an oblique scan's panels are its grid's planes, labelled with the world point
+// they pass through). Every PNG is written atomically.
 #pragma once
 
 #include "framework/core/image.h"
@@ -79,5 +80,12 @@ void write_overlay_figure(const Image<2>& image, const std::vector<ShapeLayer2>&
 void write_slice_figure(const Image<3>& volume, const std::vector<ShapeLayer3>& layers,
                         const Point<3>& centre, const std::string& png_path,
                         const std::string& title = "", const std::vector<MaskLayer<3>>& masks = {});
+
+// The label above a slice panel of `grid` through voxel `slice`, the slice's normal being grid
+// axis `normal` (2: axial, 1: coronal, 0: sagittal): the view's name, the slice's world
+// coordinate and its orientation. On an oblique grid (turned against the world, Grid::direction)
+// the panels are the grid's planes, not anatomical ones: the label names the grid axis and the
+// world point (LPS mm) the slice passes through.
+std::string slice_label(const Grid<3>& grid, const GridIndex<3>& slice, int normal);
 
 }  // namespace dsnake

@@ -2,6 +2,7 @@
 // at the places where the geometry says the shapes must be drawn.
 #include "experiments/output/figures.h"
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
@@ -360,6 +361,22 @@ TEST(Figures, SlicesHandleVerticesAndEdgesLyingOnThePlane) {
       EXPECT_TRUE(colour_on_ray(out, m, 6.0 * std::sqrt(2.0) * scale, deg * std::numbers::pi / 180.0, 2.0, is_red));
     EXPECT_TRUE(is_grey(out.at<cv::Vec3b>(static_cast<int>(m.y()), static_cast<int>(m.x()))));
   }
+}
+
+// The panels' labels: the anatomical view and the slice's world coordinate on an axis-aligned
+// volume; on an oblique one, the grid plane and the world point it passes through.
+TEST(Figures, SliceLabelsGiveWorldPositionsAlsoOnAnObliqueScan) {
+  Grid<3> g;
+  g.size = {10, 12, 8};
+  g.spacing = {1.0, 2.0, 0.5};
+  g.origin = {-5.0, 10.0, 3.0};
+  const GridIndex<3> at(2, 3, 4);
+  EXPECT_EQ(slice_label(g, at, 2), "axial  z = 5 mm  (x right = L, y down = P)");
+  EXPECT_EQ(slice_label(g, at, 1), "coronal  y = 16 mm  (x right = L, z up = S)");
+  EXPECT_EQ(slice_label(g, at, 0), "sagittal  x = -3 mm  (y right = P, z up = S)");
+  g.direction = Eigen::AngleAxisd(0.5 * 3.14159265358979323846, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  // Voxel (2, 3, 4) at frame offset (2, 6, 2) from the origin, turned 90 degrees about z: (-6, 2, 2).
+  EXPECT_EQ(slice_label(g, at, 1), "grid y plane through (-11, 12, 5) mm  (an oblique scan's axes)");
 }
 
 TEST(Figures, UnwritablePathThrowsNamingItAndLeavesNoFile) {
