@@ -400,7 +400,7 @@ std::string slice_label(const Grid<3>& grid, const GridIndex<3>& slice, int norm
   if (!grid.axis_aligned()) {
     const Point<3> w = grid.to_world(grid.to_physical(slice));
     return std::string("grid ") + kAxis[view.normal] + " plane through (" + tick_text(w[0]) + ", " + tick_text(w[1]) +
-           ", " + tick_text(w[2]) + ") mm  (an oblique scan's axes)";
+           ", " + tick_text(w[2]) + ") mm";
   }
   const double level = grid.origin[view.normal] + slice[view.normal] * grid.spacing[view.normal];
   return std::string(view.name) + "  " + kAxis[view.normal] + " = " + tick_text(level) + " mm  (" + view.orientation + ")";
