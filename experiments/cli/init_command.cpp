@@ -1,6 +1,7 @@
 // dsnake init; see init_command.h.
 #include "experiments/cli/init_command.h"
 
+#include "experiments/spec/assemble.h"
 #include "experiments/spec/experiment.h"
 #include "experiments/spec/experiment_spec.h"
 #include "experiments/spec/recipe_scale.h"
@@ -14,7 +15,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <limits>
 #include <filesystem>
 
 namespace dsnake {
@@ -114,20 +114,9 @@ nlohmann::ordered_json init_experiment(const InitCommandOptions& o) {
   if constexpr (D == 3) tmpl = read_mesh_template(o.tmpl);
   else tmpl = read_contour_template(o.tmpl);
   const double radius = equivalent_radius<D>(tmpl);
-  // As `dsnake run` refuses it (assemble.cpp, check_placement): a template smaller than a voxel
-  // has nothing to register at this image's resolution.
-  Point<D> lo = Point<D>::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-  for (const Point<D>& p : tmpl.positions) {
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
-  const double extent = (hi - lo).norm(), voxel = image.grid().spacing.minCoeff();
-  if (!(extent >= voxel)) {
-    char what[200];
-    std::snprintf(what, sizeof what, "the template spans %.3g mm, less than a voxel of the image (%.3g mm): scale it to the object's size",
-                  extent, voxel);
-    throw InputError(o.tmpl, "--template", what);
-  }
+  // Refused here as `dsnake run` would refuse the printed file (the template is placed as given).
+  if (const std::string what = smaller_than_a_voxel<D>(tmpl.positions, image.grid()); !what.empty())
+    throw InputError(o.tmpl, "--template", "the template " + what);
   if (!o.mask.empty() && !is_surface_file(o.mask, D) && image_file_dimension(o.mask) != D)
     throw InputError(o.mask, "--mask", "expected a " + std::to_string(D) + "D label image like the image");
   if (!o.reference.empty() && image_file_dimension(o.reference) != D)

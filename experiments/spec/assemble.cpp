@@ -268,22 +268,27 @@ void check_placement(const Experiment<D>& ex, const std::string& file) {
       throw InputError(file, "template.transform",
                        "the placed template lies outside the image: vertex " + std::to_string(v) +
                            " is more than the image's extent beyond its border along axis " + std::to_string(a));
-  // A template smaller than a voxel has nothing to register at this image's resolution (the
-  // forces are sampled a voxel apart, §5.4), and its degenerate facets made the metrics' nearest
-  // facet search visit every facet for every sample.
+  if (const std::string what = smaller_than_a_voxel<D>(ex.initial, g); !what.empty())
+    throw InputError(file, "template.transform", "the placed template " + what);
+}
+
+template <int D>
+std::string smaller_than_a_voxel(const PointList<D>& points, const Grid<D>& grid) {
   Point<D> lo = Point<D>::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-  for (const Point<D>& p : ex.initial) {
+  for (const Point<D>& p : points) {
     lo = lo.cwiseMin(p);
     hi = hi.cwiseMax(p);
   }
-  const double extent = ex.initial.empty() ? 0 : (hi - lo).norm(), voxel = g.spacing.minCoeff();
-  if (!(extent >= voxel)) {
-    char what[160];
-    std::snprintf(what, sizeof what, "the placed template spans %.3g mm, less than a voxel (%.3g mm): scale it to the object's size",
-                  extent, voxel);
-    throw InputError(file, "template.transform", what);
-  }
+  const double extent = points.empty() ? 0 : (hi - lo).norm(), voxel = grid.spacing.minCoeff();
+  if (extent >= voxel) return "";
+  char what[160];
+  std::snprintf(what, sizeof what, "spans %.3g mm, less than a voxel (%.3g mm): scale it to the object's size", extent,
+                voxel);
+  return what;
 }
+
+template std::string smaller_than_a_voxel<2>(const PointList<2>&, const Grid<2>&);
+template std::string smaller_than_a_voxel<3>(const PointList<3>&, const Grid<3>&);
 
 // The ground truth must lie near the image too (a phantom whose object was made 1e300 mm wide
 // ran and crashed in the metrics, whose distances overflow): its surface's vertices and its

@@ -13,4 +13,13 @@ namespace dsnake {
 template <int D>
 Experiment<D> assemble(const ExperimentSpec<D>& spec);
 
+// A template smaller than a voxel has nothing to register at the image's resolution (the forces
+// are sampled a voxel apart, §5.4), and its degenerate facets made the metrics' nearest facet
+// search visit every facet for every sample. "" when `points` (the template as placed) span at
+// least the smallest voxel of `grid` (their bounding box's diagonal); else the problem, e.g.
+// "spans 0.52 mm, less than a voxel (0.8 mm): scale it to the object's size". `dsnake run` and
+// `dsnake init` refuse it with the same words.
+template <int D>
+std::string smaller_than_a_voxel(const PointList<D>& points, const Grid<D>& grid);
+
 }  // namespace dsnake

@@ -92,6 +92,7 @@ struct NiftiPlacement {
   std::array<double, 3> origin{0, 0, 0};
   std::array<std::array<double, 3>, 3> axes{{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
   std::array<double, 3> spacing{1, 1, 1};
+  std::array<bool, 3> flat{false, false, false};  // sform: the axis's column is zero or not finite
 };
 
 // The header's "method 2": the qform (quaternion b, c, d, qfac in pixdim[0], qoffset), with
@@ -125,7 +126,8 @@ NiftiPlacement qform_placement(const std::string& bytes, bool swap, const std::a
 
 // The header's "method 3": the sform's rows srow_x, srow_y, srow_z. Its column norms are the
 // spacing, so that each voxel is where the affine puts it (nibabel's `affine` is the sform
-// itself); a zero column (a 2D file's third) keeps pixdim's spacing and the default axis.
+// itself); a zero or non-finite column keeps pixdim's spacing and the default axis and is marked
+// flat (harmless on an axis of one voxel, a 2D file's third).
 NiftiPlacement sform_placement(const std::string& bytes, bool swap, const std::array<double, 3>& pixdim) {
   NiftiPlacement p;
   p.spacing = pixdim;
@@ -137,7 +139,8 @@ NiftiPlacement sform_placement(const std::string& bytes, bool swap, const std::a
       norm += column[k] * column[k];
     }
     norm = std::sqrt(norm);
-    if (!(norm > 0)) continue;
+    p.flat[axis] = !(norm > 0 && std::isfinite(norm));
+    if (p.flat[axis]) continue;
     p.spacing[axis] = norm;
     for (int k = 0; k < 3; ++k) p.axes[axis][k] = column[k] / norm;
   }
@@ -183,13 +186,10 @@ void read_nifti_orientation(const std::string& bytes, bool swap, NiftiTransform 
   if (lacks) choice = NiftiTransform::kAuto;
   // A sform with no extent along an axis of several voxels (a zero or non-finite column) places
   // them all at one point: nibabel's affine is then singular. The qform (or pixdim) places them.
+  const NiftiPlacement s = has_s ? sform_placement(bytes, swap, v.spacing) : NiftiPlacement{};
   int flat_axis = -1;
-  if (has_s)
-    for (int axis = 0; axis < v.ndims && flat_axis < 0; ++axis) {
-      double norm = 0;
-      for (int k = 0; k < 3; ++k) norm += std::pow(nifti_field<float>(bytes, 280 + 16 * k + 4 * axis, swap), 2);
-      if (v.size[axis] > 1 && !(norm > 0 && std::isfinite(norm))) flat_axis = axis;
-    }
+  for (int axis = 0; has_s && axis < v.ndims && flat_axis < 0; ++axis)
+    if (v.size[axis] > 1 && s.flat[axis]) flat_axis = axis;
   const bool use_s = has_s && flat_axis < 0 && choice != NiftiTransform::kQform, use_q = !use_s && has_q;
   if (warn && flat_axis >= 0 && choice != NiftiTransform::kQform)
     std::fprintf(stderr, "dsnake: warning: %s: sform: its column for axis %d (%lld voxels) is zero or not finite, which "
@@ -201,7 +201,7 @@ void read_nifti_orientation(const std::string& bytes, bool swap, NiftiTransform 
                  path.c_str(), wanted, wanted, use_s ? "the sform" : use_q ? "the qform" : "pixdim at the origin");
   NiftiPlacement p;
   p.spacing = v.spacing;
-  if (use_s) p = sform_placement(bytes, swap, v.spacing);
+  if (use_s) p = s;
   else if (use_q) p = qform_placement(bytes, swap, v.spacing);
   if (warn && choice == NiftiTransform::kAuto && has_s && has_q) {
     const auto [mm, degrees] = placement_disagreement(p, qform_placement(bytes, swap, v.spacing), v.size);

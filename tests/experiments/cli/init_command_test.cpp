@@ -236,7 +236,7 @@ TEST_F(InitCommandTest, BadInputExitsTwoWithOneLineAndPrintsNothing) {
   ASSERT_EQ(dsnake("init --image " + labels.string() + " --template " + tiny.string()), 2);
   EXPECT_EQ(out_, "");
   EXPECT_EQ(std::count(err_.begin(), err_.end(), '\n'), 1) << err_;
-  EXPECT_NE(err_.find(tiny.string() + ": --template: the template spans 0.52 mm, less than a voxel of the image (0.8 mm)"),
+  EXPECT_NE(err_.find(tiny.string() + ": --template: the template spans 0.52 mm, less than a voxel (0.8 mm)"),
             std::string::npos) << err_;
 }
 
