@@ -72,7 +72,8 @@ nlohmann::ordered_json recommended(const InitCommandOptions& o, const Grid<D>& g
                  "dsnake: warning: no --reference: an atlas image (one in which the template sits on its object, e.g. "
                  "the scan the template was made from) is recommended; without it the forces see only edges, and a "
                  "boundary whose contrast changes side (darker than one neighbour, brighter than another) cannot be "
-                 "followed, so this recipe moves only where the edge evidence is clear\n");
+                 "followed, so this recipe only polishes the placed template: each vertex moves a little (max_travel) and "
+                 "only where the edge evidence is clear\n");
   const double k = recipe_length_scale(radius);
   if (k < 1.0) {
     scale_lengths(j, D, k);

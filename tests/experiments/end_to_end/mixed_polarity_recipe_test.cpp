@@ -56,7 +56,7 @@ class MixedPolarityRecipeTest : public test_support::CommandTest {
   }
   // Runs the recipe printed by `dsnake init` with this template, atlas (none: empty) and scan.
   nlohmann::json run_recipe(const fs::path& scan, const fs::path& tmpl, const fs::path& atlas, const fs::path& truth,
-                            const std::string& name) {
+                            const std::string& name, const std::string& overrides = "") {
     const std::string reference = atlas.empty() ? "" : " --reference " + atlas.string();
     EXPECT_EQ(dsnake("init --image " + scan.string() + " --template " + tmpl.string() + reference + " --mask " +
                      truth.string()),
@@ -66,7 +66,7 @@ class MixedPolarityRecipeTest : public test_support::CommandTest {
     std::ofstream(exp) << out_;
     const fs::path run = dir_ / name;
     EXPECT_EQ(dsnake("run " + exp.string() + " -o " + run.string() +
-                     " -j 2 --quiet --set output.start_metrics=true --set output.figures=false"),
+                      " -j 2 --quiet --set output.start_metrics=true --set output.figures=false" + overrides),
               0)
         << err_;
     return nlohmann::json::parse(slurp(run / "result.json"));
@@ -111,7 +111,10 @@ TEST_F(MixedPolarityRecipeTest, TheRecipeRegistersTheMovedObjectAndHoldsTheTruth
 // Without an atlas image (`dsnake init` without --reference, as printed): the template placed in
 // the scan as it lies in the atlas, and the truth's own surface, each end no more than 0.01 Dice
 // below where they started after every phase (the recipe moves only on clear edge evidence, each
-// vertex within 1 mm of its start), and the moved object's template gains.
+// vertex within max_travel, 0.25 mm, of its start), and the moved object's template does not
+// lose. On this phantom the boundary is the scan's edge all round, where the recipe's
+// description says a longer max_travel lets it correct more: with 1 mm the moved object's
+// template gains and the truth still holds.
 TEST_F(MixedPolarityRecipeTest, WithoutAnAtlasImageTheRecipeDoesNoHarm) {
   const fs::path atlas = dir_ / "atlas.nii.gz", atlas_label = dir_ / "atlas_label.nii.gz";
   const fs::path scan = dir_ / "scan.nii.gz", truth = dir_ / "truth.nii.gz", tmpl = dir_ / "t.off";
@@ -122,20 +125,27 @@ TEST_F(MixedPolarityRecipeTest, WithoutAnAtlasImageTheRecipeDoesNoHarm) {
   ASSERT_EQ(dsnake("template --mask " + atlas_label.string() + " --label 1 --vertices 450 --out " + tmpl.string()), 0) << err_;
   ASSERT_EQ(dsnake("template --mask " + truth.string() + " --label 1 --vertices 450 --out " + truth_tmpl.string()), 0)
       << err_;
-  for (const auto& [start_surface, name] : {std::pair{tmpl, "moved"}, std::pair{truth_tmpl, "truth"}}) {
-    SCOPED_TRACE(name);
-    const nlohmann::json r = run_recipe(scan, start_surface, fs::path(), truth, std::string("noref_") + name);
-    const double start = r["start"]["metrics"]["dice"];
-    for (const auto& phase : r["phases"]) {
-      const double dice = phase["metrics"]["dice"];
-      std::printf("  without atlas, from the %s surface: phase %s Dice %.4f (start %.4f)\n", name,
-                  phase["name"].get<std::string>().c_str(), dice, start);
-      EXPECT_GT(dice, start - 0.01) << phase.dump();
+  const std::string one_mm = " --set energies[2].max_travel=1 --set energies[4].max_travel=1";
+  for (const std::string& travel : {std::string(), one_mm}) {
+    SCOPED_TRACE(travel.empty() ? "as printed" : "max_travel 1 mm");
+    for (const auto& [start_surface, name] : {std::pair{tmpl, "moved"}, std::pair{truth_tmpl, "truth"}}) {
+      SCOPED_TRACE(name);
+      const nlohmann::json r = run_recipe(scan, start_surface, fs::path(), truth,
+                                          std::string("noref_") + name + (travel.empty() ? "" : "_1mm"), travel);
+      const double start = r["start"]["metrics"]["dice"];
+      for (const auto& phase : r["phases"]) {
+        const double dice = phase["metrics"]["dice"];
+        std::printf("  without atlas%s, from the %s surface: phase %s Dice %.4f (start %.4f)\n",
+                    travel.empty() ? "" : ", max_travel 1 mm", name, phase["name"].get<std::string>().c_str(), dice,
+                    start);
+        EXPECT_GT(dice, start - 0.01) << phase.dump();
+      }
+      if (std::string(name) == "moved") {
+        if (travel.empty()) EXPECT_GE(r["metrics"]["dice"].get<double>(), start);
+        else EXPECT_GT(r["metrics"]["dice"].get<double>(), start + 0.01);
+      }
+      EXPECT_EQ(r["metrics"]["self_intersections"], 0);
     }
-    if (std::string(name) == "moved") {
-      EXPECT_GT(r["metrics"]["dice"].get<double>(), start + 0.01);
-    }
-    EXPECT_EQ(r["metrics"]["self_intersections"], 0);
   }
 }
 
