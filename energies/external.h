@@ -37,8 +37,8 @@ struct EnumNames<ForceNormalization> {
 // vertex q with outward unit normal n and force f != 0, on the image smoothed by polarity_sigma:
 //  1. the edge the force pulls q onto is the first local maximum of |dI/du| (u = f / |f|) along
 //     the ray q + t u, t = 0, h, 2h, ... <= polarity_range (h half the smallest voxel size) that
-//     exceeds polarity_floor times the smoothed image's noise level (the median |grad I|, at least
-//     1% of the largest; energies/polarity.h);
+//     exceeds polarity_floor times the smoothed image's noise level (the median |grad I| outside
+//     exact-zero padding, at least 1% of the largest; energies/polarity.h);
 //  2. if that edge's dI/dn at its place has the wrong sign for the polarity (bright_inside wants
 //     dI/dn < 0: the intensity falls outwards; dark_inside wants > 0), the force is reversed,
 //     -f: a wrong-polarity edge repels the vertex instead of capturing it, so that it leaves
@@ -79,8 +79,8 @@ struct ExternalOptions {
     v(polarity_range, Key{"polarity_range", "mm", "polarity rule: how far along the force the edge it pulls to is "
                                                   "sought (and the band that auto compares)", Range::greater_than(0)});
     v(polarity_floor, Key{"polarity_floor", "1", "polarity rule: an edge counts where |dI/du| exceeds this multiple "
-                                                 "of the smoothed image's noise level (median gradient magnitude, at "
-                                                 "least 1% of the largest)", Range::at_least(0)});
+                                                 "of the smoothed image's noise level (median gradient magnitude "
+                                                 "outside exact-zero padding, at least 1% of the largest)", Range::at_least(0)});
   }
 };
 

@@ -57,7 +57,10 @@ double half_smallest_spacing(const Grid<D>& grid) {
 // The voxels' gradient magnitudes |grad I| (partial_derivative's central differences, in double
 // precision), visited row by row (x fastest) as visit(magnitude) over the rows of this thread's
 // share of an enclosing parallel region: partial_derivative_at's arithmetic, so the same bits,
-// without dividing each voxel's linear index.
+// without dividing each voxel's linear index. Padding is not visited: a voxel whose value is
+// exactly 0 and whose gradient is exactly 0 (the background a skull strip, a mask or a
+// resampling outside the scan's field of view left), which says nothing about the scan's noise
+// and, when it is most of the volume, would make the median 0.
 template <int D, class Visit>
 void for_each_gradient_magnitude(const Image<D>& image, Visit&& visit) {
   const Grid<D>& grid = image.grid();
@@ -74,6 +77,7 @@ void for_each_gradient_magnitude(const Image<D>& image, Visit&& visit) {
         const double d = partial_derivative_at(u, l, rows.stride[a], i[a], rows.size[a], grid.spacing[a]);
         sum += d * d;
       }
+      if (sum == 0.0 && u[l] == 0.0f) continue;
       visit(std::sqrt(sum));
     }
   }
@@ -100,7 +104,8 @@ double gradient_noise_level(const Image<D>& image, int64_t gather_max) {
   auto key = [](double m) { return std::bit_cast<uint64_t>(m); };
   uint64_t prefix = 0;  // the selected pattern's first `known` bits
   int known = 0;
-  int64_t rank = n / 2;   // the element nth_element(begin, begin + n / 2, end) places, among...
+  int64_t rank = 0;        // the element nth_element(begin, begin + m / 2, end) places (m: the
+                           // voxels that are not padding, counted by the first pass), among...
   int64_t candidates = n;  // ...the voxels whose pattern begins with prefix
   double largest = 0.0;
   std::vector<int64_t> count(kNoiseDigits);
@@ -121,6 +126,12 @@ double gradient_noise_level(const Image<D>& image, int64_t gather_max) {
         for (int64_t d = 0; d < kNoiseDigits; ++d) count[d] += mine[d];
         largest = std::max(largest, top);
       }
+    }
+    if (known == 0) {
+      int64_t visited = 0;
+      for (int64_t d = 0; d < kNoiseDigits; ++d) visited += count[d];
+      if (visited == 0) return 0.0;  // nothing but padding
+      rank = visited / 2;
     }
     int64_t digit = 0;
     for (; digit < kNoiseDigits - 1 && count[digit] <= rank; ++digit) rank -= count[digit];

@@ -65,6 +65,9 @@ double half_smallest_spacing(const Grid<D>& grid);
 // A noise level of the smoothed image, against which an edge counts as one: the median over the
 // voxels of |grad I| (central differences, physical units), but at least 1% of the largest (so
 // that the rounding ripples of a noiseless image, whose median is 0, do not count as edges).
+// Padding (voxels of value exactly 0 with a gradient of exactly 0: the background of a
+// skull-stripped or masked scan) is left out of the median, so that a scan that is mostly
+// padding still has its tissue's noise level; 0 for an image that is nothing but padding.
 template <int D>
 double gradient_noise_level(const Image<D>& image);
 

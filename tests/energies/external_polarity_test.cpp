@@ -130,25 +130,28 @@ TEST(GradientNoiseLevel, EqualsTheMedianOfAllMagnitudes) {
   g.spacing = {0.8, 1.1, 2.0};
   auto reference = [&](const Image<3>& img) {
     const std::vector<double> u(img.data().begin(), img.data().end());
-    std::vector<double> m(u.size());
+    std::vector<double> m;
     for (int64_t l = 0; l < int64_t(u.size()); ++l) {
       double s = 0;
       for (int a = 0; a < 3; ++a) s += std::pow(partial_derivative(g, u, l, a), 2);
-      m[l] = std::sqrt(s);
+      if (s == 0 && u[l] == 0) continue;  // padding
+      m.push_back(std::sqrt(s));
     }
+    if (m.empty()) return 0.0;
     const double largest = *std::max_element(m.begin(), m.end());
     std::nth_element(m.begin(), m.begin() + m.size() / 2, m.end());
     return std::max(m[m.size() / 2], 0.01 * largest);
   };
   std::mt19937 rng(3);
   std::normal_distribution<float> noise(0.0f, 5.0f);
-  Image<3> noisy(g), steps(g), ramp(g), flat(g, 7.0f);
+  Image<3> noisy(g), steps(g), ramp(g), flat(g, 7.0f), padded(g), zero(g, 0.0f);
   for (int64_t l = 0; l < g.num_voxels(); ++l) {
     noisy[l] = 100.0f * (l % 67 > 30) + noise(rng);
     steps[l] = float((l / 67) % 41 > 20 ? 10 : 0);  // most magnitudes 0, a few equal ones
     ramp[l] = 0.25f * float(l % 67);                  // the same non-zero magnitude everywhere
+    padded[l] = (l % 67) < 20 ? 50.0f + noise(rng) : 0.0f;  // noisy tissue in 20 of 67 columns, padding
   }
-  for (const Image<3>* img : {&noisy, &steps, &ramp, &flat}) {
+  for (const Image<3>* img : {&noisy, &steps, &ramp, &flat, &padded, &zero}) {
     const double expected = reference(*img);
     for (const int threads : {1, 2}) {
       omp_set_num_threads(threads);
@@ -159,6 +162,29 @@ TEST(GradientNoiseLevel, EqualsTheMedianOfAllMagnitudes) {
   }
   EXPECT_GT(reference(noisy), 0.0);
   EXPECT_GT(reference(ramp), 0.0);
+  EXPECT_EQ(gradient_noise_level(zero), 0.0);
+}
+
+// A skull-stripped scan: noisy tissue in an eighth of the volume, exact zeros around it. The
+// noise level is the tissue's (the median of |grad I| over its voxels: noise of 4 per voxel
+// gives central differences of 4 / sqrt(2) per axis, a magnitude whose median is about 4.4, a
+// little more with the tissue's border), not the 1% floor (0.4 here) that the median over all
+// voxels, most of them padding with gradient 0, falls to.
+TEST(GradientNoiseLevel, PaddingAroundASkullStrippedScanIsNotNoise) {
+  Grid<3> g;
+  g.size = {80, 80, 80};
+  g.spacing = {1.0, 1.0, 1.0};
+  std::mt19937 rng(5);
+  std::normal_distribution<float> noise(0.0f, 4.0f);
+  Image<3> stripped(g);
+  for (int64_t l = 0; l < g.num_voxels(); ++l) {
+    const int x = int(l % 80), y = int(l / 80 % 80), z = int(l / 6400);
+    const bool inside = x >= 20 && x < 60 && y >= 20 && y < 60 && z >= 20 && z < 60;
+    stripped[l] = inside ? 80.0f + noise(rng) : 0.0f;
+  }
+  const double level = gradient_noise_level(stripped);
+  EXPECT_GT(level, 4.0);
+  EXPECT_LT(level, 5.5);
 }
 
 }  // namespace
