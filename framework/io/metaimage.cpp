@@ -172,7 +172,9 @@ RawVolume read_meta(const std::string& path) {
   const bool msb = meta_true(find_key(h, {"BinaryDataByteOrderMSB", "ElementByteOrderMSB"}));
   const bool swap = msb != (std::endian::native == std::endian::big);
   const bool compressed = meta_true(find_key(h, {"CompressedData"}));
-  check_declared_values(double(v.num_voxels()) * v.channels, path, "DimSize");
+  // The product in double: three sizes of up to 1e9 overflow int64 (2^21 x 2^21 x 2^22 wraps to
+  // 0 voxels), and the limit keeps the count that passes well inside it.
+  check_declared_values(double(v.size[0]) * double(v.size[1]) * double(v.size[2]) * v.channels, path, "DimSize");
   const int64_t count = v.num_voxels() * v.channels;
   const size_t expected = size_t(count) * scalar_bytes(type);
 

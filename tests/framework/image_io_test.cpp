@@ -604,6 +604,18 @@ TEST(ImageIo, NiftiOffsetPastTheEndAndShortGzipDataAreNamed) {
   EXPECT_EQ(e.message(), "data holds 20 bytes, expected 24");
 }
 
+// DimSize values each within bounds whose product overflows 64 bits (here to exactly 0 voxels)
+// are refused by the memory limit, not read as an empty or small volume.
+TEST(ImageIo, MetaImageSizesWhoseProductOverflowsAreRefused) {
+  const std::string dir = fresh_dir(), path = dir + "/wrap.mha";
+  write_file(path, "ObjectType = Image\nNDims = 3\nDimSize = 2097152 2097152 4194304\nElementType = MET_UCHAR\n"
+                   "ElementDataFile = LOCAL\nabcd");
+  const InputError e = expect_input_error([&] { read_image<3>(path); });
+  EXPECT_EQ(e.file(), path);
+  EXPECT_EQ(e.where(), "DimSize");
+  EXPECT_TRUE(contains(e.message(), "memory limit")) << e.what();
+}
+
 TEST(ImageIo, NanVoxelIsNamedByIndex) {
   const std::string dir = fresh_dir();
   Image<3> im = test_volume();
