@@ -246,6 +246,11 @@ NiftiData nifti_data_layout(const std::string& bytes, const std::string& path, b
   const float vox_offset = nifti_field<float>(bytes, 108, swap);
   if (!(vox_offset >= 0))
     throw InputError(path, "vox_offset", "data offset " + exact(vox_offset) + " lies outside the file");
+  // A single-file NIfTI-1's values follow its 348-byte header and the 4 bytes of the extension
+  // flag: a smaller offset would read header bytes as voxels (nibabel refuses it too).
+  if (vox_offset < float(kNiftiVoxOffset))
+    throw InputError(path, "vox_offset", "data offset " + exact(vox_offset) + " lies inside the header (the values of a "
+                                         ".nii start at byte 352 or later)");
   d.offset = vox_offset;
   d.voxels = v.num_voxels();
   d.channels = v.channels;
@@ -429,6 +434,12 @@ RawVolume read_nifti(const std::string& path, NiftiTransform transform, std::str
     ~Close() { gzclose(f); }
   } close{f};
   gzbuffer(f, 1 << 17);
+  // A plain (not gzipped) file must hold the values the header declares before room is made for
+  // them: a small file can declare gigabytes (dim[5] components of 32767).
+  if (gzdirect(f) && !ec && layout.offset + double(layout.bytes) > stored)
+    throw InputError(path, "vox_offset", "data holds " + std::to_string(uint64_t(std::max(0.0, stored - std::floor(layout.offset)))) +
+                                             " bytes, expected " +
+                                             std::to_string(layout.bytes));
   std::string block(size_t(std::min<int64_t>(kNiftiBlock, std::max<int64_t>(layout.count, 1))) * layout.value_bytes, '\0');
   // Reads up to n bytes into block; returns how many (fewer only at the end of the file).
   auto read = [&](size_t n) {

@@ -616,6 +616,35 @@ TEST(ImageIo, MetaImageSizesWhoseProductOverflowsAreRefused) {
   EXPECT_TRUE(contains(e.message(), "memory limit")) << e.what();
 }
 
+// An offset inside the header would read its bytes as voxels: refused, as nibabel does. A plain
+// .nii whose dims declare more values than any machine holds (here under a memory limit that lets
+// them pass) is refused by its size before the values' room is allocated.
+TEST(ImageIo, NiftiOffsetInsideTheHeaderAndDataBeyondTheFileAreRefused) {
+  const std::string dir = fresh_dir();
+  const std::string payload(12 * 2, '\0');
+  for (const float offset : {0.f, 100.f, 348.f}) {
+    SCOPED_TRACE(offset);
+    std::string file = nifti_by_hand(4, 16, 0, 0, payload, false);
+    std::memcpy(file.data() + 108, &offset, 4);
+    write_file(dir + "/inside.nii", file);
+    const InputError e = expect_input_error([&] { read_image<3>(dir + "/inside.nii"); });
+    EXPECT_EQ(e.file(), dir + "/inside.nii");
+    EXPECT_EQ(e.where(), "vox_offset");
+    EXPECT_TRUE(contains(e.message(), "inside the header")) << e.what();
+  }
+  std::string file = nifti_by_hand(4, 16, 0, 0, payload, false);
+  const int16_t dim[8] = {5, 32767, 32767, 32767, 1, 32767, 1, 1};
+  std::memcpy(file.data() + 40, dim, sizeof dim);
+  write_file(dir + "/wide.nii", file);
+  ::setenv("DSNAKE_MAX_IMAGE_BYTES", "1e30", 1);
+  const InputError e = expect_input_error([&] { convert_image_file(dir + "/wide.nii", dir + "/out.nii"); });
+  ::unsetenv("DSNAKE_MAX_IMAGE_BYTES");
+  EXPECT_EQ(e.file(), dir + "/wide.nii");
+  EXPECT_EQ(e.where(), "vox_offset");
+  EXPECT_TRUE(contains(e.message(), "data holds 24 bytes, expected ")) << e.what();
+  EXPECT_FALSE(fs::exists(dir + "/out.nii"));
+}
+
 TEST(ImageIo, NanVoxelIsNamedByIndex) {
   const std::string dir = fresh_dir();
   Image<3> im = test_volume();
