@@ -16,11 +16,13 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <set>
 #include <sstream>
@@ -253,7 +255,57 @@ struct PlyElement {
   std::string name;
   int64_t count = 0;
   std::vector<bool> list;
+  // Per property, in a binary body: the bytes of a list's count (0 for a single value), whether
+  // that count is signed, and the bytes of the value (of each item of a list).
+  std::vector<std::array<int, 3>> bytes;
 };
+
+// Bytes of a PLY scalar type (those check_ply_header accepts), 0 for a name that is not one.
+int ply_type_bytes(const std::string& type) {
+  static const std::map<std::string, int> kBytes = {
+      {"char", 1},  {"uchar", 1}, {"int8", 1},   {"uint8", 1},  {"short", 2},   {"ushort", 2},  {"int16", 2},   {"uint16", 2},
+      {"int", 4},   {"uint", 4},  {"int32", 4},  {"uint32", 4}, {"float", 4},   {"float32", 4}, {"double", 8},  {"float64", 8}};
+  const auto it = kBytes.find(type);
+  return it == kBytes.end() ? 0 : it->second;
+}
+// True for the integer types among them.
+bool ply_integer_type(const std::string& type) {
+  return ply_type_bytes(type) > 0 && type != "float" && type != "float32" && type != "double" && type != "float64";
+}
+
+// A binary PLY body against the header: every list's count is read and must be within what the
+// file holds, and the file must hold every element (OpenMesh's binary reader allocated and looped
+// on the count it read, a negative or huge one taking gigabytes and minutes).
+void check_ply_binary_body(std::istream& in, const std::string& path, const std::vector<PlyElement>& elements,
+                           bool big_endian) {
+  const std::string body{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  size_t at = 0;
+  for (const PlyElement& e : elements)
+    for (int64_t i = 0; i < e.count; ++i)
+      for (const auto& [count_bytes, count_signed, value_bytes] : e.bytes) {
+        const std::string where = "element " + e.name;
+        auto ends = [&] {
+          return InputError(path, where, "the file ends inside entry " + std::to_string(i) + " of its " +
+                                             std::to_string(e.count));
+        };
+        if (count_bytes == 0) {
+          if (body.size() - at < size_t(value_bytes)) throw ends();
+          at += size_t(value_bytes);
+          continue;
+        }
+        if (body.size() - at < size_t(count_bytes)) throw ends();
+        uint64_t raw = 0;
+        for (int b = 0; b < count_bytes; ++b)
+          raw |= uint64_t(uint8_t(body[at + size_t(big_endian ? count_bytes - 1 - b : b)])) << (8 * b);
+        at += size_t(count_bytes);
+        int64_t items = int64_t(raw);
+        if (count_signed && (raw >> (8 * count_bytes - 1) & 1)) items -= int64_t(1) << (8 * count_bytes);
+        if (items < 0 || uint64_t(items) > (body.size() - at) / uint64_t(value_bytes))
+          throw InputError(path, where, "entry " + std::to_string(i) + " has a list of " + std::to_string(items) +
+                                            " items: negative, or more than the file holds");
+        at += size_t(items) * size_t(value_bytes);
+      }
+}
 
 // An ASCII PLY body, line by line against the header (OpenMesh's ASCII reader looped without end
 // on a face line of the wrong length: found by fuzzing). Counts are bounded by the file size.
@@ -301,7 +353,7 @@ void check_ply_header(const std::string& path) {
   std::error_code ec;
   const double size = double(fs::file_size(path, ec));
   double need = 0;
-  bool in_element = false, format = false, ascii = false;
+  bool in_element = false, format = false, ascii = false, big_endian = false;
   std::vector<PlyElement> elements;
   static const std::set<std::string> kTypes = {"char",  "uchar",  "short",  "ushort", "int",    "uint",
                                                "float", "double", "int8",   "uint8",  "int16",  "uint16",
@@ -322,6 +374,7 @@ void check_ply_header(const std::string& path) {
       for (const PlyElement& e : elements)
         if (e.list.empty()) throw InputError(path, "element " + e.name, "has no property lines");
       if (ascii) check_ply_ascii_body(in, path, elements, n);
+      else check_ply_binary_body(in, path, elements, big_endian);
       return;
     }
     if (keyword == "comment" || keyword == "obj_info" || keyword.empty()) continue;
@@ -331,6 +384,7 @@ void check_ply_header(const std::string& path) {
         throw bad("expected 'format ascii|binary_little_endian|binary_big_endian 1.0'");
       format = true;
       ascii = a == "ascii";
+      big_endian = a == "binary_big_endian";
     } else if (keyword == "element") {
       double count = 0;
       if (!(words >> a >> count) || !(count >= 0) || (words >> extra))
@@ -340,14 +394,20 @@ void check_ply_header(const std::string& path) {
         throw InputError(path, "element " + a, "the header declares " + std::to_string(int64_t(std::min(count, 9e18))) + " '" + a +
                                                    "' elements, more than the file's " + std::to_string(int64_t(size)) + " bytes can hold");
       in_element = true;
-      elements.push_back({a, int64_t(count), {}});
+      elements.push_back({a, int64_t(count), {}, {}});
     } else if (keyword == "property") {
       if (!in_element) throw bad("a property before any element");
       std::string name;  // property TYPE NAME, or property list COUNT_TYPE ITEM_TYPE NAME
       const bool ok = (words >> a) && (a == "list" ? (words >> b >> c >> name) && kTypes.count(b) && kTypes.count(c)
                                                     : (words >> name) && kTypes.count(a) != 0);
       if (!ok || (words >> extra)) throw bad("expected 'property TYPE NAME' or 'property list TYPE TYPE NAME'");
+      // A list's count is a whole number, and so are a face's vertex indices (OpenMesh printed a
+      // line for every float index it could not convert).
+      if (a == "list" && (!ply_integer_type(b) || ((name == "vertex_indices" || name == "vertex_index") && !ply_integer_type(c))))
+        throw bad("a list's count type, and a face's index type, must be integer types");
       elements.back().list.push_back(a == "list");
+      elements.back().bytes.push_back(a == "list" ? std::array<int, 3>{ply_type_bytes(b), b[0] != 'u', ply_type_bytes(c)}
+                                                  : std::array<int, 3>{0, 0, ply_type_bytes(a)});
     } else {
       throw bad("not a PLY header line");
     }

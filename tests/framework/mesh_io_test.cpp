@@ -128,6 +128,36 @@ TEST(MeshIo, NonManifoldMeshIsReportedWithTheElement) {
   EXPECT_FALSE(e.where().empty()) << e.what();
 }
 
+// A binary PLY face whose list count is negative or beyond the file (OpenMesh allocated and read
+// on for minutes), a float list count and float vertex indices are refused before OpenMesh reads.
+TEST(MeshIo, BinaryPlyListCountsAndIndexTypesAreChecked) {
+  const std::string dir = fresh_dir();
+  auto ply = [&](const std::string& list, const std::string& face) {
+    std::string s = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                    "property float z\nelement face 1\nproperty list " + list + " vertex_indices\nend_header\n";
+    s += std::string(3 * 3 * 4, '\0');
+    return s + face;
+  };
+  auto int32 = [](int32_t v) { return std::string(reinterpret_cast<const char*>(&v), 4); };
+  const std::string indices = int32(0) + int32(1) + int32(2);
+  const std::vector<std::array<std::string, 3>> cases = {
+      {ply("int int", int32(-5) + indices), "element face", "list of -5 items"},
+      {ply("int int", int32(2147483647) + indices), "element face", "list of 2147483647 items"},
+      {ply("uchar int", std::string(1, '\3') + int32(0)), "element face", "list of 3 items"},
+      {ply("int int", "").substr(0, ply("int int", "").size() - 16), "element vertex", "the file ends"},
+      {ply("float int", indices + indices), "header line 8", "integer types"},
+      {ply("uchar float", std::string(1, '\3') + indices), "header line 8", "integer types"},
+  };
+  for (const auto& [text, where, words] : cases) {
+    SCOPED_TRACE(words);
+    write_file(dir + "/bad.ply", text);
+    const InputError e = expect_input_error([&] { read_mesh_template(dir + "/bad.ply"); });
+    EXPECT_EQ(e.file(), dir + "/bad.ply");
+    EXPECT_EQ(e.where(), where) << e.what();
+    EXPECT_TRUE(contains(e.message(), words)) << e.what();
+  }
+}
+
 TEST(MeshIo, EmptyFileIsAnEmptyTemplate) {
   const std::string dir = fresh_dir();
   for (const std::string name : {"/e.off", "/e.obj", "/e.vtk"}) {
