@@ -25,6 +25,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <sstream>
 
@@ -163,18 +164,79 @@ SliceHeader header_of(const gdcm::DataSet& ds, const std::string& path) {
 
 const gdcm::Tag kPixelData(0x7fe0, 0x0010);
 
+// True for the explicit VRs whose length takes 4 bytes (after 2 reserved ones).
+bool long_length_vr(const std::string& vr) {
+  return vr == "OB" || vr == "OW" || vr == "OF" || vr == "SQ" || vr == "UT" || vr == "UN" || vr == "OD" ||
+         vr == "OL" || vr == "OV" || vr == "UC" || vr == "UR";
+}
+
+// InputError if the data set, from byte `at` of a Part 10 file in transfer syntax `ts`, ends
+// inside an element's tag, VR or length, or inside a value of defined length, before its Pixel
+// Data: GDCM's parser asserts on the first (which would abort the process) and the others are
+// the same truncation. The elements are walked flat: sequences and items of undefined length
+// are entered, those of defined length skipped whole. A deflated data set, and an UN of undefined
+// length (implicit VR inside an explicit data set), are left to GDCM.
+void check_data_set(const std::string& path, uint64_t at, const std::string& ts) {
+  if (ts == "1.2.840.10008.1.2.1.99") return;  // deflated: the positions are of the inflated bytes
+  const bool implicit = ts == "1.2.840.10008.1.2", big = ts == "1.2.840.10008.1.2.2";
+  std::error_code ec;
+  const uint64_t size = fs::file_size(path, ec);
+  std::ifstream in(path, std::ios::binary);
+  if (ec || !in) return;
+  unsigned char b[12];
+  auto u16 = [&](int i) { return big ? uint32_t(b[i]) << 8 | b[i + 1] : uint32_t(b[i]) | uint32_t(b[i + 1]) << 8; };
+  auto u32 = [&](int i) { return big ? u16(i) << 16 | u16(i + 2) : u16(i) | u16(i + 2) << 16; };
+  auto truncated = [&] {
+    return InputError(path, "", "truncated: the file ends inside an element of its header (byte " + std::to_string(at) +
+                                    " of " + std::to_string(size) + ")");
+  };
+  int depth = 0;
+  while (at < size) {
+    if (size - at < 8) throw truncated();
+    in.seekg(std::streamoff(at));
+    if (!in.read(reinterpret_cast<char*>(b), 8)) return;
+    const uint32_t group = u16(0), element = u16(2);
+    if (group == 0x7fe0 && element == 0x0010 && depth == 0) return;  // check_pixel_data_complete's
+    uint64_t header = 8, length = 0;
+    if (group == 0xfffe || implicit) {  // items and delimiters: a tag and a 4-byte length
+      length = u32(4);
+    } else if (const std::string vr{char(b[4]), char(b[5])}; long_length_vr(vr)) {
+      if (size - at < 12) throw truncated();
+      if (!in.read(reinterpret_cast<char*>(b) + 8, 4)) return;
+      header = 12;
+      length = u32(8);
+      if (vr == "UN" && length == 0xffffffff) return;
+    } else {
+      length = u16(6);
+    }
+    at += header;
+    if (group == 0xfffe && (element == 0xe00d || element == 0xe0dd)) --depth;
+    else if (length == 0xffffffff) ++depth;  // a sequence or item of undefined length: its content follows
+    else if (length > size - at) throw truncated();
+    else at += length;
+  }
+}
+
 // InputError if a Part 10 file ends inside its file meta information (group 0002, always
-// explicit VR little endian): GDCM's parser asserts there, which would abort the process.
+// explicit VR little endian) or inside its data set's elements (check_data_set): GDCM's parser
+// asserts there, which would abort the process.
 void check_meta_group(const std::string& path) {
   const std::string b = read_bytes(path, 1 << 16);
   if (b.size() < 132 || b.compare(128, 4, "DICM") != 0) return;  // no preamble: GDCM's own checks
   auto u16 = [&](size_t at) { return uint32_t(uint8_t(b[at])) | uint32_t(uint8_t(b[at + 1])) << 8; };
   size_t at = 132;
+  std::string ts;  // (0002,0010) TransferSyntaxUID
   while (at + 8 <= b.size()) {
-    if (u16(at) != 0x0002) return;  // the data set begins: the meta group is complete
+    if (u16(at) != 0x0002) {  // the meta group is complete
+      if (!ts.empty()) check_data_set(path, at, ts);
+      return;
+    }
     const std::string vr = b.substr(at + 4, 2);
-    const bool long_length = vr == "OB" || vr == "OW" || vr == "OF" || vr == "SQ" || vr == "UT" || vr == "UN";
-    if (!long_length) {
+    if (u16(at + 2) == 0x0010 && !long_length_vr(vr) && at + 8 + u16(at + 6) <= b.size()) {
+      ts = b.substr(at + 8, u16(at + 6));
+      while (!ts.empty() && (ts.back() == '\0' || ts.back() == ' ')) ts.pop_back();
+    }
+    if (!long_length_vr(vr)) {
       at += 8 + u16(at + 6);
     } else {
       if (at + 12 > b.size()) break;
@@ -264,6 +326,59 @@ void keep_stored_bits(std::vector<double>& values, const gdcm::PixelFormat& pf) 
   }
 }
 
+// A US value of the data set (its first; GDCM holds values little-endian, a big-endian file's
+// swapped on reading), or -1 when absent.
+int64_t tag_us(const gdcm::DataSet& ds, uint16_t group, uint16_t element) {
+  const gdcm::Tag tag(group, element);
+  if (!ds.FindDataElement(tag)) return -1;
+  const gdcm::ByteValue* bv = ds.GetDataElement(tag).GetByteValue();
+  if (!bv || bv->GetLength() < 2) return -1;
+  const auto* p = reinterpret_cast<const unsigned char*>(bv->GetPointer());
+  return int64_t(p[1]) << 8 | p[0];
+}
+
+// InputError unless the header declares one sample per pixel, pixels that fit in memory and, for
+// native (uncompressed) data, no more than its Pixel Data element holds, which must lie within the
+// file (its value begins at byte `value_start`). GDCM would allocate what the header declares (a
+// small file declaring 65535 x 65535 pixels took gigabytes), pad data too short with zeros, and
+// asserts (aborting the process) on a sample count other than 1, 3 or 4 and on packed 12-bit data
+// of another length.
+void check_declared_pixels(const gdcm::Reader& header, size_t value_start, const std::string& path) {
+  const gdcm::DataSet& ds = header.GetFile().GetDataSet();
+  const gdcm::TransferSyntax& ts = header.GetFile().GetHeader().GetDataSetTransferSyntax();
+  const bool big = ts == gdcm::TransferSyntax::ExplicitVRBigEndian;
+  const int64_t samples = tag_us(ds, 0x0028, 0x0002), bits = tag_us(ds, 0x0028, 0x0100);
+  if (samples >= 0 && samples != 1)
+    throw InputError(path, "SamplesPerPixel", "colour DICOM (" + std::to_string(samples) +
+                                                  " samples per pixel) is not supported; grey images only");
+  const std::vector<double> frames = tag_numbers(ds, 0x0028, 0x0008, 1, path, "NumberOfFrames");
+  const double pixels = double(std::max<int64_t>(0, tag_us(ds, 0x0028, 0x0010))) *
+                        double(std::max<int64_t>(0, tag_us(ds, 0x0028, 0x0011))) *
+                        (frames.empty() ? 1.0 : std::max(1.0, std::floor(frames[0])));
+  check_declared_values(pixels, path, "Rows/Columns");
+  if (ts.IsEncapsulated() || ts == gdcm::TransferSyntax::DeflatedExplicitVRLittleEndian || bits <= 0 || value_start < 4)
+    return;
+  std::ifstream in(path, std::ios::binary);
+  unsigned char l[4] = {};
+  in.seekg(std::streamoff(value_start - 4));
+  if (!in.read(reinterpret_cast<char*>(l), 4)) return;
+  const uint32_t length = big ? uint32_t(l[0]) << 24 | uint32_t(l[1]) << 16 | uint32_t(l[2]) << 8 | l[3]
+                              : uint32_t(l[3]) << 24 | uint32_t(l[2]) << 16 | uint32_t(l[1]) << 8 | l[0];
+  if (length == 0xffffffff) return;
+  std::error_code ec;
+  const uintmax_t size = fs::file_size(path, ec);
+  if (!ec && value_start + uintmax_t(length) > size)
+    throw InputError(path, "PixelData", "truncated: the pixel data need " + std::to_string(length) +
+                                            " bytes, the file holds only " + std::to_string(size - std::min<uintmax_t>(size, value_start)) +
+                                            " of them");
+  const double need = std::ceil(pixels * double(bits) / 8);
+  const bool fits = bits == 12 ? length % 3 == 0 && double(length / 3 * 4) == pixels * 2 : double(length) >= need;
+  if (!fits)
+    throw InputError(path, "PixelData", "the pixel data hold " + std::to_string(length) + " bytes, but Rows x Columns x "
+                                        "NumberOfFrames = " + exact(pixels) + " pixels of " + std::to_string(bits) +
+                                        " bits need " + exact(need) + (bits == 12 ? " (packed)" : ""));
+}
+
 // Decodes one file's pixels (GDCM: every transfer syntax it supports) and applies the rescale.
 Slice read_slice(const std::string& path) {
   size_t value_start = 0;
@@ -271,6 +386,7 @@ Slice read_slice(const std::string& path) {
     gdcm::Reader header;
     read_header_into(header, path);
     value_start = header.GetStreamCurrentPosition();
+    check_declared_pixels(header, value_start, path);
   }
   PixelDataReader reader;
   reader.SetFileName(path.c_str());

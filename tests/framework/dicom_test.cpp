@@ -21,6 +21,7 @@
 #include <fstream>
 #include <functional>
 #include <sstream>
+#include <tuple>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -349,6 +350,46 @@ TEST(Dicom, TruncatedFileIsRefused) {
   const InputError e = expect_input_error([&] { read_image<2>((dir / "rle_cut.dcm").string()); });
   EXPECT_EQ(e.file(), (dir / "rle_cut.dcm").string());
   EXPECT_FALSE(e.message().empty());
+}
+
+// What the header declares is checked against the file before GDCM reads the pixels: it would
+// allocate a declared 40000 x 40000 image, pad short native data with zeros, and abort the process
+// (assertions) on a file cut inside an element's header, on 0 samples per pixel and on packed
+// 12-bit data of another length. CT_small.dcm: SamplesPerPixel at byte 3242, Rows 3272, Columns
+// 3282, BitsAllocated 3318, the Pixel Data length 6296 (its value from 6300), an element at 1994.
+TEST(Dicom, DeclaredPixelsAndCutHeadersAreCheckedBeforeGdcmReads) {
+  const fs::path dir = fresh_path();
+  const std::string bytes = read_file(kDicom + "/CT_small.dcm");
+  ASSERT_EQ(bytes.size(), 39206u);
+  auto with = [&](std::initializer_list<std::pair<size_t, uint32_t>> fields, size_t width, size_t keep) {
+    std::string b = bytes.substr(0, keep);
+    for (const auto& [at, value] : fields)
+      for (size_t k = 0; k < width; ++k) b[at + k] = char(value >> (8 * k) & 0xff);
+    return b;
+  };
+  const std::vector<std::tuple<std::string, std::string, std::string, std::string>> cases = {
+      {"big.dcm", with({{3272, 40000}, {3282, 40000}}, 2, bytes.size()), "PixelData", "need 3200000000"},
+      {"short.dcm", with({{6296, 100}}, 4, 6400), "PixelData", "hold 100 bytes"},
+      {"samples.dcm", with({{3242, 0}}, 2, bytes.size()), "SamplesPerPixel", "0 samples per pixel"},
+      {"packed.dcm", with({{3318, 12}}, 2, bytes.size()), "PixelData", "(packed)"},
+      {"cut.dcm", bytes.substr(0, 2000), "", "truncated"},
+      {"cut_tag.dcm", bytes.substr(0, 1998), "", "truncated"},
+  };
+  for (const auto& [name, content, where, words] : cases) {
+    SCOPED_TRACE(name);
+    const std::string path = (dir / name).string();
+    write_file(path, content);
+    const InputError e = expect_input_error([&] { read_image<2>(path); });
+    EXPECT_EQ(e.file(), path);
+    EXPECT_EQ(e.where(), where) << e.what();
+    EXPECT_TRUE(contains(e.message(), words)) << e.what();
+  }
+  write_file(dir / "whole.dcm", bytes);
+  ::setenv("DSNAKE_MAX_IMAGE_BYTES", "10000", 1);
+  const InputError e = expect_input_error([&] { read_image<2>((dir / "whole.dcm").string()); });
+  ::unsetenv("DSNAKE_MAX_IMAGE_BYTES");
+  EXPECT_EQ(e.where(), "Rows/Columns");
+  EXPECT_TRUE(contains(e.message(), "memory limit")) << e.what();
 }
 
 TEST(Dicom, NonDicomFileWithDcmExtensionIsRefused) {
