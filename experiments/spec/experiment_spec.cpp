@@ -26,6 +26,8 @@ std::optional<PhantomSpec<Product>> read_source(JsonReader& r, const ExperimentF
   if (r.has("file") == r.has("phantom")) r.fail("", "give exactly one of \"file\" and \"phantom\"");
   if (r.has("file")) {
     r.read("file", file);
+    // (An empty path would reach the readers as a file without a name, refused without one.)
+    if (file.empty()) r.fail("file", "must be a non-empty file name");
     file = resolve(f, file);
     return std::nullopt;
   }

@@ -44,6 +44,8 @@ TEST(ExperimentSpec, RunKeysFieldCacheAndPhantomKeysAreCheckedAtReading) {
   EXPECT_EQ(spec_error<2>("default", {"seed=1.5"}), "seed: must be a non-negative integer");
   EXPECT_EQ(spec_error<2>("default", {"solver=newton"}), "solver: must be \"snake\" or \"global\", found \"newton\"");
   EXPECT_EQ(spec_error<2>("default", {"field.cache=\"\""}), "field.cache: must be a non-empty folder name");
+  EXPECT_EQ(spec_error<2>("default", {"image={\"file\": \"\"}"}), "image.file: must be a non-empty file name");
+  EXPECT_EQ(spec_error<3>("ellipsoid", {"template={\"file\": \"\"}"}), "template.file: must be a non-empty file name");
   EXPECT_EQ(spec_error<2>("default", {"field.cache_compression=lzma"}),
             "field.cache_compression: must be \"none\" or \"zlib\", found \"lzma\"");
   EXPECT_EQ(spec_error<2>("default", {"energies[0].weight=0"}), "energies[0].weight: must be > 0");
