@@ -132,6 +132,9 @@ nlohmann::ordered_json init_experiment(const InitCommandOptions& o) {
 }  // namespace
 
 int run_init_command(const InitCommandOptions& o) {
+  // (An empty path would reach the readers as a file without a name, refused without one.)
+  if (o.image.empty()) throw InputError("", "--image", "must be a non-empty file name");
+  if (o.tmpl.empty()) throw InputError("", "--template", "must be a non-empty file name");
   const int dimension = image_file_dimension(o.image);
   const nlohmann::ordered_json j = dimension == 3 ? init_experiment<3>(o) : init_experiment<2>(o);
   std::printf("%s\n", j.dump(2).c_str());

@@ -226,6 +226,11 @@ TEST_F(InitCommandTest, BadInputExitsTwoWithOneLineAndPrintsNothing) {
     EXPECT_EQ(std::count(err_.begin(), err_.end(), '\n'), 1) << err_;
     EXPECT_NE(err_.find("dsnake: error: "), std::string::npos) << err_;
   }
+  // An empty path is named by its option (the readers would refuse a file without a name).
+  ASSERT_EQ(dsnake("init --image '' --template " + tmpl.string()), 2);
+  EXPECT_NE(err_.find("dsnake: error: --image: must be a non-empty file name"), std::string::npos) << err_;
+  ASSERT_EQ(dsnake("init --image " + labels.string() + " --template ''"), 2);
+  EXPECT_NE(err_.find("dsnake: error: --template: must be a non-empty file name"), std::string::npos) << err_;
   // A reference image of the wrong dimension is named with the option it came from.
   ASSERT_EQ(dsnake(good + " --reference " + flat.string()), 2);
   EXPECT_NE(err_.find(flat.string() + ": --reference: expected a 3D image"), std::string::npos) << err_;
