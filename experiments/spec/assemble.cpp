@@ -9,6 +9,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -121,7 +122,13 @@ GroundTruth<D> assemble_truth(const ExperimentSpec<D>& spec, std::optional<Phant
     if (spec.tmpl.phantom) truth.targets = phantom_targets<D>(*spec.image.phantom, *spec.tmpl.phantom, tmpl);
   }
   const GroundTruthSpec& files = spec.truth;
-  if (!files.mask.empty()) truth.mask = read_image<D>(files.mask, spec.image.read);
+  if (!files.mask.empty()) {
+    truth.mask = read_image<D>(files.mask, spec.image.read);
+    // A mask without an inside voxel (a wrong label map) would score every result 0 and leave the
+    // distances empty without a word.
+    if (std::none_of(truth.mask->data().begin(), truth.mask->data().end(), [](uint8_t v) { return v != 0; }))
+      throw InputError(files.mask, "", "no voxel is inside (every voxel is 0): a ground-truth mask must hold the object");
+  }
   if (!files.surface.empty()) truth.surface = read_shape<D>(files.surface);
   if (!files.correspondence.empty()) truth.targets = read_targets<D>(files.correspondence, tmpl.num_vertices());
   return truth;

@@ -2,11 +2,13 @@
 // acquisition, an oblique scan): accepted, resampled along the image's axes, and scored as the
 // same object on the image's own grid is.
 #include "experiments/spec/experiment.h"
+#include "framework/core/errors.h"
 #include "framework/io/image_io.h"
 #include "framework/io/mesh_io.h"
 #include "framework/metrics/metrics.h"
 #include "tests/energies/edge_images.h"
 #include "tests/experiments/temp_dir_test.h"
+#include "tests/framework/io_test_support.h"
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -71,6 +73,17 @@ TEST_F(GroundTruthMaskTest, AMaskOnATurnedGridScoresAsOnTheImagesAxes) {
   EXPECT_NEAR(on_turned, on_axes, 0.02);
   std::cout << "[ truth mask ] Dice of the same template against the ball on the image's axes " << on_axes
             << ", on a turned grid " << on_turned << "\n";
+}
+
+// A mask with no voxel inside (a wrong label map) is refused naming it, instead of scoring the
+// result 0 with the distances left empty.
+TEST_F(GroundTruthMaskTest, AMaskWithoutAnInsideVoxelIsRefused) {
+  Grid<3> grid;
+  grid.size = {20, 20, 20};
+  grid.origin = Point<3>(-10, -10, -10);
+  const InputError e = expect_input_error([&] { start_dice(Image<3>(grid, 0.0f), "empty"); });
+  EXPECT_EQ(e.file(), (dir_ / "empty.mha").string());
+  EXPECT_TRUE(e.message().find("no voxel is inside") != std::string::npos) << e.what();
 }
 
 }  // namespace
