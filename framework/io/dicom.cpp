@@ -27,6 +27,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 
 namespace dsnake::detail {
@@ -164,17 +165,37 @@ SliceHeader header_of(const gdcm::DataSet& ds, const std::string& path) {
 
 const gdcm::Tag kPixelData(0x7fe0, 0x0010);
 
+// True for the two letters of a VR DICOM defines. GDCM reads an element whose VR is not one of them
+// as a broken file of another encoding, where it asserts (aborting the process) on much of what
+// follows.
+bool valid_vr(const std::string& vr) {
+  static const std::set<std::string> kVrs = {"AE", "AS", "AT", "CS", "DA", "DS", "DT", "FD", "FL", "IS", "LO",
+                                             "LT", "OB", "OD", "OF", "OL", "OV", "OW", "PN", "SH", "SL", "SQ",
+                                             "SS", "ST", "SV", "TM", "UC", "UI", "UL", "UN", "UR", "US", "UT", "UV"};
+  return kVrs.count(vr) > 0;
+}
+
 // True for the explicit VRs whose length takes 4 bytes (after 2 reserved ones).
 bool long_length_vr(const std::string& vr) {
   return vr == "OB" || vr == "OW" || vr == "OF" || vr == "SQ" || vr == "UT" || vr == "UN" || vr == "OD" ||
-         vr == "OL" || vr == "OV" || vr == "UC" || vr == "UR";
+         vr == "OL" || vr == "OV" || vr == "UC" || vr == "UR" || vr == "SV" || vr == "UV";
+}
+
+// InputError naming an element whose VR is not DICOM's (valid_vr).
+InputError invalid_vr(const std::string& path, uint32_t group, uint32_t element, const std::string& vr, uint64_t at) {
+  char what[96];
+  std::snprintf(what, sizeof what, "unreadable: element (%04X,%04X) at byte %llu has no valid VR (0x%02X 0x%02X)", group,
+                element, static_cast<unsigned long long>(at), unsigned(uint8_t(vr[0])), unsigned(uint8_t(vr[1])));
+  return InputError(path, "", what);
 }
 
 // InputError if the data set, from byte `at` of a Part 10 file in transfer syntax `ts`, ends
-// inside an element's tag, VR or length, or inside a value of defined length, before its Pixel
-// Data: GDCM's parser asserts on the first (which would abort the process) and the others are
-// the same truncation. The elements are walked flat: sequences and items of undefined length
-// are entered, those of defined length skipped whole. A deflated data set, and an UN of undefined
+// inside an element's tag, VR or length, or inside a value of defined length, up to the end of its
+// Pixel Data, or holds an item tag DICOM does not define: GDCM's parser asserts on these (which
+// would abort the process). The elements are walked flat: sequences and items (of undefined
+// length, or explicit SQs and their items of any length) are entered, encapsulated pixel data's
+// fragments and other values skipped whole; native pixel data end the walk
+// (check_pixel_data_complete checks their length). A deflated data set, and an UN of undefined
 // length (implicit VR inside an explicit data set), are left to GDCM.
 void check_data_set(const std::string& path, uint64_t at, const std::string& ts) {
   if (ts == "1.2.840.10008.1.2.1.99") return;  // deflated: the positions are of the inflated bytes
@@ -187,34 +208,53 @@ void check_data_set(const std::string& path, uint64_t at, const std::string& ts)
   auto u16 = [&](int i) { return big ? uint32_t(b[i]) << 8 | b[i + 1] : uint32_t(b[i]) | uint32_t(b[i + 1]) << 8; };
   auto u32 = [&](int i) { return big ? u16(i) << 16 | u16(i + 2) : u16(i) | u16(i + 2) << 16; };
   auto truncated = [&] {
-    return InputError(path, "", "truncated: the file ends inside an element of its header (byte " + std::to_string(at) +
-                                    " of " + std::to_string(size) + ")");
+    return InputError(path, "", "truncated: the file ends inside an element (byte " + std::to_string(at) + " of " +
+                                    std::to_string(size) + ")");
   };
   int depth = 0;
+  bool in_pixel_data = false;  // inside encapsulated pixel data (fragments)
   while (at < size) {
     if (size - at < 8) throw truncated();
     in.seekg(std::streamoff(at));
     if (!in.read(reinterpret_cast<char*>(b), 8)) return;
     const uint32_t group = u16(0), element = u16(2);
-    if (group == 0x7fe0 && element == 0x0010 && depth == 0) return;  // check_pixel_data_complete's
+    const bool pixel_data = group == 0x7fe0 && element == 0x0010 && depth == 0;
+    if (group == 0xfffe && element != 0xe000 && element != 0xe00d && element != 0xe0dd) {
+      char tag[16];
+      std::snprintf(tag, sizeof tag, "(FFFE,%04X)", element);
+      throw InputError(path, "", std::string("unreadable: an item tag ") + tag + " that DICOM does not define at byte " +
+                                     std::to_string(at));
+    }
     uint64_t header = 8, length = 0;
+    bool sequence = false;  // an explicit SQ
     if (group == 0xfffe || implicit) {  // items and delimiters: a tag and a 4-byte length
       length = u32(4);
-    } else if (const std::string vr{char(b[4]), char(b[5])}; long_length_vr(vr)) {
+    } else if (const std::string vr{char(b[4]), char(b[5])}; !valid_vr(vr)) {
+      throw invalid_vr(path, group, element, vr, at);
+    } else if (long_length_vr(vr)) {
       if (size - at < 12) throw truncated();
       if (!in.read(reinterpret_cast<char*>(b) + 8, 4)) return;
       header = 12;
       length = u32(8);
+      sequence = vr == "SQ";
       if (vr == "UN" && length == 0xffffffff) return;
     } else {
       length = u16(6);
     }
     at += header;
-    if (group == 0xfffe && (element == 0xe00d || element == 0xe0dd)) --depth;
-    else if (length == 0xffffffff) ++depth;  // a sequence or item of undefined length: its content follows
-    else if (length > size - at) throw truncated();
-    else at += length;
+    if (pixel_data && length != 0xffffffff) return;  // native: check_pixel_data_complete's
+    in_pixel_data |= pixel_data;
+    if (group == 0xfffe && (element == 0xe00d || element == 0xe0dd)) {
+      if (--depth == 0 && in_pixel_data) return;
+    } else if (length == 0xffffffff) {
+      ++depth;  // a sequence or item of undefined length: its content follows
+    } else if (length > size - at) {
+      throw truncated();
+    } else if (!((sequence || (group == 0xfffe && element == 0xe000)) && !in_pixel_data)) {
+      at += length;  // a value; sequences and their items are entered (a fragment of pixel data is skipped)
+    }
   }
+  if (depth > 0) throw truncated();  // the file ends inside a sequence or the encapsulated pixel data
 }
 
 // InputError if a Part 10 file ends inside its file meta information (group 0002, always
@@ -232,6 +272,7 @@ void check_meta_group(const std::string& path) {
       return;
     }
     const std::string vr = b.substr(at + 4, 2);
+    if (!valid_vr(vr)) throw invalid_vr(path, 0x0002, u16(at + 2), vr, at);
     if (u16(at + 2) == 0x0010 && !long_length_vr(vr) && at + 8 + u16(at + 6) <= b.size()) {
       ts = b.substr(at + 8, u16(at + 6));
       while (!ts.empty() && (ts.back() == '\0' || ts.back() == ' ')) ts.pop_back();
@@ -244,6 +285,7 @@ void check_meta_group(const std::string& path) {
     }
   }
   if (b.size() < (1 << 16)) throw InputError(path, "", "truncated: the file ends inside its file meta information");
+  throw InputError(path, "", "unreadable: its file meta information runs past 64 kB (a corrupt length)");
 }
 
 // GDCM's ImageReader, stopping after the Pixel Data element: some files carry megabytes of zero
@@ -390,7 +432,7 @@ Slice read_slice(const std::string& path) {
   }
   PixelDataReader reader;
   reader.SetFileName(path.c_str());
-  if (!reader.ReadThroughPixelData())
+  if (!silenced([&] { return reader.ReadThroughPixelData(); }))  // (the decoders' own lines silenced)
     throw InputError(path, "", "not a readable DICOM image (GDCM cannot parse it, or it holds no pixel data)");
   const gdcm::Image& image = reader.GetImage();
   check_pixel_data_complete(reader, value_start, path);
@@ -407,7 +449,7 @@ Slice read_slice(const std::string& path) {
   const int64_t count = s.columns * s.rows * s.header.frames;
   std::vector<char> buffer(image.GetBufferLength());
   const gdcm::TransferSyntax& ts = image.GetTransferSyntax();
-  if (!image.GetBuffer(buffer.data())) {
+  if (!silenced([&] { return image.GetBuffer(buffer.data()); })) {  // (the decoders' own lines silenced)
     gdcm::UIDs uid;
     const std::string name = uid.SetFromUID(ts.GetString()) ? std::string(" (") + uid.GetName() + ")" : "";
     throw InputError(path, std::string("transfer syntax ") + ts.GetString() + name,

@@ -153,28 +153,6 @@ void read_stored_values(const std::string& path, uint64_t offset, int64_t count,
   }
 }
 
-// Runs f with stderr sent to /dev/null: libpng and libjpeg print their own line ("libpng error:
-// Read Error") before OpenCV returns an empty image, and the user must see only ours.
-template <class F>
-auto silenced(F&& f) {
-  std::fflush(stderr);
-  const int saved = ::dup(2);
-  const int null = ::open("/dev/null", O_WRONLY);
-  if (saved >= 0 && null >= 0) ::dup2(null, 2);
-  if (null >= 0) ::close(null);
-  struct Restore {
-    int fd;
-    ~Restore() {
-      if (fd >= 0) {
-        std::fflush(stderr);
-        ::dup2(fd, 2);
-        ::close(fd);
-      }
-    }
-  } restore{saved};
-  return f();
-}
-
 double image_memory_limit() {
   if (const char* env = std::getenv("DSNAKE_MAX_IMAGE_BYTES")) {
     char* end = nullptr;

