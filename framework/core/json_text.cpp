@@ -5,7 +5,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
+#include <vector>
 
 namespace dsnake {
 
@@ -19,13 +21,58 @@ std::string clean(const std::string& what) {
   return p == std::string::npos ? what : what.substr(p + 2);
 }
 
+// One open object or array while parsing: where a value sits (for the path of an error) and an
+// object's keys so far.
+struct OpenValue {
+  bool array = false;
+  int64_t index = -1;      // an array's current element
+  std::string key;         // an object's current key
+  std::set<std::string> keys;
+};
+
+// The JSON path of the innermost open value's current member: energies[2].weight.
+std::string path_of(const std::vector<OpenValue>& open) {
+  std::string path;
+  for (const OpenValue& v : open) {
+    if (v.array) path += "[" + std::to_string(v.index) + "]";
+    else path += (path.empty() ? "" : ".") + v.key;
+  }
+  return path;
+}
+
 template <class Json>
 Json parse_bounded(const std::string& text, const std::string& file) {
+  using Event = typename Json::parse_event_t;
+  std::vector<OpenValue> open;
   // The callback sees every value's depth as it is parsed: deeper than the bound stops the parse
-  // before the value exists.
-  auto bounded = [&](int depth, typename Json::parse_event_t event, Json&) {
-    if (depth > kMaxJsonDepth && (event == Json::parse_event_t::object_start || event == Json::parse_event_t::array_start))
+  // before the value exists. It also refuses a key that its object already has: RFC 8259 leaves
+  // which one counts to the reader (nlohmann keeps the last), so a file that says "seed" twice
+  // would run with a value its author may not have meant.
+  auto bounded = [&](int depth, Event event, Json& parsed) {
+    if (depth > kMaxJsonDepth && (event == Event::object_start || event == Event::array_start))
       throw InputError(file, "", "JSON nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+    switch (event) {
+      case Event::object_start:
+      case Event::array_start:
+        if (!open.empty() && open.back().array) ++open.back().index;
+        open.push_back({event == Event::array_start, -1, {}, {}});
+        break;
+      case Event::object_end:
+      case Event::array_end:
+        if (!open.empty()) open.pop_back();
+        break;
+      case Event::key:
+        if (!open.empty() && parsed.is_string()) {
+          OpenValue& object = open.back();
+          object.key = parsed.template get<std::string>();
+          if (!object.keys.insert(object.key).second)
+            throw InputError(file, path_of(open), "the key appears twice in its object (JSON leaves which one counts undefined)");
+        }
+        break;
+      case Event::value:
+        if (!open.empty() && open.back().array) ++open.back().index;
+        break;
+    }
     return true;
   };
   try {

@@ -66,5 +66,21 @@ TEST(JsonText, NumberOverflowIsAnInputErrorAndUtf8IsChecked) {
     EXPECT_FALSE(is_valid_utf8(bad)) << bad;
 }
 
+// A key twice in one object is refused with its path (nlohmann would keep the last silently);
+// the same key in two objects, or in the objects of an array, is not a duplicate.
+TEST(JsonText, ADuplicateKeyIsRefusedWithItsPath) {
+  EXPECT_EQ(error_of([] { parse_json_text("{\"seed\": 1, \"seed\": 2}", "exp.json"); }),
+            "exp.json: seed: the key appears twice in its object (JSON leaves which one counts undefined)");
+  EXPECT_EQ(error_of([] {
+              parse_ordered_json_text(
+                  "{\"energies\": [{\"type\": \"a\"}, 3, [], {\"type\": \"b\", \"weight\": 1, \"weight\": 2}]}", "exp.json");
+            }),
+            "exp.json: energies[3].weight: the key appears twice in its object (JSON leaves which one counts undefined)");
+  EXPECT_EQ(error_of([] {
+              parse_json_text("{\"a\": {\"x\": 1}, \"b\": {\"x\": 1}, \"c\": [{\"x\": 1}, {\"x\": 2}], \"x\": 0}", "exp.json");
+            }),
+            "");
+}
+
 }  // namespace
 }  // namespace dsnake
