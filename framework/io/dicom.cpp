@@ -195,7 +195,7 @@ InputError invalid_vr(const std::string& path, uint32_t group, uint32_t element,
 // would abort the process). The elements are walked flat: sequences and items (of undefined
 // length, or explicit SQs and their items of any length) are entered, encapsulated pixel data's
 // fragments and other values skipped whole; native pixel data end the walk
-// (check_pixel_data_complete checks their length). A deflated data set, and an UN of undefined
+// (check_declared_pixels checks their length). A deflated data set, and an UN of undefined
 // length (implicit VR inside an explicit data set), are left to GDCM.
 void check_data_set(const std::string& path, uint64_t at, const std::string& ts) {
   if (ts == "1.2.840.10008.1.2.1.99") return;  // deflated: the positions are of the inflated bytes
@@ -242,7 +242,7 @@ void check_data_set(const std::string& path, uint64_t at, const std::string& ts)
       length = u16(6);
     }
     at += header;
-    if (pixel_data && length != 0xffffffff) return;  // native: check_pixel_data_complete's
+    if (pixel_data && length != 0xffffffff) return;  // native: check_declared_pixels's
     in_pixel_data |= pixel_data;
     if (group == 0xfffe && (element == 0xe00d || element == 0xe0dd)) {
       if (--depth == 0 && in_pixel_data) return;
@@ -321,24 +321,6 @@ SliceHeader read_header(const std::string& path) {
   return header_of(reader.GetFile().GetDataSet(), path);
 }
 
-// InputError if the file ends inside native (uncompressed) pixel data, whose value begins at
-// byte `value_start`: GDCM then keeps the declared length and silently pads with zeros.
-// (Encapsulated data cut short fail in the decoder; deflated data in the inflater.)
-void check_pixel_data_complete(const gdcm::ImageReader& reader, size_t value_start, const std::string& path) {
-  const gdcm::DataSet& ds = reader.GetFile().GetDataSet();
-  const gdcm::TransferSyntax& ts = reader.GetFile().GetHeader().GetDataSetTransferSyntax();
-  if (!ds.FindDataElement(kPixelData) || ts.IsEncapsulated() || ts == gdcm::TransferSyntax::DeflatedExplicitVRLittleEndian)
-    return;
-  const uint32_t length = ds.GetDataElement(kPixelData).GetVL();
-  std::error_code ec;
-  const uintmax_t size = fs::file_size(path, ec);
-  if (ec) throw InputError(path, "", "cannot read the file size: " + ec.message());
-  if (length != 0xffffffff && value_start + uintmax_t(length) > size)
-    throw InputError(path, "PixelData", "truncated: the pixel data need " + std::to_string(length) +
-                                            " bytes, the file holds only " + std::to_string(size - std::min<uintmax_t>(size, value_start)) +
-                                            " of them");
-}
-
 // GDCM's scalar type as ours; InputError for those we do not read.
 Scalar scalar_of(const gdcm::PixelFormat& pf, const std::string& path) {
   switch (pf.GetScalarType()) {
@@ -380,15 +362,15 @@ int64_t tag_us(const gdcm::DataSet& ds, uint16_t group, uint16_t element) {
 }
 
 // InputError unless the header declares one sample per pixel, pixels that fit in memory and, for
-// native (uncompressed) data, no more than its Pixel Data element holds, which must lie within the
-// file (its value begins at byte `value_start`). GDCM would allocate what the header declares (a
-// small file declaring 65535 x 65535 pixels took gigabytes), pad data too short with zeros, and
-// asserts (aborting the process) on a sample count other than 1, 3 or 4 and on packed 12-bit data
-// of another length.
+// native (uncompressed) data, a Pixel Data element that lies within the file (its value begins at
+// byte `value_start`) and holds the pixels declared. GDCM would allocate what the header declares
+// (a small file declaring 65535 x 65535 pixels took gigabytes), keep the declared length of data
+// cut short and pad them with zeros, and assert (aborting the process) on a sample count other
+// than 1, 3 or 4 and on packed 12-bit data of another length. (Encapsulated data cut short fail
+// in the decoder; deflated data in the inflater.)
 void check_declared_pixels(const gdcm::Reader& header, size_t value_start, const std::string& path) {
   const gdcm::DataSet& ds = header.GetFile().GetDataSet();
   const gdcm::TransferSyntax& ts = header.GetFile().GetHeader().GetDataSetTransferSyntax();
-  const bool big = ts == gdcm::TransferSyntax::ExplicitVRBigEndian;
   const int64_t samples = tag_us(ds, 0x0028, 0x0002), bits = tag_us(ds, 0x0028, 0x0100);
   if (samples >= 0 && samples != 1)
     throw InputError(path, "SamplesPerPixel", "colour DICOM (" + std::to_string(samples) +
@@ -398,21 +380,30 @@ void check_declared_pixels(const gdcm::Reader& header, size_t value_start, const
                         double(std::max<int64_t>(0, tag_us(ds, 0x0028, 0x0011))) *
                         (frames.empty() ? 1.0 : std::max(1.0, std::floor(frames[0])));
   check_declared_values(pixels, path, "Rows/Columns");
-  if (ts.IsEncapsulated() || ts == gdcm::TransferSyntax::DeflatedExplicitVRLittleEndian || bits <= 0 || value_start < 4)
-    return;
+  if (ts.IsEncapsulated() || ts == gdcm::TransferSyntax::DeflatedExplicitVRLittleEndian || value_start < 8) return;
+  // The Pixel Data element's length: the 4 bytes before its value, after its tag (implicit VR) or
+  // its tag, VR and 2 reserved bytes (explicit VR). GDCM's header reader stops at the element
+  // without keeping it, so it is read here; no Pixel Data tag there, no pixel data to check.
+  const bool big = ts == gdcm::TransferSyntax::ExplicitVRBigEndian;
   std::ifstream in(path, std::ios::binary);
-  unsigned char l[4] = {};
-  in.seekg(std::streamoff(value_start - 4));
-  if (!in.read(reinterpret_cast<char*>(l), 4)) return;
-  const uint32_t length = big ? uint32_t(l[0]) << 24 | uint32_t(l[1]) << 16 | uint32_t(l[2]) << 8 | l[3]
-                              : uint32_t(l[3]) << 24 | uint32_t(l[2]) << 16 | uint32_t(l[1]) << 8 | l[0];
+  unsigned char e[12] = {};
+  const size_t back = std::min<size_t>(12, value_start);
+  in.seekg(std::streamoff(value_start - back));
+  if (!in.read(reinterpret_cast<char*>(e) + (12 - back), std::streamsize(back))) return;
+  auto u16 = [&](int i) { return big ? uint32_t(e[i]) << 8 | e[i + 1] : uint32_t(e[i]) | uint32_t(e[i + 1]) << 8; };
+  auto pixel_data_tag_at = [&](int i) { return i >= 12 - int(back) && u16(i) == 0x7fe0 && u16(i + 2) == 0x0010; };
+  if (!pixel_data_tag_at(0) && !pixel_data_tag_at(4)) return;
+  const uint32_t length = big ? uint32_t(e[8]) << 24 | uint32_t(e[9]) << 16 | uint32_t(e[10]) << 8 | e[11]
+                              : uint32_t(e[11]) << 24 | uint32_t(e[10]) << 16 | uint32_t(e[9]) << 8 | e[8];
   if (length == 0xffffffff) return;
   std::error_code ec;
   const uintmax_t size = fs::file_size(path, ec);
-  if (!ec && value_start + uintmax_t(length) > size)
+  if (ec) throw InputError(path, "", "cannot read the file size: " + ec.message());
+  if (value_start + uintmax_t(length) > size)
     throw InputError(path, "PixelData", "truncated: the pixel data need " + std::to_string(length) +
                                             " bytes, the file holds only " + std::to_string(size - std::min<uintmax_t>(size, value_start)) +
                                             " of them");
+  if (bits <= 0) return;
   const double need = std::ceil(pixels * double(bits) / 8);
   const bool fits = bits == 12 ? length % 3 == 0 && double(length / 3 * 4) == pixels * 2 : double(length) >= need;
   if (!fits)
@@ -435,7 +426,6 @@ Slice read_slice(const std::string& path) {
   if (!silenced([&] { return reader.ReadThroughPixelData(); }))  // (the decoders' own lines silenced)
     throw InputError(path, "", "not a readable DICOM image (GDCM cannot parse it, or it holds no pixel data)");
   const gdcm::Image& image = reader.GetImage();
-  check_pixel_data_complete(reader, value_start, path);
   Slice s;
   s.header = header_of(reader.GetFile().GetDataSet(), path);
   const gdcm::PixelFormat& pf = image.GetPixelFormat();
