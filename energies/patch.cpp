@@ -192,6 +192,7 @@ void PatchEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& snake
   }
   linear_ = placement_linear_part<D>(a, b);
   rest_frame_ = std::move(p);
+  bound_at_ = snake.positions();
   if (options_.map_radius > 0) {
     neighbourhoods<D>(snake, rest_frame_, options_.map_radius, ring_offsets_, ring_);
     maps_.resize(n);
@@ -233,7 +234,7 @@ std::vector<double> PatchEnergy<D>::sample_expected(int v, const Eigen::Matrix<d
   const Image<D>& ref = reference_.image();
   const Eigen::Matrix<double, D, D> back = m.inverse();
   std::vector<double> e(count_);
-  for (int k = 0; k < count_; ++k) e[k] = ref.sample(rest_frame_[v] + back * (h_ * patch_offset<D>(k, half_)));
+  for (int k = 0; k < count_; ++k) e[k] = sign_ * ref.sample(rest_frame_[v] + back * (h_ * patch_offset<D>(k, half_)));
   if (!centre_and_normalise(e)) e.clear();
   return e;
 }
@@ -243,8 +244,27 @@ void PatchEnergy<D>::set_up_expected() const {
   if (!expected_.empty() || rest_frame_.empty()) return;
   const int n = static_cast<int>(rest_frame_.size());
   expected_.assign(n, {});
+  sign_ = 1;  // sampled positive, negated below where the contrast is negative
 #pragma omp parallel for schedule(static) if (n >= 64)
   for (int v = 0; v < n; ++v) expected_[v] = sample_expected(v, patch_map(v));
+  bool negative = options_.contrast == PatchContrast::kNegative;
+  if (options_.contrast == PatchContrast::kAuto) {
+    std::vector<double> ncc(n, 0.0);
+#pragma omp parallel if (n >= 64)
+    {
+      std::vector<double> s(ipow(2 * half_ + 3, D));
+#pragma omp for schedule(static)
+      for (int v = 0; v < n; ++v) ncc[v] = match(v, bound_at_[v], nullptr, s.data());
+    }
+    double sum = 0.0;  // in vertex order: the same sign for any thread count
+    for (double c : ncc) sum += c;
+    negative = sum < 0;
+  }
+  if (negative) {
+    sign_ = -1;
+    for (auto& e : expected_)
+      for (double& x : e) x = -x;
+  }
 }
 
 template <int D>

@@ -33,6 +33,12 @@
 //    |delta| <= max_step;
 //  - propose: q + step delta where NCC >= min_correlation and a > 0; elsewhere q (the vertex holds:
 //    no consistent evidence there, and the regularisers move it).
+// The contrast's sign: a linear change of contrast a I + b may have a < 0 (an atlas in T1, a scan
+// in T2: fluid dark in one, bright in the other; the image init, framework/core/image_alignment.h,
+// fits a of either sign). With `contrast` negative every expected patch is negated, so that
+// NCC, a and the step above read the same; auto takes the sign of the sum over vertices of their
+// NCC with the positive patches where the vertices are at bind (a phase's start), summed in
+// vertex order (the same sign for any thread count).
 // The search is coarse to fine across phases: a large sigma and radius in the fit phase, small
 // ones in the refine phase (experiments/real/recipe_3d.json).
 // Global view: value() = sum over vertices of (1 - NCC_v) (0 at a perfect match), defined at every
@@ -48,6 +54,13 @@
 
 namespace dsnake {
 
+enum class PatchContrast { kAuto, kPositive, kNegative };
+template <>
+struct EnumNames<PatchContrast> {
+  static constexpr std::array<std::pair<PatchContrast, const char*>, 3> table{
+      {{PatchContrast::kAuto, "auto"}, {PatchContrast::kPositive, "positive"}, {PatchContrast::kNegative, "negative"}}};
+};
+
 struct PatchOptions {
   double sigma = 1.0;             // mm
   double radius = 3.0;            // mm
@@ -57,6 +70,7 @@ struct PatchOptions {
   double max_step = 0.0;          // mm; 0: the sampling step
   double step = 1.0;              // 1
   double map_radius = 6.0;        // mm
+  PatchContrast contrast = PatchContrast::kAuto;
 
   template <class V>
   void visit(V& v) {
@@ -76,6 +90,9 @@ struct PatchOptions {
                                           "its own; and its one-ring), from their rest positions to where they are (0: one map "
                                           "for all, the placement's)",
                       Range::at_least(0)});
+    v(contrast, Key{"contrast", "", "sign of the linear change of contrast from the atlas to the scan: positive, negative "
+                                    "(e.g. a T1 atlas and a T2 scan), or auto: the sign of the vertices' summed correlation "
+                                    "where the phase starts"});
   }
 };
 
@@ -107,6 +124,8 @@ class PatchEnergy final : public Energy<D> {
     return expected_;
   }
   const std::vector<double>& correlations() const { return correlation_; }
+  // +1 or -1: the contrast's sign the expected patches were sampled with (after first use).
+  int contrast_sign() const { return sign_; }
   double sampling_step() const { return h_; }
   int half_width() const { return half_; }
   // The linear part L of the placement found at the last bind (reference frame -> image frame).
@@ -125,14 +144,18 @@ class PatchEnergy final : public Energy<D> {
   std::vector<int> outer_;  // inner patch point k -> its index in the lattice one ring wider
   SmoothedImage<D> image_, reference_;
   Eigen::Matrix<double, D, D> linear_ = Eigen::Matrix<double, D, D>::Identity();
+  // Samples the expected patches on first use after bind; with contrast auto, the sign from the
+  // vertices' correlations where they were at bind.
   void set_up_expected() const;
   // The expected patch of vertex v through the linear map m (empty when flat).
   std::vector<double> sample_expected(int v, const Eigen::Matrix<double, D, D>& m) const;
   // L_v from the current positions q (map_radius > 0).
   Eigen::Matrix<double, D, D> local_map(int v, const PointList<D>& q) const;
   PointList<D> rest_frame_;  // per snake vertex: its rest position in the reference image's frame
+  PointList<D> bound_at_;    // per snake vertex: where it was at bind (contrast auto)
   mutable std::vector<std::vector<double>> expected_;  // per snake vertex, sampled on first use
   std::vector<double> correlation_;
+  mutable int sign_ = 1;
   std::vector<int> ring_offsets_, ring_;  // per vertex: its neighbourhood for L_v, v first
   mutable std::vector<Eigen::Matrix<double, D, D>> maps_;  // per vertex: the L_v its patch was sampled with
 };

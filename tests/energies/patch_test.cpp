@@ -4,8 +4,8 @@
 // template lies; the scan holds it moved, or with another contrast. Known answers: the expected
 // patches are the atlas's samples at the rest positions (exactly, at template and at inserted
 // vertices), the object's moved boundary is reached, the atlas's own object is a fixed point,
-// a linear change of contrast changes nothing, no atlas is refused, and 1 and 2 threads give the
-// same bits. Without an atlas, the profile force's local polarity on the same object.
+// a linear change of contrast changes nothing (an inverted one either: its sign is found), no
+// atlas is refused, and 1 and 2 threads give the same bits. Without an atlas, the profile force's local polarity on the same object.
 #include "energies/patch.h"
 
 #include "energies/profile.h"
@@ -63,13 +63,16 @@ Template<D> disk_template() {
 // The scan's object moved by `shift`: every vertex ends within 0.08 mm of the moved circle
 // (mean within 0.03 mm), from a start up to 1.8 mm off.
 template <int D>
-void reaches_moved_object(const Point<D>& shift, double a, double b) {
+void reaches_moved_object(const Point<D>& shift, double a, double b, PatchContrast contrast = PatchContrast::kAuto) {
   const Image<D> atlas = mixed_polarity<D>(Point<D>::Zero());
   const Image<D> scan = mixed_polarity<D>(shift, a, b);
   const Template<D> t = disk_template<D>();
   Snake<D> snake = Snake<D>::from_template(t, t.positions);
-  PatchEnergy<D> energy;
+  PatchOptions options;
+  options.contrast = contrast;
+  PatchEnergy<D> energy(options);
   iterate_patch<D>(energy, t, scan, atlas, snake, 60);
+  EXPECT_EQ(energy.contrast_sign(), a > 0 ? 1 : -1);
   const auto [mean, worst] = radial_error(snake, 10.0, shift);
   const auto [mean0, worst0] = radial_error(Snake<D>::from_template(t, t.positions), 10.0, shift);
   std::printf("patch %dD: distance to the moved boundary %.3f mean, %.3f largest (start %.3f, %.3f)\n", D, mean,
@@ -88,6 +91,32 @@ TEST(PatchEnergy, MixedPolarityBallReachesItsMovedBoundary3D) {
 // A linear change of contrast (a = 0.4, b = 37) between atlas and scan changes nothing.
 TEST(PatchEnergy, LinearChangeOfContrastIsIgnored) {
   reaches_moved_object<2>(Point<2>(1.5, -1.0), 0.4, 37.0);
+}
+// An inverted contrast (a = -0.7, b = 250: the atlas's dark side bright in the scan, as fluid is
+// between T1 and T2) is a linear change too: contrast auto finds its sign from the start's
+// correlations, and negative says it; both reach the moved boundary as above.
+TEST(PatchEnergy, InvertedContrastIsFoundAndFollowed2D) {
+  reaches_moved_object<2>(Point<2>(1.5, -1.0), -0.7, 250.0);
+  reaches_moved_object<2>(Point<2>(1.5, -1.0), -0.7, 250.0, PatchContrast::kNegative);
+}
+TEST(PatchEnergy, InvertedContrastIsFoundAndFollowed3D) {
+  reaches_moved_object<3>(Point<3>(1.2, -0.8, 0.6), -0.7, 250.0);
+}
+// Told the wrong sign, no vertex has evidence (every NCC is below min_correlation) and all hold:
+// positive on an inverted scan, negative on the atlas's own contrast.
+TEST(PatchEnergy, TheWrongContrastSignHoldsEveryVertex) {
+  const Image<2> atlas = mixed_polarity<2>(Point<2>::Zero());
+  const Template<2> t = disk_template<2>();
+  for (const auto& [a, contrast] : {std::pair{-0.7, PatchContrast::kPositive}, std::pair{1.0, PatchContrast::kNegative}}) {
+    const Image<2> scan = mixed_polarity<2>(Point<2>(1.5, -1.0), a, a > 0 ? 0.0 : 250.0);
+    Snake<2> snake = Snake<2>::from_template(t, t.positions);
+    PatchOptions options;
+    options.contrast = contrast;
+    PatchEnergy<2> energy(options);
+    iterate_patch<2>(energy, t, scan, atlas, snake, 10);
+    for (int v = 0; v < snake.num_vertices(); ++v) EXPECT_EQ(snake.positions()[v], t.positions[v]);
+    for (double c : energy.correlations()) EXPECT_LT(c, 0.5);
+  }
 }
 
 // Started on the atlas's own object, nothing moves (the NCC is 1 and its gradient 0 there).
@@ -205,6 +234,7 @@ TEST(PatchEnergy, BadKeysNameTheirPath) {
                                       {R"({"type": "patch", "max_step": -1})", "energies[0].max_step"},
                                       {R"({"type": "patch", "step": 0})", "energies[0].step"},
                                       {R"({"type": "patch", "map_radius": -1})", "energies[0].map_radius"},
+                                      {R"({"type": "patch", "contrast": "inverted"})", "energies[0].contrast"},
                                       {R"({"type": "patch", "size": 3})", "energies[0].size"}});
 }
 

@@ -108,6 +108,35 @@ TEST_F(MixedPolarityRecipeTest, TheRecipeRegistersTheMovedObjectAndHoldsTheTruth
   }
 }
 
+// The same moved scan with its contrast inverted (-0.6 I + 160: the grey object brighter than the
+// side that was bright, darker than the side that was dark, as fluid and white matter turn between
+// a T1 atlas and a T2 scan): the image init fits a contrast of either sign and the patch force
+// finds the sign (`contrast` auto), so the recipe as printed registers it as well.
+TEST_F(MixedPolarityRecipeTest, AnInvertedContrastScanRegistersToo) {
+  const fs::path atlas = dir_ / "atlas.nii.gz", atlas_label = dir_ / "atlas_label.nii.gz";
+  const fs::path scan = dir_ / "scan.nii.gz", truth = dir_ / "truth.nii.gz", tmpl = dir_ / "t.off";
+  write_phantom(Eigen::Matrix3d::Identity(), Point<3>::Zero(), 0.0, 1.0, 0.0, 0.0, atlas, atlas_label);
+  const double t = 6.0 * M_PI / 180;
+  Eigen::Matrix3d m;
+  m << std::cos(t), -std::sin(t), 0, std::sin(t), std::cos(t), 0, 0, 0, 1;
+  m = m * Eigen::Vector3d(1.06, 1.0, 1.0).asDiagonal();
+  write_phantom(m, Point<3>(1.5, -1.0, 0.8), 1.0, -0.6, 160.0, 4.0, scan, truth);
+  ASSERT_EQ(dsnake("template --mask " + atlas_label.string() + " --label 1 --vertices 450 --out " + tmpl.string()), 0) << err_;
+  const nlohmann::json r = run_recipe(scan, tmpl, atlas, truth, "inverted");
+  const double start = r["start"]["metrics"]["dice"], end = r["metrics"]["dice"];
+  std::printf("  inverted contrast: Dice %.3f (after the image init) -> %.3f, mean distance %.3f mm\n", start, end,
+              r["metrics"]["mean_surface_distance"].get<double>());
+  EXPECT_GT(end, 0.95);
+  EXPECT_GE(end, start);
+  EXPECT_LT(r["metrics"]["mean_surface_distance"].get<double>(), 0.35);
+  // told the contrast is positive, every vertex holds where the init put it
+  const nlohmann::json held = run_recipe(scan, tmpl, atlas, truth, "told_positive",
+                                         " --set energies[1].contrast=positive --set energies[3].contrast=positive");
+  std::printf("  inverted contrast, told positive: Dice %.3f -> %.3f\n", held["start"]["metrics"]["dice"].get<double>(),
+              held["metrics"]["dice"].get<double>());
+  EXPECT_LT(held["metrics"]["dice"].get<double>(), end - 0.02);
+}
+
 // Without an atlas image (`dsnake init` without --reference, as printed): the template placed in
 // the scan as it lies in the atlas, and the truth's own surface, each end no more than 0.01 Dice
 // below where they started after every phase (the recipe moves only on clear edge evidence, each
