@@ -297,11 +297,34 @@ double PatchEnergy<D>::match(int v, const Point<D>& x, Point<D>* move, double* s
   if (!(a > 0) || ncc < options_.min_correlation) return ncc;
   Eigen::Matrix<double, D, D> h = Eigen::Matrix<double, D, D>::Zero();
   Point<D> g = Point<D>::Zero();
+  const double ws = options_.gradient == PatchGradient::kAtlas ? 0.0 : options_.gradient == PatchGradient::kBoth ? 0.5 : 1.0;
+  const double we = 1.0 - ws;
+  const int n1 = 2 * half_ + 1;
+  int istride[D];
+  istride[0] = 1;
+  for (int d = 1; d < D; ++d) istride[d] = istride[d - 1] * n1;
+  Point<D> emean = Point<D>::Zero();
+  auto egrad = [&](int k) {  // central differences of e on the inner lattice, one-sided at its border
+    Point<D> ge;
+    int r = k;
+    for (int d = 0; d < D; ++d) {
+      const int c = r % n1;
+      r /= n1;
+      const int lo = c > 0 ? k - istride[d] : k, hi = c < n1 - 1 ? k + istride[d] : k;
+      ge(d) = (e[hi] - e[lo]) / (h_ * ((c > 0) + (c < n1 - 1)));
+    }
+    return ge;
+  };
+  if (we > 0) {
+    for (int k = 0; k < count_; ++k) emean += egrad(k);
+    emean /= count_;
+  }
   for (int k = 0; k < count_; ++k) {
     const int o = outer(k);
     Point<D> grad;
     for (int d = 0; d < D; ++d) grad(d) = (s[o + stride[d]] - s[o - stride[d]]) / (2.0 * h_);
-    grad -= gmean;
+    grad = ws * a * (grad - gmean);
+    if (we > 0) grad += we * (egrad(k) - emean);
     const double r = e[k] - a * (s[o] - mean);
     h += grad * grad.transpose();
     g += grad * r;
@@ -309,7 +332,7 @@ double PatchEnergy<D>::match(int v, const Point<D>& x, Point<D>* move, double* s
   const double lambda = options_.damping * h.trace() / D;
   h.diagonal().array() += lambda;
   if (!(h.trace() > 0)) return ncc;
-  Point<D> delta = h.ldlt().solve(g / a);
+  Point<D> delta = h.ldlt().solve(g);
   const double longest = options_.max_step > 0 ? options_.max_step : h_;
   const double len = delta.norm();
   if (!std::isfinite(len)) return ncc;

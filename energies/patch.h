@@ -30,7 +30,10 @@
 //    (central differences of the samples one ring further out): (G'^T G' + lambda I) delta =
 //    G'^T (e - a s') / a, lambda = damping * trace(G'^T G') / D (Levenberg: along a straight
 //    boundary the patch only says where the boundary is, and delta follows the normal);
-//    |delta| <= max_step;
+//    |delta| <= max_step. With `gradient` atlas, G' is replaced by the expected patch's own
+//    centred differences divided by a (inverse compositional: Baker & Matthews, IJCV 2004; noise-free
+//    where the atlas is an average); with both, by the mean of the two (efficient second-order
+//    minimisation: Benhimane & Malis, IROS 2004); scan is the forward step above;
 //  - propose: q + step delta where NCC >= min_correlation and a > 0; elsewhere q (the vertex holds:
 //    no consistent evidence there, and the regularisers move it).
 // The contrast's sign: a linear change of contrast a I + b may have a < 0 (an atlas in T1, a scan
@@ -61,6 +64,13 @@ struct EnumNames<PatchContrast> {
       {{PatchContrast::kAuto, "auto"}, {PatchContrast::kPositive, "positive"}, {PatchContrast::kNegative, "negative"}}};
 };
 
+enum class PatchGradient { kScan, kAtlas, kBoth };
+template <>
+struct EnumNames<PatchGradient> {
+  static constexpr std::array<std::pair<PatchGradient, const char*>, 3> table{
+      {{PatchGradient::kScan, "scan"}, {PatchGradient::kAtlas, "atlas"}, {PatchGradient::kBoth, "both"}}};
+};
+
 struct PatchOptions {
   double sigma = 1.0;             // mm
   double radius = 3.0;            // mm
@@ -71,6 +81,7 @@ struct PatchOptions {
   double step = 1.0;              // 1
   double map_radius = 6.0;        // mm
   PatchContrast contrast = PatchContrast::kAuto;
+  PatchGradient gradient = PatchGradient::kScan;
 
   template <class V>
   void visit(V& v) {
@@ -93,6 +104,7 @@ struct PatchOptions {
     v(contrast, Key{"contrast", "", "sign of the linear change of contrast from the atlas to the scan: positive, negative "
                                     "(e.g. a T1 atlas and a T2 scan), or auto: the sign of the vertices' summed correlation "
                                     "where the phase starts"});
+    v(gradient, Key{"gradient", "", "the Gauss-Newton step's gradients: the scan's (forward), the atlas patch's (inverse) or their mean (both)"});
   }
 };
 

@@ -63,13 +63,15 @@ Template<D> disk_template() {
 // The scan's object moved by `shift`: every vertex ends within 0.08 mm of the moved circle
 // (mean within 0.03 mm), from a start up to 1.8 mm off.
 template <int D>
-void reaches_moved_object(const Point<D>& shift, double a, double b, PatchContrast contrast = PatchContrast::kAuto) {
+void reaches_moved_object(const Point<D>& shift, double a, double b, PatchContrast contrast = PatchContrast::kAuto,
+                          PatchGradient gradient = PatchGradient::kScan) {
   const Image<D> atlas = mixed_polarity<D>(Point<D>::Zero());
   const Image<D> scan = mixed_polarity<D>(shift, a, b);
   const Template<D> t = disk_template<D>();
   Snake<D> snake = Snake<D>::from_template(t, t.positions);
   PatchOptions options;
   options.contrast = contrast;
+  options.gradient = gradient;
   PatchEnergy<D> energy(options);
   iterate_patch<D>(energy, t, scan, atlas, snake, 60);
   EXPECT_EQ(energy.contrast_sign(), a > 0 ? 1 : -1);
@@ -91,6 +93,14 @@ TEST(PatchEnergy, MixedPolarityBallReachesItsMovedBoundary3D) {
 // A linear change of contrast (a = 0.4, b = 37) between atlas and scan changes nothing.
 TEST(PatchEnergy, LinearChangeOfContrastIsIgnored) {
   reaches_moved_object<2>(Point<2>(1.5, -1.0), 0.4, 37.0);
+}
+// The Gauss-Newton step with the atlas patch's gradients (inverse compositional) or the mean of
+// both (efficient second-order minimisation) reaches the same boundary, also under a change of
+// contrast.
+TEST(PatchEnergy, EveryGradientChoiceReachesTheMovedBoundary) {
+  reaches_moved_object<2>(Point<2>(1.5, -1.0), 0.4, 37.0, PatchContrast::kAuto, PatchGradient::kAtlas);
+  reaches_moved_object<2>(Point<2>(1.5, -1.0), -0.7, 250.0, PatchContrast::kAuto, PatchGradient::kBoth);
+  reaches_moved_object<3>(Point<3>(1.2, -0.8, 0.6), 1.0, 0.0, PatchContrast::kAuto, PatchGradient::kBoth);
 }
 // An inverted contrast (a = -0.7, b = 250: the atlas's dark side bright in the scan, as fluid is
 // between T1 and T2) is a linear change too: contrast auto finds its sign from the start's
@@ -235,6 +245,7 @@ TEST(PatchEnergy, BadKeysNameTheirPath) {
                                       {R"({"type": "patch", "step": 0})", "energies[0].step"},
                                       {R"({"type": "patch", "map_radius": -1})", "energies[0].map_radius"},
                                       {R"({"type": "patch", "contrast": "inverted"})", "energies[0].contrast"},
+                                      {R"({"type": "patch", "gradient": "image"})", "energies[0].gradient"},
                                       {R"({"type": "patch", "size": 3})", "energies[0].size"}});
 }
 
