@@ -19,15 +19,20 @@
 #include <gdcmTrace.h>
 #include <gdcmUIDs.h>
 
+#include <zlib.h>
+
 #include <algorithm>
 #include <numeric>
+#include <optional>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <set>
+#include <stdexcept>
 #include <sstream>
 
 namespace dsnake::detail {
@@ -164,6 +169,7 @@ SliceHeader header_of(const gdcm::DataSet& ds, const std::string& path) {
 }
 
 const gdcm::Tag kPixelData(0x7fe0, 0x0010);
+const std::string kDeflated = "1.2.840.10008.1.2.1.99";  // Deflated Explicit VR Little Endian
 
 // True for the two letters of a VR DICOM defines. GDCM reads an element whose VR is not one of them
 // as a broken file of another encoding, where it asserts (aborting the process) on much of what
@@ -181,98 +187,244 @@ bool long_length_vr(const std::string& vr) {
          vr == "OL" || vr == "OV" || vr == "UC" || vr == "UR" || vr == "SV" || vr == "UV";
 }
 
-// InputError naming an element whose VR is not DICOM's (valid_vr).
-InputError invalid_vr(const std::string& path, uint32_t group, uint32_t element, const std::string& vr, uint64_t at) {
-  char what[96];
-  std::snprintf(what, sizeof what, "unreadable: element (%04X,%04X) at byte %llu has no valid VR (0x%02X 0x%02X)", group,
-                element, static_cast<unsigned long long>(at), unsigned(uint8_t(vr[0])), unsigned(uint8_t(vr[1])));
+// InputError naming an element whose VR is not DICOM's (valid_vr), at `place` ("byte 1234").
+InputError invalid_vr(const std::string& path, uint32_t group, uint32_t element, const std::string& vr,
+                      const std::string& place) {
+  char what[160];
+  std::snprintf(what, sizeof what, "unreadable: element (%04X,%04X) at %s has no valid VR (0x%02X 0x%02X)", group,
+                element, place.c_str(), unsigned(uint8_t(vr[0])), unsigned(uint8_t(vr[1])));
   return InputError(path, "", what);
 }
 
-// InputError if the data set, from byte `at` of a Part 10 file in transfer syntax `ts`, ends
-// inside an element's tag, VR or length, or inside a value of defined length, up to the end of its
-// Pixel Data, or holds an item tag DICOM does not define: GDCM's parser asserts on these (which
-// would abort the process). The elements are walked flat: sequences and items (of undefined
-// length, or explicit SQs and their items of any length) are entered, encapsulated pixel data's
-// fragments and other values skipped whole; native pixel data end the walk
-// (check_declared_pixels checks their length). A deflated data set, and an UN of undefined
-// length (implicit VR inside an explicit data set), are left to GDCM.
-void check_data_set(const std::string& path, uint64_t at, const std::string& ts) {
-  if (ts == "1.2.840.10008.1.2.1.99") return;  // deflated: the positions are of the inflated bytes
+// The bytes of a data set as check_data_set walks them, forward only (each read at or after the
+// last): the file's own, or those its deflate stream inflates to.
+class DataSetBytes {
+ public:
+  virtual ~DataSetBytes() = default;
+  // Copies up to n (at most 12) bytes from position `at` into out; returns how many the data set
+  // holds there (fewer than n: it ends).
+  virtual size_t read(uint64_t at, unsigned char* out, size_t n) = 0;
+  // True when the data set holds at least `end` bytes (its positions before `end` exist); the
+  // next read is then at `end` or after it.
+  virtual bool holds(uint64_t end) = 0;
+  // Position `at` in an error message ("byte 1234", naming the inflated data set when it is that).
+  virtual std::string place(uint64_t at) const = 0;
+};
+
+// A data set stored as it is, from the file's bytes.
+class FileBytes : public DataSetBytes {
+ public:
+  FileBytes(const std::string& path, uint64_t size) : in_(path, std::ios::binary), size_(size) {}
+  size_t read(uint64_t at, unsigned char* out, size_t n) override {
+    if (at >= size_) return 0;
+    n = size_t(std::min<uint64_t>(n, size_ - at));
+    in_.seekg(std::streamoff(at));
+    return in_.read(reinterpret_cast<char*>(out), std::streamsize(n)) ? n : 0;
+  }
+  bool holds(uint64_t end) override { return end <= size_; }
+  std::string place(uint64_t at) const override {
+    return "byte " + std::to_string(at) + " of " + std::to_string(size_);
+  }
+
+ private:
+  std::ifstream in_;
+  uint64_t size_;
+};
+
+// A deflated data set (transfer syntax 1.2.840.10008.1.2.1.99: raw deflate, without zlib's or
+// gzip's wrapper, from the end of the file meta information to the end of the file), inflated as
+// the walk asks for its bytes, a 64 kB window at a time: the walk holds no more than that however
+// large the data set. InputError when the stream is not deflate data, or inflates to more than
+// `limit` bytes (the image memory limit: GDCM holds what it inflates).
+class InflatedBytes : public DataSetBytes {
+ public:
+  InflatedBytes(const std::string& path, uint64_t offset, double limit)
+      : path_(path), in_(path, std::ios::binary), limit_(limit), input_(size_t(1) << 16), window_(size_t(1) << 16) {
+    if (inflateInit2(&zs_, -15) != Z_OK) throw std::runtime_error("zlib initialisation failed");
+    in_.seekg(std::streamoff(offset));
+  }
+  ~InflatedBytes() override { inflateEnd(&zs_); }
+  InflatedBytes(const InflatedBytes&) = delete;
+  InflatedBytes& operator=(const InflatedBytes&) = delete;
+
+  size_t read(uint64_t at, unsigned char* out, size_t n) override {
+    if (!holds(at)) return 0;
+    drop_before(at);
+    while (length_ < n && more()) {
+    }
+    n = std::min(n, length_);
+    std::memcpy(out, window_.data(), n);
+    return n;
+  }
+  bool holds(uint64_t end) override {
+    while (start_ + length_ < end) {
+      start_ += length_;  // (the walk reads forward only: the bytes before `end` are not needed again)
+      length_ = 0;
+      if (!more()) return false;
+    }
+    return true;
+  }
+  std::string place(uint64_t at) const override { return "byte " + std::to_string(at) + " of the inflated data set"; }
+
+ private:
+  // Drops the window's bytes before `at` (which it holds: holds(at) was true).
+  void drop_before(uint64_t at) {
+    const size_t drop = size_t(std::min<uint64_t>(at - start_, length_));
+    std::memmove(window_.data(), window_.data() + drop, length_ - drop);
+    length_ -= drop;
+    start_ += drop;
+  }
+  // Inflates more bytes behind the window's (which has room: the walk reads 12 at most); false
+  // when the stream has no more (its end, or the file's).
+  bool more() {
+    while (!ended_ && !cut_) {
+      if (zs_.avail_in == 0) {
+        in_.read(input_.data(), std::streamsize(input_.size()));
+        zs_.next_in = reinterpret_cast<Bytef*>(input_.data());
+        zs_.avail_in = static_cast<uInt>(in_.gcount());
+      }
+      zs_.next_out = reinterpret_cast<Bytef*>(window_.data() + length_);
+      zs_.avail_out = static_cast<uInt>(window_.size() - length_);
+      const bool no_input = zs_.avail_in == 0;
+      const int ret = inflate(&zs_, Z_NO_FLUSH);
+      const size_t made = window_.size() - length_ - zs_.avail_out;
+      length_ += made;
+      total_ += made;
+      if (double(total_) > limit_)
+        throw InputError(path_, "", "its deflated data set inflates to more than the memory limit of " +
+                                        exact(limit_ / 1e9) + " GB (the machine's memory, or DSNAKE_MAX_IMAGE_BYTES)");
+      if (ret == Z_STREAM_END) ended_ = true;
+      else if (ret == Z_BUF_ERROR && no_input) cut_ = true;  // the file ends before the stream does
+      else if (ret != Z_OK && ret != Z_BUF_ERROR)
+        throw InputError(path_, "", std::string("corrupt deflated data set (zlib: ") + (zs_.msg ? zs_.msg : "error") +
+                                        ", after " + std::to_string(total_) + " inflated bytes)");
+      if (made > 0) return true;
+    }
+    return false;
+  }
+
+  std::string path_;
+  std::ifstream in_;
+  double limit_;
+  z_stream zs_{};
+  std::vector<char> input_;
+  std::vector<unsigned char> window_;
+  uint64_t start_ = 0;  // the data set position of window_[0]
+  size_t length_ = 0;   // bytes in the window
+  uint64_t total_ = 0;  // bytes inflated
+  bool ended_ = false, cut_ = false;
+};
+
+// Where a native Pixel Data element's value begins in its data set, and its length.
+struct NativePixelData {
+  uint64_t value_at;
+  uint32_t length;
+};
+
+// InputError if the data set, from position `at`, in transfer syntax `ts`, ends inside an
+// element's tag, VR or length, or inside a value of defined length, up to the end of its Pixel
+// Data, or holds an item tag DICOM does not define: GDCM's parser asserts on these (which would
+// abort the process). The elements are walked flat: sequences and items (of undefined length, or
+// explicit SQs and their items of any length) are entered, encapsulated pixel data's fragments
+// and other values skipped whole; a sequence or item of defined length is checked to fit in the
+// data set where the walk ends (it reads forward only). Native pixel data end the walk and are
+// returned (none: no native pixel data, or the walk ended before them): a deflated data set's
+// are checked by the caller, a stored one's by check_declared_pixels. An UN of undefined length
+// (implicit VR inside an explicit data set) is left to GDCM.
+std::optional<NativePixelData> check_data_set(DataSetBytes& bytes, uint64_t at, const std::string& path,
+                                             const std::string& ts) {
   const bool implicit = ts == "1.2.840.10008.1.2", big = ts == "1.2.840.10008.1.2.2";
-  std::error_code ec;
-  const uint64_t size = fs::file_size(path, ec);
-  std::ifstream in(path, std::ios::binary);
-  if (ec || !in) return;
   unsigned char b[12];
   auto u16 = [&](int i) { return big ? uint32_t(b[i]) << 8 | b[i + 1] : uint32_t(b[i]) | uint32_t(b[i + 1]) << 8; };
   auto u32 = [&](int i) { return big ? u16(i) << 16 | u16(i + 2) : u16(i) | u16(i + 2) << 16; };
   auto truncated = [&] {
-    return InputError(path, "", "truncated: the file ends inside an element (byte " + std::to_string(at) + " of " +
-                                    std::to_string(size) + ")");
+    return InputError(path, "", "truncated: the data set ends inside an element (" + bytes.place(at) + ")");
   };
   int depth = 0;
   bool in_pixel_data = false;  // inside encapsulated pixel data (fragments)
-  while (at < size) {
-    if (size - at < 8) throw truncated();
-    in.seekg(std::streamoff(at));
-    if (!in.read(reinterpret_cast<char*>(b), 8)) return;
+  uint64_t must_hold = 0, container_at = 0;  // the furthest end of an entered sequence or item, and where it began
+  auto ending = [&](std::optional<NativePixelData> result) {  // the walk ends: the containers entered must fit
+    if (!bytes.holds(must_hold)) {
+      at = container_at;
+      throw truncated();
+    }
+    return result;
+  };
+  for (size_t got; (got = bytes.read(at, b, 8)) > 0;) {
+    if (got < 8) throw truncated();
     const uint32_t group = u16(0), element = u16(2);
     const bool pixel_data = group == 0x7fe0 && element == 0x0010 && depth == 0;
     if (group == 0xfffe && element != 0xe000 && element != 0xe00d && element != 0xe0dd) {
       char tag[16];
       std::snprintf(tag, sizeof tag, "(FFFE,%04X)", element);
-      throw InputError(path, "", std::string("unreadable: an item tag ") + tag + " that DICOM does not define at byte " +
-                                     std::to_string(at));
+      throw InputError(path, "", std::string("unreadable: an item tag ") + tag + " that DICOM does not define at " +
+                                     bytes.place(at));
     }
     uint64_t header = 8, length = 0;
     bool sequence = false;  // an explicit SQ
     if (group == 0xfffe || implicit) {  // items and delimiters: a tag and a 4-byte length
       length = u32(4);
     } else if (const std::string vr{char(b[4]), char(b[5])}; !valid_vr(vr)) {
-      throw invalid_vr(path, group, element, vr, at);
+      throw invalid_vr(path, group, element, vr, bytes.place(at));
     } else if (long_length_vr(vr)) {
-      if (size - at < 12) throw truncated();
-      if (!in.read(reinterpret_cast<char*>(b) + 8, 4)) return;
+      if (bytes.read(at, b, 12) < 12) throw truncated();
       header = 12;
       length = u32(8);
       sequence = vr == "SQ";
-      if (vr == "UN" && length == 0xffffffff) return;
+      if (vr == "UN" && length == 0xffffffff) return ending(std::nullopt);
     } else {
       length = u16(6);
     }
     at += header;
-    if (pixel_data && length != 0xffffffff) return;  // native: check_declared_pixels's
+    if (pixel_data && length != 0xffffffff) return ending(NativePixelData{at, uint32_t(length)});
     in_pixel_data |= pixel_data;
     if (group == 0xfffe && (element == 0xe00d || element == 0xe0dd)) {
-      if (--depth == 0 && in_pixel_data) return;
+      if (--depth == 0 && in_pixel_data) return ending(std::nullopt);
     } else if (length == 0xffffffff) {
       ++depth;  // a sequence or item of undefined length: its content follows
-    } else if (length > size - at) {
+    } else if ((sequence || (group == 0xfffe && element == 0xe000)) && !in_pixel_data) {
+      if (at + length > must_hold) must_hold = at + length, container_at = at - header;  // entered
+    } else if (!bytes.holds(at + length)) {
       throw truncated();
-    } else if (!((sequence || (group == 0xfffe && element == 0xe000)) && !in_pixel_data)) {
-      at += length;  // a value; sequences and their items are entered (a fragment of pixel data is skipped)
+    } else {
+      at += length;  // a value (a fragment of pixel data too) is skipped
     }
   }
-  if (depth > 0) throw truncated();  // the file ends inside a sequence or the encapsulated pixel data
+  if (depth > 0) throw truncated();  // the data set ends inside a sequence or the encapsulated pixel data
+  return ending(std::nullopt);
 }
 
 // InputError if a Part 10 file ends inside its file meta information (group 0002, always
 // explicit VR little endian) or inside its data set's elements (check_data_set): GDCM's parser
-// asserts there, which would abort the process.
-void check_meta_group(const std::string& path) {
+// asserts there, which would abort the process. A deflated data set is walked as it inflates
+// (InflatedBytes), and its native pixel data checked to lie within it; their length is returned,
+// for check_declared_pixels, which cannot read it from the file.
+std::optional<uint32_t> check_meta_group(const std::string& path) {
   const std::string b = read_bytes(path, 1 << 16);
-  if (b.size() < 132 || b.compare(128, 4, "DICM") != 0) return;  // no preamble: GDCM's own checks
+  if (b.size() < 132 || b.compare(128, 4, "DICM") != 0) return std::nullopt;  // no preamble: GDCM's own checks
   auto u16 = [&](size_t at) { return uint32_t(uint8_t(b[at])) | uint32_t(uint8_t(b[at + 1])) << 8; };
   size_t at = 132;
   std::string ts;  // (0002,0010) TransferSyntaxUID
   while (at + 8 <= b.size()) {
     if (u16(at) != 0x0002) {  // the meta group is complete
-      if (!ts.empty()) check_data_set(path, at, ts);
-      return;
+      std::error_code ec;
+      const uint64_t size = fs::file_size(path, ec);
+      if (ts.empty() || ec) return std::nullopt;
+      if (ts != kDeflated) {
+        FileBytes bytes(path, size);
+        check_data_set(bytes, at, path, ts);
+        return std::nullopt;
+      }
+      InflatedBytes bytes(path, at, image_memory_limit());
+      const std::optional<NativePixelData> pixels = check_data_set(bytes, 0, path, ts);
+      if (!pixels) return std::nullopt;
+      if (!bytes.holds(pixels->value_at + pixels->length))
+        throw InputError(path, "PixelData", "truncated: the pixel data need " + std::to_string(pixels->length) +
+                                                " bytes, the inflated data set ends before them");
+      return pixels->length;
     }
     const std::string vr = b.substr(at + 4, 2);
-    if (!valid_vr(vr)) throw invalid_vr(path, 0x0002, u16(at + 2), vr, at);
+    if (!valid_vr(vr)) throw invalid_vr(path, 0x0002, u16(at + 2), vr, "byte " + std::to_string(at));
     if (u16(at + 2) == 0x0010 && !long_length_vr(vr) && at + 8 + u16(at + 6) <= b.size()) {
       ts = b.substr(at + 8, u16(at + 6));
       while (!ts.empty() && (ts.back() == '\0' || ts.back() == ' ')) ts.pop_back();
@@ -304,14 +456,16 @@ class PixelDataReader : public gdcm::ImageReader {
 };
 
 // Parses the header into `reader`, stopping at the pixel data, whose value is skipped: the
-// stream position is then where that value begins.
-void read_header_into(gdcm::Reader& reader, const std::string& path) {
+// stream position is then where that value begins. Returns the length of a deflated data set's
+// native pixel data (check_meta_group).
+std::optional<uint32_t> read_header_into(gdcm::Reader& reader, const std::string& path) {
   silence_gdcm();
   require_exists(path);
-  check_meta_group(path);
+  const std::optional<uint32_t> deflated_pixel_length = check_meta_group(path);
   reader.SetFileName(path.c_str());
   if (!reader.ReadUpToTag(kPixelData, {kPixelData}))
     throw InputError(path, "", "not a readable DICOM file (GDCM cannot parse its header)");
+  return deflated_pixel_length;
 }
 
 // The header alone: for the dimension and the series lists.
@@ -361,14 +515,46 @@ int64_t tag_us(const gdcm::DataSet& ds, uint16_t group, uint16_t element) {
   return int64_t(p[1]) << 8 | p[0];
 }
 
+// The length of a stored (not deflated) data set's native Pixel Data element, whose value begins
+// at byte `value_start` of the file, checked to lie within the file; none for encapsulated data.
+// The length is the 4 bytes before the value, after its tag (implicit VR) or its tag, VR and 2
+// reserved bytes (explicit VR). GDCM's header reader stops at the element without keeping it, so
+// it is read here; no Pixel Data tag there, no pixel data to check.
+std::optional<uint32_t> stored_pixel_length(const gdcm::TransferSyntax& ts, size_t value_start,
+                                            const std::string& path) {
+  if (ts.IsEncapsulated() || value_start < 8) return std::nullopt;
+  const bool big = ts == gdcm::TransferSyntax::ExplicitVRBigEndian;
+  std::ifstream in(path, std::ios::binary);
+  unsigned char e[12] = {};
+  const size_t back = std::min<size_t>(12, value_start);
+  in.seekg(std::streamoff(value_start - back));
+  if (!in.read(reinterpret_cast<char*>(e) + (12 - back), std::streamsize(back))) return std::nullopt;
+  auto u16 = [&](int i) { return big ? uint32_t(e[i]) << 8 | e[i + 1] : uint32_t(e[i]) | uint32_t(e[i + 1]) << 8; };
+  auto pixel_data_tag_at = [&](int i) { return i >= 12 - int(back) && u16(i) == 0x7fe0 && u16(i + 2) == 0x0010; };
+  if (!pixel_data_tag_at(0) && !pixel_data_tag_at(4)) return std::nullopt;
+  const uint32_t length = big ? uint32_t(e[8]) << 24 | uint32_t(e[9]) << 16 | uint32_t(e[10]) << 8 | e[11]
+                              : uint32_t(e[11]) << 24 | uint32_t(e[10]) << 16 | uint32_t(e[9]) << 8 | e[8];
+  if (length == 0xffffffff) return std::nullopt;
+  std::error_code ec;
+  const uintmax_t size = fs::file_size(path, ec);
+  if (ec) throw InputError(path, "", "cannot read the file size: " + ec.message());
+  if (value_start + uintmax_t(length) > size)
+    throw InputError(path, "PixelData", "truncated: the pixel data need " + std::to_string(length) +
+                                            " bytes, the file holds only " + std::to_string(size - std::min<uintmax_t>(size, value_start)) +
+                                            " of them");
+  return length;
+}
+
 // InputError unless the header declares one sample per pixel, pixels that fit in memory and, for
 // native (uncompressed) data, a Pixel Data element that lies within the file (its value begins at
 // byte `value_start`) and holds the pixels declared. GDCM would allocate what the header declares
 // (a small file declaring 65535 x 65535 pixels took gigabytes), keep the declared length of data
 // cut short and pad them with zeros, and assert (aborting the process) on a sample count other
-// than 1, 3 or 4 and on packed 12-bit data of another length. (Encapsulated data cut short fail
-// in the decoder; deflated data in the inflater.)
-void check_declared_pixels(const gdcm::Reader& header, size_t value_start, const std::string& path) {
+// than 1, 3 or 4 and on packed 12-bit data of another length. A deflated data set's native pixel
+// data were found, and their length checked, while it was inflated (`deflated_pixel_length`,
+// from check_meta_group). (Encapsulated data cut short fail in the decoder.)
+void check_declared_pixels(const gdcm::Reader& header, size_t value_start,
+                           const std::optional<uint32_t>& deflated_pixel_length, const std::string& path) {
   const gdcm::DataSet& ds = header.GetFile().GetDataSet();
   const gdcm::TransferSyntax& ts = header.GetFile().GetHeader().GetDataSetTransferSyntax();
   const int64_t samples = tag_us(ds, 0x0028, 0x0002), bits = tag_us(ds, 0x0028, 0x0100);
@@ -380,36 +566,17 @@ void check_declared_pixels(const gdcm::Reader& header, size_t value_start, const
                         double(std::max<int64_t>(0, tag_us(ds, 0x0028, 0x0011))) *
                         (frames.empty() ? 1.0 : std::max(1.0, std::floor(frames[0])));
   check_declared_values(pixels, path, "Rows/Columns");
-  if (ts.IsEncapsulated() || ts == gdcm::TransferSyntax::DeflatedExplicitVRLittleEndian || value_start < 8) return;
-  // The Pixel Data element's length: the 4 bytes before its value, after its tag (implicit VR) or
-  // its tag, VR and 2 reserved bytes (explicit VR). GDCM's header reader stops at the element
-  // without keeping it, so it is read here; no Pixel Data tag there, no pixel data to check.
-  const bool big = ts == gdcm::TransferSyntax::ExplicitVRBigEndian;
-  std::ifstream in(path, std::ios::binary);
-  unsigned char e[12] = {};
-  const size_t back = std::min<size_t>(12, value_start);
-  in.seekg(std::streamoff(value_start - back));
-  if (!in.read(reinterpret_cast<char*>(e) + (12 - back), std::streamsize(back))) return;
-  auto u16 = [&](int i) { return big ? uint32_t(e[i]) << 8 | e[i + 1] : uint32_t(e[i]) | uint32_t(e[i + 1]) << 8; };
-  auto pixel_data_tag_at = [&](int i) { return i >= 12 - int(back) && u16(i) == 0x7fe0 && u16(i + 2) == 0x0010; };
-  if (!pixel_data_tag_at(0) && !pixel_data_tag_at(4)) return;
-  const uint32_t length = big ? uint32_t(e[8]) << 24 | uint32_t(e[9]) << 16 | uint32_t(e[10]) << 8 | e[11]
-                              : uint32_t(e[11]) << 24 | uint32_t(e[10]) << 16 | uint32_t(e[9]) << 8 | e[8];
-  if (length == 0xffffffff) return;
-  std::error_code ec;
-  const uintmax_t size = fs::file_size(path, ec);
-  if (ec) throw InputError(path, "", "cannot read the file size: " + ec.message());
-  if (value_start + uintmax_t(length) > size)
-    throw InputError(path, "PixelData", "truncated: the pixel data need " + std::to_string(length) +
-                                            " bytes, the file holds only " + std::to_string(size - std::min<uintmax_t>(size, value_start)) +
-                                            " of them");
-  if (bits <= 0) return;
+  const std::optional<uint32_t> length = ts == gdcm::TransferSyntax::DeflatedExplicitVRLittleEndian
+                                             ? deflated_pixel_length
+                                             : stored_pixel_length(ts, value_start, path);
+  if (!length || bits <= 0) return;
   const double need = std::ceil(pixels * double(bits) / 8);
-  const bool fits = bits == 12 ? length % 3 == 0 && double(length / 3 * 4) == pixels * 2 : double(length) >= need;
+  const bool fits = bits == 12 ? *length % 3 == 0 && double(*length / 3 * 4) == pixels * 2 : double(*length) >= need;
   if (!fits)
-    throw InputError(path, "PixelData", "the pixel data hold " + std::to_string(length) + " bytes, but Rows x Columns x "
-                                        "NumberOfFrames = " + exact(pixels) + " pixels of " + std::to_string(bits) +
-                                        " bits need " + exact(need) + (bits == 12 ? " (packed)" : ""));
+    throw InputError(path, "PixelData",
+                     "the pixel data hold " + std::to_string(*length) + " bytes, but Rows x Columns x NumberOfFrames = " +
+                         exact(pixels) + " pixels of " + std::to_string(bits) + " bits need " + exact(need) +
+                         (bits == 12 ? " (packed)" : ""));
 }
 
 // Decodes one file's pixels (GDCM: every transfer syntax it supports) and applies the rescale.
@@ -417,9 +584,9 @@ Slice read_slice(const std::string& path) {
   size_t value_start = 0;
   {
     gdcm::Reader header;
-    read_header_into(header, path);
+    const std::optional<uint32_t> deflated_pixel_length = read_header_into(header, path);
     value_start = header.GetStreamCurrentPosition();
-    check_declared_pixels(header, value_start, path);
+    check_declared_pixels(header, value_start, deflated_pixel_length, path);
   }
   PixelDataReader reader;
   reader.SetFileName(path.c_str());

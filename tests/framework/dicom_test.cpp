@@ -14,6 +14,8 @@
 
 #include <gtest/gtest.h>
 
+#include <zlib.h>
+
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -109,6 +111,40 @@ std::string synthetic_slice(int columns, int rows, double z, const std::string& 
     put16(ds, 0xfffe); put16(ds, 0xe0dd); put32(ds, 0);
   }
   return std::string(128, '\0') + "DICM" + element(0x0002, 0x0000, "UL", group_length) + meta + ds;
+}
+
+// `file`, a Part 10 file in explicit VR little endian, with its data set (changed by `edit`
+// first) deflated: transfer syntax 1.2.840.10008.1.2.1.99, raw deflate without a wrapper after
+// the file meta information, whose group length is made again.
+std::string deflated(const std::string& file, const std::function<void(std::string&)>& edit = {}) {
+  std::string meta;
+  size_t at = 132;
+  auto u16 = [&](size_t i) { return uint32_t(uint8_t(file[i])) | uint32_t(uint8_t(file[i + 1])) << 8; };
+  while (u16(at) == 0x0002) {
+    const std::string vr = file.substr(at + 4, 2);
+    const bool long_length = vr == "OB" || vr == "OW";
+    const size_t header = long_length ? 12 : 8;
+    const size_t length = long_length ? (u16(at + 8) | u16(at + 10) << 16) : u16(at + 6);
+    const uint16_t elem = uint16_t(u16(at + 2));
+    if (elem == 0x0010) meta += element(0x0002, 0x0010, "UI", "1.2.840.10008.1.2.1.99");
+    else if (elem != 0x0000) meta += element(0x0002, elem, vr, file.substr(at + header, length));
+    at += header + length;
+  }
+  std::string data_set = file.substr(at);
+  if (edit) edit(data_set);
+  z_stream zs{};
+  EXPECT_EQ(deflateInit2(&zs, 9, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY), Z_OK);
+  std::string out(deflateBound(&zs, uLong(data_set.size())), '\0');
+  zs.next_in = reinterpret_cast<Bytef*>(data_set.data());
+  zs.avail_in = uInt(data_set.size());
+  zs.next_out = reinterpret_cast<Bytef*>(out.data());
+  zs.avail_out = uInt(out.size());
+  EXPECT_EQ(deflate(&zs, Z_FINISH), Z_STREAM_END);
+  out.resize(zs.total_out);
+  deflateEnd(&zs);
+  std::string group_length;
+  put32(group_length, uint32_t(meta.size()));
+  return file.substr(0, 132) + element(0x0002, 0x0000, "UL", group_length) + meta + out;
 }
 
 // ---------------------------------------------------------------- single files
@@ -426,6 +462,90 @@ TEST(Dicom, CutOrCorruptElementsAreRefusedBeforeGdcmParsesThem) {
   const InputError e = expect_input_error([&] { convert_image_file((dir / "j2k.dcm").string(), (dir / "j2k.nii").string()); });
   EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
   EXPECT_EQ(e.file(), (dir / "j2k.dcm").string());
+}
+
+// `file` (synthetic_slice's) with a ReferencedImageSequence of defined length `length` (its real
+// length when 0) holding one item of defined length, before StudyInstanceUID.
+std::string with_defined_length_sequence(const std::string& file, uint32_t length = 0) {
+  std::string content = element(0x0008, 0x1150, "UI", "1.2.840.10008.5.1.4.1.1.2") + element(0x0008, 0x1155, "UI", "1.2.3.9");
+  std::string sequence;
+  put16(sequence, 0x0008); put16(sequence, 0x1140); sequence += "SQ"; put16(sequence, 0);
+  put32(sequence, length ? length : uint32_t(content.size() + 8));
+  put16(sequence, 0xfffe); put16(sequence, 0xe000); put32(sequence, uint32_t(content.size()));
+  const size_t at = file.find(std::string("\x20\x00\x0d\x00UI", 6));
+  return file.substr(0, at) + sequence + content + file.substr(at);
+}
+
+TEST(Dicom, DeflatedFileReadsAsItsStoredForm) {
+  const fs::path dir = fresh_path();
+  const std::string stored = read_file(kDicom + "/CT_small.dcm");
+  write_file(dir / "ct.dcm", deflated(stored));
+  const Image<2> a = read_image<2>((dir / "ct.dcm").string()), b = read_image<2>(kDicom + "/CT_small.dcm");
+  EXPECT_EQ(a.grid().size, b.grid().size);
+  EXPECT_EQ(a.grid().spacing, b.grid().spacing);
+  EXPECT_EQ(a.grid().origin, b.grid().origin);
+  EXPECT_EQ(a.data(), b.data());
+  // a sequence and an item of defined length, which the walk enters
+  const std::string slice = with_defined_length_sequence(synthetic_slice(5, 3, 2, "1.2.3.10"));
+  write_file(dir / "slice.dcm", slice);
+  write_file(dir / "slice_deflated.dcm", deflated(slice));
+  EXPECT_EQ(read_image<2>((dir / "slice_deflated.dcm").string()).data(), read_image<2>((dir / "slice.dcm").string()).data());
+}
+
+// A deflated data set is walked as it inflates, as a stored one is in the file, before GDCM
+// parses it (it asserts, aborting the process, on a deflated data set cut inside an element or
+// holding an element without a valid VR, and allocated gigabytes for a corrupt length): a stream
+// that does not inflate, or inflates to more than the memory limit, is refused too. The
+// positions are CT_small.dcm's, whose data set begins at byte 336: its SamplesPerPixel 3242, an
+// element (SL) at 1994, its Pixel Data length 6296 (the value from 6300, 32768 bytes).
+TEST(Dicom, CorruptDeflatedDataSetIsRefusedBeforeGdcmReadsIt) {
+  const fs::path dir = fresh_path();
+  const std::string stored = read_file(kDicom + "/CT_small.dcm");
+  ASSERT_EQ(stored.size(), 39206u);
+  const std::string whole = deflated(stored);
+  auto edited = [&](size_t at, const std::string& bytes) {
+    return deflated(stored, [&](std::string& ds) { ds.replace(at - 336, bytes.size(), bytes); });
+  };
+  auto cut_data_set = [&](size_t keep) {
+    return deflated(stored, [&](std::string& ds) { ds.resize(keep - 336); });
+  };
+  const size_t data_set_at = 144 + (uint8_t(whole[140]) | uint8_t(whole[141]) << 8);  // after the meta group
+  std::string flipped = whole;
+  flipped[whole.size() / 2] = char(flipped[whole.size() / 2] ^ 0x5a);
+  const std::vector<std::tuple<std::string, std::string, std::string>> cases = {
+      {whole.substr(0, whole.size() / 2), "PixelData", "ends before them"},   // the file cut in the stream
+      {cut_data_set(2000), "", "truncated: the data set ends inside an element (byte 1658 of the inflated"},
+      {cut_data_set(6298), "", "truncated"},                                  // in the Pixel Data's header
+      {cut_data_set(20000), "PixelData", "the inflated data set ends before them"},
+      {edited(1998, "L@"), "", "no valid VR"},
+      {edited(1994 + 6, "\xff\xff"), "", "truncated"},                        // a length past the end
+      {edited(3242, "\x03"), "SamplesPerPixel", "3 samples per pixel"},
+      {edited(6296, std::string("\x00\x01\x00\x00", 4)), "PixelData", "hold 256 bytes"},
+      {whole.substr(0, data_set_at) + std::string(64, '\xff'), "", "corrupt deflated data set"},  // no deflate block
+      {deflated(with_defined_length_sequence(synthetic_slice(5, 3, 2, "1.2.3.10"), 1 << 20)), "", "truncated"},
+  };
+  for (size_t i = 0; i < cases.size(); ++i) {
+    SCOPED_TRACE(i);
+    const std::string path = (dir / ("bad" + std::to_string(i) + ".dcm")).string();
+    const auto& [content, where, words] = cases[i];
+    write_file(path, content);
+    const InputError e = expect_input_error([&] { read_image<2>(path); });
+    EXPECT_EQ(e.file(), path);
+    EXPECT_EQ(e.where(), where) << e.what();
+    EXPECT_TRUE(contains(e.message(), words)) << e.what();
+  }
+  write_file(dir / "flipped.dcm", flipped);  // a flipped byte: the stream does not inflate, or its pixels differ
+  try {
+    read_image<2>((dir / "flipped.dcm").string());
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), (dir / "flipped.dcm").string());
+  }
+  write_file(dir / "whole.dcm", whole);
+  ::setenv("DSNAKE_MAX_IMAGE_BYTES", "20000", 1);  // CT_small's data set inflates to 38870 bytes
+  const InputError e = expect_input_error([&] { read_image<2>((dir / "whole.dcm").string()); });
+  ::unsetenv("DSNAKE_MAX_IMAGE_BYTES");
+  EXPECT_EQ(e.file(), (dir / "whole.dcm").string());
+  EXPECT_TRUE(contains(e.message(), "inflates to more than the memory limit")) << e.what();
 }
 
 TEST(Dicom, NonDicomFileWithDcmExtensionIsRefused) {
