@@ -298,8 +298,10 @@ template std::string smaller_than_a_voxel<2>(const PointList<2>&, const Grid<2>&
 template std::string smaller_than_a_voxel<3>(const PointList<3>&, const Grid<3>&);
 
 // The ground truth must lie near the image too (a phantom whose object was made 1e300 mm wide
-// ran and crashed in the metrics, whose distances overflow): its surface's vertices and its
-// targets within one image extent of the image's box, as the template's.
+// ran and crashed in the metrics, whose distances overflow): its surface's vertices, its targets
+// and a mask file's inside voxels (a mask elsewhere in the world scored every result 0 without a
+// word) within one image extent of the image's box, as the template's. The mask is in the
+// image's frame by now (express_in_image_frame), its direction the identity.
 template <int D>
 void check_truth_placement(const Experiment<D>& ex, const ExperimentSpec<D>& spec) {
   auto check = [&](const Point<D>& p, const std::string& file, const std::string& key, const std::string& what) {
@@ -319,6 +321,25 @@ void check_truth_placement(const Experiment<D>& ex, const ExperimentSpec<D>& spe
     if (ex.truth.targets[t])
       check(*ex.truth.targets[t], spec.truth.correspondence.empty() ? spec.file.path : spec.truth.correspondence,
             "template id " + std::to_string(t), "the ground-truth counterpart");
+  if (ex.truth.mask && !spec.truth.mask.empty()) {
+    const BinaryMask<D>& m = *ex.truth.mask;
+    for (int64_t l = 0; l < m.num_voxels(); ++l) {
+      if (!m[l]) continue;
+      const Point<D> p = m.grid().to_physical(m.grid().index(l));
+      const int a = axis_beyond_image(ex.image.grid(), p);
+      if (a < 0) continue;
+      const Point<D> world = ex.image.grid().to_world(p);
+      std::string at;
+      for (int k = 0; k < D; ++k) {
+        char c[32];
+        std::snprintf(c, sizeof c, "%s%.6g", k ? ", " : "", world[k]);
+        at += c;
+      }
+      throw InputError(spec.truth.mask, "ground_truth.mask",
+                       "the mask's inside voxel at (" + at + ") mm lies outside the image: more than the image's "
+                       "extent beyond its border along axis " + std::to_string(a));
+    }
+  }
 }
 
 template <int D>

@@ -86,5 +86,18 @@ TEST_F(GroundTruthMaskTest, AMaskWithoutAnInsideVoxelIsRefused) {
   EXPECT_TRUE(e.message().find("no voxel is inside") != std::string::npos) << e.what();
 }
 
+// A mask whose object lies elsewhere in the world (here 1000 mm along x) is refused naming it and
+// the key, as a ground-truth surface there is, instead of scoring every result 0.
+TEST_F(GroundTruthMaskTest, AMaskOutsideTheImageIsRefused) {
+  Grid<3> grid;
+  grid.size = {20, 20, 20};
+  grid.origin = Point<3>(990, -10, -10);
+  const InputError e = expect_input_error([&] { start_dice(ball_on(grid, Point<3>(1000, 0, 0), 5.0), "far"); });
+  EXPECT_EQ(e.file(), (dir_ / "far.mha").string());
+  EXPECT_EQ(e.where(), "ground_truth.mask");
+  EXPECT_TRUE(e.message().find("lies outside the image") != std::string::npos) << e.what();
+  EXPECT_TRUE(e.message().find("along axis 0") != std::string::npos) << e.what();
+}
+
 }  // namespace
 }  // namespace dsnake
