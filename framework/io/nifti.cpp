@@ -124,6 +124,16 @@ NiftiPlacement qform_placement(const std::string& bytes, bool swap, const std::a
   return p;
 }
 
+// InputError naming the first qform parameter (quatern_b, _c, _d, qoffset_x, _y, _z) that is not a
+// finite number: a NaN there made every axis NaN, which was reported as a sheared grid.
+void check_qform_finite(const std::string& bytes, bool swap, const std::string& path) {
+  static const char* const kNames[6] = {"quatern_b", "quatern_c", "quatern_d", "qoffset_x", "qoffset_y", "qoffset_z"};
+  for (int k = 0; k < 6; ++k)
+    if (const float value = nifti_field<float>(bytes, 256 + 4 * k, swap); !std::isfinite(value))
+      throw InputError(path, kNames[k], std::string("the qform's ") + (k < 3 ? "quaternion" : "offset") +
+                                            " parameter is not a finite number (" + exact(value) + ")");
+}
+
 // The header's "method 3": the sform's rows srow_x, srow_y, srow_z. Its column norms are the
 // spacing, so that each voxel is where the affine puts it (nibabel's `affine` is the sform
 // itself); a zero or non-finite column keeps pixdim's spacing and the default axis and is marked
@@ -202,7 +212,10 @@ void read_nifti_orientation(const std::string& bytes, bool swap, NiftiTransform 
   NiftiPlacement p;
   p.spacing = v.spacing;
   if (use_s) p = s;
-  else if (use_q) p = qform_placement(bytes, swap, v.spacing);
+  else if (use_q) {
+    check_qform_finite(bytes, swap, path);
+    p = qform_placement(bytes, swap, v.spacing);
+  }
   if (warn && choice == NiftiTransform::kAuto && has_s && has_q) {
     const auto [mm, degrees] = placement_disagreement(p, qform_placement(bytes, swap, v.spacing), v.size);
     double voxel = std::numeric_limits<double>::infinity();

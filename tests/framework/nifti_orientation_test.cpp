@@ -15,6 +15,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <string>
 
 namespace dsnake {
@@ -277,6 +278,29 @@ TEST(NiftiOrientation, AnSformWithAZeroColumnGivesWayToTheQformWithAWarning) {
   EXPECT_EQ(lines_of(err), 1) << err;
   EXPECT_TRUE(contains(err, "its column for axis 0 (6 voxels) is zero or not finite, which places them all at one "
                             "point; using pixdim at the origin")) << err;
+}
+
+// A qform parameter that is not a finite number is refused naming the field (a NaN quaternion was
+// reported as a sheared grid); an sform in use leaves the qform unread.
+TEST(NiftiOrientation, ANonFiniteQformParameterIsRefusedNamingIt) {
+  const std::string dir = fresh_dir();
+  NiftiGeometry g;
+  g.qform_code = 1;
+  g.quatern = {0, std::numeric_limits<float>::quiet_NaN(), 0};
+  write_file(dir + "/nan_q.nii", nifti_file(g));
+  const InputError e = expect_input_error([&] { read_image<3>(dir + "/nan_q.nii"); });
+  EXPECT_EQ(e.file(), dir + "/nan_q.nii");
+  EXPECT_EQ(e.where(), "quatern_c");
+  EXPECT_TRUE(contains(e.message(), "quaternion parameter is not a finite number")) << e.what();
+  EXPECT_FALSE(contains(e.message(), "shear")) << e.what();
+  g.quatern = {0, 0, 0};
+  g.qoffset = {0, 0, std::numeric_limits<float>::infinity()};
+  write_file(dir + "/inf_offset.nii", nifti_file(g));
+  EXPECT_EQ(expect_input_error([&] { read_image<3>(dir + "/inf_offset.nii"); }).where(), "qoffset_z");
+  g.sform_code = 1;
+  g.sform = affine_of(Eigen::Matrix3d::Identity(), {1, 1, 1}, {0, 0, 0});
+  write_file(dir + "/with_sform.nii", nifti_file(g));
+  EXPECT_EQ(read_image<3>(dir + "/with_sform.nii").grid().size, GridIndex<3>(6, 5, 4));
 }
 
 // The header read for the dimension alone says nothing (the image is read afterwards and warns then).
