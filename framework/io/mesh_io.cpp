@@ -20,6 +20,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -416,11 +417,64 @@ void check_ply_header(const std::string& path) {
   throw InputError(path, "header", "no 'end_header' line");
 }
 
+// InputError naming the first STL facet with a coordinate that is not a finite number. OpenMesh
+// merges an STL's vertices by comparing their coordinates, which a NaN does not order: the mesh it
+// made of such a file lost or fused facets, and was refused as not closed (or, worse, read as
+// another closed mesh). Binary when the size is that of the facet count at byte 80 (OpenMesh's
+// own test), else ASCII, whose "vertex x y z" lines are read.
+void check_stl_coordinates(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::error_code ec;
+  const uint64_t size = fs::file_size(path, ec);
+  auto bad = [&](uint64_t facet, int vertex, const double (&p)[3]) {
+    return InputError(path, "facet " + std::to_string(facet),
+                      "vertex " + std::to_string(vertex) + " has a coordinate that is not a finite number (" + exact(p[0]) +
+                          " " + exact(p[1]) + " " + exact(p[2]) + ")");
+  };
+  char head[84];
+  if (ec || !in.read(head, 84)) return;
+  const uint64_t count = uint64_t(uint8_t(head[80])) | uint64_t(uint8_t(head[81])) << 8 |
+                         uint64_t(uint8_t(head[82])) << 16 | uint64_t(uint8_t(head[83])) << 24;
+  if (size == 84 + 50 * count) {
+    char facet[50];
+    for (uint64_t f = 0; f < count && in.read(facet, 50); ++f)
+      for (int v = 0; v < 3; ++v) {
+        double p[3];
+        for (int k = 0; k < 3; ++k) {
+          float x;
+          std::memcpy(&x, facet + 12 + 12 * v + 4 * k, 4);  // little-endian, as this machine's
+          p[k] = x;
+        }
+        if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) throw bad(f, v, p);
+      }
+    return;
+  }
+  in.clear();
+  in.seekg(0);
+  int64_t facet = -1;
+  int vertex = 0;
+  for (std::string word; in >> word;) {
+    std::transform(word.begin(), word.end(), word.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    if (word == "facet") {
+      ++facet, vertex = 0;
+    } else if (word == "vertex") {
+      double p[3];
+      std::string t;
+      for (int k = 0; k < 3; ++k)
+        if (!(in >> t) || !parse_number(t, p[k])) return;  // not a number: OpenMesh's to refuse
+      if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+        throw bad(uint64_t(std::max<int64_t>(facet, 0)), vertex, p);
+      ++vertex;
+    }
+  }
+}
+
 // PLY and STL through OpenMesh (STL vertices shared by several facets are merged on read).
 // OpenMesh's own messages are silenced: a failure is our one line.
 RawMesh read_openmesh(const std::string& path) {
   require_regular_file(path, "mesh file");
   if (extension_of(path) == ".ply") check_ply_header(path);
+  if (extension_of(path) == ".stl") check_stl_coordinates(path);
   OmMesh mesh;
   OpenMesh::IO::Options opt;
   omerr().disable();

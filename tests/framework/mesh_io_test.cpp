@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <sstream>
 #include <unistd.h>
 
@@ -155,6 +156,43 @@ TEST(MeshIo, BinaryPlyListCountsAndIndexTypesAreChecked) {
     EXPECT_EQ(e.file(), dir + "/bad.ply");
     EXPECT_EQ(e.where(), where) << e.what();
     EXPECT_TRUE(contains(e.message(), words)) << e.what();
+  }
+}
+
+// An STL vertex with a coordinate that is not a finite number is refused naming its facet and
+// vertex, in ASCII and binary files (OpenMesh, merging vertices by their coordinates, made another
+// mesh of them, refused as not closed or read as a wrong closed one).
+TEST(MeshIo, StlVertexWithANonFiniteCoordinateIsNamed) {
+  const std::string dir = fresh_dir();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<Point<3>> corners = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, nan}};
+  const std::vector<std::array<int, 3>> facets = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  std::string ascii = "solid t\n", binary = std::string(80, '\0');
+  const uint32_t count = 4;
+  binary += std::string(reinterpret_cast<const char*>(&count), 4);
+  for (const auto& f : facets) {
+    ascii += "facet normal 0 0 0\nouter loop\n";
+    binary += std::string(12, '\0');
+    for (int v : f) {
+      std::ostringstream line;
+      line << "vertex " << corners[v][0] << " " << corners[v][1] << " " << corners[v][2] << "\n";
+      ascii += line.str();
+      for (int k = 0; k < 3; ++k) {
+        const float x = float(corners[v][k]);
+        binary += std::string(reinterpret_cast<const char*>(&x), 4);
+      }
+    }
+    ascii += "endloop\nendfacet\n";
+    binary += std::string(2, '\0');
+  }
+  write_file(dir + "/ascii.stl", ascii + "endsolid t\n");
+  write_file(dir + "/binary.stl", binary);
+  for (const std::string name : {"ascii.stl", "binary.stl"}) {
+    SCOPED_TRACE(name);
+    const InputError e = expect_input_error([&] { read_mesh_template(dir + "/" + name); });
+    EXPECT_EQ(e.file(), dir + "/" + name);
+    EXPECT_EQ(e.where(), "facet 1") << e.what();
+    EXPECT_TRUE(contains(e.message(), "vertex 2 has a coordinate that is not a finite number")) << e.what();
   }
 }
 
