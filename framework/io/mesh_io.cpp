@@ -257,9 +257,27 @@ struct PlyElement {
   int64_t count = 0;
   std::vector<bool> list;
   // Per property, in a binary body: the bytes of a list's count (0 for a single value), whether
-  // that count is signed, and the bytes of the value (of each item of a list).
-  std::vector<std::array<int, 3>> bytes;
+  // that count is signed, the bytes of the value (of each item of a list) and whether it is signed.
+  std::vector<std::array<int, 4>> bytes;
+  // Per property: a face's vertex indices (its items must be vertex numbers).
+  std::vector<bool> vertex_indices;
 };
+
+// InputError for face `face`'s item `index` that is not the number of one of the file's
+// `vertices` vertices: OpenMesh dropped such a face without a word, and the mesh was then refused
+// as not closed.
+void check_ply_vertex_index(double index, int64_t face, int64_t vertices, const std::string& path) {
+  if (index >= 0 && index < double(vertices) && index == std::floor(index)) return;
+  throw InputError(path, "face " + std::to_string(face),
+                   "refers to vertex " + exact(index) + " of " + std::to_string(vertices) + " vertices (numbered from 0)");
+}
+
+// The number of vertices a PLY header declares (0 without a vertex element).
+int64_t ply_vertex_count(const std::vector<PlyElement>& elements) {
+  for (const PlyElement& e : elements)
+    if (e.name == "vertex") return e.count;
+  return 0;
+}
 
 // Bytes of a PLY scalar type (those check_ply_header accepts), 0 for a name that is not one.
 int ply_type_bytes(const std::string& type) {
@@ -280,10 +298,20 @@ bool ply_integer_type(const std::string& type) {
 void check_ply_binary_body(std::istream& in, const std::string& path, const std::vector<PlyElement>& elements,
                            bool big_endian) {
   const std::string body{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  const int64_t vertices = ply_vertex_count(elements);
+  // The unsigned or signed integer of `n` bytes at body[at], in the file's byte order.
+  auto integer = [&](size_t at, int n, bool is_signed) {
+    uint64_t raw = 0;
+    for (int b = 0; b < n; ++b) raw |= uint64_t(uint8_t(body[at + size_t(big_endian ? n - 1 - b : b)])) << (8 * b);
+    int64_t value = int64_t(raw);
+    if (is_signed && n < 8 && (raw >> (8 * n - 1) & 1)) value -= int64_t(1) << (8 * n);
+    return value;
+  };
   size_t at = 0;
   for (const PlyElement& e : elements)
     for (int64_t i = 0; i < e.count; ++i)
-      for (const auto& [count_bytes, count_signed, value_bytes] : e.bytes) {
+      for (size_t p = 0; p < e.bytes.size(); ++p) {
+        const auto [count_bytes, count_signed, value_bytes, value_signed] = e.bytes[p];
         const std::string where = "element " + e.name;
         auto ends = [&] {
           return InputError(path, where, "the file ends inside entry " + std::to_string(i) + " of its " +
@@ -295,15 +323,15 @@ void check_ply_binary_body(std::istream& in, const std::string& path, const std:
           continue;
         }
         if (body.size() - at < size_t(count_bytes)) throw ends();
-        uint64_t raw = 0;
-        for (int b = 0; b < count_bytes; ++b)
-          raw |= uint64_t(uint8_t(body[at + size_t(big_endian ? count_bytes - 1 - b : b)])) << (8 * b);
+        const int64_t items = integer(at, count_bytes, count_signed);
         at += size_t(count_bytes);
-        int64_t items = int64_t(raw);
-        if (count_signed && (raw >> (8 * count_bytes - 1) & 1)) items -= int64_t(1) << (8 * count_bytes);
         if (items < 0 || uint64_t(items) > (body.size() - at) / uint64_t(value_bytes))
           throw InputError(path, where, "entry " + std::to_string(i) + " has a list of " + std::to_string(items) +
                                             " items: negative, or more than the file holds");
+        if (e.vertex_indices[p])
+          for (int64_t k = 0; k < items; ++k)
+            check_ply_vertex_index(double(integer(at + size_t(k * value_bytes), value_bytes, value_signed)), i, vertices,
+                                   path);
         at += size_t(items) * size_t(value_bytes);
       }
 }
@@ -313,6 +341,7 @@ void check_ply_binary_body(std::istream& in, const std::string& path, const std:
 // `line_no` is the number of the header's last line.
 void check_ply_ascii_body(std::istream& in, const std::string& path, const std::vector<PlyElement>& elements,
                           int64_t line_no) {
+  const int64_t vertices = ply_vertex_count(elements);
   for (const PlyElement& e : elements)
     for (int64_t i = 0; i < e.count; ++i) {
       std::string body;
@@ -333,7 +362,10 @@ void check_ply_ascii_body(std::istream& in, const std::string& path, const std::
         }
         ok = k < w.size() && parse_number(w[k++], v) && v >= 0 && v == std::floor(v) && v <= double(w.size() - k);
         const int64_t items = ok ? int64_t(v) : 0;  // bounded by the words left on the line
-        for (int64_t j = 0; ok && j < items; ++j) ok = parse_number(w[k++], v);
+        for (int64_t j = 0; ok && j < items; ++j) {
+          ok = parse_number(w[k++], v);
+          if (ok && e.vertex_indices[p]) check_ply_vertex_index(v, i, vertices, path);
+        }
       }
       if (!ok || k != w.size())
         throw InputError(path, "line " + std::to_string(line_no),
@@ -395,7 +427,7 @@ void check_ply_header(const std::string& path) {
         throw InputError(path, "element " + a, "the header declares " + std::to_string(int64_t(std::min(count, 9e18))) + " '" + a +
                                                    "' elements, more than the file's " + std::to_string(int64_t(size)) + " bytes can hold");
       in_element = true;
-      elements.push_back({a, int64_t(count), {}, {}});
+      elements.push_back({a, int64_t(count), {}, {}, {}});
     } else if (keyword == "property") {
       if (!in_element) throw bad("a property before any element");
       std::string name;  // property TYPE NAME, or property list COUNT_TYPE ITEM_TYPE NAME
@@ -407,8 +439,11 @@ void check_ply_header(const std::string& path) {
       if (a == "list" && (!ply_integer_type(b) || ((name == "vertex_indices" || name == "vertex_index") && !ply_integer_type(c))))
         throw bad("a list's count type, and a face's index type, must be integer types");
       elements.back().list.push_back(a == "list");
-      elements.back().bytes.push_back(a == "list" ? std::array<int, 3>{ply_type_bytes(b), b[0] != 'u', ply_type_bytes(c)}
-                                                  : std::array<int, 3>{0, 0, ply_type_bytes(a)});
+      elements.back().bytes.push_back(a == "list"
+                                          ? std::array<int, 4>{ply_type_bytes(b), b[0] != 'u', ply_type_bytes(c), c[0] != 'u'}
+                                          : std::array<int, 4>{0, 0, ply_type_bytes(a), a[0] != 'u'});
+      elements.back().vertex_indices.push_back(a == "list" && elements.back().name == "face" &&
+                                               (name == "vertex_indices" || name == "vertex_index"));
     } else {
       throw bad("not a PLY header line");
     }

@@ -159,6 +159,31 @@ TEST(MeshIo, BinaryPlyListCountsAndIndexTypesAreChecked) {
   }
 }
 
+// A PLY face that refers to a vertex the file does not have is refused naming the face, the index
+// and the vertex count (OpenMesh dropped the face, which was reported as a mesh not closed).
+TEST(MeshIo, PlyFaceWithAVertexIndexOutOfRangeIsNamed) {
+  const std::string dir = fresh_dir();
+  const std::string header = "element vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+                             "element face 4\nproperty list uchar int vertex_indices\nend_header\n";
+  write_file(dir + "/ascii.ply", "ply\nformat ascii 1.0\n" + header + "0 0 0\n1 0 0\n0 1 0\n0 0 1\n" +
+                                     "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 7\n");
+  auto int32 = [](int32_t v) { return std::string(reinterpret_cast<const char*>(&v), 4); };
+  std::string binary = "ply\nformat binary_little_endian 1.0\n" + header + std::string(4 * 3 * 4, '\0');
+  for (const auto& face : std::vector<std::array<int32_t, 3>>{{0, 2, 1}, {0, -1, 3}, {0, 3, 2}, {1, 2, 3}})
+    binary += std::string(1, '\3') + int32(face[0]) + int32(face[1]) + int32(face[2]);
+  write_file(dir + "/binary.ply", binary);
+  const std::vector<std::array<std::string, 3>> cases = {{"ascii.ply", "face 3", "refers to vertex 7 of 4 vertices"},
+                                                         {"binary.ply", "face 1", "refers to vertex -1 of 4 vertices"}};
+  for (const auto& [name, where, words] : cases) {
+    SCOPED_TRACE(name);
+    const std::string path = dir + "/" + name;
+    const InputError e = expect_input_error([&] { read_mesh_template(path); });
+    EXPECT_EQ(e.file(), path);
+    EXPECT_EQ(e.where(), where) << e.what();
+    EXPECT_TRUE(contains(e.message(), words)) << e.what();
+  }
+}
+
 // An STL vertex with a coordinate that is not a finite number is refused naming its facet and
 // vertex, in ASCII and binary files (OpenMesh, merging vertices by their coordinates, made another
 // mesh of them, refused as not closed or read as a wrong closed one).
