@@ -367,14 +367,17 @@ RawVolume read_opencv(const std::string& path) {
     throw InputError(path, "", "cannot decode the image (OpenCV: " + e.err + ")");
   }
   if (m.empty()) throw InputError(path, "", "cannot decode the image");
-  cv::Mat d;
-  m.convertTo(d, CV_64F);
+  // Converted straight into the volume's floats (OpenCV writes into a Mat over them, row by row,
+  // x fastest): the decoded pixels and the floats are all a read holds, no copy in double
+  // between them. Every stored type converts to the float nearest its value, as it did through
+  // double (double holds every one of them exactly).
   RawVolume v;
   v.ndims = 2;
-  v.size = {d.cols, d.rows, 1};
-  v.values.resize(size_t(d.cols) * d.rows);
-  for (int y = 0; y < d.rows; ++y)
-    for (int x = 0; x < d.cols; ++x) v.values[size_t(y) * d.cols + x] = float(d.at<double>(y, x));
+  v.size = {m.cols, m.rows, 1};
+  v.values.resize(size_t(m.cols) * size_t(m.rows));
+  cv::Mat values(m.rows, m.cols, CV_32F, v.values.data());
+  m.convertTo(values, CV_32F);
+  DSNAKE_ASSERT(values.data == reinterpret_cast<uchar*>(v.values.data()), "OpenCV converted into a buffer of its own");
   return v;
 }
 

@@ -1,6 +1,7 @@
 // Round trips and error reports of framework/image_io: MetaImage (raw, separate .raw, zlib),
 // NIfTI-1 (.nii, .nii.gz, scaled integer types, big-endian headers), PNG, vector fields.
 #include "framework/io/image_io.h"
+#include "framework/io/raster_codecs.h"
 #include "framework/io/image_io_detail.h"
 
 #include "framework/core/errors.h"
@@ -495,6 +496,29 @@ TEST(ImageIo, PngRoundTripOf8BitPattern) {
   const Image<2> back = read_image<2>(path);
   EXPECT_EQ(back[0], 0.0f);
   EXPECT_EQ(back[1], 255.0f);
+}
+
+// The 2D raster reader converts the decoded pixels straight into the image's floats (no copy in
+// double between them): 16-bit grey and 32-bit float pixels, on rows of odd length, come back
+// exactly, in raster order.
+TEST(ImageIo, RasterPixelsOfEveryDepthReadExactly) {
+  const std::string dir = fresh_dir();
+  cv::Mat wide(5, 7, CV_16UC1), real(5, 7, CV_32FC1);
+  for (int y = 0; y < 5; ++y)
+    for (int x = 0; x < 7; ++x) {
+      wide.at<uint16_t>(y, x) = uint16_t(65535 - 977 * (x + 7 * y));
+      real.at<float>(y, x) = -1.5e7f + 0.1f * float(x) + 1e-3f * float(y);
+    }
+  ASSERT_TRUE(write_raster(dir + "/wide.png", wide));
+  ASSERT_TRUE(write_raster(dir + "/real.tif", real));
+  const Image<2> a = read_image<2>(dir + "/wide.png"), b = read_image<2>(dir + "/real.tif");
+  ASSERT_EQ(a.grid().size, GridIndex<2>(7, 5));
+  ASSERT_EQ(b.grid().size, GridIndex<2>(7, 5));
+  for (int y = 0; y < 5; ++y)
+    for (int x = 0; x < 7; ++x) {
+      EXPECT_EQ(a.at({x, y}), float(wide.at<uint16_t>(y, x))) << x << " " << y;
+      EXPECT_EQ(b.at({x, y}), real.at<float>(y, x)) << x << " " << y;
+    }
 }
 
 TEST(ImageIo, VectorFieldRoundTrip2dAnd3d) {
