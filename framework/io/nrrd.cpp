@@ -225,8 +225,16 @@ void nrrd_placement(const NrrdHeader& h, const std::string& path, const NrrdSpac
       double norm = 0;
       for (double x : d) norm += x * x;
       norm = std::sqrt(norm);
-      if (!(norm > 0) || !std::isfinite(norm))
-        throw InputError(path, "space directions", "axis " + std::to_string(lead + a) + " has no length");
+      // (A NaN or infinite component, or a vector too long for a double, is named as such, not as
+      // a vector without length.)
+      const std::string axis = "axis " + std::to_string(lead + a);
+      for (int k = 0; k < space.dims; ++k)
+        if (!std::isfinite(d[k]))
+          throw InputError(path, "space directions", axis + "'s vector has a component that is not a finite number (" +
+                                                         exact(d[k]) + ")");
+      if (!std::isfinite(norm))
+        throw InputError(path, "space directions", axis + "'s vector is too long (its length overflows a double)");
+      if (!(norm > 0)) throw InputError(path, "space directions", axis + " has no length");
       v.spacing[a] = norm;
       for (int k = 0; k < space.dims; ++k) v.axes[a][k] = flip[k] * d[k] / norm;
     }

@@ -387,6 +387,13 @@ TEST(Nrrd, BadFilesNameTheFileAndTheField) {
   write_file(dir + "/dir.nrrd", head + "space dimension: 2\nsizes: 2 2\nspace directions: (1,0) (0,0)\n"
                                 "encoding: raw\n\n" + four);
   expect_bad(dir + "/dir.nrrd", "space directions");
+  // a NaN component, and one whose length overflows, are named as such, not as an axis without length
+  write_file(dir + "/dir_nan.nrrd", head + "space dimension: 2\nsizes: 2 2\nspace directions: (nan,0) (0,1)\n"
+                                    "encoding: raw\n\n" + four);
+  expect_bad(dir + "/dir_nan.nrrd", "space directions", "not a finite number");
+  write_file(dir + "/dir_long.nrrd", head + "space dimension: 2\nsizes: 2 2\nspace directions: (1e308,1e308) (0,1)\n"
+                                     "encoding: raw\n\n" + four);
+  expect_bad(dir + "/dir_long.nrrd", "space directions", "too long");
   write_file(dir + "/line.nrrd", head + "sizes 2 2\nencoding: raw\n\n" + four);
   expect_bad(dir + "/line.nrrd", "header line 4");
   // A colour image is not a volume (its first axis holds the colour, not a position), nor is a
