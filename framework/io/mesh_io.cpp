@@ -233,10 +233,15 @@ VtkPolyData read_vtk(const std::string& path) {
         const int64_t k = count(key);
         std::vector<int> cell;
         for (int64_t i = 0; i < k; ++i) {
-          const int64_t id = count(key);
-          if (id >= int64_t(d.points.size()))
-            throw InputError(path, key, "cell " + std::to_string(c) + " refers to point " + std::to_string(id));
-          cell.push_back(int(id));
+          std::string t;
+          double v;
+          if (!(in >> t) || !parse_number(t, v) || !(v >= 0) || v != std::floor(v))
+            throw InputError(path, key,
+                             "cell " + std::to_string(c) + ": '" + t + "' is not a point index (a whole number from 0)");
+          if (!(v < double(d.points.size())))
+            throw InputError(path, key, "cell " + std::to_string(c) + " refers to point " + t + ", of " +
+                                            std::to_string(d.points.size()) + " points");
+          cell.push_back(int(v));
         }
         if (key == "TRIANGLE_STRIPS") throw InputError(path, key, "triangle strips are not supported");
         if (key != "VERTICES") out.push_back(std::move(cell));

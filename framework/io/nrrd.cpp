@@ -323,6 +323,10 @@ NrrdDataSpan nrrd_data_span(const NrrdHeader& h, const std::string& path) {
     span.where = (p.is_absolute() ? p : fs::path(path).parent_path() / p).string();
     if (!fs::is_regular_file(span.where, ec))
       throw InputError(path, "data file", "data file '" + span.where + "' not found");
+    // A detached header naming itself would read its own text as voxels.
+    if (fs::equivalent(span.where, path, ec))
+      throw InputError(path, "data file", "names the header itself ('" + w[0] +
+                                              "'): a detached header's data is another file");
   } else {
     if (h.data_start == std::string::npos)
       throw InputError(path, "data file", "missing: no 'data file' field and no data after the header");

@@ -184,6 +184,26 @@ TEST(MeshIo, PlyFaceWithAVertexIndexOutOfRangeIsNamed) {
   }
 }
 
+// A VTK cell's point index that is negative, fractional or past the points is named as such (a
+// negative or fractional one was reported as "expected a count").
+TEST(MeshIo, VtkCellWithABadPointIndexIsNamed) {
+  const std::string dir = fresh_dir();
+  const std::string head = "# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 4 double\n"
+                           "0 0 0\n1 0 0\n0 1 0\n0 0 1\nPOLYGONS 4 16\n3 0 2 1\n3 0 1 3\n3 0 3 2\n";
+  const std::vector<std::array<std::string, 2>> cases = {{"3 1 -2 3\n", "cell 3: '-2' is not a point index"},
+                                                         {"3 1 2.5 3\n", "cell 3: '2.5' is not a point index"},
+                                                         {"3 1 2 9\n", "cell 3 refers to point 9, of 4 points"}};
+  for (const auto& [cell, words] : cases) {
+    SCOPED_TRACE(cell);
+    write_file(dir + "/bad.vtk", head + cell);
+    const InputError e = expect_input_error([&] { read_mesh_template(dir + "/bad.vtk"); });
+    EXPECT_EQ(e.where(), "POLYGONS") << e.what();
+    EXPECT_TRUE(contains(e.message(), words)) << e.what();
+  }
+  write_file(dir + "/good.vtk", head + "3 1 2 3\n");
+  EXPECT_EQ(read_mesh_template(dir + "/good.vtk").positions.size(), 4u);
+}
+
 // An STL vertex with a coordinate that is not a finite number is refused naming its facet and
 // vertex, in ASCII and binary files (OpenMesh, merging vertices by their coordinates, made another
 // mesh of them, refused as not closed or read as a wrong closed one).

@@ -372,6 +372,9 @@ TEST(Nrrd, BadFilesNameTheFileAndTheField) {
   expect_bad(dir + "/missing.nhdr", "data file", "nowhere.raw");
   write_file(dir + "/nodata.nhdr", head + "sizes: 2 2\nencoding: raw\n");
   expect_bad(dir + "/nodata.nhdr", "data file");
+  // a detached header naming itself as its data file (it read its own text as voxels)
+  write_file(dir + "/self.nhdr", head + "sizes: 2 2\nencoding: raw\ndata file: ./self.nhdr\n");
+  expect_bad(dir + "/self.nhdr", "data file", "header itself");
   write_file(dir + "/time.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nspace: left-posterior-superior-time\n"
                                  "sizes: 2 2 1\nencoding: raw\n\n" + four);
   expect_bad(dir + "/time.nrrd", "space", "time");
