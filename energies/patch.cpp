@@ -297,7 +297,11 @@ double PatchEnergy<D>::match(int v, const Point<D>& x, Point<D>* move, double* s
   if (!(a > 0) || ncc < options_.min_correlation) return ncc;
   Eigen::Matrix<double, D, D> h = Eigen::Matrix<double, D, D>::Zero();
   Point<D> g = Point<D>::Zero();
-  const double ws = options_.gradient == PatchGradient::kAtlas ? 0.0 : options_.gradient == PatchGradient::kBoth ? 0.5 : 1.0;
+  // The step's gradients (patch.h): the scan's times a (the atlas patch's scale), the atlas
+  // patch's own, or their mean.
+  const double ws = options_.gradient == PatchGradient::kAtlas  ? 0.0
+                    : options_.gradient == PatchGradient::kBoth ? 0.5
+                                                                : 1.0;
   const double we = 1.0 - ws;
   const int n1 = 2 * half_ + 1;
   int istride[D];
