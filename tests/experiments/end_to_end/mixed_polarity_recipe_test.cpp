@@ -54,6 +54,27 @@ class MixedPolarityRecipeTest : public test_support::CommandTest {
     write_image<3>(im, image.string());
     write_image<3>(lab, label.string());
   }
+  // The atlas (the ellipsoid in place, its label, a 450-vertex template of it) and the scan: the
+  // ellipsoid turned 6 degrees about z, scaled by 1.06 along x, moved (1.5, -1, 0.8) mm, a bump of
+  // 1 mm along x, contrast a I + b and noise of 4, with its label (the truth).
+  void write_atlas_and_moved_scan(double a, double b) {
+    write_phantom(Eigen::Matrix3d::Identity(), Point<3>::Zero(), 0.0, 1.0, 0.0, 0.0, atlas_path(), atlas_label_path());
+    const double t = 6.0 * M_PI / 180;
+    Eigen::Matrix3d m;
+    m << std::cos(t), -std::sin(t), 0, std::sin(t), std::cos(t), 0, 0, 0, 1;
+    m = m * Eigen::Vector3d(1.06, 1.0, 1.0).asDiagonal();
+    write_phantom(m, Point<3>(1.5, -1.0, 0.8), 1.0, a, b, 4.0, scan_path(), truth_path());
+    ASSERT_EQ(dsnake("template --mask " + atlas_label_path().string() + " --label 1 --vertices 450 --out " +
+                     template_path().string()),
+              0)
+        << err_;
+  }
+  // Their files, in the test's folder (made in SetUp).
+  fs::path atlas_path() const { return dir_ / "atlas.nii.gz"; }
+  fs::path atlas_label_path() const { return dir_ / "atlas_label.nii.gz"; }
+  fs::path scan_path() const { return dir_ / "scan.nii.gz"; }
+  fs::path truth_path() const { return dir_ / "truth.nii.gz"; }
+  fs::path template_path() const { return dir_ / "t.off"; }
   // Runs the recipe printed by `dsnake init` with this template, atlas (none: empty) and scan.
   nlohmann::json run_recipe(const fs::path& scan, const fs::path& tmpl, const fs::path& atlas, const fs::path& truth,
                             const std::string& name, const std::string& overrides = "") {
@@ -74,18 +95,10 @@ class MixedPolarityRecipeTest : public test_support::CommandTest {
 };
 
 TEST_F(MixedPolarityRecipeTest, TheRecipeRegistersTheMovedObjectAndHoldsTheTruth) {
-  const fs::path atlas = dir_ / "atlas.nii.gz", atlas_label = dir_ / "atlas_label.nii.gz";
-  const fs::path scan = dir_ / "scan.nii.gz", truth = dir_ / "truth.nii.gz", tmpl = dir_ / "t.off";
+  const fs::path atlas = atlas_path(), scan = scan_path(), truth = truth_path(), tmpl = template_path();
   const fs::path truth_tmpl = dir_ / "truth.off";
-  write_phantom(Eigen::Matrix3d::Identity(), Point<3>::Zero(), 0.0, 1.0, 0.0, 0.0, atlas, atlas_label);
-  // the scan: turned 6 degrees about z, scaled by 1.06 along x, moved (1.5, -1, 0.8) mm, a bump
-  // of 1 mm along x, contrast 0.6 I + 40 and noise of 4
-  const double t = 6.0 * M_PI / 180;
-  Eigen::Matrix3d m;
-  m << std::cos(t), -std::sin(t), 0, std::sin(t), std::cos(t), 0, 0, 0, 1;
-  m = m * Eigen::Vector3d(1.06, 1.0, 1.0).asDiagonal();
-  write_phantom(m, Point<3>(1.5, -1.0, 0.8), 1.0, 0.6, 40.0, 4.0, scan, truth);
-  ASSERT_EQ(dsnake("template --mask " + atlas_label.string() + " --label 1 --vertices 450 --out " + tmpl.string()), 0) << err_;
+  write_atlas_and_moved_scan(0.6, 40.0);  // contrast 0.6 I + 40
+  ASSERT_FALSE(HasFatalFailure());
   ASSERT_EQ(dsnake("template --mask " + truth.string() + " --label 1 --vertices 450 --out " + truth_tmpl.string()), 0)
       << err_;
 
@@ -113,15 +126,9 @@ TEST_F(MixedPolarityRecipeTest, TheRecipeRegistersTheMovedObjectAndHoldsTheTruth
 // a T1 atlas and a T2 scan): the image init fits a contrast of either sign and the patch force
 // finds the sign (`contrast` auto), so the recipe as printed registers it as well.
 TEST_F(MixedPolarityRecipeTest, AnInvertedContrastScanRegistersToo) {
-  const fs::path atlas = dir_ / "atlas.nii.gz", atlas_label = dir_ / "atlas_label.nii.gz";
-  const fs::path scan = dir_ / "scan.nii.gz", truth = dir_ / "truth.nii.gz", tmpl = dir_ / "t.off";
-  write_phantom(Eigen::Matrix3d::Identity(), Point<3>::Zero(), 0.0, 1.0, 0.0, 0.0, atlas, atlas_label);
-  const double t = 6.0 * M_PI / 180;
-  Eigen::Matrix3d m;
-  m << std::cos(t), -std::sin(t), 0, std::sin(t), std::cos(t), 0, 0, 0, 1;
-  m = m * Eigen::Vector3d(1.06, 1.0, 1.0).asDiagonal();
-  write_phantom(m, Point<3>(1.5, -1.0, 0.8), 1.0, -0.6, 160.0, 4.0, scan, truth);
-  ASSERT_EQ(dsnake("template --mask " + atlas_label.string() + " --label 1 --vertices 450 --out " + tmpl.string()), 0) << err_;
+  const fs::path atlas = atlas_path(), scan = scan_path(), truth = truth_path(), tmpl = template_path();
+  write_atlas_and_moved_scan(-0.6, 160.0);
+  ASSERT_FALSE(HasFatalFailure());
   const nlohmann::json r = run_recipe(scan, tmpl, atlas, truth, "inverted");
   const double start = r["start"]["metrics"]["dice"], end = r["metrics"]["dice"];
   std::printf("  inverted contrast: Dice %.3f (after the image init) -> %.3f, mean distance %.3f mm\n", start, end,
