@@ -293,7 +293,12 @@ double PatchEnergy<D>::match(int v, const Point<D>& x, Point<D>* move, double* s
   for (int k = 0; k < count_; ++k)
     for (int d = 0; d < D; ++d) gmean(d) += s[outer(k) + stride[d]] - s[outer(k) - stride[d]];
   gmean /= (2.0 * h_ * count_);
-  const double a = es / ss;
+  // The contrast a (a s' ~ e). With the scan's gradients (forward): the least-squares fit of e on
+  // s', whose residual e - a s' is orthogonal to s' (no pull towards where the scan's patch merely
+  // has more energy). With the atlas patch's gradients: 1 / the fit of s' on e (es, as |e| = 1),
+  // which noise in the scan leaves unbiased; the fit of e on s' takes the noise in its regressor
+  // and shrinks a, and the step with it, by about NCC^2.
+  const double a = options_.gradient == PatchGradient::kScan ? es / ss : (es > 0 ? 1.0 / es : 0.0);
   if (!(a > 0) || ncc < options_.min_correlation) return ncc;
   Eigen::Matrix<double, D, D> h = Eigen::Matrix<double, D, D>::Zero();
   Point<D> g = Point<D>::Zero();

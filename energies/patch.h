@@ -33,7 +33,9 @@
 //    |delta| <= max_step. With `gradient` atlas, G' is replaced by the expected patch's own
 //    centred differences divided by a (inverse compositional: Baker & Matthews, IJCV 2004; noise-free
 //    where the atlas is an average); with both, by the mean of the two (efficient second-order
-//    minimisation: Benhimane & Malis, IROS 2004); scan is the forward step above;
+//    minimisation: Benhimane & Malis, IROS 2004); scan is the forward step above. With atlas and
+//    both, a = 1 / (e . s'): the scan's patch fitted on the atlas's, which noise in the scan does
+//    not bias (e . s' / |s'|^2 takes the noise in |s'|^2 and shortens the step by about NCC^2);
 //  - propose: q + step delta where NCC >= min_correlation and a > 0; elsewhere q (the vertex holds:
 //    no consistent evidence there, and the regularisers move it).
 // The contrast's sign: a linear change of contrast a I + b may have a < 0 (an atlas in T1, a scan
