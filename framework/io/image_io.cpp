@@ -446,6 +446,22 @@ void orthonormalize_axes(RawVolume& v, const std::string& path) {
     for (int k = 0; k < n; ++k) v.axes[a][k] = r(k, a);
 }
 
+// Refuses a NaN or infinite value, naming its voxel by its index in the file as stored (i, j, k:
+// the order nibabel, ITK and Slicer show), before align_axes reorders the axes.
+void check_finite(const RawVolume& v, const std::string& path) {
+  const int c = std::max(1, v.channels);
+  for (size_t i = 0; i < v.values.size(); ++i) {
+    if (std::isfinite(v.values[i])) continue;
+    const int64_t l = int64_t(i) / c;
+    const int64_t idx[3] = {l % v.size[0], (l / v.size[0]) % v.size[1], l / (v.size[0] * v.size[1])};
+    std::string where = "voxel (";
+    for (int a = 0; a < v.effective_dimension(); ++a) where += (a ? ", " : "") + std::to_string(idx[a]);
+    if (c > 1) where += ") component (" + std::to_string(int64_t(i) % c);
+    throw InputError(path, where + ")", std::isnan(v.values[i]) ? "value is NaN"
+                                                                : "value is infinite or beyond float's range (3.4e38)");
+  }
+}
+
 // Reorders a volume whose index axes are a signed permutation of the world axes (flipped or
 // permuted axes, the common case) so that index axis a runs along +world axis a: the same voxel
 // lands at the same world position, and the grid is axis-aligned. An oblique direction (a true
@@ -514,11 +530,13 @@ RawVolume read_volume(const std::string& path, const ImageReadOptions& options =
   else if (ext == ".inr" || ext == ".inr.gz") v = read_inr(path);
   else if (is_opencv_extension(ext)) {
     v = read_opencv(path);
+    check_finite(v, path);
     if (layout) layout->ndims = 2, layout->size = v.size;
     return v;
   }
   else if (is_dicom_path(path)) v = read_dicom(path);
   else unknown_format(path);
+  check_finite(v, path);
   align_axes(v, path, layout);
   return v;
 }
@@ -553,14 +571,6 @@ Grid<D> checked_grid(const RawVolume& v, const std::string& path, int channels) 
     g.spacing[a] = v.spacing[a];
     g.origin[a] = v.origin[a];
     for (int k = 0; k < D; ++k) g.direction(k, a) = v.axes[a][k];
-  }
-  for (size_t i = 0; i < v.values.size(); ++i) {
-    if (std::isfinite(v.values[i])) continue;
-    const GridIndex<D> idx = g.index(int64_t(i) / channels);
-    std::string where = "voxel (";
-    for (int a = 0; a < D; ++a) where += (a ? ", " : "") + std::to_string(idx[a]);
-    throw InputError(path, where + ")", std::isnan(v.values[i]) ? "value is NaN"
-                                                                      : "value is infinite or beyond float's range (3.4e38)");
   }
   return g;
 }

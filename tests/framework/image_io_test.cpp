@@ -686,6 +686,26 @@ TEST(ImageIo, NanVoxelIsNamedByIndex) {
   EXPECT_TRUE(contains(e.message(), "infinite"));
 }
 
+// A non-finite voxel is named by its index in the file as stored (what nibabel and Slicer show),
+// not by where the reader's reordering of a flipped axis puts it: a NIfTI whose sform runs x along
+// RAS +x (LPS -x, read reversed) with a NaN at stored voxel (2, 1, 0) of 3 x 2 x 2.
+TEST(ImageIo, NonFiniteVoxelIsNamedAsTheFileStoresIt) {
+  const std::string dir = fresh_dir();
+  std::vector<float> values(12, 1.0f);
+  values[2 + 3 * 1] = std::numeric_limits<float>::quiet_NaN();
+  std::string file = nifti_by_hand(16, 32, 0, 0, std::string(reinterpret_cast<const char*>(values.data()), 48), false);
+  const float rx = 0.5f;  // srow_x[0]: +x in RAS
+  std::memcpy(file.data() + 280, &rx, 4);
+  write_file(dir + "/flipped.nii", file);
+  const InputError e = expect_input_error([&] { read_image<3>(dir + "/flipped.nii"); });
+  EXPECT_EQ(e.file(), dir + "/flipped.nii");
+  EXPECT_EQ(e.where(), "voxel (2, 1, 0)");
+  EXPECT_TRUE(contains(e.message(), "NaN")) << e.what();
+  const InputError c = expect_input_error([&] { convert_image_file(dir + "/flipped.nii", dir + "/out.nrrd"); });
+  EXPECT_EQ(c.where(), "voxel (2, 1, 0)");
+  EXPECT_FALSE(fs::exists(dir + "/out.nrrd"));
+}
+
 TEST(ImageIo, WrongDimensionIsAnInputError) {
   const std::string dir = fresh_dir();
   write_image(test_image_2d(), dir + "/a.mha");
