@@ -213,8 +213,15 @@ nlohmann::ordered_json init_report_json(const InitReport<D>& r) {
   if (r.type == TemplateInitType::kImage && r.model == AlignmentModel::kAffine) {
     nlohmann::ordered_json matrix = nlohmann::ordered_json::array();
     for (int i = 0; i < D; ++i) matrix.push_back(point_json(r.map.matrix.row(i).transpose()));
-    nlohmann::ordered_json j = {{"type", enum_name(r.type)}, {"transform", enum_name(r.model)}, {"matrix", matrix},
-                                {"translation", point_json(r.map.translation)}};
+    // the scale |det A|^(1/D) and the principal scales (A's singular values, largest first): how
+    // much the template grew, and how unevenly
+    const Eigen::Matrix<double, D, 1> principal = Eigen::JacobiSVD<Eigen::Matrix<double, D, D>>(r.map.matrix).singularValues();
+    nlohmann::ordered_json j = {{"type", enum_name(r.type)},
+                                {"transform", enum_name(r.model)},
+                                {"matrix", matrix},
+                                {"translation", point_json(r.map.translation)},
+                                {"scale", std::pow(std::abs(r.map.matrix.determinant()), 1.0 / D)},
+                                {"principal_scales", point_json(principal)}};
     return image_fit_json<D>(r, j);
   }
   nlohmann::ordered_json j = {{"type", enum_name(r.type)}, {"scale", s.scale}, {"rotation", rotation}};

@@ -5,6 +5,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -360,11 +361,15 @@ ImageAlignmentResult<D> align_images(const Image<D>& fixed, const Image<D>& movi
       // the guard, on the finest level: never worse than the start by the metric
       const Fit start = evaluate<D>(lv, initial, c);
       result.ncc_before = start.ncc;
-      // ... and within the scale bound (options.max_scale), relative to the start.
-      const double scale =
-          std::pow(std::abs(T.matrix.determinant()) / std::abs(initial.matrix.determinant()), 1.0 / D);
-      const bool scale_ok = options.max_scale == 0 ||
-                            (std::isfinite(scale) && scale <= options.max_scale && scale >= 1 / options.max_scale);
+      // ... and within the scale bound (options.max_scale) along every axis, relative to the
+      // start: the singular values of T's linear part after the start's inverse (all equal for a
+      // similarity; an affine may also not stretch or squash one direction beyond the bound).
+      const Eigen::Matrix<double, D, 1> stretch =
+          Eigen::JacobiSVD<Matrix<D>>(T.matrix * initial.matrix.inverse()).singularValues();
+      const double largest = stretch.maxCoeff(), smallest = stretch.minCoeff();
+      const double scale = largest * smallest > 1 ? largest : smallest;  // the one farther from 1
+      const bool scale_ok = options.max_scale == 0 || (stretch.allFinite() && largest <= options.max_scale &&
+                                                       smallest >= 1 / options.max_scale);
       if (fit.finite && fit.score() >= start.score() && scale_ok) {
         result.transform = T, result.ncc_after = fit.ncc, result.overlap = fit.overlap;
       } else {

@@ -61,10 +61,12 @@ struct ImageAlignmentOptions {
   int iterations = 50;                        // Levenberg-Marquardt steps per level at most
   double tolerance = 1e-3;                    // mm: a level ends when a step moves no region corner further
   double min_overlap = 0.8;                   // a step keeping less than this share of the start's overlap is refused
-  // The result's scale relative to the start's (|det|^(1/D) of the linear parts) must lie within
+  // The result's scale relative to the start's along every axis (the singular values of its
+  // linear part after the start's inverse: one value for a similarity) must lie within
   // [1 / max_scale, max_scale], else the start is kept: NCC over a region of the fixed image can
-  // rise by mapping that region onto a small part of the moving one, and an atlas of the same
-  // species is not several times larger or smaller than the scan. 0: no bound.
+  // rise by mapping that region onto a small part of the moving one (or squashing it along one
+  // axis), and an atlas of the same species is not several times larger or smaller than the scan,
+  // nor several times longer in one direction. 0: no bound.
   double max_scale = 1.5;
 
   template <class V>
@@ -75,7 +77,7 @@ struct ImageAlignmentOptions {
     v(iterations, Key{"iterations", "", "Levenberg-Marquardt steps per level at most", Range::at_least(1)});
     v(tolerance, Key{"tolerance", "mm", "a level ends when a step moves no corner of the region further", Range::greater_than(0)});
     v(min_overlap, Key{"min_overlap", "1 (relative)", "a step is refused when the share of the region inside the moving image drops below this times the start's", Range::closed(0, 1)});
-    v(max_scale, Key{"max_scale", "1 (ratio)", "the result's scale relative to the start's must lie within [1 / max_scale, max_scale], else the start is kept (0: no bound)", Range::at_least(0)});
+    v(max_scale, Key{"max_scale", "1 (ratio)", "the result's scale relative to the start's, along every axis (an affine's singular values), must lie within [1 / max_scale, max_scale], else the start is kept (0: no bound)", Range::at_least(0)});
   }
   void check() const;
 };

@@ -306,6 +306,26 @@ TEST_F(ImageAlignmentTest, AResultScaledBeyondMaxScaleAgainstTheStartKeepsTheSta
   EXPECT_LT(corner_error<2>(from_truth.transform, truth, slice_region()), 0.1);
 }
 
+// For an affine the bound holds along every axis: a map that stretches one direction by 1.12 and
+// squashes the other by 1 / 1.12 keeps |det| = 1 (a scale of 1 by the determinant) yet is refused
+// with a bound of 1.08, and recovered with 1.5.
+TEST_F(ImageAlignmentTest, AnAffineStretchedBeyondMaxScaleAlongOneAxisKeepsTheStart) {
+  const Point<2> c = 0.5 * (slice_region().lo + slice_region().hi);
+  Matrix<2> m = Eigen::Rotation2Dd(3.0 * kDeg).toRotationMatrix();
+  m = m * Eigen::Vector2d(1.12, 1.0 / 1.12).asDiagonal();
+  const AffineMap<2> truth = about<2>(c, m, Point<2>(1.0, -1.0));
+  const Image<2> moving = resample<2>(slice(), truth);
+  ImageAlignmentOptions o;
+  o.model = AlignmentModel::kAffine;
+  o.max_scale = 1.5;
+  expect_recovered<2>(align_images<2>(slice(), moving, slice_region(), {}, o), truth, slice_region(), "stretch 1.12");
+  o.max_scale = 1.08;
+  const auto refused = align_images<2>(slice(), moving, slice_region(), {}, o);
+  EXPECT_NE(refused.warning.find("is outside [1/1.08, 1.08]"), std::string::npos) << refused.warning;
+  EXPECT_EQ(refused.transform.matrix, Matrix<2>::Identity());
+  EXPECT_EQ(refused.ncc_after, refused.ncc_before);
+}
+
 TEST_F(ImageAlignmentTest, BadOptionsAreRefused) {
   ImageAlignmentOptions o;
   o.levels = {};

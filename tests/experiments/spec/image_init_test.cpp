@@ -14,6 +14,7 @@
 #include "tests/energies/edge_images.h"
 #include "tests/experiments/temp_dir_test.h"
 
+#include <Eigen/SVD>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -140,7 +141,12 @@ TEST_F(ImageInitTest, TheTemplateIsBroughtBackOntoTheMovedSlice2d) {
   const auto ja = init_report_json<2>(*ea.init);
   EXPECT_EQ(ja["transform"], "affine");
   EXPECT_TRUE(ja.contains("matrix"));
-  EXPECT_FALSE(ja.contains("scale"));
+  // the scale |det|^(1/2) and the principal scales (singular values, largest first) of the truth's
+  const Eigen::Vector2d principal = Eigen::JacobiSVD<Eigen::Matrix2d>(shear).singularValues();
+  EXPECT_NEAR(ja["scale"].get<double>(), std::sqrt(shear.determinant()), 0.01);
+  ASSERT_EQ(ja["principal_scales"].size(), 2u);
+  for (int i = 0; i < 2; ++i) EXPECT_NEAR(ja["principal_scales"][i].get<double>(), principal(i), 0.01);
+  EXPECT_FALSE(ja.contains("rotation"));
 }
 
 // 3D: Colin27 cut about the left basal ganglia, an icosphere of 12 mm about the putamen, the
