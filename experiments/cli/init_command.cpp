@@ -116,12 +116,17 @@ nlohmann::ordered_json init_experiment(const InitCommandOptions& o) {
   else tmpl = read_contour_template(o.tmpl);
   const double radius = equivalent_radius<D>(tmpl);
   // Refused here as `dsnake run` would refuse the printed file (the template is placed as given).
+  if (const std::string what = outside_the_image<D>(tmpl.positions, image.grid()); !what.empty())
+    throw InputError(o.tmpl, "--template", "the template " + what);
   if (const std::string what = smaller_than_a_voxel<D>(tmpl.positions, image.grid()); !what.empty())
     throw InputError(o.tmpl, "--template", "the template " + what);
   if (!o.mask.empty() && !is_surface_file(o.mask, D) && image_file_dimension(o.mask) != D)
     throw InputError(o.mask, "--mask", "expected a " + std::to_string(D) + "D label image like the image");
   if (!o.reference.empty() && image_file_dimension(o.reference) != D)
     throw InputError(o.reference, "--reference", "expected a " + std::to_string(D) + "D image like the image");
+  // The atlas image is read whole (and let go) so that a file `dsnake run` would refuse (a NaN
+  // voxel, truncated data) is named now, not after the user has written an experiment around it.
+  if (!o.reference.empty()) (void)read_image<D>(o.reference, o.read);
   nlohmann::ordered_json j = recommended<D>(o, image.grid(), radius);
   // The experiment reader checks the file as `dsnake validate` would.
   ExperimentFile file{"(dsnake init)", fs::current_path().string(), nlohmann::json::parse(j.dump()), D};

@@ -268,13 +268,19 @@ int axis_beyond_image(const Grid<D>& g, const Point<D>& p) {
 // crashed instead of being refused): every vertex within one image extent of the image's box,
 // in continuous voxel indices.
 template <int D>
+std::string outside_the_image(const PointList<D>& points, const Grid<D>& grid) {
+  for (size_t v = 0; v < points.size(); ++v)
+    if (const int a = axis_beyond_image(grid, points[v]); a >= 0)
+      return "lies outside the image: vertex " + std::to_string(v) +
+             " is more than the image's extent beyond its border along axis " + std::to_string(a);
+  return "";
+}
+
+template <int D>
 void check_placement(const Experiment<D>& ex, const std::string& file) {
   const Grid<D>& g = ex.image.grid();
-  for (size_t v = 0; v < ex.initial.size(); ++v)
-    if (const int a = axis_beyond_image(g, ex.initial[v]); a >= 0)
-      throw InputError(file, "template.transform",
-                       "the placed template lies outside the image: vertex " + std::to_string(v) +
-                           " is more than the image's extent beyond its border along axis " + std::to_string(a));
+  if (const std::string what = outside_the_image<D>(ex.initial, g); !what.empty())
+    throw InputError(file, "template.transform", "the placed template " + what);
   if (const std::string what = smaller_than_a_voxel<D>(ex.initial, g); !what.empty())
     throw InputError(file, "template.transform", "the placed template " + what);
 }
@@ -296,6 +302,8 @@ std::string smaller_than_a_voxel(const PointList<D>& points, const Grid<D>& grid
 
 template std::string smaller_than_a_voxel<2>(const PointList<2>&, const Grid<2>&);
 template std::string smaller_than_a_voxel<3>(const PointList<3>&, const Grid<3>&);
+template std::string outside_the_image<2>(const PointList<2>&, const Grid<2>&);
+template std::string outside_the_image<3>(const PointList<3>&, const Grid<3>&);
 
 // The ground truth must lie near the image too (a phantom whose object was made 1e300 mm wide
 // ran and crashed in the metrics, whose distances overflow): its surface's vertices, its targets

@@ -22,4 +22,12 @@ Experiment<D> assemble(const ExperimentSpec<D>& spec);
 template <int D>
 std::string smaller_than_a_voxel(const PointList<D>& points, const Grid<D>& grid);
 
+// A template far from the image has nothing to register (one scaled by 1e200 ran, diverged and
+// crashed): "" when every point lies within one image extent of the image's box (in continuous
+// voxel indices); else the problem, e.g. "lies outside the image: vertex 0 is more than the
+// image's extent beyond its border along axis 0". `dsnake run` and `dsnake init` refuse it with
+// the same words.
+template <int D>
+std::string outside_the_image(const PointList<D>& points, const Grid<D>& grid);
+
 }  // namespace dsnake

@@ -216,7 +216,7 @@ TEST_F(CliTest, BadNiftiTransformKeyAndOption) {
   expect_bad_input(typed, {typed.string() + ": image.nifti_transform"});
 
   Grid<3> g;
-  g.size = {8, 8, 8};
+  g.size = {64, 64, 64};  // the icosahedron's size (31.5 +- 32 mm): `init` refuses a template far outside
   Image<3> labels(g, 0.0f);
   labels.at({3, 3, 3}) = 1;
   const std::string nii = (dir_ / "labels.nii.gz").string();

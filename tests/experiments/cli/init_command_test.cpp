@@ -141,7 +141,7 @@ TEST_F(InitCommandTest, OnThickSlicesThePatchesAreMadeAsCoarseAsTheVoxels) {
 }
 
 TEST_F(InitCommandTest, WarnsWhenTheVoxelsAreOutsideTheRecipesRange) {
-  Grid<2> g{GridIndex<2>(40, 40), Point<2>(0.05, 0.05), Point<2>(0, 0)};
+  Grid<2> g{GridIndex<2>(440, 440), Point<2>(0.05, 0.05), Point<2>(0, 0)};  // 22 mm across
   Image<2> im(g, 0.0f);
   const fs::path image = dir_ / "tiny.nii.gz", contour = dir_ / "c.txt";
   write_image<2>(im, image.string());
@@ -234,15 +234,33 @@ TEST_F(InitCommandTest, BadInputExitsTwoWithOneLineAndPrintsNothing) {
   // A reference image of the wrong dimension is named with the option it came from.
   ASSERT_EQ(dsnake(good + " --reference " + flat.string()), 2);
   EXPECT_NE(err_.find(flat.string() + ": --reference: expected a 3D image"), std::string::npos) << err_;
-  // A template smaller than a voxel (a tetrahedron 0.5 mm across on 0.8 x 1.2 mm voxels) is
+  // A template smaller than a voxel (a tetrahedron 0.5 mm across, inside the image, on 0.8 x 1.2 mm voxels) is
   // refused here, as `dsnake run` would refuse the file, not printed into a file that cannot run.
   const fs::path tiny = dir_ / "tiny.off";
-  std::ofstream(tiny) << "OFF\n4 4 0\n0 0 0\n0.3 0 0\n0 0.3 0\n0 0 0.3\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+  std::ofstream(tiny) << "OFF\n4 4 0\n0 45 20\n0.3 45 20\n0 45.3 20\n0 45 20.3\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
   ASSERT_EQ(dsnake("init --image " + labels.string() + " --template " + tiny.string()), 2);
   EXPECT_EQ(out_, "");
   EXPECT_EQ(std::count(err_.begin(), err_.end(), '\n'), 1) << err_;
   EXPECT_NE(err_.find(tiny.string() + ": --template: the template spans 0.52 mm, less than a voxel (0.8 mm)"),
             std::string::npos) << err_;
+  // So is a template placed far from the image (its vertices 500 mm off), in `dsnake run`'s words.
+  const fs::path far = dir_ / "far.off";
+  std::ofstream(far) << "OFF\n4 4 0\n500 0 0\n510 0 0\n500 10 0\n500 0 10\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+  ASSERT_EQ(dsnake("init --image " + labels.string() + " --template " + far.string()), 2);
+  EXPECT_EQ(out_, "");
+  EXPECT_NE(err_.find(far.string() + ": --template: the template lies outside the image: vertex 0 is more than the "
+                                     "image's extent beyond its border along axis 0"),
+            std::string::npos)
+      << err_;
+  // An atlas image that `dsnake run` would refuse (a NaN voxel) is read whole and named now.
+  Image<3> atlas = read_image<3>(labels.string());
+  atlas.at(GridIndex<3>(5, 6, 7)) = std::numeric_limits<float>::quiet_NaN();
+  const fs::path nan_atlas = dir_ / "nan_atlas.nii.gz";
+  write_image<3>(atlas, nan_atlas.string());
+  ASSERT_EQ(dsnake(good + " --reference " + nan_atlas.string()), 2);
+  EXPECT_EQ(out_, "");
+  EXPECT_EQ(std::count(err_.begin(), err_.end(), '\n'), 1) << err_;
+  EXPECT_NE(err_.find(nan_atlas.string() + ": voxel (5, 6, 7): value is NaN"), std::string::npos) << err_;
 }
 
 }  // namespace
