@@ -107,7 +107,7 @@ TEST(PatchEnergy, EveryGradientChoiceReachesTheMovedBoundary) {
 // atlas patch's gradients takes its contrast from the scan regressed on the atlas patch, which
 // the scan's noise does not bias: averaged over noise draws, the first step's component along the
 // vertex normals is the same share of the true move as without noise. Noise of sigma 40 on edges
-// of 80 to 100, fine patches (sigma 0.5 mm, +-2 mm): the patches correlate ~0.86, and the fit of
+// of 80 to 100, fine patches (sigma 0.5 mm, +-2 mm): the patches correlate ~0.83, and the fit of
 // the atlas patch on the scan's would shorten the step to ~0.6 of its noiseless length.
 TEST(PatchEnergy, AtlasGradientStepIsNotShortenedByScanNoise) {
   const Point<2> shift(0.6, 0.0);
