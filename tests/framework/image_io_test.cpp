@@ -697,10 +697,7 @@ TEST(ImageIo, NonFiniteVoxelIsNamedAsTheFileStoresIt) {
   const float rx = 0.5f;  // srow_x[0]: +x in RAS
   std::memcpy(file.data() + 280, &rx, 4);
   write_file(dir + "/flipped.nii", file);
-  const InputError e = expect_input_error([&] { read_image<3>(dir + "/flipped.nii"); });
-  EXPECT_EQ(e.file(), dir + "/flipped.nii");
-  EXPECT_EQ(e.where(), "voxel (2, 1, 0)");
-  EXPECT_TRUE(contains(e.message(), "NaN")) << e.what();
+  expect_bad_file([](const std::string& p) { read_image<3>(p); }, dir + "/flipped.nii", "voxel (2, 1, 0)", "NaN");
   const InputError c = expect_input_error([&] { convert_image_file(dir + "/flipped.nii", dir + "/out.nrrd"); });
   EXPECT_EQ(c.where(), "voxel (2, 1, 0)");
   EXPECT_FALSE(fs::exists(dir + "/out.nrrd"));

@@ -54,7 +54,7 @@ inline InputError expect_input_error(const std::function<void()>& f) {
 inline bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
 
 // A bad file must throw an InputError that names it and the field at fault (and, if given,
-// says `words`).
+// says `words` in its message).
 template <class Read>
 void expect_bad_file(const Read& read, const std::string& path, const std::string& field, const std::string& words) {
   SCOPED_TRACE(path);
@@ -62,7 +62,7 @@ void expect_bad_file(const Read& read, const std::string& path, const std::strin
   EXPECT_EQ(e.file(), path);
   EXPECT_EQ(e.where(), field) << e.what();
   if (!words.empty()) {
-    EXPECT_TRUE(contains(e.what(), words)) << e.what();
+    EXPECT_TRUE(contains(e.message(), words)) << e.what();
   }
 }
 

@@ -176,11 +176,7 @@ TEST(MeshIo, PlyFaceWithAVertexIndexOutOfRangeIsNamed) {
                                                          {"binary.ply", "face 1", "refers to vertex -1 of 4 vertices"}};
   for (const auto& [name, where, words] : cases) {
     SCOPED_TRACE(name);
-    const std::string path = dir + "/" + name;
-    const InputError e = expect_input_error([&] { read_mesh_template(path); });
-    EXPECT_EQ(e.file(), path);
-    EXPECT_EQ(e.where(), where) << e.what();
-    EXPECT_TRUE(contains(e.message(), words)) << e.what();
+    expect_bad_file([](const std::string& p) { read_mesh_template(p); }, dir + "/" + name, where, words);
   }
 }
 
@@ -196,9 +192,7 @@ TEST(MeshIo, VtkCellWithABadPointIndexIsNamed) {
   for (const auto& [cell, words] : cases) {
     SCOPED_TRACE(cell);
     write_file(dir + "/bad.vtk", head + cell);
-    const InputError e = expect_input_error([&] { read_mesh_template(dir + "/bad.vtk"); });
-    EXPECT_EQ(e.where(), "POLYGONS") << e.what();
-    EXPECT_TRUE(contains(e.message(), words)) << e.what();
+    expect_bad_file([](const std::string& p) { read_mesh_template(p); }, dir + "/bad.vtk", "POLYGONS", words);
   }
   write_file(dir + "/good.vtk", head + "3 1 2 3\n");
   EXPECT_EQ(read_mesh_template(dir + "/good.vtk").positions.size(), 4u);
@@ -233,11 +227,7 @@ TEST(MeshIo, StlVertexWithANonFiniteCoordinateIsNamed) {
   write_file(dir + "/ascii.stl", ascii + "endsolid t\n");
   write_file(dir + "/binary.stl", binary);
   for (const std::string name : {"ascii.stl", "binary.stl"}) {
-    SCOPED_TRACE(name);
-    const InputError e = expect_input_error([&] { read_mesh_template(dir + "/" + name); });
-    EXPECT_EQ(e.file(), dir + "/" + name);
-    EXPECT_EQ(e.where(), "facet 1") << e.what();
-    EXPECT_TRUE(contains(e.message(), "vertex 2 has a coordinate that is not a finite number")) << e.what();
+    expect_bad_file([](const std::string& p) { read_mesh_template(p); }, dir + "/" + name, "facet 1", "vertex 2 has a coordinate that is not a finite number");
   }
 }
 
