@@ -109,6 +109,7 @@ Correlation correlate(const std::vector<double>& e, const double* s, Index index
 
 constexpr double kLocalMapRegularisation = 0.05;  // lambda, relative to the mean squared spread
 constexpr double kRemapTolerance = 0.01;           // resample a patch when max |L_v - L_used| exceeds this
+constexpr double kMappedPreSmoothing = 0.8;        // smoothing mapped: the atlas's own smoothing, times sigma
 
 // Each vertex's neighbourhood for its local map: v, its one-ring, and every vertex reached from v
 // along edges through vertices whose rest positions lie within `radius` of v's and whose rest
@@ -163,7 +164,8 @@ void PatchEnergy<D>::bind(const EnergyContext<D>& context, const Snake<D>& snake
   if (context.reference_image == nullptr)
     throw OptionError{"type", "the patch force needs an atlas image: template.reference_image"};
   const Image<D>& scan = image_.of(*context.image, options_.sigma, context.smoothed_images);
-  const Image<D>& ref = reference_.of(*context.reference_image, options_.sigma, context.smoothed_images);
+  const double atlas_sigma = options_.smoothing == PatchSmoothing::kMapped ? kMappedPreSmoothing * options_.sigma : options_.sigma;
+  const Image<D>& ref = reference_.of(*context.reference_image, atlas_sigma, context.smoothed_images);
   h_ = options_.spacing > 0 ? options_.spacing : scan.grid().spacing.minCoeff();
   half_ = std::max(1, static_cast<int>(std::lround(options_.radius / h_)));
   count_ = ipow(2 * half_ + 1, D);
@@ -231,10 +233,40 @@ Eigen::Matrix<double, D, D> PatchEnergy<D>::local_map(int v, const PointList<D>&
 // m^{-1} h k, mean removed, unit norm.
 template <int D>
 std::vector<double> PatchEnergy<D>::sample_expected(int v, const Eigen::Matrix<double, D, D>& m) const {
+  using Mat = Eigen::Matrix<double, D, D>;
   const Image<D>& ref = reference_.image();
-  const Eigen::Matrix<double, D, D> back = m.inverse();
+  const Mat back = m.inverse();
+  // The quadrature of the smoothing left after the atlas's own (patch.h): nodes 0 and +-sqrt(3)
+  // standard deviations along each eigenvector of sigma^2 m^-1 m^-T - (pre sigma)^2 I, weights
+  // 2/3, 1/6, 1/6 (Gauss-Hermite, exact for polynomials up to degree 5 along each); one node of
+  // weight 1 with `smoothing` image.
+  PointList<D> nodes(1, Point<D>::Zero());
+  std::vector<double> weights(1, 1.0);
+  const double sigma = options_.sigma;
+  if (options_.smoothing == PatchSmoothing::kMapped && sigma > 0) {
+    const double pre = kMappedPreSmoothing * sigma;
+    const Eigen::SelfAdjointEigenSolver<Mat> rest(sigma * sigma * back * back.transpose() - pre * pre * Mat::Identity());
+    for (int d = 0; d < D; ++d) {
+      const double sd = std::sqrt(std::max(0.0, rest.eigenvalues()(d)));
+      if (!(sd > 1e-9)) continue;
+      const Point<D> axis = std::sqrt(3.0) * sd * rest.eigenvectors().col(d);
+      const size_t n = nodes.size();
+      for (size_t i = 0; i < n; ++i) {
+        nodes.push_back(nodes[i] + axis);
+        nodes.push_back(nodes[i] - axis);
+        weights.push_back(weights[i] / 6.0);
+        weights.push_back(weights[i] / 6.0);
+        weights[i] *= 2.0 / 3.0;
+      }
+    }
+  }
   std::vector<double> e(count_);
-  for (int k = 0; k < count_; ++k) e[k] = sign_ * ref.sample(rest_frame_[v] + back * (h_ * patch_offset<D>(k, half_)));
+  for (int k = 0; k < count_; ++k) {
+    const Point<D> x = rest_frame_[v] + back * (h_ * patch_offset<D>(k, half_));
+    double sum = 0.0;
+    for (size_t j = 0; j < nodes.size(); ++j) sum += weights[j] * ref.sample(Point<D>(x + nodes[j]));
+    e[k] = sign_ * sum;
+  }
   if (!centre_and_normalise(e)) e.clear();
   return e;
 }

@@ -44,6 +44,14 @@
 // NCC, a and the step above read the same; auto takes the sign of the sum over vertices of their
 // NCC with the positive patches where the vertices are at bind (a phase's start), summed in
 // vertex order (the same sign for any thread count).
+// The smoothing: the scan is smoothed by sigma in its frame, and with `smoothing` image the atlas
+// by sigma in its own. Through a map L that stretches, the scan's blur seen in the atlas is the
+// anisotropic sigma^2 L^-1 L^-T, not sigma^2 I: edges compared through L are blurred differently,
+// which moves the best match by up to a quarter of sigma on a 20 % stretch (measured in
+// REPRODUCTION.md, "Started at the peers' results or at the truth"). With `mapped` the atlas is
+// smoothed by 0.8 sigma and the rest, sigma^2 L^-1 L^-T - (0.8 sigma)^2 I (clamped at 0 along
+// directions L stretches by more than 1 / 0.8), by Gauss-Hermite quadrature at every sample of
+// the expected patch (three nodes per eigen-direction, 3^D samples of the atlas per point).
 // The search is coarse to fine across phases: a large sigma and radius in the fit phase, small
 // ones in the refine phase (experiments/real/recipe_3d.json).
 // Global view: value() = sum over vertices of (1 - NCC_v) (0 at a perfect match), defined at every
@@ -73,6 +81,16 @@ struct EnumNames<PatchGradient> {
       {{PatchGradient::kScan, "scan"}, {PatchGradient::kAtlas, "atlas"}, {PatchGradient::kBoth, "both"}}};
 };
 
+// How the atlas patch is smoothed (sigma): in the atlas's own frame, as the scan is in its own;
+// or with the scan's smoothing pulled back through the vertex's map, so that a patch compared
+// through a stretched map carries the same blur as the scan's.
+enum class PatchSmoothing { kImage, kMapped };
+template <>
+struct EnumNames<PatchSmoothing> {
+  static constexpr std::array<std::pair<PatchSmoothing, const char*>, 2> table{
+      {{PatchSmoothing::kImage, "image"}, {PatchSmoothing::kMapped, "mapped"}}};
+};
+
 struct PatchOptions {
   double sigma = 1.0;             // mm
   double radius = 3.0;            // mm
@@ -84,6 +102,7 @@ struct PatchOptions {
   double map_radius = 6.0;        // mm
   PatchContrast contrast = PatchContrast::kAuto;
   PatchGradient gradient = PatchGradient::kScan;
+  PatchSmoothing smoothing = PatchSmoothing::kImage;
 
   template <class V>
   void visit(V& v) {
@@ -107,6 +126,7 @@ struct PatchOptions {
                                     "(e.g. a T1 atlas and a T2 scan), or auto: the sign of the vertices' summed correlation "
                                     "where the phase starts"});
     v(gradient, Key{"gradient", "", "the Gauss-Newton step's gradients: the scan's (forward), the atlas patch's (inverse) or their mean (both)"});
+    v(smoothing, Key{"smoothing", "", "the atlas patch's smoothing: image (the atlas smoothed by sigma in its own frame) or mapped (the scan's isotropic sigma pulled back through the vertex's map, so that a stretched map compares equally blurred patches; about 3 times the cost)"});
   }
 };
 

@@ -109,6 +109,44 @@ Image<D> read_reference_image(const ExperimentSpec<D>& spec) {
   }
 }
 
+// "template.start": a file with the template's vertices (in its order) and its edges or faces,
+// whose positions replace the placed template's; a problem names the experiment file and the key,
+// then the file's own message.
+template <int D>
+PointList<D> read_start(const ExperimentSpec<D>& spec, const Template<D>& tmpl) {
+  const std::string& path = spec.tmpl.start;
+  Template<D> start;
+  try {
+    start = read_template_file<D>(path);
+  } catch (const InputError& e) {
+    const std::string where = e.where().empty() ? "" : " (" + e.where() + ")";
+    throw InputError(spec.file.path, "template.start", e.file() + where + ": " + e.message());
+  }
+  auto refuse = [&](const std::string& why) { throw InputError(spec.file.path, "template.start", path + ": " + why); };
+  if (start.num_vertices() != tmpl.num_vertices())
+    refuse("has " + std::to_string(start.num_vertices()) + " vertices, the template " +
+           std::to_string(tmpl.num_vertices()) + ": the start must carry the template's vertices in its order");
+  // The same faces, in any order and each from any of its corners (writers reorder them), with
+  // the template's orientation.
+  auto faces = [](const Connectivity& c) {
+    std::vector<Triangle> f = c.triangles();
+    for (Triangle& t : f) std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
+    std::sort(f.begin(), f.end());
+    return f;
+  };
+  if (faces(start.connectivity) != faces(tmpl.connectivity))
+    refuse("has other faces than the template: the start must keep the template's faces, vertex for vertex");
+  // Another method's result may fold where its warp carried thin parts (a deformable peer on a
+  // cortical parcel): taken, with a warning; the collision guard blames a move only for the
+  // crossings it creates, and leaves these to the forces.
+  const int crossings = count_self_intersections<D>({start.positions, start.connectivity});
+  if (crossings > 0)
+    std::cerr << "warning: " << spec.file.path << ": template.start: " << path << " crosses itself ("
+              << crossings << (D == 2 ? " pairs of crossing segments" : " pairs of intersecting triangles")
+              << "): the snake starts so, and the collision guard keeps it from crossing more\n";
+  return std::move(start.positions);
+}
+
 // Ground truth: the phantom's own (its surface moved, its mask as bytes), then explicit files
 // override.
 template <int D>
@@ -365,6 +403,7 @@ Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   if (spec.tmpl.init)
     ex.init = initialize_template<D>(*spec.tmpl.init, ex.tmpl, ex.image, ex.initial, spec.file.path,
                                      ex.reference_image ? &*ex.reference_image : nullptr);
+  if (!spec.tmpl.start.empty()) ex.initial = read_start(spec, ex.tmpl);
   ex.truth = assemble_truth(spec, std::move(phantom), ex.tmpl);
   express_in_image_frame(ex, spec.truth);
   check_placement(ex, spec.file.path);

@@ -87,6 +87,12 @@ TemplateSpec<D> read_template_section(JsonReader& top, const ExperimentFile& f, 
   if (spec.init && spec.init->type == TemplateInitType::kImage && spec.reference_image.empty())
     r.fail("init.type", "\"image\" needs template.reference_image (the atlas the template's file positions lie on)");
   if (spec.init) spec.init->mask_read = read;
+  if (r.has("start")) {
+    r.expect(!spec.start.empty(), "start", "expected a contour or mesh file");
+    r.expect(!r.has("transform") && !r.has("init"), "start",
+             "gives the start itself: template.transform and template.init would be ignored, so give one or the other");
+  }
+  spec.start = resolve(f, spec.start);
   r.finish();
   return spec;
 }

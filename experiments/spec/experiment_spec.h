@@ -56,6 +56,7 @@ struct TemplateSpec {
   PlacementSpec<D> transform;
   std::string reference_image;  // "reference_image": resolved path, "" when absent
   std::optional<TemplateInitOptions> init;  // "template.init", after the transform (template_init.h)
+  std::string start;  // "start": resolved path, "" when absent (in place of transform and init)
 
   // The section's own plain keys ("transform" and "init" are objects of their own).
   template <class V>
@@ -64,6 +65,11 @@ struct TemplateSpec {
     v(reference_image, Key{"reference_image", "",
                            "an image in which the template at its rest positions (as read) lies on its object (an "
                            "atlas, the previous slice): the profile energy's expected profiles are sampled there"});
+    v(start, Key{"start", "",
+                 "a contour (2D) or mesh (3D) file with the template's vertices in the template's order and its "
+                 "edges or faces, whose positions (world mm) are the snake's start instead of the template placed "
+                 "by transform and init (e.g. another registration's result carrying the template's vertices); the "
+                 "rest positions stay the template's"});
   }
 };
 

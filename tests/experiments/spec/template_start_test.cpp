@@ -1,0 +1,158 @@
+// "template.start": the snake starts at a file's positions (another registration's result
+// carrying the template's vertices) while the rest positions, where the atlas is sampled, stay
+// the template's. A contour template on the outer edge of a ring image (the reference), a target
+// that is the ring moved by (2, -2) mm with another contrast: started at the template moved onto
+// the target's edge, the profile force keeps every vertex where it starts (its expected profile
+// comes from the reference at the template's position). And the key's problems, by JSON path.
+#include "experiments/spec/experiment.h"
+#include "experiments/output/runner.h"
+#include "framework/core/errors.h"
+#include "framework/io/image_io.h"
+#include "framework/io/mesh_io.h"
+#include "tests/energies/edge_images.h"
+#include "tests/experiments/temp_dir_test.h"
+#include "tests/test_meshes.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <fstream>
+
+namespace dsnake {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace test_support;
+
+const Point<2> kShift(2.0, -2.0);
+
+class TemplateStartTest : public TempDirTest {
+ protected:
+  nlohmann::ordered_json write_case() {
+    write_image<2>(radial_image<2>(72, 1.0, dark_ring(8.0, 14.0), 1.0), (dir_ / "reference.mha").string());
+    write_image<2>(radial_image<2>(72, 1.0, [](double r) { return 0.4 * (r < 8 ? 200 : r < 14 ? 50 : 200) + 50; }, 1.0, kShift),
+                   (dir_ / "target.mha").string());
+    tmpl_ = round_template<2>(14.0, Point<2>::Zero(), 40).positions;
+    write_contour(tmpl_, (dir_ / "template.txt").string());
+    start_ = tmpl_;
+    for (Point<2>& p : start_) p += kShift;
+    write_contour(start_, (dir_ / "start.txt").string());
+    write_contour(round_template<2>(14.0, kShift, 400).positions, (dir_ / "truth.txt").string());
+    return {{"name", "template_start"}, {"dimension", 2},
+            {"image", {{"file", "target.mha"}}},
+            {"template", {{"file", "template.txt"}, {"reference_image", "reference.mha"}, {"start", "start.txt"}}},
+            {"ground_truth", {{"surface", "truth.txt"}}},
+            {"field", {{"type", "gradient"}}},
+            {"energies", {{{"type", "internal"}, {"weight", 1.0}, {"alpha", 0.05}},
+                          {{"type", "profile"}, {"weight", 4.0}}}},
+            {"phases", {{{"iterations", 60}}}},
+            {"output", {{"figures", false}, {"result_mask", false}}}};
+  }
+  template <int D>
+  ExperimentFile file_of(const nlohmann::ordered_json& j) {
+    const fs::path path = dir_ / "experiment.json";
+    std::ofstream(path) << j.dump(2);
+    return load_experiment_file(path.string());
+  }
+  // The InputError's JSON path when the experiment is made, or "" if it is accepted.
+  template <int D = 2>
+  std::string error_path(const nlohmann::ordered_json& j) {
+    try {
+      make_experiment<D>(file_of<D>(j));
+    } catch (const InputError& e) {
+      return e.where();
+    }
+    return "";
+  }
+  PointList<2> tmpl_, start_;
+};
+
+double max_distance(const PointList<2>& a, const PointList<2>& b) {
+  double d = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) d = std::max(d, (a[i] - b[i]).norm());
+  return d;
+}
+
+// The run starts at the file's positions (initial.txt), its rest positions are the template's,
+// and the start on the target's edge is a fixed point of the profile force: every vertex ends
+// within 0.1 mm of where it started (from the template itself, 2.8 mm away, the same run moves
+// the vertices by more than 1 mm on average: along their normals, 2.8 |cos| mm).
+TEST_F(TemplateStartTest, TheSnakeStartsAtTheFileAndRestsOnTheTemplate) {
+  const nlohmann::ordered_json j = write_case();
+  Experiment<2> ex = make_experiment<2>(file_of<2>(j));
+  EXPECT_LT(max_distance(ex.tmpl.positions, tmpl_), 1e-9);
+  run_experiment(ex, RunOptions{(dir_ / "out").string(), true});
+  const PointList<2> initial = read_contour_template((dir_ / "out" / "initial.txt").string()).positions;
+  const PointList<2> final = read_contour_template((dir_ / "out" / "final.txt").string()).positions;
+  ASSERT_EQ(initial.size(), start_.size());
+  ASSERT_EQ(final.size(), start_.size());
+  EXPECT_LT(max_distance(initial, start_), 1e-6);
+  const double moved = max_distance(final, start_);
+  std::printf("started at the target's edge: largest move %.3f mm\n", moved);
+  EXPECT_LT(moved, 0.1);
+
+  nlohmann::ordered_json k = write_case();
+  k["template"].erase("start");
+  Experiment<2> from_template = make_experiment<2>(file_of<2>(k));
+  run_experiment(from_template, RunOptions{(dir_ / "out2").string(), true});
+  const PointList<2> final2 = read_contour_template((dir_ / "out2" / "final.txt").string()).positions;
+  double mean = 0.0;
+  for (size_t i = 0; i < tmpl_.size(); ++i) mean += (final2[i] - tmpl_[i]).norm() / double(tmpl_.size());
+  EXPECT_GT(mean, 1.0);
+}
+
+TEST_F(TemplateStartTest, ProblemsNameTheKey) {
+  nlohmann::ordered_json j = write_case();
+  j["template"]["start"] = "missing.txt";
+  EXPECT_EQ(error_path(j), "template.start");
+  j["template"]["start"] = "";
+  EXPECT_EQ(error_path(j), "template.start");
+  j["template"]["start"] = 3;
+  EXPECT_EQ(error_path(j), "template.start");
+  // another vertex count
+  j = write_case();
+  write_contour(round_template<2>(14.0, kShift, 41).positions, (dir_ / "start.txt").string());
+  EXPECT_EQ(error_path(j), "template.start");
+  // with a placement or an init, one of them would be ignored
+  j = write_case();
+  j["template"]["transform"] = {{"scale", 1.1}};
+  EXPECT_EQ(error_path(j), "template.start");
+  j = write_case();
+  j["template"]["init"] = {{"type", "image"}};
+  EXPECT_EQ(error_path(j), "template.start");
+  j = write_case();
+  EXPECT_EQ(error_path(j), "");
+}
+
+// 3D: the start must keep the template's faces; the same faces listed in another order, each
+// from another corner, are the same mesh.
+TEST_F(TemplateStartTest, AMeshStartKeepsTheTemplatesFaces) {
+  const Snake<3> sphere = test::icosphere(2, 10.0);
+  write_image<3>(radial_image<3>(40, 1.0, [](double r) { return r < 10 ? 200.0 : 50.0; }, 1.0), (dir_ / "ball.mha").string());
+  write_mesh(sphere.positions(), sphere.connectivity(), (dir_ / "template.off").string());
+  nlohmann::ordered_json j = {{"name", "start3d"}, {"dimension", 3},
+                              {"image", {{"file", "ball.mha"}}},
+                              {"template", {{"file", "template.off"}, {"start", "start.off"}}},
+                              {"field", {{"type", "gradient"}}},
+                              {"energies", {{{"type", "internal"}, {"weight", 1.0}}}},
+                              {"phases", {{{"iterations", 1}}}}};
+  PointList<3> moved = sphere.positions();
+  for (Point<3>& p : moved) p *= 1.05;
+  std::vector<Triangle> faces = sphere.connectivity().triangles();
+  std::reverse(faces.begin(), faces.end());
+  for (Triangle& t : faces) std::rotate(t.begin(), t.begin() + 1, t.end());
+  write_mesh(moved, Connectivity::mesh(int(moved.size()), faces), (dir_ / "start.off").string());
+  EXPECT_EQ(error_path<3>(j), "");
+  Experiment<3> ex = make_experiment<3>(file_of<3>(j));
+  EXPECT_NEAR((ex.image.grid().to_world(ex.initial[0]) - moved[0]).norm(), 0.0, 1e-6);
+  // one face turned over (its orientation flipped), and a mesh with other faces
+  faces[0] = {faces[0][0], faces[0][2], faces[0][1]};
+  write_mesh(moved, Connectivity::mesh(int(moved.size()), faces), (dir_ / "start.off").string());
+  EXPECT_EQ(error_path<3>(j), "template.start");
+  const Snake<3> other = test::icosphere(1, 10.0);
+  write_mesh(other.positions(), other.connectivity(), (dir_ / "start.off").string());
+  EXPECT_EQ(error_path<3>(j), "template.start");
+}
+
+}  // namespace
+}  // namespace dsnake
