@@ -315,12 +315,12 @@ std::string outside_the_image(const PointList<D>& points, const Grid<D>& grid) {
 }
 
 template <int D>
-void check_placement(const Experiment<D>& ex, const std::string& file) {
+void check_placement(const Experiment<D>& ex, const std::string& file, bool from_start) {
   const Grid<D>& g = ex.image.grid();
-  if (const std::string what = outside_the_image<D>(ex.initial, g); !what.empty())
-    throw InputError(file, "template.transform", "the placed template " + what);
-  if (const std::string what = smaller_than_a_voxel<D>(ex.initial, g); !what.empty())
-    throw InputError(file, "template.transform", "the placed template " + what);
+  const std::string key = from_start ? "template.start" : "template.transform";
+  const std::string noun = from_start ? "the start " : "the placed template ";
+  if (const std::string what = outside_the_image<D>(ex.initial, g); !what.empty()) throw InputError(file, key, noun + what);
+  if (const std::string what = smaller_than_a_voxel<D>(ex.initial, g); !what.empty()) throw InputError(file, key, noun + what);
 }
 
 template <int D>
@@ -406,7 +406,7 @@ Experiment<D> assemble(const ExperimentSpec<D>& spec) {
   if (!spec.tmpl.start.empty()) ex.initial = read_start(spec, ex.tmpl);
   ex.truth = assemble_truth(spec, std::move(phantom), ex.tmpl);
   express_in_image_frame(ex, spec.truth);
-  check_placement(ex, spec.file.path);
+  check_placement(ex, spec.file.path, !spec.tmpl.start.empty());
   check_truth_placement(ex, spec);
   ex.field = build_field(spec.field);
   try {  // the checks a field can make on the image's grid, so that `validate` reports them too

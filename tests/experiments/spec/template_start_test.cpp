@@ -113,6 +113,14 @@ TEST_F(TemplateStartTest, ProblemsNameTheKey) {
   j = write_case();
   write_contour(round_template<2>(14.0, kShift, 41).positions, (dir_ / "start.txt").string());
   EXPECT_EQ(error_path(j), "template.start");
+  // a start far outside the image (the template itself inside it)
+  j = write_case();
+  {
+    PointList<2> far = start_;
+    for (Point<2>& p : far) p += Point<2>(500.0, 0.0);
+    write_contour(far, (dir_ / "start.txt").string());
+  }
+  EXPECT_EQ(error_path(j), "template.start");
   // with a placement or an init, one of them would be ignored
   j = write_case();
   j["template"]["transform"] = {{"scale", 1.1}};
