@@ -19,8 +19,8 @@ namespace fs = std::filesystem;
 const std::vector<std::string>& input_file_pointers() {
   static const std::vector<std::string> pointers = {
       "/image/file",           "/image/mesh",         "/template/file",       "/template/mesh",
-      "/template/reference_image", "/template/init/mask", "/ground_truth/mask", "/ground_truth/surface",
-      "/ground_truth/correspondence"};
+      "/template/reference_image", "/template/init/mask", "/template/start", "/ground_truth/mask",
+      "/ground_truth/surface", "/ground_truth/correspondence"};
   return pointers;
 }
 

@@ -5,6 +5,7 @@
 // the target's edge, the profile force keeps every vertex where it starts (its expected profile
 // comes from the reference at the template's position). And the key's problems, by JSON path.
 #include "experiments/spec/experiment.h"
+#include "experiments/output/provenance.h"
 #include "experiments/output/runner.h"
 #include "framework/core/errors.h"
 #include "framework/io/image_io.h"
@@ -81,7 +82,10 @@ TEST_F(TemplateStartTest, TheSnakeStartsAtTheFileAndRestsOnTheTemplate) {
   const nlohmann::ordered_json j = write_case();
   Experiment<2> ex = make_experiment<2>(file_of<2>(j));
   EXPECT_LT(max_distance(ex.tmpl.positions, tmpl_), 1e-9);
-  run_experiment(ex, RunOptions{(dir_ / "out").string(), true});
+  const auto result = run_experiment(ex, RunOptions{(dir_ / "out").string(), true});
+  // An input like the others: its SHA-256 in the provenance (a sweep reruns a run whose start changed).
+  EXPECT_EQ(result["provenance"]["inputs"]["template.start"]["sha256"].get<std::string>(),
+            file_sha256((dir_ / "start.txt").string()));
   const PointList<2> initial = read_contour_template((dir_ / "out" / "initial.txt").string()).positions;
   const PointList<2> final = read_contour_template((dir_ / "out" / "final.txt").string()).positions;
   ASSERT_EQ(initial.size(), start_.size());
