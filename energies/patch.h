@@ -47,8 +47,8 @@
 // The smoothing: the scan is smoothed by sigma in its frame, and with `smoothing` image the atlas
 // by sigma in its own. Through a map L that stretches, the scan's blur seen in the atlas is the
 // anisotropic sigma^2 L^-1 L^-T, not sigma^2 I: edges compared through L are blurred differently,
-// which moves the best match by up to a quarter of sigma on a 20 % stretch (measured in
-// REPRODUCTION.md, "Started at the peers' results or at the truth"). With `mapped` the atlas is
+// which moves the best match off the truth, the more the larger sigma and the stretch
+// (REPRODUCTION.md, "Started at the peers' results or at the truth"). With `mapped` the atlas is
 // smoothed by 0.8 sigma and the rest, sigma^2 L^-1 L^-T - (0.8 sigma)^2 I (clamped at 0 along
 // directions L stretches by more than 1 / 0.8), by Gauss-Hermite quadrature at every sample of
 // the expected patch (three nodes per eigen-direction, 3^D samples of the atlas per point).
@@ -126,7 +126,7 @@ struct PatchOptions {
                                     "(e.g. a T1 atlas and a T2 scan), or auto: the sign of the vertices' summed correlation "
                                     "where the phase starts"});
     v(gradient, Key{"gradient", "", "the Gauss-Newton step's gradients: the scan's (forward), the atlas patch's (inverse) or their mean (both)"});
-    v(smoothing, Key{"smoothing", "", "the atlas patch's smoothing: image (the atlas smoothed by sigma in its own frame) or mapped (the scan's isotropic sigma pulled back through the vertex's map, so that a stretched map compares equally blurred patches; about 3 times the cost)"});
+    v(smoothing, Key{"smoothing", "", "the atlas patch's smoothing: image (the atlas smoothed by sigma in its own frame) or mapped (the scan's isotropic sigma pulled back through the vertex's map, so that a stretched map compares equally blurred patches; 3^D atlas samples per patch point where a patch is resampled)"});
   }
 };
 
