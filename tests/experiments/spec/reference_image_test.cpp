@@ -2,60 +2,19 @@
 // ring image (the reference), a target image that is the ring moved by (2, -2) mm with another
 // intensity scale; `dsnake run` with the profile energy registers the template onto the moved
 // edge. And the problems of the key, named by their JSON path.
-#include "experiments/spec/experiment.h"
 #include "experiments/output/runner.h"
-#include "framework/core/errors.h"
-#include "framework/io/image_io.h"
-#include "framework/io/mesh_io.h"
-#include "tests/energies/edge_images.h"
-#include "tests/experiments/temp_dir_test.h"
+#include "tests/experiments/spec/ring_case_test.h"
 
 #include <gtest/gtest.h>
-
-#include <fstream>
 
 namespace dsnake {
 namespace {
 
-namespace fs = std::filesystem;
 using namespace test_support;
 
-class ReferenceImageTest : public TempDirTest {
+class ReferenceImageTest : public RingCaseTest {
  protected:
-  // Writes the reference, the target and the template; returns the experiment document.
-  nlohmann::ordered_json write_case() {
-    const Point<2> shift(2.0, -2.0);
-    write_image<2>(radial_image<2>(72, 1.0, dark_ring(8.0, 14.0), 1.0), (dir_ / "reference.mha").string());
-    write_image<2>(radial_image<2>(72, 1.0, [](double r) { return 0.4 * (r < 8 ? 200 : r < 14 ? 50 : 200) + 50; }, 1.0, shift),
-                   (dir_ / "target.mha").string());
-    write_contour(round_template<2>(14.0, Point<2>::Zero(), 40).positions, (dir_ / "template.txt").string());
-    write_contour(round_template<2>(14.0, shift, 400).positions, (dir_ / "truth.txt").string());
-    nlohmann::ordered_json j = {
-        {"name", "reference_profile"}, {"dimension", 2},
-        {"image", {{"file", "target.mha"}}},
-        {"template", {{"file", "template.txt"}, {"reference_image", "reference.mha"}}},
-        {"ground_truth", {{"surface", "truth.txt"}}},
-        {"field", {{"type", "gradient"}}},
-        {"energies", {{{"type", "internal"}, {"weight", 1.0}, {"alpha", 0.05}},
-                      {{"type", "profile"}, {"weight", 4.0}}}},
-        {"phases", {{{"iterations", 60}}}},
-        {"output", {{"figures", false}, {"result_mask", false}}}};
-    return j;
-  }
-  ExperimentFile file_of(const nlohmann::ordered_json& j) {
-    const fs::path path = dir_ / "experiment.json";
-    std::ofstream(path) << j.dump(2);
-    return load_experiment_file(path.string());
-  }
-  // The InputError's JSON path when the experiment is made, or "" if it is accepted.
-  std::string error_path(const nlohmann::ordered_json& j) {
-    try {
-      make_experiment<2>(file_of(j));
-    } catch (const InputError& e) {
-      return e.where();
-    }
-    return "";
-  }
+  nlohmann::ordered_json write_case() { return write_ring_case("reference_profile"); }
 };
 
 // Started 2.8 mm off (the template as read, at the reference's place), the run ends within

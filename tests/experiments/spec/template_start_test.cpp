@@ -4,66 +4,31 @@
 // that is the ring moved by (2, -2) mm with another contrast: started at the template moved onto
 // the target's edge, the profile force keeps every vertex where it starts (its expected profile
 // comes from the reference at the template's position). And the key's problems, by JSON path.
-#include "experiments/spec/experiment.h"
 #include "experiments/output/provenance.h"
 #include "experiments/output/runner.h"
-#include "framework/core/errors.h"
-#include "framework/io/image_io.h"
-#include "framework/io/mesh_io.h"
-#include "tests/energies/edge_images.h"
-#include "tests/experiments/temp_dir_test.h"
+#include "tests/experiments/spec/ring_case_test.h"
 #include "tests/test_meshes.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <fstream>
 
 namespace dsnake {
 namespace {
 
-namespace fs = std::filesystem;
 using namespace test_support;
 
-const Point<2> kShift(2.0, -2.0);
-
-class TemplateStartTest : public TempDirTest {
+class TemplateStartTest : public RingCaseTest {
  protected:
+  // The ring case started at the template moved onto the target's edge (start.txt).
   nlohmann::ordered_json write_case() {
-    write_image<2>(radial_image<2>(72, 1.0, dark_ring(8.0, 14.0), 1.0), (dir_ / "reference.mha").string());
-    write_image<2>(radial_image<2>(72, 1.0, [](double r) { return 0.4 * (r < 8 ? 200 : r < 14 ? 50 : 200) + 50; }, 1.0, kShift),
-                   (dir_ / "target.mha").string());
-    tmpl_ = round_template<2>(14.0, Point<2>::Zero(), 40).positions;
-    write_contour(tmpl_, (dir_ / "template.txt").string());
+    nlohmann::ordered_json j = write_ring_case("template_start");
+    tmpl_ = ring_template();
     start_ = tmpl_;
-    for (Point<2>& p : start_) p += kShift;
+    for (Point<2>& p : start_) p += kRingShift;
     write_contour(start_, (dir_ / "start.txt").string());
-    write_contour(round_template<2>(14.0, kShift, 400).positions, (dir_ / "truth.txt").string());
-    return {{"name", "template_start"}, {"dimension", 2},
-            {"image", {{"file", "target.mha"}}},
-            {"template", {{"file", "template.txt"}, {"reference_image", "reference.mha"}, {"start", "start.txt"}}},
-            {"ground_truth", {{"surface", "truth.txt"}}},
-            {"field", {{"type", "gradient"}}},
-            {"energies", {{{"type", "internal"}, {"weight", 1.0}, {"alpha", 0.05}},
-                          {{"type", "profile"}, {"weight", 4.0}}}},
-            {"phases", {{{"iterations", 60}}}},
-            {"output", {{"figures", false}, {"result_mask", false}}}};
-  }
-  template <int D>
-  ExperimentFile file_of(const nlohmann::ordered_json& j) {
-    const fs::path path = dir_ / "experiment.json";
-    std::ofstream(path) << j.dump(2);
-    return load_experiment_file(path.string());
-  }
-  // The InputError's JSON path when the experiment is made, or "" if it is accepted.
-  template <int D = 2>
-  std::string error_path(const nlohmann::ordered_json& j) {
-    try {
-      make_experiment<D>(file_of<D>(j));
-    } catch (const InputError& e) {
-      return e.where();
-    }
-    return "";
+    j["template"]["start"] = "start.txt";
+    return j;
   }
   PointList<2> tmpl_, start_;
 };
@@ -80,7 +45,7 @@ double max_distance(const PointList<2>& a, const PointList<2>& b) {
 // the vertices by more than 1 mm on average: along their normals, 2.8 |cos| mm).
 TEST_F(TemplateStartTest, TheSnakeStartsAtTheFileAndRestsOnTheTemplate) {
   const nlohmann::ordered_json j = write_case();
-  Experiment<2> ex = make_experiment<2>(file_of<2>(j));
+  Experiment<2> ex = make_experiment<2>(file_of(j));
   EXPECT_LT(max_distance(ex.tmpl.positions, tmpl_), 1e-9);
   const auto result = run_experiment(ex, RunOptions{(dir_ / "out").string(), true});
   // An input like the others: its SHA-256 in the provenance (a sweep reruns a run whose start changed).
@@ -97,7 +62,7 @@ TEST_F(TemplateStartTest, TheSnakeStartsAtTheFileAndRestsOnTheTemplate) {
 
   nlohmann::ordered_json k = write_case();
   k["template"].erase("start");
-  Experiment<2> from_template = make_experiment<2>(file_of<2>(k));
+  Experiment<2> from_template = make_experiment<2>(file_of(k));
   run_experiment(from_template, RunOptions{(dir_ / "out2").string(), true});
   const PointList<2> final2 = read_contour_template((dir_ / "out2" / "final.txt").string()).positions;
   double mean = 0.0;
@@ -115,7 +80,7 @@ TEST_F(TemplateStartTest, ProblemsNameTheKey) {
   EXPECT_EQ(error_path(j), "template.start");
   // another vertex count
   j = write_case();
-  write_contour(round_template<2>(14.0, kShift, 41).positions, (dir_ / "start.txt").string());
+  write_contour(round_template<2>(14.0, kRingShift, 41).positions, (dir_ / "start.txt").string());
   EXPECT_EQ(error_path(j), "template.start");
   // a start far outside the image (the template itself inside it)
   j = write_case();
@@ -155,7 +120,7 @@ TEST_F(TemplateStartTest, AMeshStartKeepsTheTemplatesFaces) {
   for (Triangle& t : faces) std::rotate(t.begin(), t.begin() + 1, t.end());
   write_mesh(moved, Connectivity::mesh(int(moved.size()), faces), (dir_ / "start.off").string());
   EXPECT_EQ(error_path<3>(j), "");
-  Experiment<3> ex = make_experiment<3>(file_of<3>(j));
+  Experiment<3> ex = make_experiment<3>(file_of(j));
   EXPECT_NEAR((ex.image.grid().to_world(ex.initial[0]) - moved[0]).norm(), 0.0, 1e-6);
   // one face turned over (its orientation flipped), and a mesh with other faces
   faces[0] = {faces[0][0], faces[0][2], faces[0][1]};
