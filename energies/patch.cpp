@@ -9,6 +9,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -240,8 +241,12 @@ std::vector<double> PatchEnergy<D>::sample_expected(int v, const Eigen::Matrix<d
   // standard deviations along each eigenvector of sigma^2 m^-1 m^-T - (pre sigma)^2 I, weights
   // 2/3, 1/6, 1/6 (Gauss-Hermite, exact for polynomials up to degree 5 along each); one node of
   // weight 1 with `smoothing` image.
-  PointList<D> nodes(1, Point<D>::Zero());
-  std::vector<double> weights(1, 1.0);
+  constexpr int kMaxNodes = D == 2 ? 9 : 27;  // 3^D, on the stack: this runs at every resampling
+  std::array<Point<D>, kMaxNodes> nodes;
+  std::array<double, kMaxNodes> weights;
+  nodes[0] = Point<D>::Zero();
+  weights[0] = 1.0;
+  int count = 1;
   const double sigma = options_.sigma;
   if (options_.smoothing == PatchSmoothing::kMapped && sigma > 0) {
     const double pre = kMappedPreSmoothing * sigma;
@@ -250,13 +255,12 @@ std::vector<double> PatchEnergy<D>::sample_expected(int v, const Eigen::Matrix<d
       const double sd = std::sqrt(std::max(0.0, rest.eigenvalues()(d)));
       if (!(sd > 1e-9)) continue;
       const Point<D> axis = std::sqrt(3.0) * sd * rest.eigenvectors().col(d);
-      const size_t n = nodes.size();
-      for (size_t i = 0; i < n; ++i) {
-        nodes.push_back(nodes[i] + axis);
-        nodes.push_back(nodes[i] - axis);
-        weights.push_back(weights[i] / 6.0);
-        weights.push_back(weights[i] / 6.0);
+      for (int i = 0, n = count; i < n; ++i) {
+        nodes[count] = nodes[i] + axis;
+        nodes[count + 1] = nodes[i] - axis;
+        weights[count] = weights[count + 1] = weights[i] / 6.0;
         weights[i] *= 2.0 / 3.0;
+        count += 2;
       }
     }
   }
@@ -264,7 +268,7 @@ std::vector<double> PatchEnergy<D>::sample_expected(int v, const Eigen::Matrix<d
   for (int k = 0; k < count_; ++k) {
     const Point<D> x = rest_frame_[v] + back * (h_ * patch_offset<D>(k, half_));
     double sum = 0.0;
-    for (size_t j = 0; j < nodes.size(); ++j) sum += weights[j] * ref.sample(Point<D>(x + nodes[j]));
+    for (int j = 0; j < count; ++j) sum += weights[j] * ref.sample(Point<D>(x + nodes[j]));
     e[k] = sign_ * sum;
   }
   if (!centre_and_normalise(e)) e.clear();

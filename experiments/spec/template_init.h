@@ -70,7 +70,7 @@ struct TemplateInitOptions {
     v(margin, Key{"margin", "mm", "image: added to every side of the template's bounding box (in the reference image) to make the region compared", Range::at_least(0)});
     v(levels, Key{"levels", "mm", "image: Gaussian smoothing (standard deviation) of both images per level, coarse to fine, each >= 0; samples every round(sigma / spacing) voxels"});
     v(iterations, Key{"iterations", "", "image: Levenberg-Marquardt steps per level at most", Range::at_least(1)});
-    v(max_scale, Key{"max_scale", "1 (ratio)", "image: the result's scale (|det|^(1/D) of its linear part) relative to the placed template's must lie within [1 / max_scale, max_scale], else the start is kept with a warning: NCC over the template's region can rise by mapping it onto a small part of the scan, and an atlas of the same species is not that much larger or smaller (0: no bound)", Range::at_least(0)});
+    v(max_scale, Key{"max_scale", "1 (ratio)", "image: the result's scale relative to the placed template's, along every axis (the singular values of its linear part after the placement's inverse; one value for a similarity), must lie within [1 / max_scale, max_scale], else the start is kept with a warning: NCC over the template's region can rise by mapping it onto a small part of the scan or squashing it along one axis, and an atlas of the same species is not that much larger or smaller, nor that much longer in one direction (0: no bound)", Range::at_least(0)});
   }
   // The alignment options of type image.
   ImageAlignmentOptions alignment() const;
