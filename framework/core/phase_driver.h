@@ -47,6 +47,10 @@ struct PhaseOptions {
   // itself. 0: off.
   int window = 0;
   double energy_tolerance = 1e-3;
+  // With a window: when every term weighted in this phase is higher than at the window's start,
+  // the snake got worse by every measure the phase has (a drift, not a balance of its forces,
+  // which trades one term for another): go back to the window's start and stop.
+  bool stop_when_worse = false;
   // Per-energy weights for this phase, in the energies' order (empty: their own weights); 0
   // switches a term off, e.g. §3's first phase with the deformation and external forces only.
   std::vector<double> weights;
@@ -65,11 +69,17 @@ struct PhaseOptions {
                   Range::closed(0, 10000000)});
     v(energy_tolerance, Key{"energy_tolerance", "1", "the windowed stop's largest relative change of the total energy over a window",
                             Range::at_least(0)});
+    v(stop_when_worse, Key{"stop_when_worse", "",
+                           "with `window`: every `window` iterations, when every term with a weight in this phase is higher "
+                           "than at the window's start (worse by every measure: a drift, not a balance that trades one term "
+                           "for another), go back to the window's start and stop"});
     v(weights, Key{"weights", "1", "one weight per energy for this phase, in the energies' order (0 switches a term off); default: their own weights"});
   }
   void check() const {
     if (window > 0 && tolerance <= 0)
       throw OptionError{"window", "needs a tolerance > 0 (the net move per iteration below which the shape is still)"};
+    if (stop_when_worse && window <= 0)
+      throw OptionError{"stop_when_worse", "needs a window > 0 (the iterations between the compared states)"};
   }
 };
 

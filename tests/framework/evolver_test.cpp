@@ -237,6 +237,91 @@ TEST(Evolver, TheWindowedStopEndsSlidingAndOscillationButNotShapeChange) {
   EXPECT_EQ(off.iterations, 200);
 }
 
+// Halves every vertex towards the origin for its first `turn` proposals, then scales it by 1.2
+// (a snake that fits, then drifts). Energy: scale * sum |q|^2.
+class TurnAroundEnergy : public Energy<2> {
+ public:
+  TurnAroundEnergy(int turn, double scale) : turn_(turn), scale_(scale) {}
+  std::string type() const override { return "turn_around"; }
+  void bind(const EnergyContext<2>&, const Snake<2>&) override {}
+  void propose(const Snake<2>& snake, PointList<2>& out) override {
+    const double f = calls_++ < turn_ ? 0.5 : 1.2;
+    for (int v = 0; v < snake.num_vertices(); ++v) out[v] = f * snake.positions()[v];
+  }
+  double value(const Snake<2>& snake) const override {
+    double e = 0;
+    for (const auto& q : snake.positions()) e += q.squaredNorm();
+    return scale_ * e;
+  }
+
+ private:
+  int turn_;
+  double scale_;
+  int calls_ = 0;
+};
+
+// stop_when_worse: two terms that both fall for 10 iterations and then both rise; with a window
+// of 5 the windows ending at 5 and 10 are better than their starts, the one ending at 15 worse
+// in both terms: the phase goes back to iteration 10's positions (exactly 0.5^10 of the start)
+// and stops there, its last traced energy that of those positions. Without the key the snake
+// drifts to its budget; a trade-off (one term falls while the other rises: a balance of forces)
+// never stops it.
+TEST(Evolver, StopWhenWorseGoesBackToTheWindowsStartWhenEveryTermRose) {
+  struct Recorder : EvolverObserver<2> {
+    void on_iteration(const IterationInfo& info, const Snake<2>&) override { infos.push_back(info); }
+    std::vector<IterationInfo> infos;
+  };
+  const auto run = [](bool stop, Snake<2>& s, Recorder& recorder) {
+    std::vector<WeightedEnergy<2>> e;
+    e.push_back({1.0, std::make_unique<TurnAroundEnergy>(10, 1.0)});
+    e.push_back({3.0, std::make_unique<TurnAroundEnergy>(10, 2.0)});
+    Evolver<2> evolver({}, std::move(e));
+    evolver.add_observer(&recorder);
+    std::vector<Phase<2>> phases(1);
+    phases[0].iterations = 40;
+    phases[0].tolerance = 1e-9;
+    phases[0].window = 5;
+    phases[0].stop_when_worse = stop;
+    return evolver.run(s, phases).phases[0];
+  };
+  Snake<2> s = square_snake();
+  Recorder recorder;
+  const PhaseSummary stopped = run(true, s, recorder);
+  EXPECT_EQ(stopped.status, EvolveStatus::kConverged);
+  EXPECT_EQ(stopped.converged_on, "worse");
+  EXPECT_EQ(stopped.iterations, 15);
+  EXPECT_EQ(s.positions()[0], Point<2>(std::pow(0.5, 10), std::pow(0.5, 10)));
+  EXPECT_EQ(s.positions()[2], Point<2>(-std::pow(0.5, 10), -std::pow(0.5, 10)));
+  ASSERT_EQ(recorder.infos.size(), 15u);
+  EXPECT_EQ(recorder.infos[14].energy_terms, recorder.infos[9].energy_terms);
+  EXPECT_EQ(recorder.infos[14].total_energy, recorder.infos[9].total_energy);
+  // weights 1 and 3 on sum |q|^2 = 4 * 2 * 0.25^10 and twice that
+  EXPECT_NEAR(recorder.infos[14].total_energy, (1.0 + 6.0) * 8.0 * std::pow(0.25, 10), 1e-20);
+
+  Snake<2> drifting = square_snake();
+  Recorder unused;
+  const PhaseSummary off = run(false, drifting, unused);
+  EXPECT_EQ(off.status, EvolveStatus::kIterationBudget);
+  // halved 10 times, then grown by 1.2 for 30 iterations
+  EXPECT_NEAR(drifting.positions()[0].x() / (std::pow(0.5, 10) * std::pow(1.2, 30)), 1.0, 1e-12);
+
+  // A balance: a constant target (4, 0) and the pull towards the origin meet at (4, 0) / 1.5;
+  // the first term falls as the second rises, and the displacement stop ends the phase there.
+  std::vector<WeightedEnergy<2>> e;
+  e.push_back({1.0, std::make_unique<ConstantEnergy>(Point<2>(4, 0), Governs::kAllVertices)});
+  e.push_back({1.0, std::make_unique<HalfwayEnergy>()});
+  Evolver<2> evolver({}, std::move(e));
+  Snake<2> balanced = square_snake();
+  std::vector<Phase<2>> phases(1);
+  phases[0].iterations = 200;
+  phases[0].tolerance = 1e-9;
+  phases[0].window = 5;
+  phases[0].stop_when_worse = true;
+  const PhaseSummary trade = evolver.run(balanced, phases).phases[0];
+  EXPECT_EQ(trade.converged_on, "displacement");
+  EXPECT_NEAR(balanced.positions()[0].x(), 4.0 / 1.5, 1e-8);
+}
+
 TEST(Evolver, RemeshersRunEveryKIterationsAndEnergiesRebind) {
   std::vector<WeightedEnergy<2>> e;
   auto constant = std::make_unique<ConstantEnergy>(Point<2>(0, 0), Governs::kAllVertices);

@@ -59,6 +59,16 @@ TEST(ExperimentSpec, RunKeysFieldCacheAndPhantomKeysAreCheckedAtReading) {
   EXPECT_EQ(spec_error<2>("default", {}), "");
 }
 
+TEST(ExperimentSpec, ThePhasesStopsNeedTheirWindow) {
+  EXPECT_EQ(spec_error<2>("default", {"phases[0].stop_when_worse=true", "phases[0].window=0"}),
+            "phases[0].stop_when_worse: needs a window > 0 (the iterations between the compared states)");
+  EXPECT_EQ(spec_error<2>("default", {"phases[0].window=10", "phases[0].tolerance=0"}),
+            "phases[0].window: needs a tolerance > 0 (the net move per iteration below which the shape is still)");
+  EXPECT_EQ(spec_error<2>("default", {"phases[0].stop_when_worse=1", "phases[0].window=10", "phases[0].tolerance=0.01"}),
+            "phases[0].stop_when_worse: expected true or false, found number");
+  EXPECT_EQ(spec_error<2>("default", {"phases[0].stop_when_worse=true", "phases[0].window=10", "phases[0].tolerance=0.01"}), "");
+}
+
 TEST(ExperimentSpec, TheSectionsLandInTheirOptionsAndTheExperimentHoldsThemWhole) {
   const ExperimentFile file = builtin_experiment(
       "default", {"seed=12", "watchdog.max_move=7.5", "template.transform.scale=1.25", "field.cache=cache_dir",
