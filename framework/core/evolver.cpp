@@ -19,28 +19,6 @@ double largest_move(const PointList<D>& from, const PointList<D>& to) {
   return max_move;
 }
 
-// The sum of the finite terms (an external field without a potential has none).
-double finite_total(const std::vector<double>& terms) {
-  double total = 0;
-  for (double t : terms)
-    if (std::isfinite(t)) total += t;
-  return total;
-}
-
-// True when every term with a weight in this phase, finite at both states, is higher in `now`
-// than in `before`, and there is at least one such term.
-template <int D>
-bool every_term_rose(const std::vector<WeightedEnergy<D>>& energies, const std::vector<double>& before,
-                     const std::vector<double>& now) {
-  int compared = 0;
-  for (size_t e = 0; e < energies.size() && e < before.size() && e < now.size(); ++e) {
-    if (!(energies[e].weight > 0) || !std::isfinite(before[e]) || !std::isfinite(now[e])) continue;
-    if (!(now[e] > before[e])) return false;
-    ++compared;
-  }
-  return compared > 0;
-}
-
 }  // namespace
 
 template <int D>
@@ -140,16 +118,10 @@ PhaseSummary SnakeStep<D>::run_phase(PhaseDriver<D>& driver, Snake<D>& snake, co
   guard_report_ = {};
   std::vector<RemeshReport> last_reports;
   const int window = phase.tolerance > 0 ? phase.window : 0;
-  StallDetector<D> stall(window, phase.tolerance, phase.energy_tolerance);
-  // The stop when worse: the snake and its weighted terms at the last window's end (or the phase's start).
-  const bool worse_stop = window > 0 && phase.stop_when_worse;
-  std::vector<double> checkpoint_terms;
-  Snake<D> checkpoint;
-  if (window > 0) {
-    std::vector<double> terms = driver.energy_terms(snake);
-    stall.start(snake, finite_total(terms));
-    if (worse_stop) checkpoint = snake, checkpoint_terms = std::move(terms);
-  }
+  StallDetector<D> stall(window, phase.tolerance, phase.energy_tolerance, phase.stop_when_worse);
+  if (window > 0) stall.start(snake, driver.energy_terms(snake));
+  std::vector<double> weights;
+  for (const auto& e : driver.energies()) weights.push_back(e.weight);
   for (int it = 1; it <= phase.iterations; ++it) {
     const double move = step(driver, snake);
     ps.iterations = it;
@@ -182,21 +154,20 @@ PhaseSummary SnakeStep<D>::run_phase(PhaseDriver<D>& driver, Snake<D>& snake, co
     bool converged = phase.tolerance > 0 && move < phase.tolerance;
     if (converged) ps.converged_on = "displacement";
     if (!converged && window > 0 && it % window == 0) {
-      std::vector<double> terms = driver.trace_energy() ? info.energy_terms : driver.energy_terms(snake);
-      if (worse_stop && every_term_rose(driver.energies(), checkpoint_terms, terms)) {
-        snake = checkpoint;  // the window's start was better by every measure: end there
-        converged = true;
+      const std::vector<double> terms = driver.trace_energy() ? info.energy_terms : driver.energy_terms(snake);
+      const WindowEnd end = stall.close(it, snake, terms, weights);
+      if (end == WindowEnd::kWorse) {
+        snake = stall.checkpoint();  // the window's start was better by every measure: end there
         ps.converged_on = "worse";
         if (driver.trace_energy()) {
-          info.energy_terms = checkpoint_terms;
-          info.total_energy = finite_total(checkpoint_terms);
+          info.energy_terms = stall.checkpoint_terms();
+          info.total_energy = finite_total(info.energy_terms);
         }
       } else {
-        converged = stall.stalled(it, snake, finite_total(terms));
         ps.centroid_rate = stall.centroid_rate();
-        if (converged) ps.converged_on = "window";
-        if (worse_stop) checkpoint = snake, checkpoint_terms = std::move(terms);
+        if (end == WindowEnd::kStill) ps.converged_on = "window";
       }
+      converged = end == WindowEnd::kWorse || end == WindowEnd::kStill;
     }
     if (phase.remesher && !converged && it % std::max(1, phase.every) == 0) last_reports = driver.remesh(snake, phase, it);
     driver.report(info, snake);

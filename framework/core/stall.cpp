@@ -1,4 +1,4 @@
-// The windowed stop; see stall.h.
+// The windowed stops; see stall.h.
 #include "framework/core/stall.h"
 
 #include <algorithm>
@@ -18,18 +18,39 @@ Point<D> template_centroid(const Snake<D>& snake) {
   return n > 0 ? Point<D>(c / n) : c;
 }
 
+// True when every term with a weight, finite at both states, is higher in `now` than in
+// `before`, and there is at least one such term.
+bool every_term_rose(const std::vector<double>& weights, const std::vector<double>& before,
+                     const std::vector<double>& now) {
+  int compared = 0;
+  for (size_t e = 0; e < weights.size() && e < before.size() && e < now.size(); ++e) {
+    if (!(weights[e] > 0) || !std::isfinite(before[e]) || !std::isfinite(now[e])) continue;
+    if (!(now[e] > before[e])) return false;
+    ++compared;
+  }
+  return compared > 0;
+}
+
 }  // namespace
 
-template <int D>
-void StallDetector<D>::start(const Snake<D>& snake, double total_energy) {
-  checkpoint(0, snake, total_energy);
+double finite_total(const std::vector<double>& terms) {
+  double total = 0;
+  for (double t : terms)
+    if (std::isfinite(t)) total += t;
+  return total;
 }
 
 template <int D>
-void StallDetector<D>::checkpoint(int iteration, const Snake<D>& snake, double total_energy) {
+void StallDetector<D>::start(const Snake<D>& snake, const std::vector<double>& terms) {
+  checkpoint(0, snake, terms);
+}
+
+template <int D>
+void StallDetector<D>::checkpoint(int iteration, const Snake<D>& snake, const std::vector<double>& terms) {
   start_ = iteration;
   centroid_ = template_centroid(snake);
-  energy_ = total_energy;
+  terms_ = terms;
+  if (stop_when_worse_) snake_ = snake;
   ids_.clear();
   positions_.clear();
   for (int v = 0; v < snake.num_vertices(); ++v)
@@ -41,8 +62,10 @@ void StallDetector<D>::checkpoint(int iteration, const Snake<D>& snake, double t
 
 // Serial, in vertex order: the same answer whatever the thread count.
 template <int D>
-bool StallDetector<D>::stalled(int iteration, const Snake<D>& snake, double total_energy) {
-  if (window_ <= 0 || iteration - start_ < window_) return false;
+WindowEnd StallDetector<D>::close(int iteration, const Snake<D>& snake, const std::vector<double>& terms,
+                                  const std::vector<double>& weights) {
+  if (window_ <= 0 || iteration - start_ < window_) return WindowEnd::kOpen;
+  if (stop_when_worse_ && every_term_rose(weights, terms_, terms)) return WindowEnd::kWorse;
   const Point<D> c = template_centroid(snake);
   double largest = 0;
   for (size_t k = 0; k < ids_.size(); ++k) {
@@ -53,11 +76,12 @@ bool StallDetector<D>::stalled(int iteration, const Snake<D>& snake, double tota
   const int span = iteration - start_;
   shape_rate_ = largest / span;
   centroid_rate_ = (c - centroid_).norm() / span;
-  const double scale = std::max(std::abs(total_energy), std::abs(energy_));
-  const bool flat = std::abs(total_energy - energy_) <= energy_tolerance_ * scale;
+  const double energy = finite_total(terms), before = finite_total(terms_);
+  const double scale = std::max(std::abs(energy), std::abs(before));
+  const bool flat = std::abs(energy - before) <= energy_tolerance_ * scale;
   const bool still = std::isfinite(shape_rate_) && shape_rate_ < tolerance_;
-  checkpoint(iteration, snake, total_energy);
-  return still && flat;
+  checkpoint(iteration, snake, terms);
+  return still && flat ? WindowEnd::kStill : WindowEnd::kMoving;
 }
 
 template class StallDetector<2>;
