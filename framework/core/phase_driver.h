@@ -155,9 +155,13 @@ struct Divergence {
 struct PhaseSummary {
   int iterations = 0;
   EvolveStatus status = EvolveStatus::kIterationBudget;
+  // The largest vertex move (mm) of the iteration whose result the phase ends on: after a stop
+  // when worse, that of the iteration that made the restored window start (0 for the phase's own
+  // start).
   double last_displacement = 0;
-  // kConverged: "displacement" (one iteration's largest move below the tolerance) or "window"
-  // (the windowed stop: the shape still and the energy flat while the centroid may move).
+  // kConverged: "displacement" (one iteration's largest move below the tolerance), "window"
+  // (the windowed stop: the shape still and the energy flat while the centroid may move) or
+  // "worse" (stop_when_worse: back to the window's start).
   std::string converged_on;
   double centroid_rate = 0;  // the windowed stop: the centroid's move per iteration in its last window (mm)
   std::vector<RemeshReport> remesh_reports;  // the last pass of each stage

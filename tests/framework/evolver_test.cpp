@@ -263,9 +263,9 @@ class TurnAroundEnergy : public Energy<2> {
 // stop_when_worse: two terms that both fall for 10 iterations and then both rise; with a window
 // of 5 the windows ending at 5 and 10 are better than their starts, the one ending at 15 worse
 // in both terms: the phase goes back to iteration 10's positions (exactly 0.5^10 of the start)
-// and stops there, its last traced energy that of those positions. Without the key the snake
-// drifts to its budget; a trade-off (one term falls while the other rises: a balance of forces)
-// never stops it.
+// and stops there, its last traced energy and its last move those of iteration 10. Without the
+// key the snake drifts to its budget; a trade-off (one term falls while the other rises: a
+// balance of forces) never stops it.
 TEST(Evolver, StopWhenWorseGoesBackToTheWindowsStartWhenEveryTermRose) {
   struct Recorder : EvolverObserver<2> {
     void on_iteration(const IterationInfo& info, const Snake<2>&) override { infos.push_back(info); }
@@ -297,6 +297,10 @@ TEST(Evolver, StopWhenWorseGoesBackToTheWindowsStartWhenEveryTermRose) {
   EXPECT_EQ(recorder.infos[14].total_energy, recorder.infos[9].total_energy);
   // weights 1 and 3 on sum |q|^2 = 4 * 2 * 0.25^10 and twice that
   EXPECT_NEAR(recorder.infos[14].total_energy, (1.0 + 6.0) * 8.0 * std::pow(0.25, 10), 1e-20);
+  // the reported last move is iteration 10's (the corner (1, 1) halved from 0.5^9 to 0.5^10),
+  // not that of the undone iteration 15
+  EXPECT_EQ(stopped.last_displacement, recorder.infos[9].max_displacement);
+  EXPECT_NEAR(stopped.last_displacement, std::sqrt(2.0) * std::pow(0.5, 10), 1e-15);
 
   Snake<2> drifting = square_snake();
   Recorder unused;
