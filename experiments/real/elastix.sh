@@ -17,7 +17,7 @@
 #      float), thresholded at 0.5 (a nearest-neighbour warp would carry the mask's voxel staircase
 #      off the grid, where no surface follows it; experiments/real/anatomy/make_inputs.py);
 #   4. `dsnake template --mask` makes a surface (3D: VERTICES, default 3000) or contour (2D: VERTICES,
-#      default 128) of the warped mask;
+#      default 128) of the warped mask (at the surface's own vertex count when it has fewer);
 #   5. a 0-iteration dsnake run evaluates it against GROUND_TRUTH (Dice, mean surface distance,
 #      HD95, self-intersections: the metrics of dsnake's own runs);
 #   6. (3D) the template's vertices carried into the fixed space by the inverse of elastix's transform
@@ -100,8 +100,15 @@ nib.save(out, sys.argv[2])
 EOF
 
 # 4. a surface (contour) of the warped mask
-"$DSNAKE" template --mask "$OUT/transformix/result_mask.nii.gz" --label 1 --vertices "$VERTICES" \
-  --out "$OUT/elastix_result.$EXT" -j "$THREADS" >"$OUT/template.log"
+# (a small mask's surface with fewer vertices than VERTICES: the surface at its own count)
+if ! "$DSNAKE" template --mask "$OUT/transformix/result_mask.nii.gz" --label 1 --vertices "$VERTICES" \
+  --out "$OUT/elastix_result.$EXT" -j "$THREADS" >"$OUT/template.log" 2>"$OUT/template.err"; then
+  fewer=$(sed -n 's/.*more than the \([0-9]*\) vertices of the surface.*/\1/p' "$OUT/template.err")
+  [ -n "$fewer" ] || { cat "$OUT/template.err" >&2; exit 1; }
+  cat "$OUT/template.err"
+  "$DSNAKE" template --mask "$OUT/transformix/result_mask.nii.gz" --label 1 --vertices "$fewer" \
+    --out "$OUT/elastix_result.$EXT" -j "$THREADS" >"$OUT/template.log"
+fi
 
 # 5. measured as dsnake's runs are
 zero_run evaluate "$FIXED" "$OUT/elastix_result.$EXT" "$TRUTH"

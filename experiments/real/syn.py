@@ -27,7 +27,8 @@ object, GROUND_TRUTH the true mask on FIXED's grid. Steps, into OUT:
        the fixed-point iteration y <- y - A^-1 (F(y) - p) (A: the pre-alignment's linear part), 50
        iterations at most, until |F(y) - p| < 1e-4 mm (the largest residual is reported). dipy's own
        transform_points_inverse (the backward field) is recorded beside it for comparison;
-  3. `dsnake template --mask` makes a surface (VERTICES, default 3000) of the warped mask (when the
+  3. `dsnake template --mask` makes a surface (VERTICES, default 3000, or the surface's own vertex
+     count when it has fewer) of the warped mask (when the
      warped mask touches the image's border, a failed registration, with --allow-border: it is
      measured all the same, and summary.json says mask_touches_border);
   4. a 0-iteration dsnake run evaluates it against GROUND_TRUTH (Dice, mean surface distance, HD95,
@@ -39,6 +40,7 @@ THREADS (dsnake's threads, default 2), VERTICES, MARGIN, SYN_LEVELS.
 """
 import json
 import os
+import re
 import subprocess
 import sys
 
@@ -197,6 +199,11 @@ def main():
     if border:  # a registration that pushed the mask off the image: still measured, with a flat cap
         print(t.stderr.strip())
         t = subprocess.run(cmd + ["--allow-border"], capture_output=True, text=True)
+    fewer = re.search(r"more than the ([0-9]+) vertices of the surface", t.stderr) if t.returncode != 0 else None
+    if fewer:  # a small mask's surface has fewer vertices than asked: the surface at its own count
+        print(t.stderr.strip())
+        cmd[cmd.index("--vertices") + 1] = fewer.group(1)
+        t = subprocess.run(cmd + (["--allow-border"] if border else []), capture_output=True, text=True)
     if t.returncode != 0:
         raise SystemExit(f"syn.py: {' '.join(cmd)} failed: {t.stderr.strip()}")
     tlog = t.stdout.strip()
