@@ -122,7 +122,6 @@ PhaseSummary SnakeStep<D>::run_phase(PhaseDriver<D>& driver, Snake<D>& snake, co
   if (window > 0) stall.start(snake, driver.energy_terms(snake));
   std::vector<double> weights;
   for (const auto& e : driver.energies()) weights.push_back(e.weight);
-  double checkpoint_move = 0.0;  // the move of the iteration that made the open window's start
   for (int it = 1; it <= phase.iterations; ++it) {
     const double move = step(driver, snake);
     ps.iterations = it;
@@ -156,11 +155,11 @@ PhaseSummary SnakeStep<D>::run_phase(PhaseDriver<D>& driver, Snake<D>& snake, co
     if (converged) ps.converged_on = "displacement";
     if (!converged && window > 0 && it % window == 0) {
       const std::vector<double> terms = driver.trace_energy() ? info.energy_terms : driver.energy_terms(snake);
-      const WindowEnd end = stall.close(it, snake, terms, weights);
+      const WindowEnd end = stall.close(it, snake, terms, weights, move);
       if (end == WindowEnd::kWorse) {
         snake = stall.checkpoint();  // the window's start was better by every measure: end there
         ps.converged_on = "worse";
-        ps.last_displacement = checkpoint_move;
+        ps.last_displacement = stall.checkpoint_move();
         if (driver.trace_energy()) {
           info.energy_terms = stall.checkpoint_terms();
           info.total_energy = finite_total(info.energy_terms);
@@ -168,7 +167,6 @@ PhaseSummary SnakeStep<D>::run_phase(PhaseDriver<D>& driver, Snake<D>& snake, co
       } else {
         ps.centroid_rate = stall.centroid_rate();
         if (end == WindowEnd::kStill) ps.converged_on = "window";
-        checkpoint_move = move;  // the next window starts here
       }
       converged = end == WindowEnd::kWorse || end == WindowEnd::kStill;
     }

@@ -42,12 +42,14 @@ double finite_total(const std::vector<double>& terms) {
 
 template <int D>
 void StallDetector<D>::start(const Snake<D>& snake, const std::vector<double>& terms) {
-  checkpoint(0, snake, terms);
+  checkpoint(0, snake, terms, 0.0);
 }
 
 template <int D>
-void StallDetector<D>::checkpoint(int iteration, const Snake<D>& snake, const std::vector<double>& terms) {
+void StallDetector<D>::checkpoint(int iteration, const Snake<D>& snake, const std::vector<double>& terms,
+                                  double move) {
   start_ = iteration;
+  move_ = move;
   centroid_ = template_centroid(snake);
   terms_ = terms;
   if (stop_when_worse_) snake_ = snake;
@@ -63,7 +65,7 @@ void StallDetector<D>::checkpoint(int iteration, const Snake<D>& snake, const st
 // Serial, in vertex order: the same answer whatever the thread count.
 template <int D>
 WindowEnd StallDetector<D>::close(int iteration, const Snake<D>& snake, const std::vector<double>& terms,
-                                  const std::vector<double>& weights) {
+                                  const std::vector<double>& weights, double move) {
   if (window_ <= 0 || iteration - start_ < window_) return WindowEnd::kOpen;
   if (stop_when_worse_ && every_term_rose(weights, terms_, terms)) return WindowEnd::kWorse;
   const Point<D> c = template_centroid(snake);
@@ -80,7 +82,7 @@ WindowEnd StallDetector<D>::close(int iteration, const Snake<D>& snake, const st
   const double scale = std::max(std::abs(energy), std::abs(before));
   const bool flat = std::abs(energy - before) <= energy_tolerance_ * scale;
   const bool still = std::isfinite(shape_rate_) && shape_rate_ < tolerance_;
-  checkpoint(iteration, snake, terms);
+  checkpoint(iteration, snake, terms, move);
   return still && flat ? WindowEnd::kStill : WindowEnd::kMoving;
 }
 

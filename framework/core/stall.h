@@ -43,22 +43,25 @@ class StallDetector {
   // Opens the first window at the phase's start (iteration 0) with the weighted terms then.
   void start(const Snake<D>& snake, const std::vector<double>& terms);
 
-  // After iteration `iteration` (from 1) with the snake and its weighted terms then, and the
-  // phase's weights (a term counts for stop_when_worse where its weight is > 0). Every `window`
-  // iterations closes the window and, unless it ends kWorse, opens the next.
+  // After iteration `iteration` (from 1) with the snake and its weighted terms then, the
+  // phase's weights (a term counts for stop_when_worse where its weight is > 0) and that
+  // iteration's largest vertex move (mm). Every `window` iterations closes the window and,
+  // unless it ends kWorse, opens the next.
   WindowEnd close(int iteration, const Snake<D>& snake, const std::vector<double>& terms,
-                  const std::vector<double>& weights);
+                  const std::vector<double>& weights, double move);
 
   // Of the last window that ended: the largest net move of a template vertex per iteration with
   // the centroid's motion removed, and the centroid's move per iteration (mm).
   double shape_rate() const { return shape_rate_; }
   double centroid_rate() const { return centroid_rate_; }
-  // The snake and its terms at the open window's start (kept with stop_when_worse only).
+  // The snake (kept with stop_when_worse only), its terms and the largest move of the iteration
+  // that made it (0 at the phase's start), at the open window's start.
   const Snake<D>& checkpoint() const { return snake_; }
   const std::vector<double>& checkpoint_terms() const { return terms_; }
+  double checkpoint_move() const { return move_; }
 
  private:
-  void checkpoint(int iteration, const Snake<D>& snake, const std::vector<double>& terms);
+  void checkpoint(int iteration, const Snake<D>& snake, const std::vector<double>& terms, double move);
 
   int window_;
   double tolerance_, energy_tolerance_;
@@ -69,6 +72,7 @@ class StallDetector {
   Point<D> centroid_ = Point<D>::Zero();
   std::vector<double> terms_;  // the weighted terms then
   Snake<D> snake_;             // the whole snake then (stop_when_worse)
+  double move_ = 0;            // the largest move of the iteration that made it (mm)
   double shape_rate_ = 0, centroid_rate_ = 0;
 };
 
