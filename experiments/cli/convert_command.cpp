@@ -15,21 +15,22 @@ namespace {
 
 enum class Kind { kVolume, kMesh, kContour, kVtk, kUnknown };
 
-// Lower-case extension, with ".nii.gz" and ".inr.gz" kept whole.
+// Lower-case extension, with ".nii.gz", ".inr.gz", ".hdr.gz" and ".img.gz" kept whole.
 std::string extension(const std::string& path) {
   std::string name = std::filesystem::path(path).filename().string();
   std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return std::tolower(c); });
-  for (const char* two : {".nii.gz", ".inr.gz"})
+  for (const char* two : {".nii.gz", ".inr.gz", ".hdr.gz", ".img.gz"})
     if (name.size() > 7 && name.ends_with(two)) return two;
   const size_t dot = name.rfind('.');
   return dot == std::string::npos ? "" : name.substr(dot);
 }
 
-// What a file holds, by its extension (.vtk holds a mesh or a contour).
+// What a file holds, by its extension (.vtk holds a mesh or a contour; a NIfTI pair's .hdr and
+// .img are read only: the image writer refuses them as an output).
 Kind kind_of(const std::string& path) {
   const std::string e = extension(path);
-  for (const char* v : {".mha", ".mhd", ".nii", ".nii.gz", ".nrrd", ".nhdr", ".inr", ".inr.gz", ".png", ".tif",
-                        ".tiff", ".jpg", ".jpeg", ".bmp"})
+  for (const char* v : {".mha", ".mhd", ".nii", ".nii.gz", ".hdr", ".img", ".hdr.gz", ".img.gz", ".nrrd", ".nhdr",
+                        ".inr", ".inr.gz", ".png", ".tif", ".tiff", ".jpg", ".jpeg", ".bmp"})
     if (e == v) return Kind::kVolume;
   if (e == ".off" || e == ".obj" || e == ".ply" || e == ".stl") return Kind::kMesh;
   if (e == ".txt" || e == ".json") return Kind::kContour;

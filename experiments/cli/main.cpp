@@ -220,7 +220,8 @@ void add_convert(CLI::App& app, CommandLine& c) {
       "convert",
       "Copy an image/volume, mesh or contour to another format (by extension). Images and volumes "
       "(2D, 3D, vector fields): .mha .mhd .nii .nii.gz .nrrd .nhdr .inr .inr.gz, 2D also .png .tif "
-      ".tiff .jpg .jpeg .bmp; spacing, origin and direction are kept (and the voxel order, where the output "
+      ".tiff .jpg .jpeg .bmp, and as input a NIfTI pair .hdr/.img (either names it; NIfTI-1 or -2, "
+      "also gzipped); spacing, origin and direction are kept (and the voxel order, where the output "
       "format stores a direction), the voxel values go through as "
       "float32 (8-bit grey for the 2D raster formats). Meshes: .off .obj .ply .stl .vtk; contours: "
       ".txt .json .vtk; vertex order kept. Nothing is written on an error (exit code 2)");

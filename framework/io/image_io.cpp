@@ -1,5 +1,5 @@
-// Image and volume I/O: MetaImage (.mha/.mhd, raw or zlib), NIfTI-1 (.nii/.nii.gz) and, for
-// 2D, the OpenCV formats. Every reader decodes into one RawVolume (sizes, spacing, origin,
+// Image and volume I/O: MetaImage (.mha/.mhd, raw or zlib), NIfTI (.nii/.nii.gz, .hdr/.img) and,
+// for 2D, the OpenCV formats. Every reader decodes into one RawVolume (sizes, spacing, origin,
 // channels, values as doubles), which is then checked and converted to Image<D> or
 // VectorField<D>, so the checks (dimension, spacing, NaN voxels) are written once.
 #include "framework/io/image_io.h"
@@ -41,12 +41,14 @@ int scalar_bytes(Scalar s) {
     case Scalar::kU8: case Scalar::kI8: return 1;
     case Scalar::kU16: case Scalar::kI16: return 2;
     case Scalar::kU32: case Scalar::kI32: case Scalar::kF32: return 4;
-    case Scalar::kF64: return 8;
+    case Scalar::kI64: case Scalar::kU64: case Scalar::kF64: return 8;
   }
   return 1;
 }
 
-// Decodes `count` values of type s from raw bytes (the caller checked the length).
+// Decodes `count` values of type s from raw bytes (the caller checked the length). A 64-bit
+// integer is converted to T directly: through double first, one above 2^53 would be rounded
+// twice and could land on another float than its nearest.
 template <class T>
 void decode_into(const char* data, int64_t count, Scalar s, bool swap, T* out) {
   const int nb = scalar_bytes(s);
@@ -59,6 +61,8 @@ void decode_into(const char* data, int64_t count, Scalar s, bool swap, T* out) {
       case Scalar::kI16: out[i] = load<int16_t>(p, swap); break;
       case Scalar::kU32: out[i] = load<uint32_t>(p, swap); break;
       case Scalar::kI32: out[i] = load<int32_t>(p, swap); break;
+      case Scalar::kI64: out[i] = static_cast<T>(load_as<int64_t>(p, swap)); break;
+      case Scalar::kU64: out[i] = static_cast<T>(load_as<uint64_t>(p, swap)); break;
       case Scalar::kF32: out[i] = load<float>(p, swap); break;
       case Scalar::kF64: out[i] = load<double>(p, swap); break;
     }
@@ -82,14 +86,18 @@ std::string label_bytes(const std::vector<float>& values) {
   return out;
 }
 
-// Lower-case extension, with ".nii.gz" and ".inr.gz" kept whole.
+// Lower-case extension, with ".nii.gz", ".inr.gz", ".hdr.gz" and ".img.gz" kept whole.
 std::string extension_of(const std::string& path) {
   std::string name = fs::path(path).filename().string();
   std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return std::tolower(c); });
-  if (name.size() > 7 && name.ends_with(".nii.gz")) return ".nii.gz";
-  if (name.size() > 7 && name.ends_with(".inr.gz")) return ".inr.gz";
+  for (const char* two : {".nii.gz", ".inr.gz", ".hdr.gz", ".img.gz"})
+    if (name.size() > 7 && name.ends_with(two)) return two;
   const size_t dot = name.rfind('.');
   return dot == std::string::npos ? "" : name.substr(dot);
+}
+
+bool is_nifti_extension(const std::string& ext) {
+  return ext == ".nii" || ext == ".nii.gz" || ext == ".hdr" || ext == ".img" || ext == ".hdr.gz" || ext == ".img.gz";
 }
 
 // The 2D formats that go through OpenCV.
@@ -98,8 +106,9 @@ bool is_opencv_extension(const std::string& ext) {
 }
 
 [[noreturn]] void unknown_format(const std::string& path) {
-  throw InputError(path, "", "unknown image format (expected .mha, .mhd, .nii, .nii.gz, .nrrd, .nhdr, .inr, .inr.gz, "
-                             "DICOM (.dcm, .dicom, a series folder), or for 2D .png, .tif, .tiff, .jpg, .jpeg, .bmp)");
+  throw InputError(path, "", "unknown image format (expected .mha, .mhd, .nii, .nii.gz, a NIfTI pair .hdr/.img, .nrrd, "
+                             ".nhdr, .inr, .inr.gz, DICOM (.dcm, .dicom, a series folder), or for 2D .png, .tif, .tiff, "
+                             ".jpg, .jpeg, .bmp)");
 }
 
 // InputError unless `path` is an existing regular file.
@@ -524,7 +533,7 @@ RawVolume read_volume(const std::string& path, const ImageReadOptions& options =
     layout->path = path;
   }
   if (ext == ".mha" || ext == ".mhd") v = read_meta(path);
-  else if (ext == ".nii" || ext == ".nii.gz")
+  else if (is_nifti_extension(ext))
     v = read_nifti(path, options.nifti_transform, layout ? &layout->nifti_header : nullptr);
   else if (ext == ".nrrd" || ext == ".nhdr") v = read_nrrd(path);
   else if (ext == ".inr" || ext == ".inr.gz") v = read_inr(path);
@@ -546,6 +555,8 @@ void write_volume(const RawVolume& v, const std::string& path, const ImageWriteO
   const std::string ext = extension_of(path);
   if (ext == ".mha" || ext == ".mhd") return write_meta(v, path, options.compress);
   if (ext == ".nii" || ext == ".nii.gz") return write_nifti(v, path);
+  if (is_nifti_extension(ext))
+    throw InputError(path, "", "NIfTI pairs (.hdr + .img) are read, not written: write .nii or .nii.gz");
   if (ext == ".nrrd" || ext == ".nhdr") return write_nrrd(v, path, options.compress);
   if (ext == ".inr" || ext == ".inr.gz") return write_inr(v, path);
   if (is_opencv_extension(ext) && v.ndims == 2 && v.channels == 1) return write_opencv(v, path);
@@ -598,8 +609,7 @@ bool is_dicom_input(const std::string& path) { return is_dicom_path(path); }
 int image_file_dimension(const std::string& path) {
   const std::string ext = extension_of(path);
   if (ext == ".mha" || ext == ".mhd") return meta_dimension(path);
-  if (ext == ".nii" || ext == ".nii.gz")
-    return decode_nifti_header(read_gz_bytes(path, kNiftiHeaderBytes), path).effective_dimension();
+  if (is_nifti_extension(ext)) return nifti_dimension(path);
   if (ext == ".nrrd" || ext == ".nhdr") return nrrd_dimension(path);
   if (ext == ".inr" || ext == ".inr.gz") return inr_dimension(path);
   if (is_opencv_extension(ext)) return 2;

@@ -2,8 +2,11 @@
 //  - 2D: PNG, TIFF, JPEG, BMP through OpenCV (grey levels; colour is converted to grey);
 //    MetaImage, NIfTI, NRRD and INRIMAGE with two dimensions (or a third of size 1) also read as 2D.
 //  - 3D: MetaImage .mha/.mhd (raw or zlib-compressed, separate .raw/.zraw data file or LOCAL),
-//    NIfTI-1 .nii/.nii.gz, NRRD .nrrd/.nhdr (raw or gzip, attached or detached data, LPS/RAS
+//    NIfTI .nii/.nii.gz (NIfTI-1 and NIfTI-2 read, NIfTI-1 written) and .hdr/.img pairs (read
+//    only; either file names the pair, each may be gzipped; an ANALYZE 7.5 .hdr, which has no
+//    orientation, is refused), NRRD .nrrd/.nhdr (raw or gzip, attached or detached data, LPS/RAS
 //    space directions; framework/io/nrrd.cpp) and INRIMAGE-4 .inr/.inr.gz (framework/io/inr.cpp).
+//    Voxel types: 8- to 64-bit integers, float and double, read as float (rounded once).
 //    World coordinates are LPS; a format storing RAS is converted on reading and writing.
 //    Orientation: an image stored with flipped or permuted axes is reordered on reading so that
 //    its grid is axis-aligned (every voxel keeps its world position); an oblique one keeps its
@@ -11,7 +14,7 @@
 //    direction cosines that are not orthonormal to 1e-3 (a sheared grid) are refused. Writers
 //    store the direction (MetaImage TransformMatrix, NIfTI qform + sform, NRRD space directions;
 //    INRIMAGE has none and refuses a rotated image).
-//    NIfTI-1 orientation as nibabel reads it (its `affine`, Nifti1Header.get_best_affine): the
+//    NIfTI orientation as nibabel reads it (its `affine`, Nifti1Header.get_best_affine): the
 //    sform when sform_code > 0, else the qform when qform_code > 0, else the pixdim grid at the
 //    origin (the header's "method 1"); ImageReadOptions::nifti_transform picks one instead.
 //  - DICOM, read only, through GDCM (framework/io/dicom.cpp; any transfer syntax GDCM decodes:
@@ -46,7 +49,7 @@ bool is_dicom_input(const std::string& path);
 // Number of dimensions of the image in `path` (2 or 3), from its header or extension.
 int image_file_dimension(const std::string& path);
 
-// Which of a NIfTI-1 header's transforms places the voxels. kAuto: nibabel's rule (the sform
+// Which of a NIfTI header's transforms places the voxels. kAuto: nibabel's rule (the sform
 // when sform_code > 0, else the qform when qform_code > 0, else pixdim at the origin), with one
 // warning line on stderr when both codes are set and the two disagree by more than a voxel or a
 // degree. kSform / kQform: that transform; when its code is 0 (the file has none), one warning
@@ -89,7 +92,7 @@ struct ImageLayout {
   // Stored index axis a became read axis to[a], reversed when sign[a] < 0: stored index i is read
   // index j with j[to[a]] = sign[a] > 0 ? i[a] : size[a] - 1 - i[a].
   std::array<int, 3> to{0, 1, 2}, sign{1, 1, 1};
-  std::string nifti_header;  // a NIfTI input's own 348-byte header as stored; "" for other formats
+  std::string nifti_header;  // a NIfTI input's own header as stored (348 bytes, NIfTI-2 540); "" for other formats
 };
 
 template <int D>
@@ -116,10 +119,12 @@ void write_image(const Image<D>& image, const std::string& path, const ImageWrit
 
 // Writes `image` (on the grid read_image made of `layout`'s file) as a NIfTI-1 `path` (.nii or
 // .nii.gz) on that file's own grid: the same dimensions, voxel order and world positions. For a
-// NIfTI input, its own header (qform, sform, their codes, pixdim, xyzt_units, description) with
-// the datatype, data offset and scaling of what is stored; for any other format, the NIfTI that
-// nibabel maps to the same world positions (qform and sform, codes 1). Holds one buffer of the
-// stored values (a byte a voxel for a label map) besides the image; written atomically.
+// NIfTI input, its own header (qform, sform, their codes, pixdim, xyzt_units, description; a
+// NIfTI-2's or a pair's as a single-file NIfTI-1's) with the datatype, data offset and scaling of
+// what is stored; for any other format, the NIfTI that nibabel maps to the same world positions
+// (qform and sform, codes 1). A grid of more than 32767 voxels along an axis, which NIfTI-1
+// cannot hold, is an InputError naming `path`. Holds one buffer of the stored values (a byte a
+// voxel for a label map) besides the image; written atomically.
 template <int D>
 void write_image_on_source_grid(const Image<D>& image, const ImageLayout& layout, const std::string& path,
                                 const ImageWriteOptions& options);

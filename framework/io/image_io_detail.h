@@ -45,20 +45,28 @@ struct RawVolume {
   int effective_dimension() const { return ndims == 3 && size[2] == 1 ? 2 : ndims; }
 };
 
-enum class Scalar { kU8, kI8, kU16, kI16, kU32, kI32, kF32, kF64 };
+// Stored value types. 64-bit integers (NIfTI datatypes 1024 and 1280, NRRD's long long,
+// MetaImage's MET_LONG_LONG) become float as the others do: rounded once, to the nearest float.
+enum class Scalar { kU8, kI8, kU16, kI16, kU32, kI32, kI64, kU64, kF32, kF64 };
 
 // Bytes per stored value of type s.
 int scalar_bytes(Scalar s);
 
-// One stored value at p as a double, swapping bytes for a foreign byte order.
+// One stored value at p as its own type T, swapping bytes for a foreign byte order.
 template <class T>
-double load(const char* p, bool swap) {
+T load_as(const char* p, bool swap) {
   char b[sizeof(T)];
   std::memcpy(b, p, sizeof(T));
   if (swap) std::reverse(b, b + sizeof(T));
   T v;
   std::memcpy(&v, b, sizeof(T));
-  return static_cast<double>(v);
+  return v;
+}
+
+// One stored value at p as a double, swapping bytes for a foreign byte order.
+template <class T>
+double load(const char* p, bool swap) {
+  return static_cast<double>(load_as<T>(p, swap));
 }
 
 // Decodes `count` values of type s from raw bytes (the caller checked the length), as T (float
@@ -117,7 +125,7 @@ void check_declared_values(double values, const std::string& path, const std::st
 // InputError(path, key, ...) when `declared` bytes cannot come out of `stored` compressed bytes.
 void check_inflatable(double declared, double stored, const std::string& path, const std::string& key);
 
-// Lower-case extension, with ".nii.gz" kept whole.
+// Lower-case extension, with ".nii.gz", ".inr.gz", ".hdr.gz" and ".img.gz" kept whole.
 std::string extension_of(const std::string& path);
 
 // The 2D formats that go through OpenCV.
@@ -216,25 +224,37 @@ void copy_geometry(To& to, const From& from) {
 bool stores_direction(const std::string& ext);
 void restore_stored_order(RawVolume& v, const ImageLayout& layout);
 
-// NIfTI-1 (nifti.cpp): decode a header (the geometry, placed by `transform`; with `warn`, the
-// warning lines of image_io.h's NiftiTransform on stderr) from the file's first bytes; write
-// float32 .nii or .nii.gz.
+// NIfTI (nifti.cpp). Read: NIfTI-1 and NIfTI-2, single files (.nii, .nii.gz) and .hdr/.img pairs
+// (either file names the pair; each optionally gzipped); written: NIfTI-1 single files.
+// Decode a header (the geometry, placed by `transform`; with `warn`, the warning lines of
+// image_io.h's NiftiTransform on stderr) from the file's first bytes (a pair's header when `path`
+// is a .hdr); write float32 .nii or .nii.gz.
 RawVolume decode_nifti_header(const std::string& bytes, const std::string& path,
                               NiftiTransform transform = NiftiTransform::kAuto, bool warn = false);
 void write_nifti(const RawVolume& v, const std::string& path);
-// The 352 bytes before the values that write_nifti stores for v's geometry (qform and sform, codes 1).
-std::string nifti_header_of(const RawVolume& v);
-// A NIfTI input's own header `source` (348 bytes) for values stored as uint8 (label) or float32
-// from byte 352, no scaling, no extensions; every other field kept, in the source's byte order
-// (`swap` says it is foreign: float32 values must then be stored swapped).
-std::string nifti_header_for_values(const std::string& source, bool label, bool& swap);
+// The 352 bytes before the values that write_nifti stores for v's geometry (qform and sform,
+// codes 1); a grid NIfTI-1 cannot hold (more than 32767 voxels along an axis) is an InputError
+// naming `path`, the file to be written.
+std::string nifti_header_of(const RawVolume& v, const std::string& path);
+// A NIfTI input's own header `source` (as stored: 348 bytes of NIfTI-1, 540 of NIfTI-2) as the
+// NIfTI-1 header of a single file (magic "n+1") for values stored as uint8 (label) or float32 from
+// byte 352, no scaling, no extensions; every other field kept, a NIfTI-1 header in its byte order
+// (`swap` says it is foreign: float32 values must then be stored swapped), a NIfTI-2 one's fields
+// in NIfTI-1's (reals as float; a dim beyond int16 is an InputError naming `path`, the file to be
+// written) in native order.
+std::string nifti_header_for_values(const std::string& source, bool label, bool& swap, const std::string& path);
 // Writes parts (a header, the values) as .nii, or gzipped as .nii.gz, atomically.
 void write_nifti_parts(const std::vector<std::string_view>& parts, const std::string& path);
-// Reads a .nii or .nii.gz: the header first, then no more bytes than it declares (a gzip bomb
-// behind a small header is not inflated), after the limits above; the orientation warnings on
-// stderr. `header`, when not null, receives the 348 header bytes as stored.
+// Reads a .nii or .nii.gz, or the .hdr/.img pair `path` names: the header first, then no more
+// bytes than it declares (a gzip bomb behind a small header is not inflated), after the limits
+// above; the orientation warnings on stderr. `header`, when not null, receives the header bytes
+// as stored (348 for NIfTI-1, 540 for NIfTI-2).
 RawVolume read_nifti(const std::string& path, NiftiTransform transform = NiftiTransform::kAuto,
                      std::string* header = nullptr);
+// The dimension (2 or 3) of the NIfTI `path` names, from its header only.
+int nifti_dimension(const std::string& path);
+// The NIfTI extensions read_nifti reads: .nii .nii.gz, and a pair's .hdr .img .hdr.gz .img.gz.
+bool is_nifti_extension(const std::string& ext);
 
 // NRRD (nrrd.cpp): read a .nrrd (attached data) or .nhdr (detached data file) completely, or
 // only its header's dimension; write float32 little-endian LPS NRRD, gzip-encoded when

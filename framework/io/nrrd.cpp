@@ -151,7 +151,7 @@ std::vector<std::string> vector_tokens(const std::string& value) {
   return out;
 }
 
-// NRRD's type names; 64-bit integers and "block" are refused (no exact double for them).
+// NRRD's type names (the NRRD file format specification's list); "block" is refused.
 Scalar nrrd_type(const std::string& value, const std::string& path) {
   static const std::map<std::string, Scalar> types = {
       {"signed char", Scalar::kI8},         {"int8", Scalar::kI8},           {"int8_t", Scalar::kI8},
@@ -162,13 +162,14 @@ Scalar nrrd_type(const std::string& value, const std::string& path) {
       {"unsigned short int", Scalar::kU16}, {"uint16", Scalar::kU16},        {"uint16_t", Scalar::kU16},
       {"int", Scalar::kI32},                {"signed int", Scalar::kI32},    {"int32", Scalar::kI32},
       {"int32_t", Scalar::kI32},            {"uint", Scalar::kU32},          {"unsigned int", Scalar::kU32},
-      {"uint32", Scalar::kU32},             {"uint32_t", Scalar::kU32},      {"float", Scalar::kF32},
-      {"double", Scalar::kF64}};
-  const std::string t = lower(value);
-  auto it = types.find(t);
+      {"uint32", Scalar::kU32},             {"uint32_t", Scalar::kU32},      {"longlong", Scalar::kI64},
+      {"long long", Scalar::kI64},          {"long long int", Scalar::kI64}, {"signed long long", Scalar::kI64},
+      {"signed long long int", Scalar::kI64}, {"int64", Scalar::kI64},       {"int64_t", Scalar::kI64},
+      {"ulonglong", Scalar::kU64},          {"unsigned long long", Scalar::kU64},
+      {"unsigned long long int", Scalar::kU64}, {"uint64", Scalar::kU64},    {"uint64_t", Scalar::kU64},
+      {"float", Scalar::kF32},              {"double", Scalar::kF64}};
+  auto it = types.find(lower(value));
   if (it != types.end()) return it->second;
-  if (t.find("long") != std::string::npos || t.find("64") != std::string::npos)
-    throw InputError(path, "type", "64-bit integer voxels ('" + value + "') are not supported");
   throw InputError(path, "type", "unsupported type '" + value + "'");
 }
 

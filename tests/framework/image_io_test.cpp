@@ -1,5 +1,6 @@
-// Round trips and error reports of framework/image_io: MetaImage (raw, separate .raw, zlib),
-// NIfTI-1 (.nii, .nii.gz, scaled integer types, big-endian headers), PNG, vector fields.
+// Round trips and error reports of framework/image_io: MetaImage (raw, separate .raw, zlib,
+// 64-bit integers), NIfTI-1 (.nii, .nii.gz, scaled integer types, big-endian headers), PNG,
+// vector fields. NIfTI-2, pairs and NIfTI's 64-bit integers: nifti_formats_test.cpp.
 #include "framework/io/image_io.h"
 #include "framework/io/raster_codecs.h"
 #include "framework/io/image_io_detail.h"
@@ -175,6 +176,32 @@ TEST(ImageIo, ReadsForeignCompressedBigEndianMetaImage) {
     for (int j = 0; j < ny; ++j)
       for (int i = 0; i < nx; ++i)  // file voxel (i, j, k) is world voxel (j, i, k)
         EXPECT_EQ(im.at(GridIndex<3>(j, i, k)), float(values[i + nx * (j + ny * k)])) << i << " " << j << " " << k;
+}
+
+// MET_LONG_LONG and MET_ULONG_LONG, big-endian raw and little-endian zlib: each value its nearest
+// float (2^60 + 2^36 + 1 too, which rounding through double would put on 2^60).
+TEST(ImageIo, MetaImage64BitIntegersReadAsTheirNearestFloat) {
+  const std::string dir = fresh_dir();
+  const int64_t tricky = (int64_t(1) << 60) + (int64_t(1) << 36) + 1;
+  const std::vector<int64_t> s = {tricky, -3'000'000'000, std::numeric_limits<int64_t>::min(), -7};
+  const std::vector<uint64_t> u = {uint64_t(tricky), (uint64_t(1) << 63) + (uint64_t(1) << 40),
+                                   std::numeric_limits<uint64_t>::max(), 7};
+  std::string big;
+  for (const int64_t v : s)
+    for (int b = 7; b >= 0; --b) big.push_back(char(uint64_t(v) >> (8 * b)));
+  const std::string head = "ObjectType = Image\nNDims = 2\nBinaryData = True\nDimSize = 2 2\n";
+  write_file(dir + "/s.mha", head + "BinaryDataByteOrderMSB = True\nElementType = MET_LONG_LONG\nElementDataFile = LOCAL\n" + big);
+  uLongf n = compressBound(u.size() * 8);
+  std::string z(n, '\0');
+  ASSERT_EQ(compress(reinterpret_cast<Bytef*>(z.data()), &n, reinterpret_cast<const Bytef*>(u.data()), u.size() * 8), Z_OK);
+  z.resize(n);
+  write_file(dir + "/u.mha", head + "CompressedData = True\nElementType = MET_ULONG_LONG\nElementDataFile = LOCAL\n" + z);
+  const Image<2> si = read_image<2>(dir + "/s.mha"), ui = read_image<2>(dir + "/u.mha");
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_EQ(si[i], static_cast<float>(s[size_t(i)])) << i;
+    EXPECT_EQ(ui[i], static_cast<float>(u[size_t(i)])) << i;
+  }
+  EXPECT_EQ(si[0], float(uint64_t(1) << 60) + float(uint64_t(1) << 37));
 }
 
 // Raw MetaImage data is read from its file a block at a time, the header from the file's first

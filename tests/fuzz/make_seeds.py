@@ -47,12 +47,14 @@ def metaimage():
     packed = zlib.compress(f32(VOLUME))
     put("metaimage", "volume_zlib.mha",
         header((NX, NY, NZ), "MET_FLOAT", "CompressedData = True\nCompressedDataSize = %d\n" % len(packed)) + packed)
+    put("metaimage", "volume_ulong_long.mha", header((NX, NY, NZ), "MET_ULONG_LONG")
+        + struct.pack("<%dQ" % len(VOLUME), *(int(v) << 40 for v in VOLUME)))
     put("metaimage", "volume_rotated.mha",
         header((NX, NY, NZ), "MET_SHORT", "TransformMatrix = 0 1 0 -1 0 0 0 0 1\nAnatomicalOrientation = RAI\n")
         + struct.pack("<%dh" % len(VOLUME), *map(int, VOLUME)))
 
 
-def nifti_bytes(dims, datatype, bitpix, data, qform=True):
+def nifti_bytes(dims, datatype, bitpix, data, qform=True, magic=b"n+1\0"):
     h = bytearray(352)
     struct.pack_into("<i", h, 0, 348)
     dim = [len(dims)] + list(dims) + [1] * (7 - len(dims))
@@ -65,7 +67,26 @@ def nifti_bytes(dims, datatype, bitpix, data, qform=True):
     if qform:
         struct.pack_into("<hh", h, 252, 1, 0)             # qform_code scanner, sform_code 0
         struct.pack_into("<6f", h, 256, 0.0, 0.0, 1.0, 10.0, -5.0, 2.0)  # flipped-axis quaternion + offset
-    h[344:348] = b"n+1\0"
+    h[344:348] = magic
+    return bytes(h) + data
+
+
+def nifti2_bytes(dims, datatype, bitpix, data, big_endian=False, magic=b"n+2\0"):
+    """A single-file NIfTI-2 (the NIfTI-2 spec: 540-byte header, 64-bit dims, double fields)."""
+    e = ">" if big_endian else "<"
+    h = bytearray(544)
+    struct.pack_into(e + "i", h, 0, 540)
+    h[4:12] = magic + b"\r\n\032\n"
+    struct.pack_into(e + "hh", h, 12, datatype, bitpix)
+    dim = [len(dims)] + list(dims) + [1] * (7 - len(dims))
+    struct.pack_into(e + "8q", h, 16, *dim)
+    struct.pack_into(e + "8d", h, 104, -1.0, *([0.5] * 7))  # pixdim (qfac -1)
+    struct.pack_into(e + "q", h, 168, 544)                   # vox_offset
+    struct.pack_into(e + "dd", h, 176, 1.0, 0.0)             # scl_slope, scl_inter
+    struct.pack_into(e + "ii", h, 344, 1, 1)                 # qform_code, sform_code: scanner
+    struct.pack_into(e + "6d", h, 352, 0.0, 0.0, 1.0, 10.0, -5.0, 2.0)  # flipped-axis quaternion + offset
+    struct.pack_into(e + "12d", h, 400, -0.5, 0.0, 0.0, 10.0, 0.0, -0.5, 0.0, -5.0, 0.0, 0.0, -0.5, 2.0)  # srow: the qform's placement
+    struct.pack_into(e + "i", h, 500, 2)                     # xyzt_units: mm
     return bytes(h) + data
 
 
@@ -75,6 +96,17 @@ def nifti():
     put("nifti", "volume_int16.nii",
         nifti_bytes((NX, NY, NZ), 4, 16, struct.pack("<%dh" % len(VOLUME), *map(int, VOLUME))))
     put("nifti", "volume_float.nii.gz", gzip.compress(nifti_bytes((NX, NY, NZ), 16, 32, f32(VOLUME)), mtime=0))
+    put("nifti", "volume_int64.nii",
+        nifti_bytes((NX, NY, NZ), 1024, 64, struct.pack("<%dq" % len(VOLUME), *(int(v) << 33 for v in VOLUME))))
+    put("nifti", "volume_float_nifti2.nii", nifti2_bytes((NX, NY, NZ), 16, 32, f32(VOLUME)))
+    put("nifti", "volume_uint64_nifti2_big_endian.nii",
+        nifti2_bytes((NX, NY, NZ), 1280, 64, struct.pack(">%dQ" % len(VOLUME), *map(int, VOLUME)), big_endian=True))
+    put("nifti", "image_uint8_nifti2.nii.gz", gzip.compress(nifti2_bytes((NX, NY), 2, 8, u8(IMAGE)), mtime=0))
+    # Pairs (fuzz_nifti reads every input as a .hdr and as its .img too): a pair's magic, the
+    # values at vox_offset in the same bytes.
+    put("nifti", "pair_volume_float", nifti_bytes((NX, NY, NZ), 16, 32, f32(VOLUME), magic=b"ni1\0"))
+    put("nifti", "pair_volume_float_nifti2.gz",
+        gzip.compress(nifti2_bytes((NX, NY, NZ), 16, 32, f32(VOLUME), magic=b"ni2\0"), mtime=0))
 
 
 def nrrd():
@@ -87,6 +119,8 @@ def nrrd():
     put("nrrd", "volume_gzip.nrrd", header((NX, NY, NZ), "float", "gzip", space) + gzip.compress(f32(VOLUME), mtime=0))
     put("nrrd", "image_ascii.nrrd", header((NX, NY), "uchar", "ascii", "spacings: 0.5 0.5\n")
         + " ".join(str(int(v)) for v in IMAGE).encode() + b"\n")
+    put("nrrd", "volume_int64.nrrd", header((NX, NY, NZ), "long long", "raw", space)
+        + struct.pack("<%dq" % len(VOLUME), *(int(v) << 33 for v in VOLUME)))
     put("nrrd", "volume_ras.nrrd",
         header((NX, NY, NZ), "short", "raw", "space: right-anterior-superior\nspace directions: (-1,0,0) (0,1,0) (0,0,2)\n")
         + struct.pack("<%dh" % len(VOLUME), *map(int, VOLUME)))
