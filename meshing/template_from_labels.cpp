@@ -230,6 +230,11 @@ LabelTemplate<D> template_from_labels(const Image<D>& labels, const LabelTemplat
   else out = contour_template(labels, options, file);
   out.report.dice = dice<D>(rasterize_interior<D>({out.shape.positions, out.shape.connectivity}, labels.grid()),
                             label_indicator(labels, options.label));
+  // The surface is extracted in the grid's frame (origin + index * spacing); a template's
+  // positions are world mm, which an oblique grid (a direction other than the identity: most
+  // clinical scans, or a scan in its scanner's frame) rotates about its origin.
+  if (!labels.grid().axis_aligned())
+    for (Point<D>& p : out.shape.positions) p = labels.grid().to_world(p);
   if (options.mirror) out.shape = mirrored(std::move(out.shape), *options.mirror);
   return out;
 }

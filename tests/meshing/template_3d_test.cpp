@@ -5,6 +5,7 @@
 #include "framework/io/mesh_io.h"
 #include "tests/meshing/label_test_helpers.h"
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -63,6 +64,26 @@ TEST(Template3d, BallIsGenusZero) {
   for (auto& p : shifted) p.x() += 3;
   EXPECT_LT(test_support::check_template({shifted, t.shape.connectivity, {}}, labels, 3).dice, 0.9);
   expect_valid_template(make(labels, 400), labels, 3, 400, 0, 0.99, "ball 400");
+}
+
+// On an oblique grid (the ball's label map with its direction rotated 25 degrees about its
+// origin: the same voxels, placed elsewhere in the world) the template lies where the label lies
+// in the world: its centroid within 0.2 mm of the label's world centroid, not at the unrotated one.
+TEST(Template3d, AnObliqueLabelMapGivesAWorldTemplate) {
+  const Point<3> centre = kCentre + Point<3>(4, -3, 2);
+  Image<3> labels = ball_labels(centre, 10);
+  Grid<3> g = labels.grid();
+  g.direction = Eigen::AngleAxisd(25.0 * 3.14159265358979323846 / 180.0, Point<3>(1, 2, 2).normalized()).toRotationMatrix();
+  const Image<3> oblique(g, std::vector<float>(labels.data().begin(), labels.data().end()));
+  const LabelTemplate<3> t = make(oblique, 800);
+  Point<3> mean = Point<3>::Zero();
+  for (const Point<3>& p : t.shape.positions) mean += p;
+  mean /= double(t.shape.positions.size());
+  const Point<3> world_centre = g.to_world(centre);
+  EXPECT_GT((world_centre - centre).norm(), 3.0);  // the rotation moves the ball
+  EXPECT_LT((mean - world_centre).norm(), 0.2) << mean.transpose();
+  EXPECT_GT(t.report.dice, 0.98);
+  for (const Point<3>& p : t.shape.positions) EXPECT_NEAR((p - world_centre).norm(), 10.0, 1.0);
 }
 
 TEST(Template3d, TorusIsGenusOne) {
