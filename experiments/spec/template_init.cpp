@@ -21,10 +21,27 @@ ImageAlignmentOptions TemplateInitOptions::alignment() const {
   return a;
 }
 
+ImageAlignmentOptions TemplateInitOptions::whole_image_alignment() const {
+  ImageAlignmentOptions a = alignment();
+  a.model = whole_image == WholeImageModel::kRigid    ? AlignmentModel::kRigid
+            : whole_image == WholeImageModel::kAffine ? AlignmentModel::kAffine
+                                                      : AlignmentModel::kSimilarity;
+  a.margin = 0.0;
+  a.levels = whole_image_levels;
+  return a;
+}
+
 void TemplateInitOptions::check() const {
   if (type != TemplateInitType::kImage && transform == AlignmentModel::kAffine)
     throw OptionError{"transform", "\"affine\" only for \"type\": \"image\""};
   alignment().check();  // levels and max_scale: the alignment's own checks, under the same key names
+  if (whole_image != WholeImageModel::kNone && type != TemplateInitType::kImage)
+    throw OptionError{"whole_image", "only for \"type\": \"image\""};
+  try {
+    whole_image_alignment().check();
+  } catch (const OptionError& e) {  // its levels are whole_image_levels
+    throw OptionError{e.key == "levels" ? "whole_image_levels" : e.key, e.message};
+  }
   if (type == TemplateInitType::kImage) {
     if (!mask.empty()) throw OptionError{"mask", "only for \"type\": \"moments\""};
     if (!threshold.empty()) throw OptionError{"threshold", "only for \"type\": \"moments\""};
@@ -147,6 +164,18 @@ AffineMap<D> init_by_image(const TemplateInitOptions& o, const Template<D>& tmpl
   for (const Point<D>& p : tmpl.positions) region.lo = region.lo.cwiseMin(p), region.hi = region.hi.cwiseMax(p);
   const AffineMap<D> placement = fit_affine<D>(tmpl.positions, placed);
   report.alignment = align_images<D>(*reference, image, region, placement, o.alignment());
+  if (o.whole_image != WholeImageModel::kNone) {
+    WholeImageAlignment<D> whole = align_whole_images<D>(*reference, image, placement, o.whole_image_alignment());
+    if (whole.centred) {
+      report.centroid_shift = whole.centroid_shift;
+      report.whole_image = std::move(whole.fit);
+      ImageAlignmentResult<D> from_whole = align_images<D>(*reference, image, region, report.whole_image->transform, o.alignment());
+      if (from_whole.ncc_after > report.alignment.ncc_after) {
+        report.alignment = std::move(from_whole);
+        report.from_whole_image = true;
+      }
+    }
+  }
   if (!report.alignment.warning.empty()) std::cerr << "warning: " << file << ": template.init: " << report.alignment.warning << "\n";
   // the template goes to T p = (T o P^-1)(P p): the map applied to the placed template
   return report.alignment.transform.after(placement.inverse());
@@ -163,6 +192,14 @@ nlohmann::ordered_json moments_json(const Moments<D>& m) {
   return {{"measure", m.measure}, {"centroid", point_json(m.centroid)}};
 }
 
+nlohmann::ordered_json levels_json(const std::vector<AlignmentLevel>& levels) {
+  nlohmann::ordered_json out = nlohmann::ordered_json::array();
+  for (const AlignmentLevel& l : levels)
+    out.push_back({{"sigma_mm", l.sigma}, {"stride", l.stride}, {"samples", l.samples}, {"iterations", l.iterations},
+                   {"ncc_start", l.ncc_start}, {"ncc_end", l.ncc_end}});
+  return out;
+}
+
 // The image alignment's fit: NCC before and after (on the finest level's smoothing), the share
 // of the region inside the image, the steps, each level and a warning if the start was kept.
 template <int D>
@@ -172,12 +209,24 @@ nlohmann::ordered_json image_fit_json(const InitReport<D>& r, nlohmann::ordered_
   j["ncc_after"] = a.ncc_after;
   j["overlap"] = a.overlap;
   j["iterations"] = a.iterations;
-  nlohmann::ordered_json levels = nlohmann::ordered_json::array();
-  for (const AlignmentLevel& l : a.levels)
-    levels.push_back({{"sigma_mm", l.sigma}, {"stride", l.stride}, {"samples", l.samples}, {"iterations", l.iterations},
-                      {"ncc_start", l.ncc_start}, {"ncc_end", l.ncc_end}});
-  j["levels"] = levels;
+  j["levels"] = levels_json(a.levels);
   if (!a.warning.empty()) j["warning"] = a.warning;
+  if (r.whole_image) {
+    const ImageAlignmentResult<D>& w = *r.whole_image;
+    nlohmann::ordered_json matrix = nlohmann::ordered_json::array();
+    for (int i = 0; i < D; ++i) matrix.push_back(point_json(w.transform.matrix.row(i).transpose()));
+    nlohmann::ordered_json wj = {{"kept", r.from_whole_image},
+                                 {"centroid_shift", point_json(r.centroid_shift)},
+                                 {"matrix", matrix},
+                                 {"translation", point_json(w.transform.translation)},
+                                 {"ncc_before", w.ncc_before},
+                                 {"ncc_after", w.ncc_after},
+                                 {"overlap", w.overlap},
+                                 {"iterations", w.iterations},
+                                 {"levels", levels_json(w.levels)}};
+    if (!w.warning.empty()) wj["warning"] = w.warning;
+    j["whole_image"] = wj;
+  }
   return j;
 }
 

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 
 namespace dsnake {
@@ -393,5 +394,87 @@ template ImageAlignmentResult<2> align_images<2>(const Image<2>&, const Image<2>
                                                  const ImageAlignmentOptions&);
 template ImageAlignmentResult<3> align_images<3>(const Image<3>&, const Image<3>&, const WorldBox<3>&, const AffineMap<3>&,
                                                  const ImageAlignmentOptions&);
+
+namespace {
+
+// The world centroid of the voxels brighter than the image's mean: the object (a head, a body)
+// against its background in any units (MR near 0, CT's air at -1000); none if no voxel is.
+template <int D>
+std::optional<Point<D>> foreground_centroid(const Image<D>& image) {
+  double total = 0;
+  for (int64_t l = 0; l < image.num_voxels(); ++l) total += image[l];
+  const double mean = total / double(image.num_voxels());
+  const Grid<D>& g = image.grid();
+  GridIndex<D> idx = GridIndex<D>::Zero();  // voxel l's index, an odometer (x fastest)
+  Point<D> sum = Point<D>::Zero();
+  int64_t count = 0;
+  for (int64_t l = 0; l < image.num_voxels(); ++l) {
+    if (double(image[l]) > mean) {
+      ++count;
+      for (int a = 0; a < D; ++a) sum[a] += double(idx[a]);
+    }
+    for (int a = 0; a < D && ++idx[a] == g.size[a]; ++a) idx[a] = 0;
+  }
+  if (count == 0) return std::nullopt;
+  const Point<D> frame = g.origin + g.spacing.cwiseProduct(sum / double(count));
+  return g.to_world(frame);
+}
+
+// The world box of an image's voxel centres (its corners', for an oblique grid).
+template <int D>
+WorldBox<D> image_box(const Image<D>& image) {
+  const Grid<D>& g = image.grid();
+  WorldBox<D> box;
+  for (int corner = 0; corner < (1 << D); ++corner) {
+    GridIndex<D> idx;
+    for (int a = 0; a < D; ++a) idx[a] = (corner >> a & 1) ? g.size[a] - 1 : 0;
+    const Point<D> x = g.to_world(g.to_physical(idx));
+    if (corner == 0) box.lo = box.hi = x;
+    box.lo = box.lo.cwiseMin(x), box.hi = box.hi.cwiseMax(x);
+  }
+  return box;
+}
+
+// The image block-averaged to voxels of about `size` mm (as fine as it is where it is finer), and
+// to at most about kWholeImageVoxels voxels whatever `size` (a small template's scaled levels on
+// a fine scan): the whole-image alignment costs a bounded amount.
+constexpr double kWholeImageVoxels = 2e6;
+template <int D>
+Image<D> coarsened(const Image<D>& image, double size) {
+  const int least = std::max(1, int(std::ceil(std::pow(double(image.num_voxels()) / kWholeImageVoxels, 1.0 / D))));
+  GridIndex<D> f;
+  bool any = false;
+  for (int a = 0; a < D; ++a)
+    f[a] = std::max(least, int(std::floor(size / image.spacing()[a]))), any = any || f[a] > 1;
+  return any ? block_average<D>(image, f) : image;
+}
+
+}  // namespace
+
+template <int D>
+WholeImageAlignment<D> align_whole_images(const Image<D>& fixed, const Image<D>& moving, const AffineMap<D>& initial,
+                                          const ImageAlignmentOptions& options) {
+  WholeImageAlignment<D> out;
+  out.fit.transform = initial;
+  if (fixed.empty() || moving.empty()) throw std::invalid_argument("align_whole_images: an empty image");
+  const auto fixed_centroid = foreground_centroid<D>(fixed), moving_centroid = foreground_centroid<D>(moving);
+  if (!fixed_centroid || !moving_centroid) return out;
+  out.centred = true;
+  AffineMap<D> start = initial;
+  out.centroid_shift = *moving_centroid - initial.apply(*fixed_centroid);
+  start.translation += out.centroid_shift;
+  double finest = std::numeric_limits<double>::infinity();
+  for (double s : options.levels) finest = std::min(finest, s);
+  const Image<D> f = coarsened<D>(fixed, 0.5 * finest), m = coarsened<D>(moving, 0.5 * finest);
+  ImageAlignmentOptions whole = options;
+  whole.margin = 0.0;
+  out.fit = align_images<D>(f, m, image_box<D>(f), start, whole);
+  return out;
+}
+
+template WholeImageAlignment<2> align_whole_images<2>(const Image<2>&, const Image<2>&, const AffineMap<2>&,
+                                                      const ImageAlignmentOptions&);
+template WholeImageAlignment<3> align_whole_images<3>(const Image<3>&, const Image<3>&, const AffineMap<3>&,
+                                                      const ImageAlignmentOptions&);
 
 }  // namespace dsnake

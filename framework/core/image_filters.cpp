@@ -1,3 +1,4 @@
+#include "framework/core/errors.h"
 #include "framework/core/image_filters.h"
 
 #include <algorithm>
@@ -150,12 +151,40 @@ std::shared_ptr<const Image<D>> SmoothedImageCache<D>::get(const Image<D>& image
   return smoothed;
 }
 
+template <int D>
+Image<D> block_average(const Image<D>& image, const GridIndex<D>& f) {
+  const Grid<D>& g = image.grid();
+  Grid<D> c = g;
+  Point<D> shift = Point<D>::Zero();
+  for (int a = 0; a < D; ++a) {
+    DSNAKE_ASSERT(f[a] >= 1, "block sizes are positive");
+    c.size[a] = (g.size[a] + f[a] - 1) / f[a];
+    c.spacing[a] = g.spacing[a] * double(f[a]);
+    shift[a] = 0.5 * double(std::min<int64_t>(f[a], g.size[a]) - 1) * g.spacing[a];
+  }
+  c.origin = g.origin + g.direction * shift;  // voxel 0 at the first block's centre
+  std::vector<double> sum(size_t(c.num_voxels()), 0.0), count(size_t(c.num_voxels()), 0.0);
+  // voxel l's index kept as an odometer (x fastest), and its block's linear index with it
+  GridIndex<D> idx = GridIndex<D>::Zero();
+  for (int64_t l = 0; l < image.num_voxels(); ++l) {
+    int64_t k = 0;
+    for (int a = D - 1; a >= 0; --a) k = k * c.size[a] + idx[a] / f[a];
+    sum[size_t(k)] += image[l], count[size_t(k)] += 1.0;
+    for (int a = 0; a < D && ++idx[a] == g.size[a]; ++a) idx[a] = 0;
+  }
+  Image<D> out(c);
+  for (int64_t k = 0; k < out.num_voxels(); ++k) out[k] = float(sum[size_t(k)] / count[size_t(k)]);
+  return out;
+}
+
 template class SmoothedImageCache<2>;
 template class SmoothedImageCache<3>;
 template void gaussian_blur<2>(const Grid<2>&, std::vector<double>&, double);
 template void gaussian_blur<3>(const Grid<3>&, std::vector<double>&, double);
 template Image<2> gaussian_blur<2>(const Image<2>&, double);
 template Image<3> gaussian_blur<3>(const Image<3>&, double);
+template Image<2> block_average<2>(const Image<2>&, const GridIndex<2>&);
+template Image<3> block_average<3>(const Image<3>&, const GridIndex<3>&);
 template Image<2> gaussian_blur<2>(Image<2>&&, double);
 template Image<3> gaussian_blur<3>(Image<3>&&, double);
 template double partial_derivative<2>(const Grid<2>&, const std::vector<double>&, int64_t, int);

@@ -23,6 +23,13 @@ Image<D> gaussian_blur(const Image<D>& image, double sigma);
 template <int D>
 Image<D> gaussian_blur(Image<D>&& image, double sigma);
 
+// The mean of every block of f[a] voxels along each axis a (f[a] >= 1; a last, shorter block
+// averages what it holds): a grid f times coarser whose voxel centres are the blocks' centres, in
+// the same world frame. What a coarse level needs before a wide Gaussian, at 1 / prod(f) of the
+// voxels.
+template <int D>
+Image<D> block_average(const Image<D>& image, const GridIndex<D>& f);
+
 // d u / d x_axis at voxel l in physical units: central differences inside, one-sided at the
 // border, 0 along an axis of a single voxel.
 template <int D>

@@ -244,6 +244,35 @@ TEST(ImageFilters, BlurEqualsThePerVoxelSumBitForBit) {
 
 // The run's shared smoothed images: one blur per (image, sigma), the same values as a blur of
 // one's own.
+// The block average of a linear image on an oblique grid is the same linear function, sampled at
+// the coarse grid's voxel centres (world): the blocks' centres are where it says they are; a last
+// shorter block averages what it holds; the mean of the whole image is kept when f divides it.
+TEST(ImageFilters, BlockAverageOfALinearImageSamplesItAtTheBlocksCentres) {
+  Grid<3> g;
+  g.size = {10, 7, 6};
+  g.spacing = {0.5, 1.0, 1.5};
+  g.origin = {3, -2, 7};
+  g.direction = Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const Eigen::Vector3d slope(0.3, -1.1, 0.7);
+  Image<3> img(g);
+  for (int64_t l = 0; l < g.num_voxels(); ++l) img[l] = float(slope.dot(g.to_world(g.to_physical(g.index(l)))) + 5.0);
+  const Image<3> c = block_average<3>(img, GridIndex<3>(2, 3, 1));
+  EXPECT_EQ(c.size(), GridIndex<3>(5, 3, 6));
+  EXPECT_EQ(c.spacing(), Point<3>(1.0, 3.0, 1.5));
+  EXPECT_TRUE(c.grid().direction.isApprox(g.direction));
+  for (int64_t k = 0; k < c.num_voxels(); ++k) {
+    const GridIndex<3> i = c.grid().index(k);
+    if (i[1] == 2) {  // the last block along y holds one voxel (y = 6): its value
+      EXPECT_NEAR(c[k], img.at(GridIndex<3>(2 * i[0], 6, i[2])) * 0.5 + img.at(GridIndex<3>(2 * i[0] + 1, 6, i[2])) * 0.5, 1e-4);
+      continue;
+    }
+    EXPECT_NEAR(c[k], slope.dot(c.grid().to_world(c.grid().to_physical(i))) + 5.0, 1e-4) << k;
+  }
+  const Image<3> same = block_average<3>(img, GridIndex<3>(1, 1, 1));
+  EXPECT_EQ(same.data(), img.data());
+  EXPECT_TRUE(same.grid().same_geometry(g));
+}
+
 TEST(ImageFilters, SmoothedImageCacheSmoothsEachImageAndSigmaOnce) {
   Grid<2> g;
   g.size = {20, 12};

@@ -9,6 +9,7 @@
 #include "experiments/output/runner.h"
 #include "experiments/spec/template_init.h"
 #include "framework/core/errors.h"
+#include "framework/core/image_filters.h"
 #include "framework/io/image_io.h"
 #include "framework/io/mesh_io.h"
 #include "tests/energies/edge_images.h"
@@ -187,6 +188,62 @@ TEST_F(ImageInitTest, TheTemplateIsBroughtBackOntoTheMovedVolume3d) {
   EXPECT_TRUE(j.contains("rotation_axis"));
 }
 
+// A scan in another world frame: the whole Colin27 (block-averaged to 2 mm), its voxels placed
+// by a rigid map of 30 degrees and 58 mm (the grid's origin and direction moved, the voxels
+// kept: exact), with another contrast, and cut to 60% of its height (another field of view). The
+// region's registration alone cannot reach the template's object from the placement; with
+// whole_image the whole reference is registered first (from the foreground centroids) and the
+// template lands within 0.5 mm of T p; with T the identity it stays there.
+TEST_F(ImageInitTest, AScanInAnotherWorldFrameIsReachedThroughTheWholeImage3d) {
+  const std::string path = std::string(DSNAKE_SCANS_DIR) + "/mricron/ch2.nii.gz";
+  ASSERT_TRUE(fs::exists(path)) << "run scripts/fetch_scans.sh";
+  const Image<3> reference = block_average<3>(read_image<3>(path), GridIndex<3>(2, 2, 2));
+  write_image<3>(reference, (dir_ / "reference.mha").string());
+  const Point<3> c(22, -2, 2);  // LPS mm, the left putamen
+  const Template<3> t = round_template<3>(12.0, c);
+  write_mesh(t.positions, t.connectivity, (dir_ / "template.off").string());
+  auto run = [&](const AffineMap<3>& T, const std::string& whole) {
+    const Grid<3>& g = reference.grid();
+    Grid<3> h = g;
+    const int64_t lo = g.size[2] / 5;
+    h.size[2] = g.size[2] * 3 / 5;
+    h.origin = T.apply(g.to_world(g.to_physical(GridIndex<3>(0, 0, lo))));
+    h.direction = T.matrix * g.direction;
+    Image<3> scan(h);
+    for (int64_t l = 0; l < scan.num_voxels(); ++l) {
+      const GridIndex<3> i = h.index(l);
+      scan[l] = 0.7f * reference.at(GridIndex<3>(i[0], i[1], i[2] + lo)) + 40.0f;
+    }
+    write_image<3>(scan, (dir_ / "scan.mha").string());
+    const json doc = {{"name", "whole_image"}, {"dimension", 3},
+                      {"image", {{"file", "scan.mha"}}},
+                      {"template", {{"file", "template.off"}, {"reference_image", "reference.mha"},
+                                    {"init", {{"type", "image"}, {"transform", "rigid"}, {"whole_image", whole}}}}},
+                      {"field", {{"type", "gradient"}}},
+                      {"energies", {{{"type", "internal"}, {"weight", 1.0}}}},
+                      {"phases", {{{"iterations", 1}}}},
+                      {"output", {{"figures", false}, {"result_mask", false}}}};
+    const Experiment<3> ex = experiment<3>(doc);
+    EXPECT_TRUE(ex.init);
+    return std::make_pair(worst<3>(ex, t, T), init_report_json<3>(*ex.init));
+  };
+  const AffineMap<3> T = about<3>(c, Eigen::AngleAxisd(30 * kDeg, Point<3>(0.3, 0.5, 0.8).normalized()).toRotationMatrix(),
+                                  Point<3>(40, -30, 30));
+  const auto [region_only, jr] = run(T, "none");
+  const auto [whole, jw] = run(T, "similarity");
+  std::printf("[ measured ] 30 deg, 58 mm: region only %.1f mm off, whole image first %.3f mm\n", region_only, whole);
+  EXPECT_GT(region_only, 10.0);
+  EXPECT_FALSE(jr.contains("whole_image"));
+  EXPECT_LT(whole, 0.5);
+  ASSERT_TRUE(jw.contains("whole_image")) << jw.dump();
+  EXPECT_TRUE(jw["whole_image"]["kept"].get<bool>());
+  EXPECT_GT(jw["whole_image"]["ncc_after"].get<double>(), jw["whole_image"]["ncc_before"].get<double>());
+  EXPECT_EQ(jw["whole_image"]["levels"].size(), 2u);
+  const auto [identity, ji] = run(AffineMap<3>{}, "similarity");
+  std::printf("[ measured ] the same frame: whole image first %.3f mm\n", identity);
+  EXPECT_LT(identity, 0.5);
+}
+
 // Every new key's bad value: the JSON path and one line (exit 2) on the command line.
 TEST_F(ImageInitTest, BadImageInitInputsNameTheirJsonPath) {
   const json doc = write_2d(AffineMap<2>{});
@@ -210,7 +267,12 @@ TEST_F(ImageInitTest, BadImageInitInputsNameTheirJsonPath) {
       {with_init({{"type", "image"}, {"max_scale", 0.5}}), "template.init.max_scale"},
       {with_init({{"type", "image"}, {"max_scale", -1}}), "template.init.max_scale"},
       {with_init({{"type", "image"}, {"threshold", {0, 1}}}), "template.init.threshold"},
-      {with_init({{"type", "image"}, {"points", {{"a", {1, 2}}}}}), "template.init.points"}};
+      {with_init({{"type", "image"}, {"points", {{"a", {1, 2}}}}}), "template.init.points"},
+      {with_init({{"type", "image"}, {"whole_image", "shear"}}), "template.init.whole_image"},
+      {with_init({{"type", "image"}, {"whole_image", true}}), "template.init.whole_image"},
+      {with_init({{"type", "moments"}, {"threshold", {0, 127}}, {"whole_image", "rigid"}}), "template.init.whole_image"},
+      {with_init({{"type", "image"}, {"whole_image", "rigid"}, {"whole_image_levels", json::array()}}), "template.init.whole_image_levels"},
+      {with_init({{"type", "image"}, {"whole_image", "rigid"}, {"whole_image_levels", {8, -4}}}), "template.init.whole_image_levels"}};
   for (const auto& [d, where] : cases) {
     EXPECT_EQ(error_of(d).first, where) << d["template"].dump();
     const fs::path file = write(d);
