@@ -3,7 +3,7 @@
 // (4 deg, scale 1.04, (3, -2, 2.5) mm), a 40 mm box about the left basal ganglia plus the
 // default 10 mm margin, levels 4, 2, 1 mm; rigid, similarity and affine, on 1 and 2 threads.
 // And the whole-image alignment (align_whole_images: a scan in another world frame) of Colin27
-// onto itself placed 25 degrees and 58 mm away (the grid moved, the voxels kept), levels 8, 4 mm.
+// onto itself placed 25 degrees and 58 mm away (the grid moved, the voxels kept), rigid, levels 8, 4 mm.
 #include "framework/core/image_alignment.h"
 #include "framework/io/image_io.h"
 
@@ -88,6 +88,7 @@ void BM_AlignWholeImage3d(benchmark::State& state) {
   g.direction = t.matrix * g.direction;
   const Image<3> far(g, std::vector<float>(reference().data().begin(), reference().data().end()));
   ImageAlignmentOptions o;
+  o.model = AlignmentModel::kRigid;  // as recipe_3d.json's whole_image
   o.levels = {8.0, 4.0};
   WholeImageAlignment<3> r;
   for (auto _ : state) {

@@ -116,8 +116,13 @@ nlohmann::ordered_json init_experiment(const InitCommandOptions& o) {
   else tmpl = read_contour_template(o.tmpl);
   const double radius = equivalent_radius<D>(tmpl);
   // Refused here as `dsnake run` would refuse the printed file (the template is placed as given).
-  if (const std::string what = outside_the_image<D>(tmpl.positions, image.grid()); !what.empty())
-    throw InputError(o.tmpl, "--template", "the template " + what);
+  // With an atlas image the 3D recipe first registers the whole atlas onto the whole scan
+  // (template.init.whole_image), which brings a template lying on the atlas to the scan from
+  // anywhere (a scan in its scanner's frame): the template must then lie near the atlas image.
+  const bool from_atlas = D == 3 && !o.reference.empty();
+  if (!from_atlas)
+    if (const std::string what = outside_the_image<D>(tmpl.positions, image.grid()); !what.empty())
+      throw InputError(o.tmpl, "--template", "the template " + what);
   if (const std::string what = smaller_than_a_voxel<D>(tmpl.positions, image.grid()); !what.empty())
     throw InputError(o.tmpl, "--template", "the template " + what);
   if (!o.mask.empty() && !is_surface_file(o.mask, D) && image_file_dimension(o.mask) != D)
@@ -126,7 +131,12 @@ nlohmann::ordered_json init_experiment(const InitCommandOptions& o) {
     throw InputError(o.reference, "--reference", "expected a " + std::to_string(D) + "D image like the image");
   // The atlas image is read whole (and let go) so that a file `dsnake run` would refuse (a NaN
   // voxel, truncated data) is named now, not after the user has written an experiment around it.
-  if (!o.reference.empty()) (void)read_image<D>(o.reference, o.read);
+  if (!o.reference.empty()) {
+    const Image<D> atlas = read_image<D>(o.reference, o.read);
+    if (const std::string what = outside_the_image<D>(tmpl.positions, atlas.grid()); from_atlas && !what.empty())
+      throw InputError(o.tmpl, "--template", "the template lies outside the atlas image " + o.reference +
+                                                 " (--reference), on which it should lie: " + what.substr(what.find(": ") + 2));
+  }
   nlohmann::ordered_json j = recommended<D>(o, image.grid(), radius);
   // The experiment reader checks the file as `dsnake validate` would.
   ExperimentFile file{"(dsnake init)", fs::current_path().string(), nlohmann::json::parse(j.dump()), D};

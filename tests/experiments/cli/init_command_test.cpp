@@ -252,6 +252,24 @@ TEST_F(InitCommandTest, BadInputExitsTwoWithOneLineAndPrintsNothing) {
                                      "image's extent beyond its border along axis 0"),
             std::string::npos)
       << err_;
+  // With an atlas image the printed recipe registers the whole atlas onto the whole scan first,
+  // so the template must lie near the atlas, not the scan: the far template is printed against an
+  // atlas placed where it lies, and refused against this one, naming the atlas.
+  Image<3> moved_atlas = read_image<3>(labels.string());
+  Grid<3> moved_grid = moved_atlas.grid();
+  moved_grid.origin += Point<3>(480, -20, -20);
+  const fs::path far_atlas = dir_ / "far_atlas.nii.gz";
+  write_image<3>(Image<3>(moved_grid, std::vector<float>(moved_atlas.data().begin(), moved_atlas.data().end())),
+                 far_atlas.string());
+  ASSERT_EQ(dsnake("init --image " + labels.string() + " --template " + far.string() + " --reference " + far_atlas.string()), 0)
+      << err_;
+  EXPECT_NE(out_.find("\"whole_image\": \"rigid\""), std::string::npos) << out_;
+  ASSERT_EQ(dsnake("init --image " + labels.string() + " --template " + far.string() + " --reference " + labels.string()), 2);
+  EXPECT_EQ(out_, "");
+  EXPECT_NE(err_.find(far.string() + ": --template: the template lies outside the atlas image " + labels.string() +
+                     " (--reference), on which it should lie: vertex 0 is more than the image's extent beyond its border"),
+            std::string::npos)
+      << err_;
   // An atlas image that `dsnake run` would refuse (a NaN voxel) is read whole and named now.
   Image<3> atlas = read_image<3>(labels.string());
   atlas.at(GridIndex<3>(5, 6, 7)) = std::numeric_limits<float>::quiet_NaN();

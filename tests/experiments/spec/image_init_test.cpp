@@ -230,7 +230,7 @@ TEST_F(ImageInitTest, AScanInAnotherWorldFrameIsReachedThroughTheWholeImage3d) {
   const AffineMap<3> T = about<3>(c, Eigen::AngleAxisd(30 * kDeg, Point<3>(0.3, 0.5, 0.8).normalized()).toRotationMatrix(),
                                   Point<3>(40, -30, 30));
   const auto [region_only, jr] = run(T, "none");
-  const auto [whole, jw] = run(T, "similarity");
+  const auto [whole, jw] = run(T, "rigid");
   std::printf("[ measured ] 30 deg, 58 mm: region only %.1f mm off, whole image first %.3f mm\n", region_only, whole);
   EXPECT_GT(region_only, 10.0);
   EXPECT_FALSE(jr.contains("whole_image"));
