@@ -244,6 +244,30 @@ TEST_F(ImageInitTest, AScanInAnotherWorldFrameIsReachedThroughTheWholeImage3d) {
   EXPECT_LT(identity, 0.5);
 }
 
+// The same in 2D: the ITK brain slice's pixels placed 20 degrees and 39 mm away (its grid moved),
+// another contrast; the template (a circle about the ventricles) is reached only through the
+// whole image.
+TEST_F(ImageInitTest, AScanInAnotherWorldFrameIsReachedThroughTheWholeImage2d) {
+  json doc = write_2d(AffineMap<2>{});
+  const Image<2> reference = read_image<2>((dir_ / "reference.mha").string());
+  const AffineMap<2> T = about<2>(Point<2>::Zero(), Eigen::Rotation2Dd(20 * kDeg).toRotationMatrix(), Point<2>(30, -25));
+  Grid<2> g = reference.grid();
+  g.origin = T.apply(g.origin);
+  g.direction = T.matrix * g.direction;
+  Image<2> scan(g);
+  for (int64_t l = 0; l < scan.num_voxels(); ++l) scan[l] = 0.8f * reference[l] + 30.0f;
+  write_image<2>(scan, (dir_ / "scan.mha").string());
+  doc["template"]["init"]["transform"] = "rigid";
+  const double region_only = worst<2>(experiment<2>(doc), tmpl2_, T);
+  doc["template"]["init"]["whole_image"] = "rigid";
+  const Experiment<2> ex = experiment<2>(doc);
+  const double whole = worst<2>(ex, tmpl2_, T);
+  std::printf("[ measured ] 2D, 20 deg, 39 mm: region only %.1f mm off, whole image first %.3f mm\n", region_only, whole);
+  EXPECT_GT(region_only, 10.0);
+  EXPECT_LT(whole, 0.5);
+  EXPECT_TRUE(init_report_json<2>(*ex.init)["whole_image"]["kept"].get<bool>());
+}
+
 // Every new key's bad value: the JSON path and one line (exit 2) on the command line.
 TEST_F(ImageInitTest, BadImageInitInputsNameTheirJsonPath) {
   const json doc = write_2d(AffineMap<2>{});
