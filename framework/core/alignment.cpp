@@ -122,17 +122,23 @@ Moments<D> enclosed_moments(const PointList<D>& p, const Connectivity& connectiv
 template <int D>
 Moments<D> region_moments(const Image<D>& image, const std::function<bool(float)>& inside) {
   const Grid<D>& g = image.grid();
+  // voxel l's index kept as an odometer (x fastest) rather than divided out of l at every voxel
+  auto next = [&g](GridIndex<D>& idx) {
+    for (int a = 0; a < D && ++idx[a] == g.size[a]; ++a) idx[a] = 0;
+  };
   int64_t count = 0;
   Point<D> sum = Point<D>::Zero();
-  for (int64_t l = 0; l < image.num_voxels(); ++l)
-    if (inside(image[l])) ++count, sum += g.to_physical(g.index(l)) - g.origin;
+  GridIndex<D> idx = GridIndex<D>::Zero();
+  for (int64_t l = 0; l < image.num_voxels(); ++l, next(idx))
+    if (inside(image[l])) ++count, sum += idx.template cast<double>().cwiseProduct(g.spacing);
   Moments<D> out;
   if (count == 0) return out;
   const Point<D> mean = sum / double(count);
   Matrix<D> c = Matrix<D>::Zero();
-  for (int64_t l = 0; l < image.num_voxels(); ++l)
+  idx.setZero();
+  for (int64_t l = 0; l < image.num_voxels(); ++l, next(idx))
     if (inside(image[l])) {
-      const Point<D> d = g.to_physical(g.index(l)) - g.origin - mean;
+      const Point<D> d = idx.template cast<double>().cwiseProduct(g.spacing) - mean;
       c.noalias() += d * d.transpose();
     }
   c /= double(count);

@@ -1,6 +1,7 @@
 // NCC image alignment by variable-projection Levenberg-Marquardt; see image_alignment.h.
 #include "framework/core/image_alignment.h"
 
+#include "framework/core/alignment.h"
 #include "framework/core/image_filters.h"
 
 #include <Eigen/Cholesky>
@@ -404,20 +405,9 @@ std::optional<Point<D>> foreground_centroid(const Image<D>& image) {
   double total = 0;
   for (int64_t l = 0; l < image.num_voxels(); ++l) total += image[l];
   const double mean = total / double(image.num_voxels());
-  const Grid<D>& g = image.grid();
-  GridIndex<D> idx = GridIndex<D>::Zero();  // voxel l's index, an odometer (x fastest)
-  Point<D> sum = Point<D>::Zero();
-  int64_t count = 0;
-  for (int64_t l = 0; l < image.num_voxels(); ++l) {
-    if (double(image[l]) > mean) {
-      ++count;
-      for (int a = 0; a < D; ++a) sum[a] += double(idx[a]);
-    }
-    for (int a = 0; a < D && ++idx[a] == g.size[a]; ++a) idx[a] = 0;
-  }
-  if (count == 0) return std::nullopt;
-  const Point<D> frame = g.origin + g.spacing.cwiseProduct(sum / double(count));
-  return g.to_world(frame);
+  const Moments<D> m = region_moments<D>(image, [mean](float v) { return double(v) > mean; });
+  if (!(m.measure > 0)) return std::nullopt;
+  return m.centroid;
 }
 
 // The world box of an image's voxel centres (its corners', for an oblique grid).
