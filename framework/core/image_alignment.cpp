@@ -447,15 +447,16 @@ WholeImageAlignment<D> align_whole_images(const Image<D>& fixed, const Image<D>&
   WholeImageAlignment<D> out;
   out.fit.transform = initial;
   if (fixed.empty() || moving.empty()) throw std::invalid_argument("align_whole_images: an empty image");
-  const auto fixed_centroid = foreground_centroid<D>(fixed), moving_centroid = foreground_centroid<D>(moving);
+  double finest = std::numeric_limits<double>::infinity();
+  for (double s : options.levels) finest = std::min(finest, s);
+  const Image<D> f = coarsened<D>(fixed, 0.5 * finest), m = coarsened<D>(moving, 0.5 * finest);
+  // the centroids of the coarsened images: the same objects, at a fraction of the voxels
+  const auto fixed_centroid = foreground_centroid<D>(f), moving_centroid = foreground_centroid<D>(m);
   if (!fixed_centroid || !moving_centroid) return out;
   out.centred = true;
   AffineMap<D> start = initial;
   out.centroid_shift = *moving_centroid - initial.apply(*fixed_centroid);
   start.translation += out.centroid_shift;
-  double finest = std::numeric_limits<double>::infinity();
-  for (double s : options.levels) finest = std::min(finest, s);
-  const Image<D> f = coarsened<D>(fixed, 0.5 * finest), m = coarsened<D>(moving, 0.5 * finest);
   ImageAlignmentOptions whole = options;
   whole.margin = 0.0;
   out.fit = align_images<D>(f, m, image_box<D>(f), start, whole);

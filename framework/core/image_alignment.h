@@ -112,12 +112,12 @@ ImageAlignmentResult<D> align_images(const Image<D>& fixed, const Image<D>& movi
                                      const AffineMap<D>& initial, const ImageAlignmentOptions& options = {});
 
 // The whole of `fixed` aligned onto the whole of `moving`, for a scan that lies anywhere in its
-// own world frame (a scanner's, tens of mm and degrees from an atlas's): `initial` is first moved
-// so that the two images' foreground centroids coincide (the voxels brighter than each image's
-// mean: a head or a body against its background, in any units), then align_images over the
-// fixed image's whole box (options.margin is not used) on both images block-averaged to voxels
-// of half the finest level's sigma (and to at most about 2 million voxels), so that a whole-image
-// level costs about what a structure's region does at full resolution.
+// own world frame (a scanner's, tens of mm and degrees from an atlas's). Both images are first
+// block-averaged to voxels of half the finest level's sigma (and to at most about 2 million
+// voxels), so that a whole-image level costs about what a structure's region does at full
+// resolution; on them, `initial` is moved so that the two images' foreground centroids coincide
+// (the voxels brighter than each image's mean: a head or a body against its background, in any
+// units), then align_images runs over the fixed image's whole box (options.margin is not used).
 template <int D>
 struct WholeImageAlignment {
   ImageAlignmentResult<D> fit;                 // fixed world -> moving world
