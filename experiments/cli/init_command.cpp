@@ -32,8 +32,8 @@ bool is_surface_file(const std::string& path, int dimension) {
   return e == ".txt" || e == ".json";
 }
 
-// The recommended experiment: experiments/real/recipe_<D>d.json (3D without --reference:
-// recipe_3d_without_atlas.json; compiled in, recipes.h) with only its inputs replaced: name,
+// The recommended experiment: experiments/real/recipe_3d.json or recipe_2d_with_atlas.json with
+// --reference, recipe_3d_without_atlas.json or recipe_2d.json without (compiled in, recipes.h), with only its inputs replaced: name,
 // image, template (file; reference_image with --reference, and the recipe's template.init) and
 // ground truth. Every setting is the recipe's, in mm, so that this file runs exactly what the
 // project's real experiments run (REPRODUCTION.md), except that on a template smaller than the
@@ -46,8 +46,10 @@ template <int D>
 nlohmann::ordered_json recommended(const InitCommandOptions& o, const Grid<D>& grid, double radius) {
   const bool atlas = !o.reference.empty();
   nlohmann::ordered_json j = nlohmann::ordered_json::parse(recipe_json(D, atlas));
-  const std::string recipe_file =
-      "experiments/real/recipe_" + std::to_string(D) + "d" + (D == 3 && !atlas ? "_without_atlas" : "") + ".json";
+  const std::string recipe_file = D == 3 ? (atlas ? "experiments/real/recipe_3d.json"
+                                                   : "experiments/real/recipe_3d_without_atlas.json")
+                                         : (atlas ? "experiments/real/recipe_2d_with_atlas.json"
+                                                  : "experiments/real/recipe_2d.json");
   j["name"] = o.name.empty() ? fs::path(o.image).filename().string() : o.name;
   j["description"] = "Written by dsnake init for " + o.image + " and the template " + o.tmpl + ", from " +
                      recipe_file + ". " + j["description"].get<std::string>();
@@ -72,8 +74,11 @@ nlohmann::ordered_json recommended(const InitCommandOptions& o, const Grid<D>& g
                  "dsnake: warning: no --reference: an atlas image (one in which the template sits on its object, e.g. "
                  "the scan the template was made from) is recommended; without it the forces see only edges, and a "
                  "boundary whose contrast changes side (darker than one neighbour, brighter than another) cannot be "
-                 "followed, so this recipe only polishes the placed template: each vertex moves a little (max_travel) and "
-                 "only where the edge evidence is clear\n");
+                 "followed, %s\n",
+                 D == 3 ? "so this recipe only polishes the placed template: each vertex moves a little (max_travel) and "
+                          "only where the edge evidence is clear"
+                        : "and this recipe follows one polarity learned where the template is placed: place it on the "
+                          "object (template.transform)");
   const double k = recipe_length_scale(radius);
   if (k < 1.0) {
     scale_lengths(j, D, k);
@@ -116,10 +121,10 @@ nlohmann::ordered_json init_experiment(const InitCommandOptions& o) {
   else tmpl = read_contour_template(o.tmpl);
   const double radius = equivalent_radius<D>(tmpl);
   // Refused here as `dsnake run` would refuse the printed file (the template is placed as given).
-  // With an atlas image the 3D recipe first registers the whole atlas onto the whole scan
+  // With an atlas image the recipe first registers the whole atlas onto the whole scan
   // (template.init.whole_image), which brings a template lying on the atlas to the scan from
   // anywhere (a scan in its scanner's frame): the template must then lie near the atlas image.
-  const bool from_atlas = D == 3 && !o.reference.empty();
+  const bool from_atlas = !o.reference.empty();
   if (!from_atlas)
     if (const std::string what = outside_the_image<D>(tmpl.positions, image.grid()); !what.empty())
       throw InputError(o.tmpl, "--template", "the template " + what);

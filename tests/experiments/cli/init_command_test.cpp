@@ -1,4 +1,5 @@
-// `dsnake init`: the file it prints is the recipe (experiments/real/recipe_3d.json) with only the
+// `dsnake init`: the file it prints is the recipe (experiments/real/recipe_3d.json; in 2D
+// recipe_2d_with_atlas.json or recipe_2d.json) with only the
 // inputs replaced, valid, and run as printed (with the template started 10% too small) it
 // registers a label volume it was not tuned for; a scan outside the recipe's voxel range gets a
 // warning; bad input exits 2 with one line and prints nothing.
@@ -107,6 +108,98 @@ TEST_F(InitCommandTest, WithoutAnAtlasImageItWritesTheRecipeForThatAndSaysWhyAnA
   const fs::path exp = dir_ / "exp.json";
   std::ofstream(exp) << out_;
   EXPECT_EQ(dsnake("validate " + exp.string()), 0) << err_;
+}
+
+// In 2D with --reference: recipe_2d_with_atlas.json with only the inputs replaced, and its run
+// registers a mixed-polarity disk (darker than its surroundings on one side, brighter on the
+// other: no single edge polarity fits it) moved and scaled in the image, from the template drawn
+// on the atlas; the template is checked against the atlas image, on which it lies, not against
+// the image. Without --reference: recipe_2d.json and one warning line saying why an atlas helps.
+TEST_F(InitCommandTest, In2DWithAnAtlasItWritesTheAtlasRecipeAndItsRunRegistersAMixedPolarityDisk) {
+  // The disk (radius r mm, centre c) at 100 on a background of 30 left of x = c.x and 170 right
+  // of it, 0.5 mm pixels, 80 mm across.
+  auto disk_image = [&](const Point<2>& c, double r, const std::string& name) {
+    Grid<2> g{GridIndex<2>(160, 160), Point<2>(0.5, 0.5), Point<2>(-40, -40)};
+    Image<2> im(g, 0.0f);
+    for (int64_t l = 0; l < im.num_voxels(); ++l) {
+      const Point<2> x = g.to_physical(g.index(l));
+      im[l] = (x - c).norm() <= r ? 100.0f : x(0) < c(0) ? 30.0f : 170.0f;
+    }
+    const fs::path p = dir_ / name;
+    write_image<2>(im, p.string());
+    return p;
+  };
+  auto disk_mask = [&](const Point<2>& c, double r, const std::string& name) {
+    Grid<2> g{GridIndex<2>(160, 160), Point<2>(0.5, 0.5), Point<2>(-40, -40)};
+    Image<2> im(g, 0.0f);
+    for (int64_t l = 0; l < im.num_voxels(); ++l) im[l] = (g.to_physical(g.index(l)) - c).norm() <= r ? 1.0f : 0.0f;
+    const fs::path p = dir_ / name;
+    write_image<2>(im, p.string());
+    return p;
+  };
+  const Point<2> atlas_centre(-6, 4), scan_centre(-2.5, 1);
+  const fs::path atlas = disk_image(atlas_centre, 12, "atlas.nii.gz"), scan = disk_image(scan_centre, 13.2, "scan.nii.gz");
+  const fs::path truth = disk_mask(scan_centre, 13.2, "truth.nii.gz"), contour = dir_ / "disk.txt";
+  {
+    std::ofstream out(contour);  // 40 vertices on the atlas's disk (2 mm apart)
+    for (int i = 0; i < 40; ++i) {
+      const double t = 2 * M_PI * i / 40;
+      out << atlas_centre(0) + 12 * std::cos(t) << " " << atlas_centre(1) + 12 * std::sin(t) << "\n";
+    }
+  }
+  ASSERT_EQ(dsnake("init --image " + scan.string() + " --template " + contour.string() + " --reference " +
+                   atlas.string() + " --mask " + truth.string()),
+            0)
+      << err_;
+  EXPECT_EQ(err_, "");
+  const nlohmann::json j = nlohmann::json::parse(out_);
+  EXPECT_EQ(j["dimension"], 2);
+  EXPECT_EQ(j["template"]["reference_image"], fs::absolute(atlas).string());
+  std::ifstream recipe(std::string(DSNAKE_SOURCE_DIR) + "/experiments/real/recipe_2d_with_atlas.json");
+  ASSERT_TRUE(recipe.good());
+  EXPECT_EQ(settings_of(j), settings_of(nlohmann::json::parse(recipe)));
+  EXPECT_EQ(j["template"]["init"]["type"], "image");
+  const fs::path exp = dir_ / "exp.json", run = dir_ / "run";
+  std::ofstream(exp) << out_;
+  ASSERT_EQ(dsnake("run " + exp.string() + " -o " + run.string() + " -j 2 --quiet --set output.start_metrics=true"), 0)
+      << err_;
+  const nlohmann::json r = nlohmann::json::parse(slurp(run / "result.json"));
+  std::printf("  init scale %.4f; Dice %.4f -> %.4f, mean distance %.3f mm\n", r["init"]["scale"].get<double>(),
+              r["start"]["metrics"]["dice"].get<double>(), r["metrics"]["dice"].get<double>(),
+              r["metrics"]["mean_surface_distance"].get<double>());
+  EXPECT_NEAR(r["init"]["scale"].get<double>(), 1.1, 0.01);
+  EXPECT_GT(r["metrics"]["dice"].get<double>(), 0.98);
+  EXPECT_LT(r["metrics"]["mean_surface_distance"].get<double>(), 0.25);
+
+  // A template off the atlas image (200 mm away: more than its extent beyond its border) is
+  // refused, naming the atlas: it is checked against the atlas, on which it should lie.
+  {
+    std::ofstream out(contour);
+    for (int i = 0; i < 40; ++i) {
+      const double t = 2 * M_PI * i / 40;
+      out << 200 + 12 * std::cos(t) << " " << 12 * std::sin(t) << "\n";
+    }
+  }
+  EXPECT_EQ(dsnake("init --image " + scan.string() + " --template " + contour.string() + " --reference " +
+                   atlas.string()),
+            2);
+  EXPECT_NE(err_.find("the template lies outside the atlas image " + atlas.string()), std::string::npos) << err_;
+
+  // Without --reference: the recipe without an atlas, and the 2D warning.
+  {
+    std::ofstream out(contour);
+    for (int i = 0; i < 40; ++i) {
+      const double t = 2 * M_PI * i / 40;
+      out << scan_centre(0) + 12 * std::cos(t) << " " << scan_centre(1) + 12 * std::sin(t) << "\n";
+    }
+  }
+  ASSERT_EQ(dsnake("init --image " + scan.string() + " --template " + contour.string()), 0) << err_;
+  std::ifstream without(std::string(DSNAKE_SOURCE_DIR) + "/experiments/real/recipe_2d.json");
+  ASSERT_TRUE(without.good());
+  EXPECT_EQ(settings_of(nlohmann::json::parse(out_)), settings_of(nlohmann::json::parse(without)));
+  EXPECT_EQ(std::count(err_.begin(), err_.end(), '\n'), 1) << err_;
+  EXPECT_NE(err_.find("warning: no --reference: an atlas image"), std::string::npos) << err_;
+  EXPECT_NE(err_.find("one polarity learned where the template is placed"), std::string::npos) << err_;
 }
 
 // Slices 4 mm thick (beyond the recipe's 3 mm): with an atlas, the fine patch force (sigma 0.5 mm)

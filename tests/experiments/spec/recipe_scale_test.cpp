@@ -93,7 +93,7 @@ TEST(RecipeScale, TheRecipeWithoutAnAtlasHasItsProfileAndPolarityLengthsScaled) 
 }
 
 TEST(RecipeScale, In2DTheProfileAndToleranceScaleAndTheTensionAndFieldDiffusionDoNot) {
-  const json recipe = json::parse(recipe_json(2));
+  const json recipe = json::parse(recipe_json(2, false));
   json j = recipe;
   scale_lengths(j, 2, 0.5);
   EXPECT_DOUBLE_EQ(j["energies"][2]["search"].get<double>(), 2.5);
