@@ -33,7 +33,8 @@ bool is_surface_file(const std::string& path, int dimension) {
 }
 
 // The recommended experiment: experiments/real/recipe_3d.json or recipe_2d_with_atlas.json with
-// --reference, recipe_3d_without_atlas.json or recipe_2d.json without (compiled in, recipes.h), with only its inputs replaced: name,
+// --reference, recipe_3d_without_atlas.json or recipe_2d_without_atlas.json without (compiled in,
+// recipes.h), with only its inputs replaced: name,
 // image, template (file; reference_image with --reference, and the recipe's template.init) and
 // ground truth. Every setting is the recipe's, in mm, so that this file runs exactly what the
 // project's real experiments run (REPRODUCTION.md), except that on a template smaller than the
@@ -49,7 +50,7 @@ nlohmann::ordered_json recommended(const InitCommandOptions& o, const Grid<D>& g
   const std::string recipe_file = D == 3 ? (atlas ? "experiments/real/recipe_3d.json"
                                                    : "experiments/real/recipe_3d_without_atlas.json")
                                          : (atlas ? "experiments/real/recipe_2d_with_atlas.json"
-                                                  : "experiments/real/recipe_2d.json");
+                                                  : "experiments/real/recipe_2d_without_atlas.json");
   j["name"] = o.name.empty() ? fs::path(o.image).filename().string() : o.name;
   j["description"] = "Written by dsnake init for " + o.image + " and the template " + o.tmpl + ", from " +
                      recipe_file + ". " + j["description"].get<std::string>();
@@ -74,11 +75,11 @@ nlohmann::ordered_json recommended(const InitCommandOptions& o, const Grid<D>& g
                  "dsnake: warning: no --reference: an atlas image (one in which the template sits on its object, e.g. "
                  "the scan the template was made from) is recommended; without it the forces see only edges, and a "
                  "boundary whose contrast changes side (darker than one neighbour, brighter than another) cannot be "
-                 "followed, %s\n",
-                 D == 3 ? "so this recipe only polishes the placed template: each vertex moves a little (max_travel) and "
-                          "only where the edge evidence is clear"
-                        : "and this recipe follows one polarity learned where the template is placed: place it on the "
-                          "object (template.transform)");
+                 "followed, so this recipe only polishes the placed template: each vertex moves a little (max_travel) "
+                 "and only where the edge evidence is clear%s\n",
+                 D == 3 ? ""
+                        : " (for an object brighter or darker than all of its surroundings and a contour placed by eye, "
+                          "experiments/real/recipe_2d.json follows that one polarity onto it)");
   const double k = recipe_length_scale(radius);
   if (k < 1.0) {
     scale_lengths(j, D, k);

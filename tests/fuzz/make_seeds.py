@@ -204,6 +204,7 @@ def experiment_files():
                "experiments/paper/lung_slice_dsnake.json", "experiments/examples/dsnake_sphere_to_ellipsoid.json",
                "experiments/real/paper_3d.json", "experiments/ablation/global/tetris.json",
                "experiments/real/recipe_2d.json", "experiments/real/recipe_2d_with_atlas.json",
+               "experiments/real/recipe_2d_without_atlas.json",
                "experiments/real/recipe_3d.json"]
     for s in sources:
         put("experiment_file", pathlib.Path(s).name, (ROOT / s).read_bytes())

@@ -3,9 +3,11 @@
 # each case's axial slice where its truth is largest (make_slice_case.py), registered by
 #   with_atlas:  `dsnake init --reference` as printed (recipe_2d_with_atlas.json),
 #   profile:     recipe_2d.json with the same atlas image (the 2D recipe before it),
-#   without:     `dsnake init` without --reference as printed (recipe_2d.json),
+#   without:     `dsnake init` without --reference as printed (recipe_2d_without_atlas.json),
+#   one polarity: recipe_2d.json (one polarity learned at the start, no atlas; the corpus callosum's),
 #   elastix:     experiments/real/elastix.sh (affine + B-spline, the template's mask warped),
-# and the six development cases' fixed points (the truth's surface cut, the slice its own atlas).
+# and the six development cases' fixed points (the truth's surface cut; with atlas: the slice its own
+# atlas; without: as printed without --reference).
 #   bash experiments/real/anatomy/run_slices.sh        (needs data/real/anatomy and its more/ cases:
 #                                                       make_inputs.py, run_more.sh)
 # Prints one row per case: Dice at the start -> at the end (start: the placed template, or after
@@ -25,7 +27,7 @@ run() {  # run DIR TAG EXPERIMENT [--set ...]
   local d=$1 t=$2 e=$3; shift 3
   "$DSNAKE" run "$e" --out "$d/$t" -j 1 --quiet --set output.start_metrics=true "$@" > "$d/$t.log" 2>&1
 }
-printf '| case | with atlas | profile, same atlas | without atlas | elastix | fixed point |\n| --- | --- | --- | --- | --- | --- |\n'
+printf '| case | with atlas | profile, same atlas | without atlas | one polarity, no atlas | elastix | fixed point: with / without atlas |\n| --- | --- | --- | --- | --- | --- | --- |\n'
 for c in $DEV $MORE; do
   src=$A/$c; [ -d "$src" ] || src=$A/more/$c
   d=$OUT/$c; mkdir -p "$d"
@@ -37,6 +39,8 @@ for c in $DEV $MORE; do
     --set template.reference_image=$(realpath $i/reference.nii.gz) --set ground_truth.mask=$(realpath $i/truth.nii.gz)
   "$DSNAKE" init --image $i/image.nii.gz --template $i/template.txt --mask $i/truth.nii.gz --name $c > $d/without.json 2> /dev/null
   run $d without $d/without.json
+  run $d one_polarity experiments/real/recipe_2d.json --set image.file=$(realpath $i/image.nii.gz) --set template.file=$(realpath $i/template.txt) \
+    --set ground_truth.mask=$(realpath $i/truth.nii.gz)
   VERTICES=128 THREADS=1 DSNAKE=$DSNAKE bash experiments/real/elastix.sh $i/image.nii.gz $i/reference.nii.gz $i/template.txt $i/truth.nii.gz $d/elastix > $d/elastix.log 2>&1
   el=$(sed -n 's/.*Dice \([0-9.]*\),.*/\1/p' $d/elastix.log | tail -1)
   fp="–"
@@ -45,7 +49,9 @@ for c in $DEV $MORE; do
     f=$d/fp_in
     run $d fixed_point experiments/real/recipe_2d_with_atlas.json --set image.file=$(realpath $f/image.nii.gz) --set template.file=$(realpath $f/template.txt) \
       --set template.reference_image=$(realpath $f/image.nii.gz) --set ground_truth.mask=$(realpath $f/truth.nii.gz)
-    fp=$(dice $d/fixed_point)
+    "$DSNAKE" init --image $f/image.nii.gz --template $f/template.txt --mask $f/truth.nii.gz --name $c > $d/fixed_point_without.json 2> /dev/null
+    run $d fixed_point_without $d/fixed_point_without.json
+    fp="$(dice $d/fixed_point) / $(dice $d/fixed_point_without)"
   fi
-  printf '| %s | %s | %s | %s | %.3f | %s |\n' $c "$(dice $d/with_atlas)" "$(dice $d/profile)" "$(dice $d/without)" "$el" "$fp"
+  printf '| %s | %s | %s | %s | %s | %.3f | %s |\n' $c "$(dice $d/with_atlas)" "$(dice $d/profile)" "$(dice $d/without)" "$(dice $d/one_polarity)" "$el" "$fp"
 done

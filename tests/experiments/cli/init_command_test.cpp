@@ -1,5 +1,5 @@
 // `dsnake init`: the file it prints is the recipe (experiments/real/recipe_3d.json; in 2D
-// recipe_2d_with_atlas.json or recipe_2d.json) with only the
+// recipe_2d_with_atlas.json or recipe_2d_without_atlas.json) with only the
 // inputs replaced, valid, and run as printed (with the template started 10% too small) it
 // registers a label volume it was not tuned for; a scan outside the recipe's voxel range gets a
 // warning; bad input exits 2 with one line and prints nothing.
@@ -114,7 +114,8 @@ TEST_F(InitCommandTest, WithoutAnAtlasImageItWritesTheRecipeForThatAndSaysWhyAnA
 // registers a mixed-polarity disk (darker than its surroundings on one side, brighter on the
 // other: no single edge polarity fits it) moved and scaled in the image, from the template drawn
 // on the atlas; the template is checked against the atlas image, on which it lies, not against
-// the image. Without --reference: recipe_2d.json and one warning line saying why an atlas helps.
+// the image. Without --reference: recipe_2d_without_atlas.json (a polish: it does no harm on that
+// boundary) and one warning line saying why an atlas helps.
 TEST_F(InitCommandTest, In2DWithAnAtlasItWritesTheAtlasRecipeAndItsRunRegistersAMixedPolarityDisk) {
   // The disk (radius r mm, centre c) at 100 on a background of 30 left of x = c.x and 170 right
   // of it, 0.5 mm pixels, 80 mm across.
@@ -185,7 +186,8 @@ TEST_F(InitCommandTest, In2DWithAnAtlasItWritesTheAtlasRecipeAndItsRunRegistersA
             2);
   EXPECT_NE(err_.find("the template lies outside the atlas image " + atlas.string()), std::string::npos) << err_;
 
-  // Without --reference: the recipe without an atlas, and the 2D warning.
+  // Without --reference: the recipe without an atlas (a polish), the warning naming recipe_2d.json
+  // for a one-polarity object, and the polish run holds the placed disk on its mixed boundary.
   {
     std::ofstream out(contour);
     for (int i = 0; i < 40; ++i) {
@@ -193,13 +195,26 @@ TEST_F(InitCommandTest, In2DWithAnAtlasItWritesTheAtlasRecipeAndItsRunRegistersA
       out << scan_centre(0) + 12 * std::cos(t) << " " << scan_centre(1) + 12 * std::sin(t) << "\n";
     }
   }
-  ASSERT_EQ(dsnake("init --image " + scan.string() + " --template " + contour.string()), 0) << err_;
-  std::ifstream without(std::string(DSNAKE_SOURCE_DIR) + "/experiments/real/recipe_2d.json");
+  ASSERT_EQ(dsnake("init --image " + scan.string() + " --template " + contour.string() + " --mask " + truth.string()), 0)
+      << err_;
+  std::ifstream without(std::string(DSNAKE_SOURCE_DIR) + "/experiments/real/recipe_2d_without_atlas.json");
   ASSERT_TRUE(without.good());
   EXPECT_EQ(settings_of(nlohmann::json::parse(out_)), settings_of(nlohmann::json::parse(without)));
   EXPECT_EQ(std::count(err_.begin(), err_.end(), '\n'), 1) << err_;
   EXPECT_NE(err_.find("warning: no --reference: an atlas image"), std::string::npos) << err_;
-  EXPECT_NE(err_.find("one polarity learned where the template is placed"), std::string::npos) << err_;
+  EXPECT_NE(err_.find("only polishes"), std::string::npos) << err_;
+  EXPECT_NE(err_.find("experiments/real/recipe_2d.json follows that one polarity"), std::string::npos) << err_;
+  const fs::path polish = dir_ / "polish.json", polish_run = dir_ / "polish";
+  std::ofstream(polish) << out_;
+  ASSERT_EQ(dsnake("run " + polish.string() + " -o " + polish_run.string() + " -j 2 --quiet --set output.start_metrics=true"),
+            0)
+      << err_;
+  const nlohmann::json p = nlohmann::json::parse(slurp(polish_run / "result.json"));
+  std::printf("  without an atlas: Dice %.4f -> %.4f\n", p["start"]["metrics"]["dice"].get<double>(),
+              p["metrics"]["dice"].get<double>());
+  // The disk of radius 12 on the truth of radius 13.2: at most max_travel (0.25 mm) nearer.
+  EXPECT_GE(p["metrics"]["dice"].get<double>(), p["start"]["metrics"]["dice"].get<double>() - 0.01);
+  EXPECT_LE(p["metrics"]["dice"].get<double>(), 0.97);
 }
 
 // Slices 4 mm thick (beyond the recipe's 3 mm): with an atlas, the fine patch force (sigma 0.5 mm)
@@ -249,7 +264,7 @@ TEST_F(InitCommandTest, WarnsWhenTheVoxelsAreOutsideTheRecipesRange) {
   ASSERT_EQ(dsnake("init --image " + image.string() + " --template " + contour.string()), 0) << err_;
   EXPECT_EQ(err_.find("voxels of up to"), std::string::npos) << err_;
   EXPECT_NE(err_.find("dsnake: note: the template's equivalent radius is 0.564 mm"), std::string::npos) << err_;
-  EXPECT_DOUBLE_EQ(nlohmann::json::parse(out_)["energies"][2]["search"].get<double>(), 5.0 * 0.0806);  // k = 0.564 / 7
+  EXPECT_DOUBLE_EQ(nlohmann::json::parse(out_)["energies"][2]["search"].get<double>(), 2.0 * 0.0806);  // k = 0.564 / 7
 }
 
 // A structure smaller than the recipe's (another species' brain): the printed lengths are in

@@ -96,8 +96,9 @@ TEST(RecipeScale, In2DTheProfileAndToleranceScaleAndTheTensionAndFieldDiffusionD
   const json recipe = json::parse(recipe_json(2, false));
   json j = recipe;
   scale_lengths(j, 2, 0.5);
-  EXPECT_DOUBLE_EQ(j["energies"][2]["search"].get<double>(), 2.5);
-  EXPECT_DOUBLE_EQ(j["energies"][2]["length"].get<double>(), 1.5);
+  EXPECT_DOUBLE_EQ(j["energies"][2]["search"].get<double>(), 1.0);
+  EXPECT_DOUBLE_EQ(j["energies"][2]["length"].get<double>(), 1.0);
+  EXPECT_DOUBLE_EQ(j["energies"][2]["max_travel"].get<double>(), 0.125);
   EXPECT_DOUBLE_EQ(j["phases"][0]["tolerance"].get<double>(), 0.005);
   EXPECT_FALSE(j["field"].contains("mu"));  // mm^2 per unit of a normalised edge map: invariant
   EXPECT_EQ(j["energies"][0], recipe["energies"][0]);
