@@ -5,8 +5,9 @@ information, its result measured exactly as dsnake's runs (and experiments/real/
 
   experiments/real/syn.py FIXED MOVING TEMPLATE GROUND_TRUTH OUT [--targets TARGETS.json]
 
-FIXED is the scan, MOVING the atlas (reference) image in which TEMPLATE (a 3D mesh) sits on its
-object, GROUND_TRUTH the true mask on FIXED's grid. Steps, into OUT:
+FIXED is the scan, MOVING the atlas (reference) image in which TEMPLATE (a 3D mesh, or a 2D contour
+.txt with 2D NIfTI images: dipy's 2D transforms and CCMetric(2)) sits on its object, GROUND_TRUTH
+the true mask on FIXED's grid. Steps, into OUT:
   1. the template's mask in the moving space: result_mask.nii.gz of a 0-iteration dsnake run whose
      image is MOVING (as elastix.sh);
   2. the registration, in a child process under /usr/bin/time (wall, peak memory: registration.json):
@@ -56,6 +57,13 @@ def lps_ras(p):
     return q
 
 
+def read_template(path):
+    """The template's vertices (LPS mm): a 2D contour's .txt lines, or a 3D OFF mesh's."""
+    if path.endswith(".txt"):
+        return np.loadtxt(path, ndmin=2)
+    return read_off(path)
+
+
 def read_off(path):
     tok = [t for line in open(path) for t in line.split("#")[0].split()]
     assert tok[0] == "OFF"
@@ -63,17 +71,27 @@ def read_off(path):
     return np.array(tok[4:4 + 3 * nv], dtype=np.float64).reshape(nv, 3)
 
 
+def grid_affine(img):
+    """The image's grid-to-world (RAS) affine in its own dimension: 4x4 in 3D; in 2D the 3x3 of its
+    first two axes (a 2D NIfTI's slice keeps its z in the 4x4, which the 2D world drops)."""
+    a = img.affine
+    if len(img.shape) == 3:
+        return a
+    return np.array([[a[0, 0], a[0, 1], a[0, 3]], [a[1, 0], a[1, 1], a[1, 3]], [0.0, 0.0, 1.0]])
+
+
 def crop(img, lo, hi):
-    """The voxel box of img covering the world (RAS) box [lo, hi]: (array, affine)."""
-    import nibabel as nib
-    corners = np.array(np.meshgrid(*[[lo[i], hi[i]] for i in range(3)], indexing="ij")).reshape(3, -1)
-    inv = np.linalg.inv(img.affine)
-    v = inv[:3, :3] @ corners + inv[:3, 3:4]
+    """The voxel box of img covering the world (RAS) box [lo, hi]: (array, affine in img's dimension)."""
+    d = len(lo)
+    aff_full = grid_affine(img)
+    corners = np.array(np.meshgrid(*[[lo[i], hi[i]] for i in range(d)], indexing="ij")).reshape(d, -1)
+    inv = np.linalg.inv(aff_full)
+    v = inv[:d, :d] @ corners + inv[:d, d:d + 1]
     a = np.maximum(np.floor(v.min(1)).astype(int), 0)
-    b = np.minimum(np.ceil(v.max(1)).astype(int) + 1, np.array(img.shape[:3]))
-    data = np.asarray(img.dataobj, dtype=np.float32)[a[0]:b[0], a[1]:b[1], a[2]:b[2]]
-    aff = img.affine.copy()
-    aff[:3, 3] = img.affine[:3, :3] @ a + img.affine[:3, 3]
+    b = np.minimum(np.ceil(v.max(1)).astype(int) + 1, np.array(img.shape[:d]))
+    data = np.asarray(img.dataobj, dtype=np.float32)[tuple(slice(a[i], b[i]) for i in range(d))]
+    aff = aff_full.copy()
+    aff[:d, d] = aff_full[:d, :d] @ a + aff_full[:d, d]
     return data, aff, a, b
 
 
@@ -82,15 +100,18 @@ def register(fixed, moving, moving_mask, out, template_points):
     from dipy.align.imaffine import AffineRegistration, MutualInformationMetric, transform_centers_of_mass
     from dipy.align.imwarp import SymmetricDiffeomorphicRegistration
     from dipy.align.metrics import CCMetric
-    from dipy.align.transforms import AffineTransform3D, RigidTransform3D, TranslationTransform3D
+    from dipy.align.transforms import (AffineTransform2D, AffineTransform3D, RigidTransform2D, RigidTransform3D,
+                                       TranslationTransform2D, TranslationTransform3D)
 
     margin = float(os.environ.get("MARGIN", "30"))
     levels = [int(x) for x in os.environ.get("SYN_LEVELS", "100,50,25").split(",")]
     fimg, mimg, kimg = nib.load(fixed), nib.load(moving), nib.load(moving_mask)
+    d = len(fimg.shape)
     k = np.asarray(kimg.dataobj) > 0
     idx = np.argwhere(k)
-    vox = np.array(np.meshgrid(*[[idx[:, i].min(), idx[:, i].max()] for i in range(3)], indexing="ij")).reshape(3, -1)
-    w = kimg.affine[:3, :3] @ vox + kimg.affine[:3, 3:4]
+    vox = np.array(np.meshgrid(*[[idx[:, i].min(), idx[:, i].max()] for i in range(d)], indexing="ij")).reshape(d, -1)
+    kg = grid_affine(kimg)
+    w = kg[:d, :d] @ vox + kg[:d, d:d + 1]
     lo, hi = w.min(1) - margin, w.max(1) + margin
     fdat, faff, fa, fb = crop(fimg, lo, hi)
     mdat, maff, _, _ = crop(mimg, lo, hi)
@@ -100,16 +121,18 @@ def register(fixed, moving, moving_mask, out, template_points):
     affreg = AffineRegistration(metric=MutualInformationMetric(32, None), level_iters=[10000, 1000, 100],
                                 sigmas=[3.0, 1.0, 0.0], factors=[4, 2, 1], verbosity=0)
     start = c_of_mass.affine
-    for t in (TranslationTransform3D(), RigidTransform3D(), AffineTransform3D()):
+    transforms = ((TranslationTransform3D(), RigidTransform3D(), AffineTransform3D()) if d == 3 else
+                  (TranslationTransform2D(), RigidTransform2D(), AffineTransform2D()))
+    for t in transforms:
         m = affreg.optimize(fdat, mdat, t, None, faff, maff, starting_affine=start)
         start = m.affine
-    sdr = SymmetricDiffeomorphicRegistration(CCMetric(3, sigma_diff=2.0, radius=4), level_iters=levels)
+    sdr = SymmetricDiffeomorphicRegistration(CCMetric(d, sigma_diff=2.0, radius=4), level_iters=levels)
     mapping = sdr.optimize(fdat, mdat, faff, maff, start)
 
     warped = mapping.transform(kdat.astype(np.float64), interpolation="linear", image_world2grid=np.linalg.inv(kaff),
                                out_shape=fdat.shape, out_grid2world=faff)
-    full = np.zeros(fimg.shape[:3], np.uint8)
-    full[fa[0]:fb[0], fa[1]:fb[1], fa[2]:fb[2]] = (warped >= 0.5).astype(np.uint8)
+    full = np.zeros(fimg.shape[:d], np.uint8)
+    full[tuple(slice(fa[i], fb[i]) for i in range(d))] = (warped >= 0.5).astype(np.uint8)
     hdr = fimg.header.copy()
     hdr.set_data_dtype(np.uint8)
     img = nib.Nifti1Image(full, fimg.affine, hdr)
@@ -118,9 +141,9 @@ def register(fixed, moving, moving_mask, out, template_points):
     info = {"crop_voxels": list(fdat.shape), "margin_mm": margin, "syn_level_iters": levels,
             "prealign": start.tolist()}
     if template_points:
-        p = lps_ras(read_off(template_points))  # the template's vertices, RAS world (moving space)
-        Ainv = np.linalg.inv(start[:3, :3])
-        y = (np.linalg.inv(start) @ np.c_[p, np.ones(len(p))].T)[:3].T  # start: the inverse pre-alignment
+        p = lps_ras(read_template(template_points))  # the template's vertices, RAS world (moving space)
+        Ainv = np.linalg.inv(start[:d, :d])
+        y = (np.linalg.inv(start) @ np.c_[p, np.ones(len(p))].T)[:d].T  # start: the inverse pre-alignment
         for it in range(50):
             r = mapping.transform_points(y) - p
             if np.abs(r).max() < 1e-4:
@@ -135,18 +158,27 @@ def register(fixed, moving, moving_mask, out, template_points):
 
 
 def zero_run(dsnake, out, name, image, template, truth=None, targets=None, threads="2"):
+    dimension = 2 if template.endswith(".txt") else 3
     gt = {}
     if truth:
         gt["mask"] = truth
     if targets:
         gt["correspondence"] = targets
-    exp = {"dimension": 3, "name": name, "image": {"file": image}, "template": {"file": template},
+    exp = {"dimension": dimension, "name": name, "image": {"file": image}, "template": {"file": template},
            "field": {"type": "gradient"}, "energies": [{"type": "internal", "weight": 1.0}],
            "phases": [{"iterations": 0}], "output": {"figures": True}}
     if gt:
         exp["ground_truth"] = gt
     json.dump(exp, open(f"{out}/{name}.json", "w"), indent=1)
     subprocess.run([dsnake, "run", f"{out}/{name}.json", "--out", f"{out}/{name}", "--quiet", "-j", threads], check=True)
+
+
+def write_template(path, verts, src):
+    """verts as a template like src: a 2D contour's .txt, or an OFF mesh with src's faces."""
+    if src.endswith(".txt"):
+        np.savetxt(path, verts, fmt="%.10g")
+        return
+    write_off(path, verts, src)
 
 
 def write_off(path, verts, faces_src):
@@ -182,6 +214,7 @@ def main():
     dsnake = os.path.realpath(os.environ.get("DSNAKE", f"{ROOT}/build/release/experiments/dsnake"))
     threads = os.environ.get("THREADS", "2")
     vertices = os.environ.get("VERTICES", "3000")
+    ext = "txt" if template.endswith(".txt") else "off"
     subprocess.run(["rm", "-rf", out], check=True)
     os.makedirs(out)
     out = os.path.realpath(out)
@@ -193,7 +226,7 @@ def main():
                         out, template], check=True, stdout=log, stderr=log,
                        env=dict(os.environ, OMP_NUM_THREADS=threads))
     cmd = [dsnake, "template", "--mask", f"{out}/syn_mask.nii.gz", "--label", "1", "--vertices", vertices,
-           "--out", f"{out}/syn_result.off", "-j", threads]
+           "--out", f"{out}/syn_result.{ext}", "-j", threads]
     t = subprocess.run(cmd, capture_output=True, text=True)
     border = t.returncode != 0 and "touches the image border" in t.stderr
     if border:  # a registration that pushed the mask off the image: still measured, with a flat cap
@@ -207,7 +240,7 @@ def main():
     if t.returncode != 0:
         raise SystemExit(f"syn.py: {' '.join(cmd)} failed: {t.stderr.strip()}")
     tlog = t.stdout.strip()
-    zero_run(dsnake, out, "evaluate", fixed, f"{out}/syn_result.off", truth, threads=threads)
+    zero_run(dsnake, out, "evaluate", fixed, f"{out}/syn_result.{ext}", truth, threads=threads)
     m = json.load(open(f"{out}/evaluate/result.json"))["metrics"]
     wall, kb = open(f"{out}/syn_time.txt").read().split()[-2:]
     reg = json.load(open(f"{out}/registration.json"))
@@ -218,9 +251,9 @@ def main():
     # carried vertices against their targets, ground_truth.correspondence)
     # (a failed registration can fold the template onto itself: dsnake refuses it as a template,
     # and the summary says why instead)
-    write_off(f"{out}/syn_points.off", np.load(f"{out}/syn_points_lps.npy"), template)
+    write_template(f"{out}/syn_points.{ext}", np.load(f"{out}/syn_points_lps.npy"), template)
     try:
-        zero_run(dsnake, out, "correspondence", fixed, f"{out}/syn_points.off", truth, targets, threads=threads)
+        zero_run(dsnake, out, "correspondence", fixed, f"{out}/syn_points.{ext}", truth, targets, threads=threads)
         cm = json.load(open(f"{out}/correspondence/result.json"))["metrics"]
     except subprocess.CalledProcessError:
         cm = {}

@@ -6,6 +6,7 @@
 #   without:     `dsnake init` without --reference as printed (recipe_2d_without_atlas.json),
 #   one polarity: recipe_2d.json (one polarity learned at the start, no atlas; the corpus callosum's),
 #   elastix:     experiments/real/elastix.sh (affine + B-spline, the template's mask warped),
+#   SyN:         experiments/real/syn.py (dipy's MI affine + CC SyN in 2D, the template's mask warped),
 # and the six development cases' fixed points (the truth's surface cut; with atlas: the slice its own
 # atlas; without: as printed without --reference).
 #   bash experiments/real/anatomy/run_slices.sh        (needs data/real/anatomy and its more/ cases:
@@ -27,7 +28,7 @@ run() {  # run DIR TAG EXPERIMENT [--set ...]
   local d=$1 t=$2 e=$3; shift 3
   "$DSNAKE" run "$e" --out "$d/$t" -j 1 --quiet --set output.start_metrics=true "$@" > "$d/$t.log" 2>&1
 }
-printf '| case | with atlas | profile, same atlas | without atlas | one polarity, no atlas | elastix | fixed point: with / without atlas |\n| --- | --- | --- | --- | --- | --- | --- |\n'
+printf '| case | with atlas | profile, same atlas | without atlas | one polarity, no atlas | elastix | SyN | fixed point: with / without atlas |\n| --- | --- | --- | --- | --- | --- | --- | --- |\n'
 for c in $DEV $MORE; do
   src=$A/$c; [ -d "$src" ] || src=$A/more/$c
   d=$OUT/$c; mkdir -p "$d"
@@ -43,6 +44,8 @@ for c in $DEV $MORE; do
     --set ground_truth.mask=$(realpath $i/truth.nii.gz)
   VERTICES=128 THREADS=1 DSNAKE=$DSNAKE bash experiments/real/elastix.sh $i/image.nii.gz $i/reference.nii.gz $i/template.txt $i/truth.nii.gz $d/elastix > $d/elastix.log 2>&1
   el=$(sed -n 's/.*Dice \([0-9.]*\),.*/\1/p' $d/elastix.log | tail -1)
+  VERTICES=128 THREADS=1 DSNAKE=$DSNAKE "$PYTHON" experiments/real/syn.py $i/image.nii.gz $i/reference.nii.gz $i/template.txt $i/truth.nii.gz $d/syn > $d/syn.log 2>&1
+  syn=$(sed -n 's/.*Dice \([0-9.]*\),.*/\1/p' $d/syn.log | tail -1)
   fp="–"
   if [ -f "$src/fixed_template.off" ]; then
     "$PYTHON" experiments/real/anatomy/make_slice_case.py "$src" "$d/fp_in" --template fixed_template.off > /dev/null
@@ -53,5 +56,5 @@ for c in $DEV $MORE; do
     run $d fixed_point_without $d/fixed_point_without.json
     fp="$(dice $d/fixed_point) / $(dice $d/fixed_point_without)"
   fi
-  printf '| %s | %s | %s | %s | %s | %.3f | %s |\n' $c "$(dice $d/with_atlas)" "$(dice $d/profile)" "$(dice $d/without)" "$(dice $d/one_polarity)" "$el" "$fp"
+  printf '| %s | %s | %s | %s | %s | %.3f | %.3f | %s |\n' $c "$(dice $d/with_atlas)" "$(dice $d/profile)" "$(dice $d/without)" "$(dice $d/one_polarity)" "$el" "$syn" "$fp"
 done
