@@ -1,7 +1,8 @@
 """experiments/real/anatomy/make_slice_case.py: on a ball (a label, an image, a sphere mesh), the
 slice is the one where the label is largest, the images are that slice with its world position,
 and the template is the sphere's cut there: a circle of the ball's radius at that height, vertices
-2 mm apart, counter-clockwise; bad arguments are one line, exit code 2, nothing written."""
+2 mm apart, counter-clockwise; a coronal slice takes the world's z as its second axis; bad
+arguments are one line, exit code 2, nothing written."""
 import os
 import subprocess
 import tempfile
@@ -83,11 +84,32 @@ class MakeSliceCaseTest(unittest.TestCase):
             area = 0.5 * np.sum(c[:, 0] * np.roll(c[:, 1], -1) - np.roll(c[:, 0], -1) * c[:, 1])
             self.assertGreater(area, 0)
 
+    def test_a_coronal_slice_has_the_world_z_as_its_second_axis(self):
+        with tempfile.TemporaryDirectory() as d:
+            affine, image, inside = self.make_case(d)
+            out = os.path.join(d, "out")
+            r = self.run_script(d, out, "--axis", "y")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            k = int(np.argmax(inside.sum(axis=(0, 2))))
+            y = -25 + k  # the slice's world (RAS) y
+            self.assertLessEqual(abs(y + 3), 1.5)
+            im = nib.load(os.path.join(out, "image.nii.gz"))
+            np.testing.assert_array_equal(np.asarray(im.dataobj), image[:, k, :])
+            # pixel (i, j): RAS x = -20 + i, z = -5 + j, the 2D image's x and y
+            np.testing.assert_allclose(im.affine @ [3, 4, 0, 1], [-17, -1, y, 1])
+            c = np.loadtxt(os.path.join(out, "template.txt"))
+            # the 2D points are LPS x and -z: the ball's centre (-2, -10.2) there
+            ry = np.sqrt(64 - (y + 3) ** 2)
+            np.testing.assert_allclose(np.linalg.norm(c - [-2, -10.2], axis=1), ry, atol=0.25)
+            area = 0.5 * np.sum(c[:, 0] * np.roll(c[:, 1], -1) - np.roll(c[:, 0], -1) * c[:, 1])
+            self.assertGreater(area, 0)
+
     def test_bad_arguments_one_line_exit_2_nothing_written(self):
         with tempfile.TemporaryDirectory() as d:
             self.make_case(d)
             for args, needle in (((os.path.join(d, "none"), os.path.join(d, "o1")), "file not found"),
                                  ((d, os.path.join(d, "o2"), "--spacing", "0"), "--spacing"),
+                                 ((d, os.path.join(d, "o4"), "--axis", "x"), "--axis"),
                                  ((d, os.path.join(d, "o3"), "--template", "missing.off"), "missing.off")):
                 r = self.run_script(*args)
                 self.assertEqual(r.returncode, 2, r.stderr)

@@ -1,16 +1,18 @@
 #!/usr/bin/env python3
-"""A 2D case from a 3D case of the anatomy sets: the axial slice where the truth is largest.
+"""A 2D case from a 3D case of the anatomy sets: the axial (or coronal) slice where the truth is largest.
 
-    make_slice_case.py CASE_DIR OUT_DIR [--template FILE] [--spacing MM]
+    make_slice_case.py CASE_DIR OUT_DIR [--template FILE] [--spacing MM] [--axis z|y]
 
 CASE_DIR holds image.nii.gz, reference.nii.gz, truth.nii.gz and template.off (make_inputs.py,
 make_mirror_case.py). OUT_DIR gets the three images' slices as 2D NIfTI (the slice's world
 position kept in the affine) and template.txt: the 3D template cut by the slice's plane (its
 largest loop), resampled to vertices SPACING mm apart along its length (default 2, at least 16
 vertices), counter-clockwise. --template: another mesh of CASE_DIR to cut (fixed_template.off
-for a fixed point; give the image as reference yourself). For mirror and cross-contrast cases
-the atlas's slice shows the same anatomy in the same plane (the mirror is about x), so the 2D
-problem is the 3D one's cross-section.
+for a fixed point; give the image as reference yourself). --axis: the axis the slice is normal
+to, z (axial, default) or y (coronal; the slice's second 2D axis is then the world's z, so that
+the 2D image's LPS (x, y) are the world's LPS x and -z, as a 2D NIfTI of the coronal plane reads).
+For mirror and cross-contrast cases the atlas's slice shows the same anatomy in the same plane
+(the mirror is about x), so the 2D problem is the 3D one's cross-section.
 """
 import argparse
 import os
@@ -42,8 +44,9 @@ def read_off(path):
     return v, faces
 
 
-def cut(v, faces, z0):
-    """The loops where the plane z = z0 (LPS mm) cuts the mesh; the largest one, as an array."""
+def cut(v, faces, axis, z0):
+    """The loops where the plane {axis} = z0 (LPS mm) cuts the mesh (v already in the slice's 2D
+    frame in its first two columns, the cut axis in the third); the largest one, as an array."""
     z = v[:, 2] - z0 + 1e-7  # no vertex exactly on the plane
     adj, pos = defaultdict(list), {}
     for f in faces:
@@ -95,7 +98,11 @@ def main():
     ap.add_argument("out")
     ap.add_argument("--template", default="template.off")
     ap.add_argument("--spacing", type=float, default=2.0)
+    ap.add_argument("--axis", default="z")
     a = ap.parse_args()
+    if a.axis not in ("z", "y"):
+        fail(f"--axis: expected z or y, got {a.axis}")
+    ax = 2 if a.axis == "z" else 1
     if not a.spacing > 0:
         fail(f"--spacing: expected a length > 0 mm, got {a.spacing}")
     for f in ("image.nii.gz", "reference.nii.gz", "truth.nii.gz", a.template):
@@ -103,25 +110,33 @@ def main():
             fail(f"{os.path.join(a.case, f)}: file not found")
     truth = nib.load(os.path.join(a.case, "truth.nii.gz"))
     inside = np.asarray(truth.dataobj) > 0
-    k = int(np.argmax(inside.sum(axis=(0, 1))))
+    k = int(np.argmax(inside.sum(axis=tuple(i for i in range(3) if i != ax))))
     affine = truth.affine
-    if not np.allclose(affine[:3, 2], [0, 0, affine[2, 2]]) or not np.allclose(affine[2, :2], 0):
-        fail(f"{a.case}/truth.nii.gz: the third voxel axis is not the world's z alone (an oblique grid)")
-    slice_affine = affine.copy()
-    slice_affine[:3, 3] = affine[:3, 3] + affine[:3, 2] * k
+    if not np.allclose(affine[:3, :3], np.diag(np.diag(affine[:3, :3]))):
+        fail(f"{a.case}/truth.nii.gz: the voxel axes are not the world's (an oblique or permuted grid)")
+    keep = [0, 1] if ax == 2 else [0, 2]  # the slice's two voxel axes, as the 2D image's x and y
+    slice_affine = np.eye(4)
+    slice_affine[:2, :2] = affine[np.ix_(keep, keep)]
+    slice_affine[:2, 3] = affine[keep, 3]
+    slice_affine[2, 3] = affine[ax, 3] + affine[ax, ax] * k  # the slice's place on the cut axis
     os.makedirs(a.out, exist_ok=True)
     for name in ("image.nii.gz", "reference.nii.gz", "truth.nii.gz"):
         im = nib.load(os.path.join(a.case, name))
         if not np.allclose(im.affine, affine):
             fail(f"{a.case}/{name}: not on the truth's grid")
-        data = np.asarray(im.dataobj)[:, :, k]
+        data = np.take(np.asarray(im.dataobj), k, axis=ax)
         data = (data > 0).astype(np.uint8) if name == "truth.nii.gz" else data.astype(np.float32)
         nib.save(nib.Nifti1Image(data, slice_affine), os.path.join(a.out, name))
-    z0 = (affine @ [0, 0, k, 1])[2]  # RAS z is LPS z
-    v, faces = read_off(os.path.join(a.case, a.template))
-    contour = resample(cut(v, faces, z0), a.spacing)
+    z0 = affine[ax, 3] + affine[ax, ax] * k  # RAS world coordinate of the slice on the cut axis
+    v, faces = read_off(os.path.join(a.case, a.template))  # LPS
+    if ax == 2:
+        planar = v  # (x, y) LPS; z LPS = z RAS
+    else:  # 2D (x, y) = LPS x and -z (the RAS z as the 2D image's y, negated as LPS); cut at y = -z0 LPS
+        planar = np.column_stack([v[:, 0], -v[:, 2], v[:, 1]])
+        z0 = -z0
+    contour = resample(cut(planar, faces, a.axis, z0), a.spacing)
     np.savetxt(os.path.join(a.out, "template.txt"), contour, fmt="%.6f")
-    print(f"{a.out}: slice {k} (z {z0:g} mm), {int(inside[:, :, k].sum())} truth pixels, "
+    print(f"{a.out}: slice {k} (RAS {a.axis} {affine[ax, 3] + affine[ax, ax] * k:g} mm), {int(np.take(inside, k, axis=ax).sum())} truth pixels, "
           f"template {len(contour)} vertices")
 
 

@@ -11,14 +11,15 @@
 # atlas; without: as printed without --reference).
 #   bash experiments/real/anatomy/run_slices.sh        (needs data/real/anatomy and its more/ cases:
 #                                                       make_inputs.py, run_more.sh)
-# Prints one row per case: Dice at the start -> at the end (start: the placed template, or after
+# AXIS=y: coronal slices instead (out/real/anatomy/slices_coronal/). Prints one row per case: Dice at the start -> at the end (start: the placed template, or after
 # the image init for with_atlas). One thread per run; out/real/anatomy/slices/CASE/.
 set -euo pipefail
 cd "$(dirname "$0")/../../.."
 DSNAKE=$(realpath "${DSNAKE:-build/release/experiments/dsnake}")
 PYTHON=${PYTHON:-/usr/bin/python3}
 A=data/real/anatomy
-OUT=out/real/anatomy/slices
+AXIS=${AXIS:-z}
+OUT=out/real/anatomy/slices$([ "$AXIS" = y ] && echo _coronal || true)
 DEV="amygdala_mirror pallidum_mirror cerebellum_mirror amygdala_cross pallidum_cross cerebellum_cross"
 MORE="precuneus angular rolandic sma midcing crus1 insula parahipp heschl olfactory postcing tpole flocculus"
 dice() {  # dice RUN_DIR: "start -> end"
@@ -32,7 +33,7 @@ printf '| case | with atlas | profile, same atlas | without atlas | one polarity
 for c in $DEV $MORE; do
   src=$A/$c; [ -d "$src" ] || src=$A/more/$c
   d=$OUT/$c; mkdir -p "$d"
-  "$PYTHON" experiments/real/anatomy/make_slice_case.py "$src" "$d/in" > /dev/null
+  "$PYTHON" experiments/real/anatomy/make_slice_case.py "$src" "$d/in" --axis $AXIS > /dev/null
   i=$d/in
   "$DSNAKE" init --image $i/image.nii.gz --template $i/template.txt --reference $i/reference.nii.gz --mask $i/truth.nii.gz --name $c > $d/with_atlas.json 2> /dev/null
   run $d with_atlas $d/with_atlas.json
@@ -48,7 +49,7 @@ for c in $DEV $MORE; do
   syn=$(sed -n 's/.*Dice \([0-9.]*\),.*/\1/p' $d/syn.log | tail -1)
   fp="–"
   if [ -f "$src/fixed_template.off" ]; then
-    "$PYTHON" experiments/real/anatomy/make_slice_case.py "$src" "$d/fp_in" --template fixed_template.off > /dev/null
+    "$PYTHON" experiments/real/anatomy/make_slice_case.py "$src" "$d/fp_in" --template fixed_template.off --axis $AXIS > /dev/null
     f=$d/fp_in
     run $d fixed_point experiments/real/recipe_2d_with_atlas.json --set image.file=$(realpath $f/image.nii.gz) --set template.file=$(realpath $f/template.txt) \
       --set template.reference_image=$(realpath $f/image.nii.gz) --set ground_truth.mask=$(realpath $f/truth.nii.gz)
