@@ -44,9 +44,9 @@ def read_off(path):
     return v, faces
 
 
-def cut(v, faces, axis, z0):
-    """The loops where the plane {axis} = z0 (LPS mm) cuts the mesh (v already in the slice's 2D
-    frame in its first two columns, the cut axis in the third); the largest one, as an array."""
+def cut(v, faces, z0):
+    """The loops where the plane v[:, 2] = z0 cuts the mesh (v in the slice's frame: its two 2D
+    coordinates first, the cut axis third); the largest one, as an array."""
     z = v[:, 2] - z0 + 1e-7  # no vertex exactly on the plane
     adj, pos = defaultdict(list), {}
     for f in faces:
@@ -134,7 +134,7 @@ def main():
     else:  # 2D (x, y) = LPS x and -z (the RAS z as the 2D image's y, negated as LPS); cut at y = -z0 LPS
         planar = np.column_stack([v[:, 0], -v[:, 2], v[:, 1]])
         z0 = -z0
-    contour = resample(cut(planar, faces, a.axis, z0), a.spacing)
+    contour = resample(cut(planar, faces, z0), a.spacing)
     np.savetxt(os.path.join(a.out, "template.txt"), contour, fmt="%.6f")
     print(f"{a.out}: slice {k} (RAS {a.axis} {affine[ax, 3] + affine[ax, ax] * k:g} mm), {int(np.take(inside, k, axis=ax).sum())} truth pixels, "
           f"template {len(contour)} vertices")

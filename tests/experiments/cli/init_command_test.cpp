@@ -117,37 +117,32 @@ TEST_F(InitCommandTest, WithoutAnAtlasImageItWritesTheRecipeForThatAndSaysWhyAnA
 // the image. Without --reference: recipe_2d_without_atlas.json (a polish: it does no harm on that
 // boundary) and one warning line saying why an atlas helps.
 TEST_F(InitCommandTest, In2DWithAnAtlasItWritesTheAtlasRecipeAndItsRunRegistersAMixedPolarityDisk) {
-  // The disk (radius r mm, centre c) at 100 on a background of 30 left of x = c.x and 170 right
-  // of it, 0.5 mm pixels, 80 mm across.
-  auto disk_image = [&](const Point<2>& c, double r, const std::string& name) {
+  // The disk (radius r mm, centre c), 0.5 mm pixels, 80 mm across: as an image, at 100 on a
+  // background of 30 left of x = c.x and 170 right of it; as a label, 1 inside.
+  auto disk = [&](const Point<2>& c, double r, bool label, const std::string& name) {
     Grid<2> g{GridIndex<2>(160, 160), Point<2>(0.5, 0.5), Point<2>(-40, -40)};
     Image<2> im(g, 0.0f);
     for (int64_t l = 0; l < im.num_voxels(); ++l) {
       const Point<2> x = g.to_physical(g.index(l));
-      im[l] = (x - c).norm() <= r ? 100.0f : x(0) < c(0) ? 30.0f : 170.0f;
+      const bool inside = (x - c).norm() <= r;
+      im[l] = label ? float(inside) : inside ? 100.0f : x(0) < c(0) ? 30.0f : 170.0f;
     }
     const fs::path p = dir_ / name;
     write_image<2>(im, p.string());
     return p;
   };
-  auto disk_mask = [&](const Point<2>& c, double r, const std::string& name) {
-    Grid<2> g{GridIndex<2>(160, 160), Point<2>(0.5, 0.5), Point<2>(-40, -40)};
-    Image<2> im(g, 0.0f);
-    for (int64_t l = 0; l < im.num_voxels(); ++l) im[l] = (g.to_physical(g.index(l)) - c).norm() <= r ? 1.0f : 0.0f;
-    const fs::path p = dir_ / name;
-    write_image<2>(im, p.string());
-    return p;
-  };
-  const Point<2> atlas_centre(-6, 4), scan_centre(-2.5, 1);
-  const fs::path atlas = disk_image(atlas_centre, 12, "atlas.nii.gz"), scan = disk_image(scan_centre, 13.2, "scan.nii.gz");
-  const fs::path truth = disk_mask(scan_centre, 13.2, "truth.nii.gz"), contour = dir_ / "disk.txt";
-  {
-    std::ofstream out(contour);  // 40 vertices on the atlas's disk (2 mm apart)
+  const fs::path contour = dir_ / "disk.txt";
+  auto write_circle = [&](const Point<2>& c) {  // 40 vertices on a circle of radius 12 (2 mm apart)
+    std::ofstream out(contour);
     for (int i = 0; i < 40; ++i) {
       const double t = 2 * M_PI * i / 40;
-      out << atlas_centre(0) + 12 * std::cos(t) << " " << atlas_centre(1) + 12 * std::sin(t) << "\n";
+      out << c(0) + 12 * std::cos(t) << " " << c(1) + 12 * std::sin(t) << "\n";
     }
-  }
+  };
+  const Point<2> atlas_centre(-6, 4), scan_centre(-2.5, 1);
+  const fs::path atlas = disk(atlas_centre, 12, false, "atlas.nii.gz"), scan = disk(scan_centre, 13.2, false, "scan.nii.gz");
+  const fs::path truth = disk(scan_centre, 13.2, true, "truth.nii.gz");
+  write_circle(atlas_centre);  // on the atlas's disk
   ASSERT_EQ(dsnake("init --image " + scan.string() + " --template " + contour.string() + " --reference " +
                    atlas.string() + " --mask " + truth.string()),
             0)
@@ -174,13 +169,7 @@ TEST_F(InitCommandTest, In2DWithAnAtlasItWritesTheAtlasRecipeAndItsRunRegistersA
 
   // A template off the atlas image (200 mm away: more than its extent beyond its border) is
   // refused, naming the atlas: it is checked against the atlas, on which it should lie.
-  {
-    std::ofstream out(contour);
-    for (int i = 0; i < 40; ++i) {
-      const double t = 2 * M_PI * i / 40;
-      out << 200 + 12 * std::cos(t) << " " << 12 * std::sin(t) << "\n";
-    }
-  }
+  write_circle(Point<2>(200, 0));
   EXPECT_EQ(dsnake("init --image " + scan.string() + " --template " + contour.string() + " --reference " +
                    atlas.string()),
             2);
@@ -188,13 +177,7 @@ TEST_F(InitCommandTest, In2DWithAnAtlasItWritesTheAtlasRecipeAndItsRunRegistersA
 
   // Without --reference: the recipe without an atlas (a polish), the warning naming recipe_2d.json
   // for a one-polarity object, and the polish run holds the placed disk on its mixed boundary.
-  {
-    std::ofstream out(contour);
-    for (int i = 0; i < 40; ++i) {
-      const double t = 2 * M_PI * i / 40;
-      out << scan_centre(0) + 12 * std::cos(t) << " " << scan_centre(1) + 12 * std::sin(t) << "\n";
-    }
-  }
+  write_circle(scan_centre);
   ASSERT_EQ(dsnake("init --image " + scan.string() + " --template " + contour.string() + " --mask " + truth.string()), 0)
       << err_;
   std::ifstream without(std::string(DSNAKE_SOURCE_DIR) + "/experiments/real/recipe_2d_without_atlas.json");

@@ -61,15 +61,21 @@ class ImageInitTest : public TempDirTest {
     write_image<2>(moved<2>(reference, T, 0.8, 30.0), (dir_ / "scan.mha").string());
     tmpl2_ = round_template<2>(15.0, centre2(), 40);
     write_contour(tmpl2_.positions, (dir_ / "template.txt").string());
-    return {{"name", "image_init"}, {"dimension", 2},
+    return init_experiment("image_init", 2, "template.txt", {{"type", "image"}});
+  }
+  static Point<2> centre2() { return Point<2>(110, 125); }
+
+  // An experiment that only places the template (one iteration of a tension alone) on scan.mha,
+  // with reference.mha as its atlas image and `init` as its template.init.
+  static json init_experiment(const std::string& name, int dimension, const std::string& tmpl, const json& init) {
+    return {{"name", name}, {"dimension", dimension},
             {"image", {{"file", "scan.mha"}}},
-            {"template", {{"file", "template.txt"}, {"reference_image", "reference.mha"}, {"init", {{"type", "image"}}}}},
+            {"template", {{"file", tmpl}, {"reference_image", "reference.mha"}, {"init", init}}},
             {"field", {{"type", "gradient"}}},
             {"energies", {{{"type", "internal"}, {"weight", 1.0}}}},
             {"phases", {{{"iterations", 1}}}},
             {"output", {{"figures", false}, {"result_mask", false}}}};
   }
-  static Point<2> centre2() { return Point<2>(110, 125); }
 
   fs::path write(const json& doc) {
     std::ofstream(dir_ / "experiment.json") << doc.dump(2);
@@ -170,14 +176,7 @@ TEST_F(ImageInitTest, TheTemplateIsBroughtBackOntoTheMovedVolume3d) {
   write_image<3>(moved<3>(reference, T, 1.3, 10.0), (dir_ / "scan.mha").string());
   const Template<3> t = round_template<3>(12.0, c);
   write_mesh(t.positions, t.connectivity, (dir_ / "template.off").string());
-  const json doc = {{"name", "image_init3"}, {"dimension", 3},
-                    {"image", {{"file", "scan.mha"}}},
-                    {"template", {{"file", "template.off"}, {"reference_image", "reference.mha"},
-                                  {"init", {{"type", "image"}, {"transform", "rigid"}}}}},
-                    {"field", {{"type", "gradient"}}},
-                    {"energies", {{{"type", "internal"}, {"weight", 1.0}}}},
-                    {"phases", {{{"iterations", 1}}}},
-                    {"output", {{"figures", false}, {"result_mask", false}}}};
+  const json doc = init_experiment("image_init3", 3, "template.off", {{"type", "image"}, {"transform", "rigid"}});
   const Experiment<3> ex = experiment<3>(doc);
   ASSERT_TRUE(ex.init);
   std::printf("[ measured ] 3D rigid: %.3f mm after\n", worst<3>(ex, t, T));
@@ -215,14 +214,8 @@ TEST_F(ImageInitTest, AScanInAnotherWorldFrameIsReachedThroughTheWholeImage3d) {
       scan[l] = 0.7f * reference.at(GridIndex<3>(i[0], i[1], i[2] + lo)) + 40.0f;
     }
     write_image<3>(scan, (dir_ / "scan.mha").string());
-    const json doc = {{"name", "whole_image"}, {"dimension", 3},
-                      {"image", {{"file", "scan.mha"}}},
-                      {"template", {{"file", "template.off"}, {"reference_image", "reference.mha"},
-                                    {"init", {{"type", "image"}, {"transform", "rigid"}, {"whole_image", whole}}}}},
-                      {"field", {{"type", "gradient"}}},
-                      {"energies", {{{"type", "internal"}, {"weight", 1.0}}}},
-                      {"phases", {{{"iterations", 1}}}},
-                      {"output", {{"figures", false}, {"result_mask", false}}}};
+    const json doc = init_experiment("whole_image", 3, "template.off",
+                                     {{"type", "image"}, {"transform", "rigid"}, {"whole_image", whole}});
     const Experiment<3> ex = experiment<3>(doc);
     EXPECT_TRUE(ex.init);
     return std::make_pair(worst<3>(ex, t, T), init_report_json<3>(*ex.init));
