@@ -35,6 +35,13 @@ std::vector<int> ring_neighbors(const Connectivity& c, int j, int rings, std::ve
 
 }  // namespace
 
+template <int D>
+int effective_rings(const NeighborhoodSpec& spec, int n) {
+  if (spec.rings_at_vertices <= 0) return spec.rings;
+  const double share = std::pow(double(n) / spec.rings_at_vertices, 1.0 / (D - 1));
+  return std::max(1, int(std::lround(spec.rings * share)));
+}
+
 // Eq. (2) over the chosen neighbourhood; O(n^2) for kAll and kNearest (built once per template, §7).
 template <int D>
 MlsNeighborhoods build_neighborhoods(const Template<D>& tmpl, const NeighborhoodSpec& spec) {
@@ -45,12 +52,13 @@ MlsNeighborhoods build_neighborhoods(const Template<D>& tmpl, const Neighborhood
   const double coincident = 1e-12 * std::max((hi - lo).norm(), 1e-300);
   MlsNeighborhoods nb;
   std::vector<int> mark(n, -1), candidates;
+  const int rings = effective_rings<D>(spec, n);
   std::vector<double> dist(n);
   for (int j = 0; j < n; ++j) {
     candidates.clear();
     if (spec.kind == NeighborhoodKind::kRings) {
       DSNAKE_ASSERT(tmpl.connectivity.num_vertices() == n, "ring neighbourhoods need the template connectivity");
-      candidates = ring_neighbors(tmpl.connectivity, j, spec.rings, mark, j);
+      candidates = ring_neighbors(tmpl.connectivity, j, rings, mark, j);
     } else {
       for (int i = 0; i < n; ++i) {
         dist[i] = (p[i] - p[j]).squaredNorm();
@@ -214,6 +222,8 @@ Eigen::Matrix3d best_rotation<3>(const Eigen::Matrix3d& cross) {
   return rotation_3d(cross, t);
 }
 
+template int effective_rings<2>(const NeighborhoodSpec&, int);
+template int effective_rings<3>(const NeighborhoodSpec&, int);
 template MlsNeighborhoods build_neighborhoods<2>(const Template<2>&, const NeighborhoodSpec&);
 template MlsNeighborhoods build_neighborhoods<3>(const Template<3>&, const NeighborhoodSpec&);
 

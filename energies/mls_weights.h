@@ -45,6 +45,11 @@ struct NeighborhoodSpec {
   NeighborhoodKind kind = NeighborhoodKind::kRings;
   int k = 8;            // kNearest: number of nearest template vertices (Euclidean, template positions)
   int rings = 1;        // kRings: vertices within this many edges on the template connectivity
+  // kRings: the template size (vertices) at which `rings` is meant, or 0 for `rings` as given. A
+  // ring's width is the template's edge length, so a fixed count covers less of the surface on a
+  // finer template; with n vertices the count is scaled to the same share of the surface (3D,
+  // edge length ~ n^(-1/2)) or of the outline (2D, ~ n^(-1)). effective_rings() gives it.
+  int rings_at_vertices = 0;
   double falloff = 1.0; // eq. (2)'s fall-off exponent (> 0)
   MlsWeighting weights = MlsWeighting::kInverseDistance;  // kUniform: the global similarity of eq. (3) when kind = kAll
 
@@ -53,10 +58,20 @@ struct NeighborhoodSpec {
     v(kind, Key{"neighborhood", "", "N(j): every template vertex, the k nearest, or the vertices within `rings` edges"});
     v(k, Key{"k", "vertices", "k_nearest: number of nearest template vertices (at most the template's size - 1)", Range::at_least(1)});
     v(rings, Key{"rings", "edges", "rings: the neighbourhood's radius on the template connectivity", Range::at_least(1)});
+    v(rings_at_vertices, Key{"rings_at_vertices", "vertices",
+                             "rings: the template size at which `rings` is meant; a template of n vertices then uses "
+                             "round(rings (n / rings_at_vertices)^(1/(D-1))) rings, at least 1: the same share of its "
+                             "surface (3D) or outline (2D) at every resolution. 0: `rings` as given",
+                             Range::at_least(0)});
     v(falloff, Key{"falloff", "1", "eq. (2)'s fall-off exponent", Range::greater_than(0)});
     v(weights, Key{"weights", "", "eq. (2)'s inverse-distance weights or uniform ones (eq. (3))"});
   }
 };
+
+// The ring count a kRings neighbourhood uses on a template of n vertices: spec.rings, or with
+// spec.rings_at_vertices > 0, round(rings (n / rings_at_vertices)^(1/(D-1))) and at least 1.
+template <int D>
+int effective_rings(const NeighborhoodSpec& spec, int n);
 
 template <int D>
 MlsNeighborhoods build_neighborhoods(const Template<D>& tmpl, const NeighborhoodSpec& spec);

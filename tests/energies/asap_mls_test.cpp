@@ -9,6 +9,7 @@
 #include "framework/core/errors.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <gtest/gtest.h>
@@ -560,6 +561,7 @@ TEST(AsapMls, BadInputNamesTheKey) {
   EXPECT_EQ(where2(R"({"type": "asap_mls", "power": 0})"), "energies[0].power");
   EXPECT_EQ(where3(R"({"type": "asap_mls", "rest": "start"})"), "energies[0].rest");
   EXPECT_EQ(where2(R"({"type": "asap_mls", "fallof": 1})"), "energies[0].fallof");
+  EXPECT_EQ(where3(R"({"type": "asap_mls", "rings_at_vertices": -1})"), "energies[0].rings_at_vertices");
   EXPECT_EQ(where3(R"({"type": "asap_mls", "variant": "exact"})"), "no error");  // 3D exact defaults to jacobi
   // k larger than the template: check_template() names the key (the experiment assembly adds
   // the file and path; tests/experiments), and bind() refuses it as a programmer error
@@ -576,6 +578,50 @@ TEST(AsapMls, BadInputNamesTheKey) {
   auto ok = make2(R"({"type": "asap_mls", "neighborhood": "k_nearest", "k": 9})");
   EXPECT_NO_THROW(ok->check_template(t));
   EXPECT_NO_THROW(ok->bind({&t}, s));
+}
+
+// rings_at_vertices: the ring count scaled with the template's size, so that a neighbourhood
+// covers the same share of the surface (3D: edge length ~ n^(-1/2)) or outline (2D: ~ n^(-1)).
+TEST(AsapMls, RingsAtVerticesKeepTheNeighbourhoodsShareOfTheSurface) {
+  NeighborhoodSpec spec;
+  spec.rings = 2;
+  EXPECT_EQ(effective_rings<3>(spec, 1500), 2);  // 0: rings as given
+  spec.rings_at_vertices = 450;
+  EXPECT_EQ(effective_rings<3>(spec, 450), 2);
+  EXPECT_EQ(effective_rings<3>(spec, 400), 2);   // 2 sqrt(400/450) = 1.89
+  EXPECT_EQ(effective_rings<3>(spec, 1500), 4);  // 2 sqrt(1500/450) = 3.65
+  EXPECT_EQ(effective_rings<3>(spec, 4000), 6);  // 5.96
+  EXPECT_EQ(effective_rings<3>(spec, 100), 1);   // 0.94
+  EXPECT_EQ(effective_rings<3>(spec, 10), 1);    // at least one ring
+  spec.rings_at_vertices = 50;
+  EXPECT_EQ(effective_rings<2>(spec, 125), 5);   // 2 x 125/50
+  EXPECT_EQ(effective_rings<2>(spec, 10), 1);    // 0.4, at least one ring
+
+  // The same sphere at 162 and 642 vertices (edges halved): 2 rings set at 162 vertices reach
+  // as far on both; without rings_at_vertices, half as far on the finer one.
+  auto mean_reach = [](const Template<3>& t, const NeighborhoodSpec& sp) {
+    const MlsNeighborhoods nb = build_neighborhoods<3>(t, sp);
+    double sum = 0.0;
+    for (int j = 0; j < nb.size(); ++j) {
+      double reach = 0.0;
+      for (int i : nb.neighbors(j)) reach = std::max(reach, (t.positions[i] - t.positions[j]).norm());
+      sum += reach;
+    }
+    return sum / nb.size();
+  };
+  Template<3> coarse = make_icosphere(2), fine = make_icosphere(3);
+  ASSERT_EQ(coarse.num_vertices(), 162);
+  ASSERT_EQ(fine.num_vertices(), 642);
+  for (auto* t : {&coarse, &fine})
+    for (auto& p : t->positions) p *= 10.0;
+  NeighborhoodSpec fixed;
+  fixed.rings = 2;
+  NeighborhoodSpec scaled = fixed;
+  scaled.rings_at_vertices = 162;
+  const double coarse_reach = mean_reach(coarse, fixed);
+  EXPECT_DOUBLE_EQ(mean_reach(coarse, scaled), coarse_reach);
+  EXPECT_NEAR(mean_reach(fine, scaled) / coarse_reach, 1.0, 0.1);
+  EXPECT_NEAR(mean_reach(fine, fixed) / coarse_reach, 0.5, 0.1);
 }
 
 // After a remesh (free vertices inserted), the energy rebinds its id map only and proposes for
