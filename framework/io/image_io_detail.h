@@ -225,7 +225,8 @@ bool stores_direction(const std::string& ext);
 void restore_stored_order(RawVolume& v, const ImageLayout& layout);
 
 // NIfTI (nifti.cpp). Read: NIfTI-1 and NIfTI-2, single files (.nii, .nii.gz) and .hdr/.img pairs
-// (either file names the pair; each optionally gzipped); written: NIfTI-1 single files.
+// (either file names the pair; each optionally gzipped); written: NIfTI-1 single files (NIfTI-2
+// on the grid of a NIfTI-2 input that NIfTI-1 cannot hold, nifti_header_for_values).
 // Decode a header (the geometry, placed by `transform`; with `warn`, the warning lines of
 // image_io.h's NiftiTransform on stderr) from the file's first bytes (a pair's header when `path`
 // is a .hdr); write float32 .nii or .nii.gz.
@@ -237,11 +238,12 @@ void write_nifti(const RawVolume& v, const std::string& path);
 // naming `path`, the file to be written.
 std::string nifti_header_of(const RawVolume& v, const std::string& path);
 // A NIfTI input's own header `source` (as stored: 348 bytes of NIfTI-1, 540 of NIfTI-2) as the
-// NIfTI-1 header of a single file (magic "n+1") for values stored as uint8 (label) or float32 from
-// byte 352, no scaling, no extensions; every other field kept, a NIfTI-1 header in its byte order
-// (`swap` says it is foreign: float32 values must then be stored swapped), a NIfTI-2 one's fields
-// in NIfTI-1's (reals as float; a dim beyond int16 is an InputError naming `path`, the file to be
-// written) in native order.
+// header of a single file for values stored as uint8 (label) or float32 right after it, no
+// scaling, no extensions; every other field kept. A NIfTI-1 header stays NIfTI-1 (magic "n+1",
+// values from byte 352) in its byte order (`swap` says it is foreign: float32 values must then be
+// stored swapped); a NIfTI-2 one becomes NIfTI-1 in native order (reals as float) when its grid
+// fits NIfTI-1's int16 dim, else stays NIfTI-2 (magic "n+2", values from byte 544) in its byte
+// order. `path`, the file to be written, names any InputError.
 std::string nifti_header_for_values(const std::string& source, bool label, bool& swap, const std::string& path);
 // Writes parts (a header, the values) as .nii, or gzipped as .nii.gz, atomically.
 void write_nifti_parts(const std::vector<std::string_view>& parts, const std::string& path);

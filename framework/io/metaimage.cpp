@@ -94,11 +94,13 @@ bool meta_true(const std::string* value) {
   return v == "true" || v == "1";
 }
 
-// MetaImage ElementType names.
+// MetaImage ElementType names. MetaIO stores MET_LONG and MET_ULONG in 4 bytes on every
+// platform (metaTypes.h's MET_ValueTypeSize), whatever the writer's `long`.
 const std::map<std::string, Scalar>& meta_types() {
   static const std::map<std::string, Scalar> types = {
       {"MET_UCHAR", Scalar::kU8},  {"MET_CHAR", Scalar::kI8},  {"MET_USHORT", Scalar::kU16},
       {"MET_SHORT", Scalar::kI16}, {"MET_UINT", Scalar::kU32}, {"MET_INT", Scalar::kI32},
+      {"MET_LONG", Scalar::kI32},  {"MET_ULONG", Scalar::kU32},
       {"MET_LONG_LONG", Scalar::kI64}, {"MET_ULONG_LONG", Scalar::kU64},
       {"MET_FLOAT", Scalar::kF32}, {"MET_DOUBLE", Scalar::kF64}};
   return types;

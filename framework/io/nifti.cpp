@@ -586,28 +586,55 @@ std::string nifti1_header_of(const NiftiHeader& in, const std::string& path) {
   return h;
 }
 
+// Whether every axis of the image `h` describes fits NIfTI-1's int16 dim.
+bool fits_nifti1(const NiftiHeader& h) {
+  const int64_t n = std::clamp<int64_t>(h.integer(kDim, 0), 0, 7);
+  for (int i = 1; i <= n; ++i)
+    if (h.integer(kDim, i) > std::numeric_limits<int16_t>::max()) return false;
+  return true;
+}
+
 std::string nifti_header_for_values(const std::string& source, bool label, bool& swap, const std::string& path) {
   const NiftiHeader in = identify_nifti(source);
   DSNAKE_ASSERT(in.version != 0 && source.size() >= in.size(), "a whole NIfTI-1 or NIfTI-2 header");
+  // A NIfTI-2 source is written as NIfTI-1, which every reader opens, unless its grid does not
+  // fit; then as NIfTI-2, its own header in its own byte order.
+  NiftiHeader out;
+  out.version = in.version == 2 && !fits_nifti1(in) ? 2 : 1;
   std::string h;
-  if (in.version == 1) {
+  if (in.version == out.version) {
     swap = in.swap;
-    h = source.substr(0, kNiftiHeaderBytes);
+    h = source.substr(0, in.size());
   } else {
     swap = false;
     h = nifti1_header_of(in, path);
   }
-  h.resize(kNiftiVoxOffset, '\0');  // extension flag 0: no extensions follow
-  std::memcpy(h.data() + 344, "n+1", 4);  // a single file (a pair's header says "ni1")
-  put_in_order<int16_t>(h, 70, label ? 2 : 16, swap);  // datatype: uint8 or float32
-  put_in_order<int16_t>(h, 72, label ? 8 : 32, swap);  // bitpix
-  put_in_order<float>(h, 108, float(kNiftiVoxOffset), swap);
-  put_in_order<float>(h, 112, 1.0f, swap);  // scl_slope, scl_inter: the values as stored
-  put_in_order<float>(h, 116, 0.0f, swap);
+  h.resize(out.first_value_byte(), '\0');  // extension flag 0: no extensions follow
+  // A single file's magic (a pair's header says "ni1" / "ni2").
+  if (out.version == 1) std::memcpy(h.data() + out.slot(kMagic).offset, "n+1", 4);
+  else std::memcpy(h.data() + out.slot(kMagic).offset, "n+2\0\r\n\032\n", 8);
+  // Fields in the output version's layout and the header's byte order.
+  auto put_integer = [&](NiftiField f, int64_t x) {
+    const NiftiSlot& slot = out.slot(f);
+    if (slot.size == 2) put_in_order<int16_t>(h, slot.offset, int16_t(x), swap);
+    else if (slot.size == 4) put_in_order<int32_t>(h, slot.offset, int32_t(x), swap);
+    else put_in_order<int64_t>(h, slot.offset, x, swap);
+  };
+  auto put_real = [&](NiftiField f, double x) {
+    const NiftiSlot& slot = out.slot(f);
+    if (slot.kind == NiftiKind::kInt) put_integer(f, int64_t(x));  // NIfTI-2's vox_offset
+    else if (slot.size == 4) put_in_order<float>(h, slot.offset, float(x), swap);
+    else put_in_order<double>(h, slot.offset, x, swap);
+  };
+  put_integer(kDatatype, label ? 2 : 16);  // uint8 or float32
+  put_integer(kBitpix, label ? 8 : 32);
+  put_real(kVoxOffset, double(out.first_value_byte()));
+  put_real(kSclSlope, 1.0);  // scl_slope, scl_inter: the values as stored
+  put_real(kSclInter, 0.0);
   if (label) {  // a mask is no statistic and has no display window of the source's intensities
-    put_in_order<int16_t>(h, 68, 0, swap);  // intent_code: none
-    put_in_order<float>(h, 124, 0.0f, swap);  // cal_max, cal_min: unset
-    put_in_order<float>(h, 128, 0.0f, swap);
+    put_integer(kIntentCode, 0);
+    put_real(kCalMax, 0.0);
+    put_real(kCalMin, 0.0);
   }
   return h;
 }

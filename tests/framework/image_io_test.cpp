@@ -204,6 +204,27 @@ TEST(ImageIo, MetaImage64BitIntegersReadAsTheirNearestFloat) {
   EXPECT_EQ(si[0], float(uint64_t(1) << 60) + float(uint64_t(1) << 37));
 }
 
+// MET_LONG and MET_ULONG hold 4 bytes in MetaIO (metaTypes.h), as MET_INT and MET_UINT do.
+TEST(ImageIo, MetaImageLongIsFourBytes) {
+  const std::string dir = fresh_dir();
+  const std::vector<int32_t> s = {-2'000'000'000, -1, 0, 123456};
+  const std::vector<uint32_t> u = {4'000'000'000u, 1, 0, 65537};
+  std::string sb(reinterpret_cast<const char*>(s.data()), s.size() * 4);
+  std::string ub(reinterpret_cast<const char*>(u.data()), u.size() * 4);
+  const std::string head = "ObjectType = Image\nNDims = 2\nBinaryData = True\nDimSize = 2 2\n"
+                           "BinaryDataByteOrderMSB = False\n";
+  write_file(dir + "/s.mha", head + "ElementType = MET_LONG\nElementDataFile = LOCAL\n" + sb);
+  write_file(dir + "/u.mha", head + "ElementType = MET_ULONG\nElementDataFile = LOCAL\n" + ub);
+  const Image<2> si = read_image<2>(dir + "/s.mha"), ui = read_image<2>(dir + "/u.mha");
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_EQ(si[i], static_cast<float>(s[size_t(i)])) << i;
+    EXPECT_EQ(ui[i], static_cast<float>(u[size_t(i)])) << i;
+  }
+  // Three values' bytes for four: refused, naming the file (the size follows from 4 bytes each).
+  write_file(dir + "/short.mha", head + "ElementType = MET_LONG\nElementDataFile = LOCAL\n" + sb.substr(0, 12));
+  EXPECT_THROW(read_image<2>(dir + "/short.mha"), InputError);
+}
+
 // Raw MetaImage data is read from its file a block at a time, the header from the file's first
 // 64 kB: a volume of several blocks, HeaderSize skips (a count, and -1: the data are
 // the file's last bytes), a header longer than 64 kB, and data shorter than declared (named
@@ -761,7 +782,7 @@ TEST(ImageIo, HeaderErrorsNameTheKey) {
   };
   const std::vector<std::array<std::string, 3>> cases = {
       {replace("DimSize = 2 2\n", ""), "DimSize", "missing required key"},
-      {replace("MET_UCHAR", "MET_LONG"), "ElementType", "unsupported element type MET_LONG"},
+      {replace("MET_UCHAR", "MET_STRING"), "ElementType", "unsupported element type MET_STRING"},
       {replace("ElementSpacing = 1 1", "ElementSpacing = 1 0"), "ElementSpacing", "spacing must be positive"},
       {replace("NDims = 2", "NDims = 4"), "NDims", "unsupported dimension"},
       {replace("DimSize = 2 2", "DimSize = 2 x"), "DimSize", "expected numbers"},

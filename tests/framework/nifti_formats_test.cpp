@@ -440,28 +440,50 @@ TEST(NiftiPair, ImagesWrittenOnTheSourceGridAreSingleFileNifti1) {
     const Image<3> label = read_image<3>(dir + "/label.nii.gz");
     EXPECT_TRUE(label.grid().same_geometry(image.grid(), 1e-5));
   }
-  // A NIfTI-2 grid of more than 32767 voxels along an axis is read, and NIfTI-1 cannot hold it:
-  // the file to be written is refused, naming dim; no file is left.
+  // A NIfTI-2 grid of more than 32767 voxels along an axis is read. On its own grid (what a run
+  // writes: result_mask.nii.gz) it is written as NIfTI-2, its header kept, in its byte order;
+  // converted to NIfTI-1 it is refused, naming dim, and no file is left.
   Header wide;
   wide.dim = {3, 40000, 2, 2, 1, 1, 1, 1};
   wide.datatype = 2;
   wide.bitpix = 8;
-  write_file(dir + "/wide.nii", nifti_file(wide, 2, std::string(160000, '\1')));
-  ImageLayout layout;
-  const Image<3> image = read_image<3>(dir + "/wide.nii", {}, &layout);
-  EXPECT_EQ(image.size(), GridIndex<3>(40000, 2, 2));
-  for (const bool on_source_grid : {true, false}) {
-    const InputError e = expect_input_error([&] {
-      if (on_source_grid) write_image_on_source_grid<3>(image, layout, dir + "/out_wide.nii", {});
-      else convert_image_file(dir + "/wide.nii", dir + "/out_wide.nii");
-    });
-    EXPECT_EQ(e.file(), dir + "/out_wide.nii");
-    EXPECT_EQ(e.where(), "dim");
-    EXPECT_TRUE(contains(e.message(), "at most 32767")) << e.what();
-    EXPECT_FALSE(fs::exists(dir + "/out_wide.nii"));
+  wide.pixdim = {1, 0.5f, 2, 3, 1, 1, 1, 1};
+  std::string wide_values(160000, '\1');
+  wide_values[7] = 9;
+  for (const bool swapped : {false, true}) {
+    SCOPED_TRACE(swapped ? "big-endian" : "native");
+    wide.big_endian = swapped;
+    write_file(dir + "/wide.nii", nifti_file(wide, 2, wide_values));
+    ImageLayout layout;
+    const Image<3> image = read_image<3>(dir + "/wide.nii", {}, &layout);
+    EXPECT_EQ(image.size(), GridIndex<3>(40000, 2, 2));
+    auto field = [&](const std::string& bytes, size_t offset, auto zero) {
+      std::string b = bytes.substr(offset, sizeof zero);
+      if (swapped) std::reverse(b.begin(), b.end());
+      std::memcpy(&zero, b.data(), sizeof zero);
+      return zero;
+    };
+    for (const bool label : {true, false}) {
+      write_image_on_source_grid<3>(image, layout, dir + "/grid_wide.nii", {.label = label});
+      const std::string out = read_file(dir + "/grid_wide.nii");
+      ASSERT_EQ(out.size(), 544u + 160000u * (label ? 1 : 4));
+      EXPECT_EQ(field(out, 0, int32_t(0)), 540);
+      EXPECT_EQ(out.substr(4, 8), std::string("n+2\0\r\n\032\n", 8));
+      EXPECT_EQ(field(out, 12, int16_t(0)), label ? 2 : 16);  // datatype
+      EXPECT_EQ(field(out, 168, int64_t(0)), 544);             // vox_offset
+      EXPECT_EQ(field(out, 24, int64_t(0)), 40000);            // dim[1]
+      const Image<3> back = read_image<3>(dir + "/grid_wide.nii");
+      EXPECT_TRUE(back.grid().same_geometry(image.grid(), 1e-9));
+      EXPECT_EQ(back.data(), image.data());
+    }
   }
+  const InputError e = expect_input_error([&] { convert_image_file(dir + "/wide.nii", dir + "/out_wide.nii"); });
+  EXPECT_EQ(e.file(), dir + "/out_wide.nii");
+  EXPECT_EQ(e.where(), "dim");
+  EXPECT_TRUE(contains(e.message(), "at most 32767")) << e.what();
+  EXPECT_FALSE(fs::exists(dir + "/out_wide.nii"));
   convert_image_file(dir + "/wide.nii", dir + "/wide.nrrd");
-  EXPECT_EQ(read_image<3>(dir + "/wide.nrrd").data(), image.data());
+  EXPECT_EQ(read_image<3>(dir + "/wide.nrrd").data(), read_image<3>(dir + "/wide.nii").data());
 }
 
 // A pair whose other file is missing, whose .img is short, an ANALYZE 7.5 header, a single file's

@@ -98,7 +98,7 @@ TEST(RecipeScale, In2DTheProfileAndToleranceScaleAndTheTensionAndFieldDiffusionD
   scale_lengths(j, 2, 0.5);
   EXPECT_DOUBLE_EQ(j["energies"][2]["search"].get<double>(), 1.0);
   EXPECT_DOUBLE_EQ(j["energies"][2]["length"].get<double>(), 1.0);
-  EXPECT_DOUBLE_EQ(j["energies"][2]["max_travel"].get<double>(), 0.125);
+  EXPECT_DOUBLE_EQ(j["energies"][2]["max_travel"].get<double>(), 0.075);  // 0.15 mm at half the size
   EXPECT_DOUBLE_EQ(j["phases"][0]["tolerance"].get<double>(), 0.005);
   EXPECT_FALSE(j["field"].contains("mu"));  // mm^2 per unit of a normalised edge map: invariant
   EXPECT_EQ(j["energies"][0], recipe["energies"][0]);
