@@ -2,10 +2,11 @@
 //  - 2D: PNG, TIFF, JPEG, BMP through OpenCV (grey levels; colour is converted to grey);
 //    MetaImage, NIfTI, NRRD and INRIMAGE with two dimensions (or a third of size 1) also read as 2D.
 //  - 3D: MetaImage .mha/.mhd (raw or zlib-compressed, separate .raw/.zraw data file or LOCAL),
-//    NIfTI .nii/.nii.gz (NIfTI-1 and NIfTI-2 read, NIfTI-1 written) and .hdr/.img pairs (read
-//    only; either file names the pair, each may be gzipped; an ANALYZE 7.5 .hdr, which has no
-//    orientation, is refused), NRRD .nrrd/.nhdr (raw or gzip, attached or detached data, LPS/RAS
-//    space directions; framework/io/nrrd.cpp) and INRIMAGE-4 .inr/.inr.gz (framework/io/inr.cpp).
+//    NIfTI .nii/.nii.gz (NIfTI-1 and NIfTI-2 read; NIfTI-1 written, NIfTI-2 for more than 32767
+//    voxels along an axis) and .hdr/.img pairs (read only; either file names the pair, each may
+//    be gzipped; an ANALYZE 7.5 .hdr, which has no orientation, is refused), NRRD .nrrd/.nhdr
+//    (raw or gzip, attached or detached data, LPS/RAS space directions; framework/io/nrrd.cpp)
+//    and INRIMAGE-4 .inr/.inr.gz (framework/io/inr.cpp).
 //    Voxel types: 8- to 64-bit integers, float and double, read as float (rounded once).
 //    World coordinates are LPS; a format storing RAS is converted on reading and writing.
 //    Orientation: an image stored with flipped or permuted axes is reordered on reading so that
@@ -117,13 +118,13 @@ struct ImageWriteOptions {
 template <int D>
 void write_image(const Image<D>& image, const std::string& path, const ImageWriteOptions& options);
 
-// Writes `image` (on the grid read_image made of `layout`'s file) as a NIfTI-1 `path` (.nii or
+// Writes `image` (on the grid read_image made of `layout`'s file) as a NIfTI `path` (.nii or
 // .nii.gz) on that file's own grid: the same dimensions, voxel order and world positions. For a
 // NIfTI input, its own header (qform, sform, their codes, pixdim, xyzt_units, description; a
 // NIfTI-2's or a pair's as a single-file NIfTI-1's) with the datatype, data offset and scaling of
 // what is stored; for any other format, the NIfTI that nibabel maps to the same world positions
 // (qform and sform, codes 1). A grid of more than 32767 voxels along an axis, which NIfTI-1
-// cannot hold, is an InputError naming `path`. Holds one buffer of the stored values (a byte a
+// cannot hold, is written as NIfTI-2 (a NIfTI-2 input's own header). Holds one buffer of the stored values (a byte a
 // voxel for a label map) besides the image; written atomically.
 template <int D>
 void write_image_on_source_grid(const Image<D>& image, const ImageLayout& layout, const std::string& path,

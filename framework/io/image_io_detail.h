@@ -225,17 +225,17 @@ bool stores_direction(const std::string& ext);
 void restore_stored_order(RawVolume& v, const ImageLayout& layout);
 
 // NIfTI (nifti.cpp). Read: NIfTI-1 and NIfTI-2, single files (.nii, .nii.gz) and .hdr/.img pairs
-// (either file names the pair; each optionally gzipped); written: NIfTI-1 single files (NIfTI-2
-// on the grid of a NIfTI-2 input that NIfTI-1 cannot hold, nifti_header_for_values).
+// (either file names the pair; each optionally gzipped); written: NIfTI-1 single files, NIfTI-2
+// for a grid NIfTI-1 cannot hold (more than 32767 voxels along an axis).
 // Decode a header (the geometry, placed by `transform`; with `warn`, the warning lines of
 // image_io.h's NiftiTransform on stderr) from the file's first bytes (a pair's header when `path`
 // is a .hdr); write float32 .nii or .nii.gz.
 RawVolume decode_nifti_header(const std::string& bytes, const std::string& path,
                               NiftiTransform transform = NiftiTransform::kAuto, bool warn = false);
 void write_nifti(const RawVolume& v, const std::string& path);
-// The 352 bytes before the values that write_nifti stores for v's geometry (qform and sform,
-// codes 1); a grid NIfTI-1 cannot hold (more than 32767 voxels along an axis) is an InputError
-// naming `path`, the file to be written.
+// The bytes before the values that write_nifti stores for v's geometry (qform and sform, codes
+// 1): a NIfTI-1 header and extension flag (352 bytes), or NIfTI-2's (544) for a grid of more than
+// 32767 voxels along an axis. `path` is the file to be written.
 std::string nifti_header_of(const RawVolume& v, const std::string& path);
 // A NIfTI input's own header `source` (as stored: 348 bytes of NIfTI-1, 540 of NIfTI-2) as the
 // header of a single file for values stored as uint8 (label) or float32 right after it, no

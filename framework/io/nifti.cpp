@@ -190,6 +190,42 @@ void put(std::string& h, size_t offset, T value) {
   std::memcpy(h.data() + offset, &value, sizeof(T));
 }
 
+// Stores a header field in the header's own byte order (`swap`: the file's order is foreign).
+template <class T>
+void put_in_order(std::string& h, size_t offset, T value, bool swap) {
+  put<T>(h, offset, value);
+  if (swap) std::reverse(h.data() + offset, h.data() + offset + sizeof(T));
+}
+
+// Stores fields of kNiftiFields into header bytes `h` in `layout`'s version and byte order:
+// integers in their field's width, reals as float (NIfTI-1) or double (NIfTI-2), and a real given
+// for an integer field (NIfTI-2's vox_offset) as that integer.
+struct NiftiFieldWriter {
+  std::string& h;
+  NiftiHeader layout;
+
+  void integer(NiftiField f, int64_t x, int i = 0) const {
+    const NiftiSlot& slot = layout.slot(f);
+    const size_t at = slot.offset + size_t(i) * slot.size;
+    if (slot.size == 1) h[at] = char(uint8_t(x));
+    else if (slot.size == 2) put_in_order<int16_t>(h, at, int16_t(x), layout.swap);
+    else if (slot.size == 4) put_in_order<int32_t>(h, at, int32_t(x), layout.swap);
+    else put_in_order<int64_t>(h, at, x, layout.swap);
+  }
+  void real(NiftiField f, double x, int i = 0) const {
+    const NiftiSlot& slot = layout.slot(f);
+    const size_t at = slot.offset + size_t(i) * slot.size;
+    if (slot.kind == NiftiKind::kInt) integer(f, int64_t(x), i);
+    else if (slot.size == 4) put_in_order<float>(h, at, float(x), layout.swap);
+    else put_in_order<double>(h, at, x, layout.swap);
+  }
+  // A single file's magic: "n+1", or "n+2" and the bytes the NIfTI-2 spec puts after it.
+  void single_file_magic() const {
+    if (layout.version == 1) std::memcpy(h.data() + layout.slot(kMagic).offset, "n+1", 4);
+    else std::memcpy(h.data() + layout.slot(kMagic).offset, "n+2\0\r\n\032\n", 8);
+  }
+};
+
 // NIfTI's world is RAS (x to the right, y anterior); dsnake's is LPS: negates the x and y
 // components of the origin and of every axis direction (its own inverse, so writing uses it too).
 void ras_to_lps(std::array<double, 3>& origin, std::array<std::array<double, 3>, 3>& axes) {
@@ -492,54 +528,47 @@ RawVolume decode_nifti_header(const std::string& bytes, const std::string& path,
 }
 
 // The header (and the empty extension flag after it) of a float32 (or, for a label map, uint8)
-// NIfTI-1 of `v`'s geometry. The LPS origin and directions are converted to NIfTI's RAS and
-// stored twice, as ITK and nibabel write them: as the qform (quaternion, qform_code 1) and as the
-// sform's rows (spacing times direction, sform_code 1). A grid of more than 32767 voxels along an
-// axis, which NIfTI-1's int16 dim cannot hold, is an InputError naming `path`.
-std::string nifti_header_of(const RawVolume& v, const std::string& path) {
+// NIfTI of `v`'s geometry: NIfTI-1, or NIfTI-2 for a grid of more than 32767 voxels along an axis
+// (NIfTI-1's dim is int16), in native byte order. The LPS origin and directions are converted to
+// NIfTI's RAS and stored twice, as ITK and nibabel write them: as the qform (quaternion,
+// qform_code 1) and as the sform's rows (spacing times direction, sform_code 1).
+std::string nifti_header_of(const RawVolume& v, const std::string& /*path*/) {
+  NiftiHeader layout;
+  layout.version = 1;
   for (int a = 0; a < v.ndims; ++a)
-    if (v.size[a] > std::numeric_limits<int16_t>::max())
-      throw InputError(path, "dim", "NIfTI-1 holds at most 32767 voxels along an axis, this grid has " +
-                                        std::to_string(v.size[a]) + " (write .nrrd or .mha)");
+    if (v.size[a] > std::numeric_limits<int16_t>::max()) layout.version = 2;
   std::array<double, 3> origin = v.origin;  // in RAS
   std::array<std::array<double, 3>, 3> axes = v.axes;
   ras_to_lps(origin, axes);
-  std::string h(kNiftiVoxOffset, '\0');
-  put<int32_t>(h, 0, 348);
-  std::array<int16_t, 8> dim{};
+  std::string h(layout.first_value_byte(), '\0');
+  const NiftiFieldWriter w{h, layout};
+  w.integer(kSizeofHdr, int64_t(layout.size()));
+  w.single_file_magic();
+  std::array<int64_t, 8> dim{};
   dim.fill(1);
-  dim[0] = int16_t(v.channels > 1 ? 5 : v.ndims);
-  for (int a = 0; a < 3; ++a) dim[a + 1] = int16_t(a < v.ndims ? v.size[a] : 1);
-  dim[5] = int16_t(v.channels);
-  for (int i = 0; i < 8; ++i) put<int16_t>(h, 40 + 2 * i, dim[i]);
-  if (v.channels > 1) put<int16_t>(h, 68, 1007);  // NIFTI_INTENT_VECTOR
-  put<int16_t>(h, 70, v.label ? 2 : 16);  // uint8 or float32
-  put<int16_t>(h, 72, v.label ? 8 : 32);
+  dim[0] = v.channels > 1 ? 5 : v.ndims;
+  for (int a = 0; a < 3; ++a) dim[a + 1] = a < v.ndims ? v.size[a] : 1;
+  dim[5] = v.channels;
+  for (int i = 0; i < 8; ++i) w.integer(kDim, dim[i], i);
+  if (v.channels > 1) w.integer(kIntentCode, 1007);  // NIFTI_INTENT_VECTOR
+  w.integer(kDatatype, v.label ? 2 : 16);  // uint8 or float32
+  w.integer(kBitpix, v.label ? 8 : 32);
   const std::array<double, 4> q = quaternion_of(axes);
-  put<float>(h, 76, float(q[3]));  // qfac
-  for (int a = 0; a < 3; ++a) put<float>(h, 80 + 4 * a, float(a < v.ndims ? v.spacing[a] : 1.0));
-  for (int i = 4; i < 8; ++i) put<float>(h, 76 + 4 * i, 1.0f);
-  put<float>(h, 108, float(kNiftiVoxOffset));
-  put<float>(h, 112, 1.0f);  // scl_slope
-  put<int8_t>(h, 123, 2);    // xyzt_units: mm
-  put<int16_t>(h, 252, 1);   // qform_code: scanner
-  put<int16_t>(h, 254, 1);   // sform_code: scanner
-  for (int k = 0; k < 3; ++k) put<float>(h, 256 + 4 * k, float(q[k]));
-  for (int a = 0; a < 3; ++a) put<float>(h, 268 + 4 * a, float(origin[a]));
+  w.real(kPixdim, q[3], 0);  // qfac
+  for (int a = 0; a < 3; ++a) w.real(kPixdim, a < v.ndims ? v.spacing[a] : 1.0, a + 1);
+  for (int i = 4; i < 8; ++i) w.real(kPixdim, 1.0, i);
+  w.real(kVoxOffset, double(layout.first_value_byte()));
+  w.real(kSclSlope, 1.0);
+  w.integer(kXyztUnits, 2);  // mm
+  w.integer(kQformCode, 1);  // scanner
+  w.integer(kSformCode, 1);
+  for (int k = 0; k < 3; ++k) w.real(kQuatern, q[k], k);
+  for (int a = 0; a < 3; ++a) w.real(kQoffset, origin[a], a);
   for (int k = 0; k < 3; ++k) {  // srow_x, srow_y, srow_z
-    for (int a = 0; a < 3; ++a)
-      put<float>(h, 280 + 16 * k + 4 * a, float(axes[a][k] * (a < v.ndims ? v.spacing[a] : 1.0)));
-    put<float>(h, 280 + 16 * k + 12, float(origin[k]));
+    for (int a = 0; a < 3; ++a) w.real(kSrow, axes[a][k] * (a < v.ndims ? v.spacing[a] : 1.0), 4 * k + a);
+    w.real(kSrow, origin[k], 4 * k + 3);
   }
-  std::memcpy(h.data() + 344, "n+1", 4);
   return h;
-}
-
-// Stores a header field in the header's own byte order (`swap`: the file's order is foreign).
-template <class T>
-void put_in_order(std::string& h, size_t offset, T value, bool swap) {
-  put<T>(h, offset, value);
-  if (swap) std::reverse(h.data() + offset, h.data() + offset + sizeof(T));
 }
 
 // A NIfTI-2 header's fields (kNiftiFields) as a NIfTI-1 header (348 bytes, native byte order),
@@ -610,31 +639,18 @@ std::string nifti_header_for_values(const std::string& source, bool label, bool&
     h = nifti1_header_of(in, path);
   }
   h.resize(out.first_value_byte(), '\0');  // extension flag 0: no extensions follow
-  // A single file's magic (a pair's header says "ni1" / "ni2").
-  if (out.version == 1) std::memcpy(h.data() + out.slot(kMagic).offset, "n+1", 4);
-  else std::memcpy(h.data() + out.slot(kMagic).offset, "n+2\0\r\n\032\n", 8);
-  // Fields in the output version's layout and the header's byte order.
-  auto put_integer = [&](NiftiField f, int64_t x) {
-    const NiftiSlot& slot = out.slot(f);
-    if (slot.size == 2) put_in_order<int16_t>(h, slot.offset, int16_t(x), swap);
-    else if (slot.size == 4) put_in_order<int32_t>(h, slot.offset, int32_t(x), swap);
-    else put_in_order<int64_t>(h, slot.offset, x, swap);
-  };
-  auto put_real = [&](NiftiField f, double x) {
-    const NiftiSlot& slot = out.slot(f);
-    if (slot.kind == NiftiKind::kInt) put_integer(f, int64_t(x));  // NIfTI-2's vox_offset
-    else if (slot.size == 4) put_in_order<float>(h, slot.offset, float(x), swap);
-    else put_in_order<double>(h, slot.offset, x, swap);
-  };
-  put_integer(kDatatype, label ? 2 : 16);  // uint8 or float32
-  put_integer(kBitpix, label ? 8 : 32);
-  put_real(kVoxOffset, double(out.first_value_byte()));
-  put_real(kSclSlope, 1.0);  // scl_slope, scl_inter: the values as stored
-  put_real(kSclInter, 0.0);
+  out.swap = swap;
+  const NiftiFieldWriter w{h, out};
+  w.single_file_magic();  // (a pair's header says "ni1" / "ni2")
+  w.integer(kDatatype, label ? 2 : 16);  // uint8 or float32
+  w.integer(kBitpix, label ? 8 : 32);
+  w.real(kVoxOffset, double(out.first_value_byte()));
+  w.real(kSclSlope, 1.0);  // scl_slope, scl_inter: the values as stored
+  w.real(kSclInter, 0.0);
   if (label) {  // a mask is no statistic and has no display window of the source's intensities
-    put_integer(kIntentCode, 0);
-    put_real(kCalMax, 0.0);
-    put_real(kCalMin, 0.0);
+    w.integer(kIntentCode, 0);
+    w.real(kCalMax, 0.0);
+    w.real(kCalMin, 0.0);
   }
   return h;
 }
