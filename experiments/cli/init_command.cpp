@@ -34,15 +34,14 @@ bool is_surface_file(const std::string& path, int dimension) {
 
 // The recommended experiment: experiments/real/recipe_3d.json or recipe_2d_with_atlas.json with
 // --reference, recipe_3d_without_atlas.json or recipe_2d_without_atlas.json without (compiled in,
-// recipes.h), with only its inputs replaced: name,
-// image, template (file; reference_image with --reference, and the recipe's template.init) and
-// ground truth. Every setting is the recipe's, in mm, so that this file runs exactly what the
-// project's real experiments run (REPRODUCTION.md), except that on a template smaller than the
-// structures the recipe was measured on, its lengths are scaled to the template's size
-// (experiments/spec/recipe_scale.h; one note on stderr says by how much). The recipe's lengths
-// are chosen for scans with voxels of 0.3 to 3 mm (at that scale); on coarser voxels the patch
-// forces are made as coarse as the voxels (coarsen_patches_to_voxels, one note), and otherwise
-// outside that range a warning on stderr says so.
+// recipes.h), with only its inputs replaced: name, image, template (file; reference_image with
+// --reference, and the recipe's template.init) and ground truth. Every setting is the recipe's, in
+// mm, so that this file runs exactly what the project's real experiments run (REPRODUCTION.md),
+// except that on a template smaller than the structures the recipe was measured on, its lengths are
+// scaled to the template's size (experiments/spec/recipe_scale.h; one note on stderr says by how
+// much). The recipe's lengths are chosen for scans with voxels of 0.3 to 3 mm (at that scale); on
+// coarser voxels the patch forces are made as coarse as the voxels (coarsen_patches_to_voxels, one
+// note), and otherwise outside that range a warning on stderr says so.
 template <int D>
 nlohmann::ordered_json recommended(const InitCommandOptions& o, const Grid<D>& grid, double radius) {
   const bool atlas = !o.reference.empty();

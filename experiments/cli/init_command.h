@@ -3,9 +3,10 @@
 //   dsnake init --image SCAN --template T [--reference ATLAS] [--mask GT] [--name NAME] > exp.json
 // The settings are the recipe's, with only the inputs replaced: 2D with --reference
 // experiments/real/recipe_2d_with_atlas.json, without it recipe_2d_without_atlas.json (the 3D
-// recipes' settings in two dimensions); 3D with --reference recipe_3d.json (the atlas image registered onto the scan, then the patch
-// force with ASAP-MLS), without it recipe_3d_without_atlas.json (the profile force with a local
-// polarity per vertex, and one warning line that an atlas image is recommended). The project's
+// recipes' settings in two dimensions); 3D with --reference recipe_3d.json (the atlas image
+// registered onto the scan, then the patch force with ASAP-MLS), without it
+// recipe_3d_without_atlas.json (the profile force with a local polarity per vertex, and one
+// warning line that an atlas image is recommended). The project's
 // real experiments run the same files (REPRODUCTION.md). Paths are written absolute. The file is checked by the experiment reader
 // before it is printed; nothing is printed on an error (exit code 2).
 #pragma once

@@ -124,8 +124,8 @@ void write_image(const Image<D>& image, const std::string& path, const ImageWrit
 // NIfTI-2's or a pair's as a single-file NIfTI-1's) with the datatype, data offset and scaling of
 // what is stored; for any other format, the NIfTI that nibabel maps to the same world positions
 // (qform and sform, codes 1). A grid of more than 32767 voxels along an axis, which NIfTI-1
-// cannot hold, is written as NIfTI-2 (a NIfTI-2 input's own header). Holds one buffer of the stored values (a byte a
-// voxel for a label map) besides the image; written atomically.
+// cannot hold, is written as NIfTI-2 (a NIfTI-2 input's own header). Holds one buffer of the
+// stored values (a byte a voxel for a label map) besides the image; written atomically.
 template <int D>
 void write_image_on_source_grid(const Image<D>& image, const ImageLayout& layout, const std::string& path,
                                 const ImageWriteOptions& options);

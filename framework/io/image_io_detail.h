@@ -235,16 +235,16 @@ RawVolume decode_nifti_header(const std::string& bytes, const std::string& path,
 void write_nifti(const RawVolume& v, const std::string& path);
 // The bytes before the values that write_nifti stores for v's geometry (qform and sform, codes
 // 1): a NIfTI-1 header and extension flag (352 bytes), or NIfTI-2's (544) for a grid of more than
-// 32767 voxels along an axis. `path` is the file to be written.
-std::string nifti_header_of(const RawVolume& v, const std::string& path);
+// 32767 voxels along an axis.
+std::string nifti_header_of(const RawVolume& v);
 // A NIfTI input's own header `source` (as stored: 348 bytes of NIfTI-1, 540 of NIfTI-2) as the
 // header of a single file for values stored as uint8 (label) or float32 right after it, no
 // scaling, no extensions; every other field kept. A NIfTI-1 header stays NIfTI-1 (magic "n+1",
 // values from byte 352) in its byte order (`swap` says it is foreign: float32 values must then be
 // stored swapped); a NIfTI-2 one becomes NIfTI-1 in native order (reals as float) when its grid
 // fits NIfTI-1's int16 dim, else stays NIfTI-2 (magic "n+2", values from byte 544) in its byte
-// order. `path`, the file to be written, names any InputError.
-std::string nifti_header_for_values(const std::string& source, bool label, bool& swap, const std::string& path);
+// order.
+std::string nifti_header_for_values(const std::string& source, bool label, bool& swap);
 // Writes parts (a header, the values) as .nii, or gzipped as .nii.gz, atomically.
 void write_nifti_parts(const std::vector<std::string_view>& parts, const std::string& path);
 // Reads a .nii or .nii.gz, or the .hdr/.img pair `path` names: the header first, then no more

@@ -532,7 +532,7 @@ RawVolume decode_nifti_header(const std::string& bytes, const std::string& path,
 // (NIfTI-1's dim is int16), in native byte order. The LPS origin and directions are converted to
 // NIfTI's RAS and stored twice, as ITK and nibabel write them: as the qform (quaternion,
 // qform_code 1) and as the sform's rows (spacing times direction, sform_code 1).
-std::string nifti_header_of(const RawVolume& v, const std::string& /*path*/) {
+std::string nifti_header_of(const RawVolume& v) {
   NiftiHeader layout;
   layout.version = 1;
   for (int a = 0; a < v.ndims; ++a)
@@ -571,50 +571,6 @@ std::string nifti_header_of(const RawVolume& v, const std::string& /*path*/) {
   return h;
 }
 
-// A NIfTI-2 header's fields (kNiftiFields) as a NIfTI-1 header (348 bytes, native byte order),
-// for writing a NIfTI-1 on its grid: reals rounded to float, integers where NIfTI-1's narrower
-// fields hold them. A dim beyond int16 along one of the image's axes is an InputError naming
-// `path` (the file to write); any other integer beyond its NIfTI-1 field (an unused dim, a code,
-// a slice index) is stored as unset (1 for a dim, else 0).
-std::string nifti1_header_of(const NiftiHeader& in, const std::string& path) {
-  NiftiHeader out;
-  std::string h(kNiftiHeaderBytes, '\0');
-  out.bytes = h;
-  for (int f = 0; f < kNiftiFieldCount; ++f) {
-    const NiftiField field = NiftiField(f);
-    const NiftiSlot& to = out.slot(field);
-    if (field == kSizeofHdr || field == kMagic) continue;
-    if (to.kind == NiftiKind::kBytes) {
-      std::memcpy(h.data() + to.offset, in.at(field, 0), std::min(to.size, in.slot(field).size));
-      continue;
-    }
-    for (int i = 0; i < kNiftiFields[f].count; ++i) {
-      char* p = h.data() + to.offset + size_t(i) * to.size;
-      if (to.kind == NiftiKind::kReal) {
-        const float x = float(in.real(field, i));  // (beyond float's range: infinite)
-        std::memcpy(p, &x, sizeof x);
-        continue;
-      }
-      int64_t x = in.integer(field, i);
-      const int64_t hi = to.size == 1   ? 255
-                         : to.size == 2 ? std::numeric_limits<int16_t>::max()
-                                        : std::numeric_limits<int32_t>::max();
-      const int64_t lo = to.size == 1 ? 0 : -hi - 1;
-      if (x < lo || x > hi) {
-        if (field == kDim && i >= 1 && i <= in.integer(kDim, 0))
-          throw InputError(path, "dim", "NIfTI-1 holds at most 32767 voxels along an axis, the image read has dim[" +
-                                            std::to_string(i) + "] = " + std::to_string(x) + " (write .nrrd or .mha)");
-        x = field == kDim ? 1 : 0;
-      }
-      if (to.size == 1) *p = char(uint8_t(x));
-      else if (to.size == 2) put<int16_t>(h, to.offset + size_t(i) * 2, int16_t(x));
-      else put<int32_t>(h, to.offset + size_t(i) * 4, int32_t(x));
-    }
-  }
-  put<int32_t>(h, 0, 348);
-  return h;
-}
-
 // Whether every axis of the image `h` describes fits NIfTI-1's int16 dim.
 bool fits_nifti1(const NiftiHeader& h) {
   const int64_t n = std::clamp<int64_t>(h.integer(kDim, 0), 0, 7);
@@ -623,7 +579,41 @@ bool fits_nifti1(const NiftiHeader& h) {
   return true;
 }
 
-std::string nifti_header_for_values(const std::string& source, bool label, bool& swap, const std::string& path) {
+// A NIfTI-2 header's fields (kNiftiFields) as a NIfTI-1 header (348 bytes, native byte order),
+// for writing a NIfTI-1 on its grid: reals rounded to float, integers where NIfTI-1's narrower
+// fields hold them. The image's grid must fit (fits_nifti1); any other integer beyond its NIfTI-1
+// field (an unused dim, a code, a slice index) is stored as unset (1 for a dim, else 0).
+std::string nifti1_header_of(const NiftiHeader& in) {
+  DSNAKE_ASSERT(fits_nifti1(in), "a grid NIfTI-1 can hold");
+  std::string h(kNiftiHeaderBytes, '\0');
+  const NiftiFieldWriter w{h, NiftiHeader{}};
+  w.integer(kSizeofHdr, int64_t(kNiftiHeaderBytes));
+  for (int f = 0; f < kNiftiFieldCount; ++f) {
+    const NiftiField field = NiftiField(f);
+    const NiftiSlot& to = w.layout.slot(field);
+    if (field == kSizeofHdr || field == kMagic) continue;
+    if (to.kind == NiftiKind::kBytes) {
+      std::memcpy(h.data() + to.offset, in.at(field, 0), std::min(to.size, in.slot(field).size));
+      continue;
+    }
+    for (int i = 0; i < kNiftiFields[f].count; ++i) {
+      if (to.kind == NiftiKind::kReal) {
+        w.real(field, in.real(field, i), i);  // (beyond float's range: infinite)
+        continue;
+      }
+      int64_t x = in.integer(field, i);
+      const int64_t hi = to.size == 1   ? 255
+                         : to.size == 2 ? std::numeric_limits<int16_t>::max()
+                                        : std::numeric_limits<int32_t>::max();
+      const int64_t lo = to.size == 1 ? 0 : -hi - 1;
+      if (x < lo || x > hi) x = field == kDim ? 1 : 0;
+      w.integer(field, x, i);
+    }
+  }
+  return h;
+}
+
+std::string nifti_header_for_values(const std::string& source, bool label, bool& swap) {
   const NiftiHeader in = identify_nifti(source);
   DSNAKE_ASSERT(in.version != 0 && source.size() >= in.size(), "a whole NIfTI-1 or NIfTI-2 header");
   // A NIfTI-2 source is written as NIfTI-1, which every reader opens, unless its grid does not
@@ -636,7 +626,7 @@ std::string nifti_header_for_values(const std::string& source, bool label, bool&
     h = source.substr(0, in.size());
   } else {
     swap = false;
-    h = nifti1_header_of(in, path);
+    h = nifti1_header_of(in);
   }
   h.resize(out.first_value_byte(), '\0');  // extension flag 0: no extensions follow
   out.swap = swap;
@@ -663,7 +653,7 @@ void write_nifti_parts(const std::vector<std::string_view>& parts, const std::st
 // Writes a float32 (or, for a label map, uint8) NIfTI-1 (.nii, or gzipped .nii.gz) with
 // nifti_header_of's header.
 void write_nifti(const RawVolume& lps, const std::string& path) {
-  const std::string h = nifti_header_of(lps, path);
+  const std::string h = nifti_header_of(lps);
   // NIfTI keeps components slowest (one volume per component); RawVolume interleaves them.
   std::vector<float> planar;
   if (lps.channels > 1) {

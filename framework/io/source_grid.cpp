@@ -96,12 +96,12 @@ void write_image_on_source_grid(const Image<D>& image, const ImageLayout& layout
   bool swap = false;
   std::string header;
   if (!layout.nifti_header.empty()) {
-    header = nifti_header_for_values(layout.nifti_header, options.label, swap, path);
+    header = nifti_header_for_values(layout.nifti_header, options.label, swap);
   } else {
     RawVolume v;
     copy_geometry(v, layout);
     v.label = options.label;
-    header = nifti_header_of(v, path);
+    header = nifti_header_of(v);
   }
   const std::string values = values_in_stored_order(image, layout, options.label, swap);
   write_nifti_parts({header, values}, path);
